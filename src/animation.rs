@@ -1,0 +1,361 @@
+//! Pose sampling and CPU skinning.
+//!
+//! [`Pose::sample`] evaluates a clip at any time (looping) into per-node local transforms,
+//! then world matrices and per-bone skinning matrices. [`skin_vertices`] applies them on the
+//! CPU; `shaders/character.wgsl` does exactly the same on the GPU.
+
+use glam::{Mat4, Quat, Vec3};
+
+use crate::character::{Channel, ChannelValues, Character, Clip, Interpolation, Transform};
+
+/// A sampled pose: local and world transforms of every node and the skinning matrix of
+/// every bone.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pose {
+    pub locals: Vec<Transform>,
+    pub world_from_node: Vec<Mat4>,
+    /// `world_from_node[bone.node] * bone.inverse_bind`, one per bone.
+    pub skin_from_bind: Vec<Mat4>,
+}
+
+impl Pose {
+    /// The rest pose (no clip).
+    pub fn rest(character: &Character) -> Self {
+        let locals: Vec<Transform> = character.skeleton.nodes.iter().map(|n| n.rest).collect();
+        Self::from_locals(character, locals)
+    }
+
+    /// The pose of `clip` at `time_secs`, wrapped into the clip's duration (clips loop).
+    pub fn sample(character: &Character, clip: &Clip, time_secs: f32) -> Self {
+        let t = wrap_time(time_secs, clip.duration_secs);
+        let mut locals: Vec<Transform> = character.skeleton.nodes.iter().map(|n| n.rest).collect();
+        for ch in &clip.channels {
+            if let Some(local) = locals.get_mut(ch.node) {
+                apply_channel(ch, t, local);
+            }
+        }
+        Self::from_locals(character, locals)
+    }
+
+    /// Pose of clip `clip_index`, or the rest pose when there is no such clip.
+    pub fn sample_index(character: &Character, clip_index: Option<usize>, time_secs: f32) -> Self {
+        match clip_index.and_then(|i| character.clips.get(i)) {
+            Some(clip) => Self::sample(character, clip, time_secs),
+            None => Self::rest(character),
+        }
+    }
+
+    fn from_locals(character: &Character, locals: Vec<Transform>) -> Self {
+        let world_from_node = character.skeleton.world_from_locals(&locals);
+        let skin_from_bind = character
+            .bones
+            .iter()
+            .map(|b| {
+                world_from_node
+                    .get(b.node)
+                    .copied()
+                    .unwrap_or(Mat4::IDENTITY)
+                    * b.inverse_bind
+            })
+            .collect();
+        Self {
+            locals,
+            world_from_node,
+            skin_from_bind,
+        }
+    }
+}
+
+/// `time` wrapped into `[0, duration)`; `0` for an empty clip.
+pub fn wrap_time(time: f32, duration: f32) -> f32 {
+    if duration > 0.0 && time.is_finite() {
+        time.rem_euclid(duration)
+    } else {
+        0.0
+    }
+}
+
+/// The blended skinning matrix of one vertex.
+#[inline]
+pub fn vertex_matrix(skin_from_bind: &[Mat4], bones: [u16; 4], weights: [f32; 4]) -> Mat4 {
+    let mut m = Mat4::ZERO;
+    for k in 0..4 {
+        let w = weights[k];
+        if w != 0.0 {
+            let b = skin_from_bind
+                .get(bones[k] as usize)
+                .copied()
+                .unwrap_or(Mat4::IDENTITY);
+            m += b * w;
+        }
+    }
+    m
+}
+
+/// Skinned positions and normals of every vertex for `pose` (linear blend skinning).
+pub fn skin_vertices(character: &Character, pose: &Pose) -> (Vec<Vec3>, Vec<Vec3>) {
+    let mut positions = Vec::with_capacity(character.vertices.len());
+    let mut normals = Vec::with_capacity(character.vertices.len());
+    for v in &character.vertices {
+        let m = vertex_matrix(&pose.skin_from_bind, v.bones, v.weights);
+        positions.push(m.transform_point3(v.position));
+        normals.push(m.transform_vector3(v.normal).normalize_or_zero());
+    }
+    (positions, normals)
+}
+
+/// Bounds of the skinned mesh over a whole clip, sampled `samples` times (at least 2).
+pub fn clip_bounds(
+    character: &Character,
+    clip_index: Option<usize>,
+    samples: usize,
+) -> (Vec3, Vec3) {
+    let duration = clip_index
+        .and_then(|i| character.clips.get(i))
+        .map_or(0.0, |c| c.duration_secs);
+    let samples = samples.max(2);
+    let mut min = Vec3::splat(f32::INFINITY);
+    let mut max = Vec3::splat(f32::NEG_INFINITY);
+    for s in 0..samples {
+        let t = duration * s as f32 / samples as f32;
+        let pose = Pose::sample_index(character, clip_index, t);
+        let (p, _) = skin_vertices(character, &pose);
+        let (lo, hi) = crate::character::bounds(p);
+        min = min.min(lo);
+        max = max.max(hi);
+    }
+    if min.x > max.x {
+        (Vec3::ZERO, Vec3::ZERO)
+    } else {
+        (min, max)
+    }
+}
+
+fn apply_channel(ch: &Channel, t: f32, local: &mut Transform) {
+    if ch.times.is_empty() {
+        return;
+    }
+    let (i0, i1, u, dt) = locate(&ch.times, t);
+    match &ch.values {
+        ChannelValues::Translation(v) => {
+            if let Some(x) = interp_vec3(ch.interpolation, v, i0, i1, u, dt) {
+                local.translation = x;
+            }
+        }
+        ChannelValues::Scale(v) => {
+            if let Some(x) = interp_vec3(ch.interpolation, v, i0, i1, u, dt) {
+                local.scale = x;
+            }
+        }
+        ChannelValues::Rotation(v) => {
+            if let Some(q) = interp_quat(ch.interpolation, v, i0, i1, u, dt) {
+                local.rotation = q;
+            }
+        }
+    }
+}
+
+/// The keys around `t`: `(i0, i1, u, dt)` with `u` in `[0,1]` the position between them and
+/// `dt` their time difference. Before the first key and after the last the value is held.
+fn locate(times: &[f32], t: f32) -> (usize, usize, f32, f32) {
+    let last = times.len() - 1;
+    if t <= times[0] {
+        return (0, 0, 0.0, 0.0);
+    }
+    if t >= times[last] {
+        return (last, last, 0.0, 0.0);
+    }
+    // First key strictly greater than t.
+    let i1 = times.partition_point(|&k| k <= t).clamp(1, last);
+    let i0 = i1 - 1;
+    let dt = times[i1] - times[i0];
+    let u = if dt > 0.0 {
+        ((t - times[i0]) / dt).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (i0, i1, u, dt)
+}
+
+fn hermite<T>(p0: T, m0: T, p1: T, m1: T, u: f32) -> T
+where
+    T: std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>,
+{
+    let u2 = u * u;
+    let u3 = u2 * u;
+    p0 * (2.0 * u3 - 3.0 * u2 + 1.0)
+        + m0 * (u3 - 2.0 * u2 + u)
+        + p1 * (-2.0 * u3 + 3.0 * u2)
+        + m1 * (u3 - u2)
+}
+
+fn interp_vec3(
+    mode: Interpolation,
+    v: &[Vec3],
+    i0: usize,
+    i1: usize,
+    u: f32,
+    dt: f32,
+) -> Option<Vec3> {
+    match mode {
+        Interpolation::Step => v.get(i0).copied(),
+        Interpolation::Linear => Some(v.get(i0)?.lerp(*v.get(i1)?, u)),
+        Interpolation::CubicSpline => {
+            let p0 = *v.get(i0 * 3 + 1)?;
+            if i0 == i1 {
+                return Some(p0);
+            }
+            let m0 = *v.get(i0 * 3 + 2)? * dt;
+            let p1 = *v.get(i1 * 3 + 1)?;
+            let m1 = *v.get(i1 * 3)? * dt;
+            Some(hermite(p0, m0, p1, m1, u))
+        }
+    }
+}
+
+fn interp_quat(
+    mode: Interpolation,
+    v: &[Quat],
+    i0: usize,
+    i1: usize,
+    u: f32,
+    dt: f32,
+) -> Option<Quat> {
+    let q = match mode {
+        Interpolation::Step => *v.get(i0)?,
+        Interpolation::Linear => {
+            let a = *v.get(i0)?;
+            let b = *v.get(i1)?;
+            a.slerp(b, u)
+        }
+        Interpolation::CubicSpline => {
+            let p0 = *v.get(i0 * 3 + 1)?;
+            if i0 == i1 {
+                p0
+            } else {
+                let m0 = *v.get(i0 * 3 + 2)? * dt;
+                let p1 = *v.get(i1 * 3 + 1)?;
+                let m1 = *v.get(i1 * 3)? * dt;
+                hermite(p0, m0, p1, m1, u)
+            }
+        }
+    };
+    let n = q.normalize();
+    if n.is_finite() { Some(n) } else { None }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::character::{Bone, Node, Skeleton, Vertex};
+
+    fn two_bone_character(channel: Channel) -> Character {
+        Character {
+            skeleton: Skeleton {
+                nodes: vec![
+                    Node {
+                        name: "root".into(),
+                        parent: None,
+                        rest: Transform::IDENTITY,
+                        is_joint: true,
+                    },
+                    Node {
+                        name: "child".into(),
+                        parent: Some(0),
+                        rest: Transform {
+                            translation: Vec3::Y,
+                            ..Transform::IDENTITY
+                        },
+                        is_joint: true,
+                    },
+                ],
+            },
+            bones: vec![
+                Bone {
+                    node: 0,
+                    inverse_bind: Mat4::IDENTITY,
+                },
+                Bone {
+                    node: 1,
+                    inverse_bind: Mat4::from_translation(-Vec3::Y),
+                },
+            ],
+            vertices: vec![Vertex {
+                position: Vec3::new(0.0, 2.0, 0.0),
+                normal: Vec3::X,
+                uv: [0.0; 2],
+                color: [1.0; 4],
+                bones: [1, 0, 0, 0],
+                weights: [1.0, 0.0, 0.0, 0.0],
+            }],
+            clips: vec![Clip {
+                name: "c".into(),
+                duration_secs: 1.0,
+                channels: vec![channel],
+            }],
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn linear_rotation_skins_vertex_around_child_joint() {
+        let q = Quat::from_rotation_z(std::f32::consts::FRAC_PI_2);
+        let c = two_bone_character(Channel {
+            node: 1,
+            interpolation: Interpolation::Linear,
+            times: vec![0.0, 1.0],
+            values: ChannelValues::Rotation(vec![Quat::IDENTITY, q]),
+        });
+        // At t = 0.5 the child is rotated by 45° about Z around (0,1,0).
+        let pose = Pose::sample(&c, &c.clips[0], 0.5);
+        let (p, n) = skin_vertices(&c, &pose);
+        let s = std::f32::consts::FRAC_1_SQRT_2;
+        assert!(
+            (p[0] - Vec3::new(-s, 1.0 + s, 0.0)).length() < 1e-5,
+            "{:?}",
+            p[0]
+        );
+        assert!((n[0] - Vec3::new(s, s, 0.0)).length() < 1e-5, "{:?}", n[0]);
+    }
+
+    #[test]
+    fn step_holds_previous_key_and_time_wraps() {
+        let c = two_bone_character(Channel {
+            node: 0,
+            interpolation: Interpolation::Step,
+            times: vec![0.0, 0.5],
+            values: ChannelValues::Translation(vec![Vec3::ZERO, Vec3::X]),
+        });
+        let at = |t: f32| Pose::sample(&c, &c.clips[0], t).locals[0].translation;
+        assert_eq!(at(0.49), Vec3::ZERO);
+        assert_eq!(at(0.5), Vec3::X);
+        assert_eq!(at(0.99), Vec3::X);
+        // 1.25 wraps to 0.25.
+        assert_eq!(at(1.25), Vec3::ZERO);
+        assert_eq!(at(-0.25), Vec3::X);
+    }
+
+    #[test]
+    fn cubic_spline_passes_through_keys_and_follows_tangents() {
+        // Values v(t) = t^3 sampled at 0 and 1 with exact tangents: 0 and 3.
+        let c = two_bone_character(Channel {
+            node: 0,
+            interpolation: Interpolation::CubicSpline,
+            times: vec![0.0, 1.0],
+            values: ChannelValues::Translation(vec![
+                Vec3::ZERO,
+                Vec3::ZERO,
+                Vec3::ZERO,
+                Vec3::X * 3.0,
+                Vec3::X,
+                Vec3::ZERO,
+            ]),
+        });
+        let mut clip = c.clips[0].clone();
+        clip.duration_secs = 2.0; // do not wrap at 1
+        for t in [0.0f32, 0.25, 0.5, 0.75, 1.0] {
+            let x = Pose::sample(&c, &clip, t).locals[0].translation.x;
+            assert!((x - t * t * t).abs() < 1e-5, "t={t}: {x}");
+        }
+    }
+}

@@ -1,0 +1,267 @@
+//! The character model every stage works on: one merged, skinned triangle mesh with its
+//! skeleton, animation clips, materials and textures.
+//!
+//! Conventions: Y up, metres, counter-clockwise front faces (as glTF). Vertex influences
+//! index [`Character::bones`]; a bone is a skeleton node plus its inverse bind matrix, so
+//! that the skinning matrix of a bone is `world_from_node * inverse_bind`.
+
+mod summary;
+
+pub use summary::{ClipSummary, Summary, TextureSummary};
+
+use glam::{Mat4, Quat, Vec3};
+
+/// One vertex of the merged character mesh.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Vertex {
+    /// Position in bind space (the space the inverse bind matrices expect).
+    pub position: Vec3,
+    /// Unit normal in bind space.
+    pub normal: Vec3,
+    /// Texture coordinate of the base-colour texture.
+    pub uv: [f32; 2],
+    /// Linear RGBA vertex colour (white when the file has none).
+    pub color: [f32; 4],
+    /// Indices into [`Character::bones`].
+    pub bones: [u16; 4],
+    /// Weights of `bones`, summing to one.
+    pub weights: [f32; 4],
+}
+
+/// A local transform: translation, rotation, scale (applied scale first).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transform {
+    pub translation: Vec3,
+    pub rotation: Quat,
+    pub scale: Vec3,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
+}
+
+impl Transform {
+    pub const IDENTITY: Self = Self {
+        translation: Vec3::ZERO,
+        rotation: Quat::IDENTITY,
+        scale: Vec3::ONE,
+    };
+
+    pub fn to_mat4(&self) -> Mat4 {
+        Mat4::from_scale_rotation_translation(self.scale, self.rotation, self.translation)
+    }
+
+    pub fn from_mat4(m: Mat4) -> Self {
+        let (scale, rotation, translation) = m.to_scale_rotation_translation();
+        Self {
+            translation,
+            rotation,
+            scale,
+        }
+    }
+}
+
+/// A node of the skeleton hierarchy. Nodes are stored parents first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Node {
+    pub name: String,
+    /// Index of the parent node; always smaller than this node's index.
+    pub parent: Option<usize>,
+    /// Local transform at rest (used for every channel a clip does not animate).
+    pub rest: Transform,
+    /// True for joints of a skin in the source file (false for helper nodes such as the
+    /// parents of the skeleton or the nodes that carry rigid props).
+    pub is_joint: bool,
+}
+
+/// The node hierarchy of the character.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Skeleton {
+    pub nodes: Vec<Node>,
+}
+
+impl Skeleton {
+    /// Number of skin joints (what a user calls "joints").
+    pub fn joint_count(&self) -> usize {
+        self.nodes.iter().filter(|n| n.is_joint).count()
+    }
+
+    /// Index of the node with this name, if any.
+    pub fn find(&self, name: &str) -> Option<usize> {
+        self.nodes.iter().position(|n| n.name == name)
+    }
+
+    /// World-from-node matrices of the rest pose.
+    pub fn rest_world(&self) -> Vec<Mat4> {
+        let locals: Vec<Transform> = self.nodes.iter().map(|n| n.rest).collect();
+        self.world_from_locals(&locals)
+    }
+
+    /// World-from-node matrices for the given local transforms (one per node).
+    pub fn world_from_locals(&self, locals: &[Transform]) -> Vec<Mat4> {
+        let mut world = Vec::with_capacity(self.nodes.len());
+        for (i, node) in self.nodes.iter().enumerate() {
+            let local = locals.get(i).copied().unwrap_or(node.rest).to_mat4();
+            let m = match node.parent {
+                Some(p) => world[p] * local,
+                None => local,
+            };
+            world.push(m);
+        }
+        world
+    }
+}
+
+/// A skinning bone: a node and the inverse bind matrix that brings bind-space vertices into
+/// that node's space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bone {
+    pub node: usize,
+    pub inverse_bind: Mat4,
+}
+
+/// How a sampler interpolates between keys (glTF's three modes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Interpolation {
+    Step,
+    Linear,
+    /// Values are stored as (in-tangent, value, out-tangent) triples per key.
+    CubicSpline,
+}
+
+/// The animated property of a channel.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ChannelValues {
+    Translation(Vec<Vec3>),
+    Rotation(Vec<Quat>),
+    Scale(Vec<Vec3>),
+}
+
+/// One animated property of one node.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Channel {
+    pub node: usize,
+    pub interpolation: Interpolation,
+    /// Key times in seconds, strictly increasing.
+    pub times: Vec<f32>,
+    /// Per key one value (three for [`Interpolation::CubicSpline`]).
+    pub values: ChannelValues,
+}
+
+/// An animation clip.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Clip {
+    pub name: String,
+    /// End time of the last key of any channel, in seconds (the clip loops over `[0, duration)`).
+    pub duration_secs: f32,
+    pub channels: Vec<Channel>,
+}
+
+/// An RGBA8 texture, stored as sRGB-encoded bytes (as in the file).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    /// `width * height * 4` bytes, rows top to bottom.
+    pub rgba8: Vec<u8>,
+}
+
+impl Texture {
+    /// A 1×1 white texture, used where a material has none.
+    pub fn white() -> Self {
+        Self {
+            name: "white".into(),
+            width: 1,
+            height: 1,
+            rgba8: vec![255; 4],
+        }
+    }
+}
+
+/// The part of a material the pipeline uses.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Linear RGBA multiplier of the texture and vertex colour.
+    pub base_color_factor: [f32; 4],
+    /// Index into [`Character::textures`].
+    pub base_color_texture: Option<usize>,
+    pub double_sided: bool,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Self {
+            name: "default".into(),
+            base_color_factor: [1.0; 4],
+            base_color_texture: None,
+            double_sided: false,
+        }
+    }
+}
+
+/// A range of [`Character::indices`] drawn with one material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Submesh {
+    /// First index (a multiple of three).
+    pub first_index: u32,
+    /// Number of indices (a multiple of three).
+    pub index_count: u32,
+    pub material: usize,
+}
+
+/// A skinned, animated character: what an import produces and every later stage consumes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Character {
+    pub name: String,
+    pub vertices: Vec<Vertex>,
+    /// Triangle list, counter-clockwise front faces.
+    pub indices: Vec<u32>,
+    pub submeshes: Vec<Submesh>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub skeleton: Skeleton,
+    pub bones: Vec<Bone>,
+    pub clips: Vec<Clip>,
+    /// Problems the import worked around, for the user to read.
+    pub warnings: Vec<String>,
+}
+
+impl Character {
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// Index of the clip with this name.
+    pub fn find_clip(&self, name: &str) -> Option<usize> {
+        self.clips.iter().position(|c| c.name == name)
+    }
+
+    /// Axis-aligned bounds of the bind-space vertices, `(min, max)`.
+    pub fn bind_bounds(&self) -> (Vec3, Vec3) {
+        bounds(self.vertices.iter().map(|v| v.position))
+    }
+
+    /// The summary `polypostor inspect` prints and the editor shows.
+    pub fn summary(&self) -> Summary {
+        Summary::of(self)
+    }
+}
+
+/// Axis-aligned bounds of points, `(min, max)`; zero-size at the origin for no points.
+pub fn bounds(points: impl IntoIterator<Item = Vec3>) -> (Vec3, Vec3) {
+    let mut min = Vec3::splat(f32::INFINITY);
+    let mut max = Vec3::splat(f32::NEG_INFINITY);
+    for p in points {
+        min = min.min(p);
+        max = max.max(p);
+    }
+    if min.x > max.x {
+        (Vec3::ZERO, Vec3::ZERO)
+    } else {
+        (min, max)
+    }
+}

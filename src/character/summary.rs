@@ -1,0 +1,125 @@
+//! The character summary shown by `polypostor inspect` and the editor's side panel.
+
+use serde::Serialize;
+
+use super::Character;
+
+/// One clip as the summary lists it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ClipSummary {
+    pub name: String,
+    pub duration_secs: f32,
+    pub channels: usize,
+}
+
+/// One texture as the summary lists it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TextureSummary {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// Counts and names that describe a character at a glance.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Summary {
+    pub name: String,
+    pub vertices: usize,
+    pub triangles: usize,
+    /// Number of skin joints.
+    pub joints: usize,
+    pub joint_names: Vec<String>,
+    /// Skeleton nodes including helper nodes (parents of the skeleton, prop carriers).
+    pub nodes: usize,
+    pub materials: usize,
+    pub clips: Vec<ClipSummary>,
+    pub textures: Vec<TextureSummary>,
+    /// Bind-pose bounds: `[min, max]`.
+    pub bounds_min: [f32; 3],
+    pub bounds_max: [f32; 3],
+    pub warnings: Vec<String>,
+}
+
+impl Summary {
+    pub fn of(c: &Character) -> Self {
+        let (min, max) = c.bind_bounds();
+        Self {
+            name: c.name.clone(),
+            vertices: c.vertices.len(),
+            triangles: c.triangle_count(),
+            joints: c.skeleton.joint_count(),
+            joint_names: c
+                .skeleton
+                .nodes
+                .iter()
+                .filter(|n| n.is_joint)
+                .map(|n| n.name.clone())
+                .collect(),
+            nodes: c.skeleton.nodes.len(),
+            materials: c.materials.len(),
+            clips: c
+                .clips
+                .iter()
+                .map(|k| ClipSummary {
+                    name: k.name.clone(),
+                    duration_secs: k.duration_secs,
+                    channels: k.channels.len(),
+                })
+                .collect(),
+            textures: c
+                .textures
+                .iter()
+                .map(|t| TextureSummary {
+                    name: t.name.clone(),
+                    width: t.width,
+                    height: t.height,
+                })
+                .collect(),
+            bounds_min: min.to_array(),
+            bounds_max: max.to_array(),
+            warnings: c.warnings.clone(),
+        }
+    }
+
+    /// Human-readable multi-line text (what `inspect` prints without `--json`).
+    pub fn to_text(&self) -> String {
+        use std::fmt::Write;
+        let mut s = String::new();
+        let _ = writeln!(s, "character   {}", self.name);
+        let _ = writeln!(s, "vertices    {}", self.vertices);
+        let _ = writeln!(s, "triangles   {}", self.triangles);
+        let _ = writeln!(
+            s,
+            "joints      {} ({} skeleton nodes)",
+            self.joints, self.nodes
+        );
+        let _ = writeln!(s, "materials   {}", self.materials);
+        let _ = writeln!(
+            s,
+            "bounds      [{:.3}, {:.3}, {:.3}] .. [{:.3}, {:.3}, {:.3}]",
+            self.bounds_min[0],
+            self.bounds_min[1],
+            self.bounds_min[2],
+            self.bounds_max[0],
+            self.bounds_max[1],
+            self.bounds_max[2]
+        );
+        let _ = writeln!(s, "clips       {}", self.clips.len());
+        for c in &self.clips {
+            let _ = writeln!(
+                s,
+                "  {:<24} {:>8.3} s  {} channels",
+                c.name, c.duration_secs, c.channels
+            );
+        }
+        let _ = writeln!(s, "textures    {}", self.textures.len());
+        for t in &self.textures {
+            let _ = writeln!(s, "  {:<24} {}x{}", t.name, t.width, t.height);
+        }
+        let _ = writeln!(s, "warnings    {}", self.warnings.len());
+        for w in &self.warnings {
+            let _ = writeln!(s, "  - {w}");
+        }
+        s
+    }
+}

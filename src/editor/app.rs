@@ -1,0 +1,1223 @@
+//! The editor application: menus, panels, viewport, timeline, log, dialogs.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, channel};
+use std::time::{Duration, Instant};
+
+use eframe::egui_wgpu;
+
+use polypostor::Character;
+use polypostor::animation::{Pose, clip_bounds};
+use polypostor::project::{PROJECT_FILE, Project};
+
+use super::document::{Command, Document, Playback, TIMELINE_FPS};
+use super::settings::Settings;
+use super::viewport::{OrbitCamera, ViewMode, ViewportCallback, ViewportResources};
+
+/// How the app is set up (tests use no settings file and synchronous loading).
+#[derive(Clone, Debug, Default)]
+pub struct AppOptions {
+    /// Where recent files are remembered; `None` keeps them in memory only.
+    pub settings_path: Option<PathBuf>,
+    /// Load on the UI thread (tests) instead of a background thread.
+    pub sync_loading: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LogLevel {
+    Info,
+    Warning,
+    Error,
+}
+
+#[derive(Clone, Debug)]
+pub struct LogEntry {
+    pub level: LogLevel,
+    pub text: String,
+}
+
+/// A loaded project, ready to become the document.
+struct Loaded {
+    project: Project,
+    project_file: Option<PathBuf>,
+    character_path: PathBuf,
+    character: Character,
+    from_gltf: bool,
+}
+
+/// What a typed-path prompt or a file dialog is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PathPurpose {
+    NewFromGltf,
+    Open,
+    SaveAs,
+}
+
+impl PathPurpose {
+    fn title(self) -> &'static str {
+        match self {
+            PathPurpose::NewFromGltf => "New project from glTF",
+            PathPurpose::Open => "Open project",
+            PathPurpose::SaveAs => "Save project as",
+        }
+    }
+    fn hint(self) -> &'static str {
+        match self {
+            PathPurpose::NewFromGltf => "path to a .glb or .gltf file",
+            PathPurpose::Open => "project folder, project.json, or .glb/.gltf",
+            PathPurpose::SaveAs => "project folder or .json file to write",
+        }
+    }
+    fn command(self, path: PathBuf) -> Command {
+        match self {
+            PathPurpose::NewFromGltf => Command::NewFromGltf(path),
+            PathPurpose::Open => Command::Open(path),
+            PathPurpose::SaveAs => Command::SaveAs(path),
+        }
+    }
+}
+
+struct PathPrompt {
+    purpose: PathPurpose,
+    text: String,
+}
+
+struct Loading {
+    what: String,
+    started: Instant,
+    rx: Receiver<Result<Loaded, String>>,
+}
+
+/// Frame-time statistics for the FPS figure.
+#[derive(Default)]
+struct FrameTimer {
+    last: Option<Instant>,
+    smoothed_secs: f32,
+}
+
+impl FrameTimer {
+    fn tick(&mut self) -> f32 {
+        let now = Instant::now();
+        let dt = self.last.map_or(0.0, |l| (now - l).as_secs_f32());
+        self.last = Some(now);
+        if dt > 0.0 {
+            self.smoothed_secs = if self.smoothed_secs == 0.0 {
+                dt
+            } else {
+                self.smoothed_secs * 0.9 + dt * 0.1
+            };
+        }
+        dt.min(0.25)
+    }
+    fn fps(&self) -> f32 {
+        if self.smoothed_secs > 0.0 {
+            1.0 / self.smoothed_secs
+        } else {
+            0.0
+        }
+    }
+}
+
+pub struct EditorApp {
+    options: AppOptions,
+    settings: Settings,
+    pub doc: Option<Document>,
+    pub playback: Playback,
+    pub camera: OrbitCamera,
+    pub view_mode: ViewMode,
+    pub grid: bool,
+    commands: Vec<Command>,
+    loading: Option<Loading>,
+    /// The message of the error dialog, when one is open.
+    pub error: Option<String>,
+    pub log: Vec<LogEntry>,
+    show_log: bool,
+    adapter: Option<String>,
+    timer: FrameTimer,
+    prompt: Option<PathPrompt>,
+    dialog: Option<(PathPurpose, Instant, Receiver<Option<PathBuf>>)>,
+    texture_preview: Option<(u64, egui::TextureHandle)>,
+    next_generation: u64,
+    show_about: bool,
+}
+
+impl EditorApp {
+    pub fn new(
+        cc: &eframe::CreationContext<'_>,
+        options: AppOptions,
+        open: Option<PathBuf>,
+    ) -> Self {
+        let adapter = cc
+            .wgpu_render_state
+            .as_ref()
+            .map(ViewportResources::install);
+        let settings = Settings::load(options.settings_path.as_deref());
+        let mut app = Self {
+            options,
+            settings,
+            doc: None,
+            playback: Playback::default(),
+            camera: OrbitCamera::default(),
+            view_mode: ViewMode::Lit,
+            grid: true,
+            commands: Vec::new(),
+            loading: None,
+            error: None,
+            log: Vec::new(),
+            show_log: true,
+            adapter,
+            timer: FrameTimer::default(),
+            prompt: None,
+            dialog: None,
+            texture_preview: None,
+            next_generation: 1,
+            show_about: false,
+        };
+        match &app.adapter {
+            Some(a) => app.info(format!("GPU adapter: {a}")),
+            None => app.log_error("no wgpu renderer: the 3D viewport is disabled".into()),
+        }
+        if let Some(path) = open {
+            app.commands.push(Command::Open(path));
+        }
+        app
+    }
+
+    fn info(&mut self, text: String) {
+        log::info!("{text}");
+        self.log.push(LogEntry {
+            level: LogLevel::Info,
+            text,
+        });
+    }
+
+    fn warn(&mut self, text: String) {
+        log::warn!("{text}");
+        self.log.push(LogEntry {
+            level: LogLevel::Warning,
+            text,
+        });
+    }
+
+    fn log_error(&mut self, text: String) {
+        log::error!("{text}");
+        self.log.push(LogEntry {
+            level: LogLevel::Error,
+            text,
+        });
+    }
+
+    /// Shows an error dialog (and logs it).
+    fn fail(&mut self, text: String) {
+        self.log_error(text.clone());
+        self.error = Some(text);
+    }
+
+    /// Queues a command (applied at the start of the next frame).
+    pub fn send(&mut self, command: Command) {
+        self.commands.push(command);
+    }
+
+    // ----------------------------------------------------------------------------------
+    // Commands
+
+    fn apply_commands(&mut self, ctx: &egui::Context) {
+        for command in std::mem::take(&mut self.commands) {
+            self.apply(ctx, command);
+        }
+    }
+
+    fn apply(&mut self, ctx: &egui::Context, command: Command) {
+        match command {
+            Command::NewFromGltf(path) => self.start_load(ctx, LoadRequest::Gltf(path)),
+            Command::Open(path) => {
+                if is_gltf(&path) {
+                    self.start_load(ctx, LoadRequest::Gltf(path));
+                } else {
+                    self.start_load(ctx, LoadRequest::Project(path));
+                }
+            }
+            Command::Save => match self.doc.as_ref().map(|d| d.project_file.clone()) {
+                Some(Some(file)) => self.save_to(file),
+                Some(None) => self.ask_path(PathPurpose::SaveAs),
+                None => {}
+            },
+            Command::SaveAs(path) => {
+                let file = if path
+                    .extension()
+                    .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+                {
+                    path
+                } else {
+                    path.join(PROJECT_FILE)
+                };
+                self.save_to(file);
+            }
+            Command::SelectClip(clip) => {
+                if let Some(doc) = &mut self.doc {
+                    let clip = clip.filter(|&i| i < doc.character.clips.len());
+                    if self.playback.clip != clip {
+                        self.playback.clip = clip;
+                        self.playback.time_secs = 0.0;
+                        doc.project.view.clip = clip.map(|i| doc.character.clips[i].name.clone());
+                        doc.dirty = true;
+                    }
+                }
+            }
+            Command::SetPlaying(p) => self.playback.playing = p,
+            Command::TogglePlaying => self.playback.playing = !self.playback.playing,
+            Command::Seek(t) => {
+                let d = self
+                    .doc
+                    .as_ref()
+                    .map_or(0.0, |d| d.clip_duration(self.playback.clip));
+                self.playback.time_secs = t.clamp(0.0, d.max(0.0));
+            }
+            Command::StepFrames(n) => {
+                self.playback.playing = false;
+                let d = self
+                    .doc
+                    .as_ref()
+                    .map_or(0.0, |d| d.clip_duration(self.playback.clip));
+                let frame = (self.playback.time_secs * TIMELINE_FPS).round() + n as f32;
+                let t = frame / TIMELINE_FPS;
+                self.playback.time_secs = if d > 0.0 { t.rem_euclid(d) } else { 0.0 };
+            }
+            Command::SetSpeed(s) => {
+                self.playback.speed = s;
+                if let Some(doc) = &mut self.doc {
+                    doc.project.view.playback_speed = Some(s);
+                    doc.dirty = true;
+                }
+            }
+            Command::FrameCharacter => self.frame_character(),
+        }
+    }
+
+    fn frame_character(&mut self) {
+        if let Some(doc) = &self.doc {
+            let (min, max) = clip_bounds(&doc.character, self.playback.clip, 12);
+            self.camera.frame(min, max);
+        }
+    }
+
+    fn save_to(&mut self, file: PathBuf) {
+        let Some(doc) = &mut self.doc else { return };
+        let mut project = doc.project.clone();
+        project.view.clip = self
+            .playback
+            .clip
+            .and_then(|i| doc.character.clips.get(i))
+            .map(|c| c.name.clone());
+        project.view.playback_speed = Some(self.playback.speed);
+        // Keep the character reference valid from the new location.
+        let dir = file.parent().map(Path::to_owned).unwrap_or_default();
+        project.character.path = polypostor::project::relative_path(&doc.character_path, &dir);
+        if project.name.is_empty() || doc.project_file.is_none() {
+            if let Some(stem) = file.parent().and_then(|p| p.file_name()) {
+                project.name = stem.to_string_lossy().into_owned();
+            }
+        }
+        match project.save(&file) {
+            Ok(()) => {
+                doc.project = project;
+                doc.project_file = Some(file.clone());
+                doc.dirty = false;
+                self.settings.touch_recent(&file);
+                self.save_settings();
+                self.info(format!("saved {}", file.display()));
+            }
+            Err(e) => self.fail(e.to_string()),
+        }
+    }
+
+    fn save_settings(&mut self) {
+        if let Err(e) = self.settings.save(self.options.settings_path.as_deref()) {
+            self.warn(format!("cannot save editor settings: {e}"));
+        }
+    }
+
+    fn start_load(&mut self, ctx: &egui::Context, request: LoadRequest) {
+        let what = request.describe();
+        if self.options.sync_loading {
+            let result = request.run();
+            self.finish_load(result);
+            return;
+        }
+        let (tx, rx) = channel();
+        let ctx = ctx.clone();
+        let spawned = std::thread::Builder::new()
+            .name("load".into())
+            .spawn(move || {
+                let result = request.run();
+                let _ = tx.send(result);
+                ctx.request_repaint();
+            });
+        match spawned {
+            Ok(_) => {
+                self.loading = Some(Loading {
+                    what,
+                    started: Instant::now(),
+                    rx,
+                })
+            }
+            Err(e) => self.fail(format!("cannot start loading: {e}")),
+        }
+    }
+
+    fn poll_loading(&mut self) {
+        let Some(loading) = &self.loading else { return };
+        match loading.rx.try_recv() {
+            Ok(result) => {
+                self.loading = None;
+                self.finish_load(result);
+            }
+            Err(std::sync::mpsc::TryRecvError::Empty) => {}
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => {
+                self.loading = None;
+                self.fail("loading stopped unexpectedly".into());
+            }
+        }
+    }
+
+    fn finish_load(&mut self, result: Result<Loaded, String>) {
+        let loaded = match result {
+            Ok(l) => l,
+            Err(e) => {
+                // The open project (if any) stays as it was.
+                self.fail(e);
+                return;
+            }
+        };
+        let c = &loaded.character;
+        self.info(format!(
+            "loaded {} ({} vertices, {} triangles, {} joints, {} clips)",
+            loaded.character_path.display(),
+            c.vertices.len(),
+            c.triangle_count(),
+            c.skeleton.joint_count(),
+            c.clips.len()
+        ));
+        for w in &c.warnings {
+            self.warn(w.clone());
+        }
+        let clip = loaded
+            .project
+            .view
+            .clip
+            .as_deref()
+            .and_then(|name| c.find_clip(name))
+            .or_else(|| (!c.clips.is_empty()).then_some(0));
+        self.playback = Playback {
+            clip,
+            time_secs: 0.0,
+            playing: true,
+            speed: loaded
+                .project
+                .view
+                .playback_speed
+                .filter(|s| s.is_finite() && *s > 0.0)
+                .unwrap_or(1.0),
+        };
+        if let Some(file) = &loaded.project_file {
+            self.settings.touch_recent(file);
+        } else if loaded.from_gltf {
+            self.settings.touch_recent(&loaded.character_path);
+        }
+        self.save_settings();
+        let generation = self.next_generation;
+        self.next_generation += 1;
+        self.doc = Some(Document {
+            project: loaded.project,
+            dirty: loaded.project_file.is_none(),
+            project_file: loaded.project_file,
+            character_path: loaded.character_path,
+            character: Arc::new(loaded.character),
+            generation,
+        });
+        self.frame_character();
+    }
+
+    /// Opens the native file dialog on a thread; a dialog that returns at once (no portal
+    /// or dialog service on this desktop) falls back to the typed-path prompt.
+    fn ask_path(&mut self, purpose: PathPurpose) {
+        let (tx, rx) = channel();
+        let start_dir = self.doc.as_ref().and_then(|d| {
+            d.project_file
+                .as_ref()
+                .and_then(|f| f.parent().map(Path::to_owned))
+        });
+        let spawned = std::thread::Builder::new()
+            .name("file dialog".into())
+            .spawn(move || {
+                let mut dialog = rfd::FileDialog::new();
+                if let Some(dir) = start_dir {
+                    dialog = dialog.set_directory(dir);
+                }
+                let picked = match purpose {
+                    PathPurpose::NewFromGltf => dialog
+                        .add_filter("glTF 2.0", &["glb", "gltf"])
+                        .set_title(purpose.title())
+                        .pick_file(),
+                    PathPurpose::Open => dialog
+                        .set_title(purpose.title())
+                        .add_filter("Project or glTF", &["json", "glb", "gltf"])
+                        .pick_file(),
+                    PathPurpose::SaveAs => dialog.set_title(purpose.title()).pick_folder(),
+                };
+                let _ = tx.send(picked);
+            });
+        match spawned {
+            Ok(_) => self.dialog = Some((purpose, Instant::now(), rx)),
+            Err(_) => {
+                self.prompt = Some(PathPrompt {
+                    purpose,
+                    text: String::new(),
+                })
+            }
+        }
+    }
+
+    fn poll_dialog(&mut self) {
+        let Some((purpose, started, rx)) = &self.dialog else {
+            return;
+        };
+        match rx.try_recv() {
+            Ok(Some(path)) => {
+                let cmd = purpose.command(path);
+                self.dialog = None;
+                self.send(cmd);
+            }
+            Ok(None) | Err(std::sync::mpsc::TryRecvError::Disconnected) => {
+                // A dialog that closes within a fraction of a second never showed.
+                let instant = started.elapsed() < Duration::from_millis(400);
+                let purpose = *purpose;
+                self.dialog = None;
+                if instant {
+                    self.prompt = Some(PathPrompt {
+                        purpose,
+                        text: String::new(),
+                    });
+                }
+            }
+            Err(std::sync::mpsc::TryRecvError::Empty) => {}
+        }
+    }
+
+    // ----------------------------------------------------------------------------------
+    // UI
+
+    fn shortcuts(&mut self, ctx: &egui::Context) {
+        use egui::{Key, KeyboardShortcut, Modifiers};
+        let typing = ctx.egui_wants_keyboard_input();
+        let (open, new, save_as, save, quit) = ctx.input_mut(|i| {
+            let open = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::O));
+            let new = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::N));
+            // Ctrl+Shift+S first, or Ctrl+S would take it.
+            let save_as = i.consume_shortcut(&KeyboardShortcut::new(
+                Modifiers::COMMAND | Modifiers::SHIFT,
+                Key::S,
+            ));
+            let save = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::S));
+            let quit = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::Q));
+            (open, new, save_as, save, quit)
+        });
+        if open {
+            self.ask_path(PathPurpose::Open);
+        }
+        if new {
+            self.ask_path(PathPurpose::NewFromGltf);
+        }
+        if save_as && self.doc.is_some() {
+            self.ask_path(PathPurpose::SaveAs);
+        }
+        if save {
+            self.send(Command::Save);
+        }
+        if quit {
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        }
+        if typing || self.prompt.is_some() {
+            return;
+        }
+        let (space, left, right, home, f) = ctx.input(|i| {
+            (
+                i.key_pressed(Key::Space),
+                i.key_pressed(Key::ArrowLeft),
+                i.key_pressed(Key::ArrowRight),
+                i.key_pressed(Key::Home),
+                i.key_pressed(Key::F),
+            )
+        });
+        if space {
+            self.send(Command::TogglePlaying);
+        }
+        if left {
+            self.send(Command::StepFrames(-1));
+        }
+        if right {
+            self.send(Command::StepFrames(1));
+        }
+        if home {
+            self.send(Command::Seek(0.0));
+        }
+        if f {
+            self.send(Command::FrameCharacter);
+        }
+    }
+
+    fn dropped_files(&mut self, ctx: &egui::Context) {
+        let dropped: Vec<PathBuf> = ctx.input(|i| {
+            i.raw
+                .dropped_files
+                .iter()
+                .map(|f| f.path().to_owned())
+                .filter(|p| !p.as_os_str().is_empty())
+                .collect()
+        });
+        if let Some(path) = dropped.into_iter().next() {
+            if is_gltf(&path) {
+                self.send(Command::NewFromGltf(path));
+            } else {
+                self.send(Command::Open(path));
+            }
+        }
+    }
+
+    fn menu_bar(&mut self, ui: &mut egui::Ui) {
+        egui::MenuBar::new().ui(ui, |ui| {
+            ui.menu_button("File", |ui| {
+                if ui
+                    .add(egui::Button::new("New from glTF…").shortcut_text("Ctrl+N"))
+                    .clicked()
+                {
+                    self.ask_path(PathPurpose::NewFromGltf);
+                }
+                if ui
+                    .add(egui::Button::new("Open…").shortcut_text("Ctrl+O"))
+                    .clicked()
+                {
+                    self.ask_path(PathPurpose::Open);
+                }
+                if ui.button("Open path…").clicked() {
+                    self.prompt = Some(PathPrompt {
+                        purpose: PathPurpose::Open,
+                        text: String::new(),
+                    });
+                }
+                ui.menu_button("Open recent", |ui| {
+                    if self.settings.recent.is_empty() {
+                        ui.label("(none)");
+                    }
+                    for path in self.settings.recent.clone() {
+                        if ui.button(path.display().to_string()).clicked() {
+                            self.send(Command::Open(path));
+                        }
+                    }
+                });
+                ui.separator();
+                let has_doc = self.doc.is_some();
+                if ui
+                    .add_enabled(has_doc, egui::Button::new("Save").shortcut_text("Ctrl+S"))
+                    .clicked()
+                {
+                    self.send(Command::Save);
+                }
+                if ui
+                    .add_enabled(
+                        has_doc,
+                        egui::Button::new("Save As…").shortcut_text("Ctrl+Shift+S"),
+                    )
+                    .clicked()
+                {
+                    self.ask_path(PathPurpose::SaveAs);
+                }
+                if ui
+                    .add_enabled(has_doc, egui::Button::new("Save As path…"))
+                    .clicked()
+                {
+                    self.prompt = Some(PathPrompt {
+                        purpose: PathPurpose::SaveAs,
+                        text: String::new(),
+                    });
+                }
+                ui.separator();
+                if ui
+                    .add(egui::Button::new("Quit").shortcut_text("Ctrl+Q"))
+                    .clicked()
+                {
+                    ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+                }
+            });
+            ui.menu_button("View", |ui| {
+                for mode in ViewMode::ALL {
+                    ui.radio_value(&mut self.view_mode, mode, mode.label());
+                }
+                ui.separator();
+                ui.checkbox(&mut self.grid, "Ground grid");
+                ui.checkbox(&mut self.show_log, "Log panel");
+                if ui
+                    .add(egui::Button::new("Frame character").shortcut_text("F"))
+                    .clicked()
+                {
+                    self.send(Command::FrameCharacter);
+                }
+            });
+            ui.menu_button("Help", |ui| {
+                if ui.button("Controls and about").clicked() {
+                    self.show_about = true;
+                }
+            });
+            ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+                if let Some(doc) = &self.doc {
+                    ui.label(egui::RichText::new(doc.title()).strong());
+                }
+            });
+        });
+    }
+
+    fn status_bar(&mut self, ui: &mut egui::Ui) {
+        ui.horizontal(|ui| {
+            if let Some(l) = &self.loading {
+                ui.spinner();
+                ui.label(format!(
+                    "Loading {} … {:.1} s",
+                    l.what,
+                    l.started.elapsed().as_secs_f32()
+                ));
+                ui.separator();
+            }
+            let errors = self
+                .log
+                .iter()
+                .filter(|e| e.level == LogLevel::Error)
+                .count();
+            let warnings = self
+                .log
+                .iter()
+                .filter(|e| e.level == LogLevel::Warning)
+                .count();
+            if ui
+                .selectable_label(self.show_log, format!("⚠ {warnings}  ⛔ {errors}"))
+                .on_hover_text("Show the log")
+                .clicked()
+            {
+                self.show_log = !self.show_log;
+            }
+            ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+                ui.label(format!("{:.0} FPS", self.timer.fps()));
+                ui.separator();
+                ui.label(self.adapter.as_deref().unwrap_or("no GPU"));
+            });
+        });
+    }
+
+    fn timeline(&mut self, ui: &mut egui::Ui) {
+        let Some(doc) = &self.doc else {
+            ui.label("No character loaded.");
+            return;
+        };
+        let clips: Vec<String> = doc.character.clips.iter().map(|c| c.name.clone()).collect();
+        let duration = doc.clip_duration(self.playback.clip);
+        let mut commands = Vec::new();
+        ui.horizontal(|ui| {
+            let selected = self
+                .playback
+                .clip
+                .and_then(|i| clips.get(i))
+                .cloned()
+                .unwrap_or_else(|| "(rest pose)".into());
+            egui::ComboBox::from_label("Clip")
+                .selected_text(selected)
+                .show_ui(ui, |ui| {
+                    if ui
+                        .selectable_label(self.playback.clip.is_none(), "(rest pose)")
+                        .clicked()
+                    {
+                        commands.push(Command::SelectClip(None));
+                    }
+                    for (i, name) in clips.iter().enumerate() {
+                        if ui
+                            .selectable_label(self.playback.clip == Some(i), name)
+                            .clicked()
+                        {
+                            commands.push(Command::SelectClip(Some(i)));
+                        }
+                    }
+                });
+            ui.separator();
+            let label = if self.playback.playing {
+                "⏸ Pause"
+            } else {
+                "▶ Play"
+            };
+            if ui.button(label).on_hover_text("Space").clicked() {
+                commands.push(Command::SetPlaying(!self.playback.playing));
+            }
+            if ui.button("⏮").on_hover_text("Previous frame (←)").clicked() {
+                commands.push(Command::StepFrames(-1));
+            }
+            if ui.button("⏭").on_hover_text("Next frame (→)").clicked() {
+                commands.push(Command::StepFrames(1));
+            }
+            let mut t = self.playback.time_secs;
+            let width = (ui.available_width() - 330.0).max(120.0);
+            ui.spacing_mut().slider_width = width;
+            let slider = ui.add_enabled(
+                duration > 0.0,
+                egui::Slider::new(&mut t, 0.0..=duration.max(1e-3))
+                    .show_value(false)
+                    .text("Time"),
+            );
+            if slider.changed() {
+                commands.push(Command::SetPlaying(false));
+                commands.push(Command::Seek(t));
+            }
+            ui.monospace(format!(
+                "{:6.3} / {:.3} s  frame {:>3}",
+                self.playback.time_secs,
+                duration,
+                (self.playback.time_secs * TIMELINE_FPS).round() as i32
+            ));
+            let mut speed = self.playback.speed;
+            egui::ComboBox::from_label("Speed")
+                .selected_text(format!("{speed}×"))
+                .width(60.0)
+                .show_ui(ui, |ui| {
+                    for s in [0.1f32, 0.25, 0.5, 1.0, 2.0] {
+                        ui.selectable_value(&mut speed, s, format!("{s}×"));
+                    }
+                });
+            if speed != self.playback.speed {
+                commands.push(Command::SetSpeed(speed));
+            }
+        });
+        self.commands.extend(commands);
+    }
+
+    fn side_panel(&mut self, ui: &mut egui::Ui) {
+        let Some(doc) = &self.doc else {
+            ui.heading("No character");
+            ui.label("Open a project, or drop a .glb/.gltf here.");
+            return;
+        };
+        let c = doc.character.clone();
+        let s = c.summary();
+        ui.heading(&s.name);
+        ui.label(
+            egui::RichText::new(doc.character_path.display().to_string())
+                .small()
+                .weak(),
+        );
+        if let Some(f) = &doc.project_file {
+            ui.label(
+                egui::RichText::new(format!("project: {}", f.display()))
+                    .small()
+                    .weak(),
+            );
+        } else {
+            ui.label(egui::RichText::new("project: not saved yet").small().weak());
+        }
+        ui.separator();
+        egui::Grid::new("summary")
+            .num_columns(2)
+            .striped(true)
+            .show(ui, |ui| {
+                for (k, v) in [
+                    ("Vertices", s.vertices.to_string()),
+                    ("Triangles", s.triangles.to_string()),
+                    ("Joints", s.joints.to_string()),
+                    ("Skeleton nodes", s.nodes.to_string()),
+                    ("Materials", s.materials.to_string()),
+                    ("Clips", s.clips.len().to_string()),
+                    ("Textures", s.textures.len().to_string()),
+                    ("Warnings", s.warnings.len().to_string()),
+                ] {
+                    ui.label(k);
+                    ui.label(v);
+                    ui.end_row();
+                }
+                ui.label("Height");
+                ui.label(format!("{:.2} m", s.bounds_max[1] - s.bounds_min[1]));
+                ui.end_row();
+            });
+        ui.separator();
+        let mut select = None;
+        egui::CollapsingHeader::new("Clips")
+            .default_open(true)
+            .show(ui, |ui| {
+                for (i, clip) in s.clips.iter().enumerate() {
+                    let text = format!("{}  ({:.2} s)", clip.name, clip.duration_secs);
+                    if ui
+                        .selectable_label(self.playback.clip == Some(i), text)
+                        .clicked()
+                    {
+                        select = Some(i);
+                    }
+                }
+                if s.clips.is_empty() {
+                    ui.label("(no clips)");
+                }
+            });
+        egui::CollapsingHeader::new("Joints")
+            .default_open(false)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical()
+                    .max_height(220.0)
+                    .id_salt("joints")
+                    .show(ui, |ui| {
+                        for (i, n) in c.skeleton.nodes.iter().enumerate() {
+                            let mut depth = 0;
+                            let mut at = n.parent;
+                            while let Some(p) = at {
+                                depth += 1;
+                                at = c.skeleton.nodes.get(p).and_then(|x| x.parent);
+                            }
+                            let text = format!(
+                                "{}{}{}",
+                                "  ".repeat(depth),
+                                n.name,
+                                if n.is_joint { "" } else { "  (helper)" }
+                            );
+                            ui.label(egui::RichText::new(text).monospace().small())
+                                .on_hover_text(format!("node {i}"));
+                        }
+                    });
+            });
+        egui::CollapsingHeader::new("Textures")
+            .default_open(true)
+            .show(ui, |ui| {
+                for t in &s.textures {
+                    ui.label(format!("{}  {}×{}", t.name, t.width, t.height));
+                }
+                if let Some(tex) = c.textures.first() {
+                    let generation = doc.generation;
+                    if self
+                        .texture_preview
+                        .as_ref()
+                        .is_none_or(|(g, _)| *g != generation)
+                    {
+                        let image = egui::ColorImage::from_rgba_unmultiplied(
+                            [tex.width as usize, tex.height as usize],
+                            &tex.rgba8,
+                        );
+                        let handle = ui.ctx().load_texture(
+                            "texture preview",
+                            image,
+                            egui::TextureOptions::LINEAR,
+                        );
+                        self.texture_preview = Some((generation, handle));
+                    }
+                    if let Some((_, handle)) = &self.texture_preview {
+                        let w = ui.available_width().min(240.0);
+                        let h = w * tex.height as f32 / tex.width.max(1) as f32;
+                        ui.image((handle.id(), egui::vec2(w, h)));
+                    }
+                }
+            });
+        if let Some(i) = select {
+            self.send(Command::SelectClip(Some(i)));
+        }
+    }
+
+    fn log_panel(&mut self, ui: &mut egui::Ui) {
+        ui.horizontal(|ui| {
+            ui.strong("Log");
+            if ui.small_button("Clear").clicked() {
+                self.log.clear();
+            }
+        });
+        egui::ScrollArea::vertical()
+            .stick_to_bottom(true)
+            .auto_shrink([false, false])
+            .show(ui, |ui| {
+                for e in &self.log {
+                    let (icon, color) = match e.level {
+                        LogLevel::Info => ("ℹ", ui.visuals().text_color()),
+                        LogLevel::Warning => ("⚠", ui.visuals().warn_fg_color),
+                        LogLevel::Error => ("⛔", ui.visuals().error_fg_color),
+                    };
+                    ui.label(egui::RichText::new(format!("{icon} {}", e.text)).color(color));
+                }
+            });
+    }
+
+    fn viewport(&mut self, ui: &mut egui::Ui) {
+        let rect = ui.available_rect_before_wrap();
+        let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
+        self.camera.handle_input(ui, &response);
+        if response.double_clicked() {
+            self.send(Command::FrameCharacter);
+        }
+        let Some(doc) = &self.doc else {
+            let text = if self.loading.is_some() {
+                "Loading…"
+            } else {
+                "Drop a .glb/.gltf here, or use File ▸ New from glTF"
+            };
+            ui.painter().text(
+                rect.center(),
+                egui::Align2::CENTER_CENTER,
+                text,
+                egui::FontId::proportional(18.0),
+                ui.visuals().weak_text_color(),
+            );
+            return;
+        };
+        if self.adapter.is_some() {
+            let pose =
+                Pose::sample_index(&doc.character, self.playback.clip, self.playback.time_secs);
+            let ppp = ui.ctx().pixels_per_point();
+            let callback = ViewportCallback {
+                character: doc.character.clone(),
+                generation: doc.generation,
+                pose: Arc::new(pose),
+                camera: self.camera.camera(),
+                size_px: [
+                    (rect.width() * ppp).round() as u32,
+                    (rect.height() * ppp).round() as u32,
+                ],
+                mode: self.view_mode,
+                grid: self.grid,
+            };
+            ui.painter()
+                .add(egui_wgpu::Callback::new_paint_callback(rect, callback));
+        }
+        // Overlay: view mode, grid, frame button; controls hint.
+        let overlay = egui::Rect::from_min_size(
+            rect.min + egui::vec2(8.0, 8.0),
+            egui::vec2(rect.width() - 16.0, 28.0),
+        );
+        let mut child = ui.new_child(
+            egui::UiBuilder::new()
+                .max_rect(overlay)
+                .layout(egui::Layout::left_to_right(egui::Align::Center)),
+        );
+        egui::ComboBox::from_id_salt("view mode")
+            .selected_text(self.view_mode.label())
+            .width(80.0)
+            .show_ui(&mut child, |ui| {
+                for mode in ViewMode::ALL {
+                    ui.selectable_value(&mut self.view_mode, mode, mode.label());
+                }
+            });
+        child.checkbox(&mut self.grid, "Grid");
+        if child.button("Frame (F)").clicked() {
+            self.send(Command::FrameCharacter);
+        }
+        ui.painter().text(
+            rect.left_bottom() + egui::vec2(8.0, -8.0),
+            egui::Align2::LEFT_BOTTOM,
+            "Orbit: left/middle drag · Pan: shift+middle or right drag · Zoom: wheel · Space: play/pause",
+            egui::FontId::proportional(12.0),
+            egui::Color32::from_gray(150),
+        );
+    }
+
+    fn dialogs(&mut self, ctx: &egui::Context) {
+        if let Some(message) = self.error.clone() {
+            let modal = egui::Modal::new(egui::Id::unique("error dialog")).show(ctx, |ui| {
+                ui.set_max_width(520.0);
+                ui.heading("Something went wrong");
+                ui.add_space(6.0);
+                ui.label(&message);
+                ui.add_space(6.0);
+                if self.doc.is_some() {
+                    ui.label(egui::RichText::new("The open project is unchanged.").weak());
+                }
+                ui.add_space(8.0);
+                ui.button("OK").clicked()
+            });
+            if modal.inner || modal.should_close() {
+                self.error = None;
+            }
+        }
+        let mut submit = None;
+        let mut cancel = false;
+        if let Some(prompt) = &mut self.prompt {
+            egui::Modal::new(egui::Id::unique("path prompt")).show(ctx, |ui| {
+                ui.set_min_width(520.0);
+                ui.heading(prompt.purpose.title());
+                let edit = ui.add(
+                    egui::TextEdit::singleline(&mut prompt.text)
+                        .hint_text(prompt.purpose.hint())
+                        .desired_width(500.0),
+                );
+                edit.request_focus();
+                let enter = edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+                ui.horizontal(|ui| {
+                    if ui.button("OK").clicked() || enter {
+                        submit = Some((prompt.purpose, prompt.text.trim().to_string()));
+                    }
+                    if ui.button("Cancel").clicked()
+                        || ui.input(|i| i.key_pressed(egui::Key::Escape))
+                    {
+                        cancel = true;
+                    }
+                });
+            });
+        }
+        if let Some((purpose, text)) = submit {
+            self.prompt = None;
+            if !text.is_empty() {
+                let path = expand_home(&text);
+                self.send(purpose.command(path));
+            }
+        }
+        if cancel {
+            self.prompt = None;
+        }
+        if self.show_about {
+            egui::Window::new("Polypostor Studio").open(&mut self.show_about).collapsible(false).show(ctx, |ui| {
+                ui.label(format!("Version {}", env!("CARGO_PKG_VERSION")));
+                ui.label("Turns skinned, animated glTF characters into crowd level-of-detail assets.");
+                ui.separator();
+                egui::Grid::new("controls").num_columns(2).show(ui, |ui| {
+                    for (k, v) in [
+                        ("Orbit", "left drag, or middle drag"),
+                        ("Pan", "shift + middle drag, or right drag"),
+                        ("Zoom", "mouse wheel"),
+                        ("Frame character", "F, or double-click"),
+                        ("Play / pause", "Space"),
+                        ("Step frame", "← / →"),
+                        ("Go to start", "Home"),
+                        ("New / Open / Save", "Ctrl+N / Ctrl+O / Ctrl+S"),
+                    ] {
+                        ui.label(k);
+                        ui.label(v);
+                        ui.end_row();
+                    }
+                });
+            });
+        }
+    }
+}
+
+fn expand_home(text: &str) -> PathBuf {
+    if let Some(rest) = text.strip_prefix("~/") {
+        if let Some(home) = std::env::var_os("HOME") {
+            return PathBuf::from(home).join(rest);
+        }
+    }
+    PathBuf::from(text)
+}
+
+fn is_gltf(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"))
+}
+
+/// A background load: a project and its character, or a glTF as a new project.
+enum LoadRequest {
+    Project(PathBuf),
+    Gltf(PathBuf),
+}
+
+impl LoadRequest {
+    fn describe(&self) -> String {
+        match self {
+            LoadRequest::Project(p) | LoadRequest::Gltf(p) => p.display().to_string(),
+        }
+    }
+
+    fn run(self) -> Result<Loaded, String> {
+        match self {
+            LoadRequest::Gltf(path) => {
+                let character = polypostor::import_path(&path)
+                    .map_err(|e| format!("Cannot import {}:\n{e}", path.display()))?;
+                let dir = path.parent().map(Path::to_owned).unwrap_or_default();
+                let name = path
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                let project = Project::new_for_character(&name, &path, &dir);
+                let character_path = std::fs::canonicalize(&path).unwrap_or(path);
+                Ok(Loaded {
+                    project,
+                    project_file: None,
+                    character_path,
+                    character,
+                    from_gltf: true,
+                })
+            }
+            LoadRequest::Project(path) => {
+                let (project, file) = Project::load(&path).map_err(|e| e.to_string())?;
+                let character_path = project.character_path(&file);
+                let character = polypostor::import_path(&character_path).map_err(|e| {
+                    format!(
+                        "Project {} refers to a character that cannot be imported:\n{e}",
+                        file.display()
+                    )
+                })?;
+                Ok(Loaded {
+                    project,
+                    project_file: Some(file),
+                    character_path,
+                    character,
+                    from_gltf: false,
+                })
+            }
+        }
+    }
+}
+
+impl eframe::App for EditorApp {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        let ctx = ui.ctx().clone();
+        let dt = self.timer.tick();
+        self.poll_loading();
+        self.poll_dialog();
+        self.dropped_files(&ctx);
+        self.shortcuts(&ctx);
+        self.apply_commands(&ctx);
+
+        // Advance playback.
+        if let Some(doc) = &self.doc {
+            let d = doc.clip_duration(self.playback.clip);
+            if self.playback.playing && d > 0.0 {
+                self.playback.time_secs =
+                    (self.playback.time_secs + dt * self.playback.speed).rem_euclid(d);
+            }
+        }
+
+        let title = match &self.doc {
+            Some(doc) => format!("{} — Polypostor Studio", doc.title()),
+            None => "Polypostor Studio".into(),
+        };
+        ctx.send_viewport_cmd(egui::ViewportCommand::Title(title));
+
+        egui::Panel::top("menu").show(ui, |ui| self.menu_bar(ui));
+        egui::Panel::bottom("status").show(ui, |ui| self.status_bar(ui));
+        egui::Panel::bottom("timeline").show(ui, |ui| {
+            ui.add_space(4.0);
+            self.timeline(ui);
+            ui.add_space(2.0);
+        });
+        if self.show_log {
+            egui::Panel::bottom("log")
+                .resizable(true)
+                .default_size(130.0)
+                .min_size(60.0)
+                .show(ui, |ui| self.log_panel(ui));
+        }
+        egui::Panel::left("character")
+            .resizable(true)
+            .default_size(270.0)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| self.side_panel(ui));
+            });
+        egui::CentralPanel::default()
+            .frame(egui::Frame::NONE)
+            .show(ui, |ui| self.viewport(ui));
+        self.dialogs(&ctx);
+
+        // Keep animating while playing or loading.
+        if (self.playback.playing && self.doc.is_some())
+            || self.loading.is_some()
+            || self.dialog.is_some()
+        {
+            ctx.request_repaint();
+        }
+    }
+}

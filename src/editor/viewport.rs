@@ -1,0 +1,371 @@
+//! The 3D viewport: an orbit camera driven by the mouse, and an egui_wgpu paint callback
+//! that renders the posed character offscreen with the library's renderer (in `prepare`)
+//! and blits the image into the egui frame (in `paint`).
+
+use std::sync::Arc;
+
+use eframe::egui_wgpu;
+use egui_wgpu::wgpu;
+use glam::Vec3;
+use polypostor::Character;
+use polypostor::animation::Pose;
+use polypostor::gpu::{
+    Camera, CharacterRenderer, DrawOptions, GpuCharacter, RenderTarget, Shading, SkinningMode,
+    gpu_data, shaders,
+};
+
+/// What the viewport shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ViewMode {
+    Lit,
+    Albedo,
+    Normals,
+}
+
+impl ViewMode {
+    pub const ALL: [ViewMode; 3] = [ViewMode::Lit, ViewMode::Albedo, ViewMode::Normals];
+    pub fn label(self) -> &'static str {
+        match self {
+            ViewMode::Lit => "Lit",
+            ViewMode::Albedo => "Albedo",
+            ViewMode::Normals => "Normals",
+        }
+    }
+}
+
+/// A Blender-style orbit camera: middle-drag (or left-drag) orbits, shift+middle-drag (or
+/// right-drag) pans, the wheel zooms.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OrbitCamera {
+    pub target: Vec3,
+    pub yaw_rad: f32,
+    pub pitch_rad: f32,
+    pub distance: f32,
+    pub fov_y_rad: f32,
+}
+
+impl Default for OrbitCamera {
+    fn default() -> Self {
+        Self {
+            target: Vec3::new(0.0, 0.9, 0.0),
+            yaw_rad: 0.5,
+            pitch_rad: 0.15,
+            distance: 3.5,
+            fov_y_rad: 40f32.to_radians(),
+        }
+    }
+}
+
+impl OrbitCamera {
+    /// Frames a bounding box, keeping the current direction.
+    pub fn frame(&mut self, min: Vec3, max: Vec3) {
+        self.target = (min + max) * 0.5;
+        let radius = ((max - min) * 0.5).length().max(0.01);
+        self.distance = radius / (self.fov_y_rad * 0.5).sin() * 1.1;
+    }
+
+    pub fn camera(&self) -> Camera {
+        Camera::orbit(
+            self.target,
+            self.yaw_rad,
+            self.pitch_rad,
+            self.distance,
+            self.fov_y_rad,
+        )
+    }
+
+    pub fn orbit(&mut self, delta_px: egui::Vec2) {
+        self.yaw_rad -= delta_px.x * 0.008;
+        self.pitch_rad = (self.pitch_rad + delta_px.y * 0.008).clamp(-1.55, 1.55);
+    }
+
+    pub fn pan(&mut self, delta_px: egui::Vec2, viewport_height_px: f32) {
+        let cam = self.camera();
+        let forward = (cam.target - cam.eye).normalize_or(Vec3::NEG_Z);
+        let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
+        let up = right.cross(forward);
+        let world_per_px =
+            2.0 * self.distance * (self.fov_y_rad * 0.5).tan() / viewport_height_px.max(1.0);
+        self.target += (-right * delta_px.x + up * delta_px.y) * world_per_px;
+    }
+
+    pub fn zoom(&mut self, wheel: f32) {
+        self.distance = (self.distance * (-wheel * 0.0015).exp()).clamp(0.05, 500.0);
+    }
+
+    /// Applies the pointer input of the viewport's response.
+    pub fn handle_input(&mut self, ui: &egui::Ui, response: &egui::Response) {
+        let shift = ui.input(|i| i.modifiers.shift);
+        let delta = response.drag_delta();
+        if response.dragged_by(egui::PointerButton::Middle) {
+            if shift {
+                self.pan(delta, response.rect.height())
+            } else {
+                self.orbit(delta)
+            }
+        } else if response.dragged_by(egui::PointerButton::Primary) {
+            self.orbit(delta);
+        } else if response.dragged_by(egui::PointerButton::Secondary) {
+            self.pan(delta, response.rect.height());
+        }
+        if response.hovered() {
+            let (scroll, zoom) = ui.input(|i| (i.smooth_scroll_delta.y, i.zoom_delta()));
+            if scroll != 0.0 {
+                self.zoom(scroll);
+            }
+            if zoom != 1.0 {
+                self.distance = (self.distance / zoom).clamp(0.05, 500.0);
+            }
+        }
+    }
+}
+
+/// GPU state of the viewport, kept in egui_wgpu's callback resources.
+pub struct ViewportResources {
+    renderer: CharacterRenderer,
+    character: Option<(u64, GpuCharacter)>,
+    target: Option<RenderTarget>,
+    blit_pipeline: wgpu::RenderPipeline,
+    blit_layout: wgpu::BindGroupLayout,
+    blit_uniforms: wgpu::Buffer,
+    blit_sampler: wgpu::Sampler,
+    blit_groups: Option<(wgpu::BindGroup, wgpu::BindGroup)>,
+    target_is_srgb: bool,
+}
+
+impl ViewportResources {
+    /// Registers the viewport's resources with eframe's wgpu renderer. Returns the adapter
+    /// description.
+    pub fn install(render_state: &egui_wgpu::RenderState) -> String {
+        let device = &render_state.device;
+        let renderer = CharacterRenderer::new(device);
+        let blit_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("blit"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("blit"),
+            bind_group_layouts: &[Some(&blit_layout)],
+            immediate_size: 0,
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("blit.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(shaders::BLIT.into()),
+        });
+        let blit_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("blit"),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                buffers: &[],
+                compilation_options: Default::default(),
+            },
+            primitive: Default::default(),
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: render_state.target_format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+                compilation_options: Default::default(),
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let blit_uniforms = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("blit uniforms"),
+            size: 512, // colour view's uniforms at 0, normal view's at 256 (offset alignment)
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let blit_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("blit"),
+            mag_filter: wgpu::FilterMode::Nearest,
+            min_filter: wgpu::FilterMode::Nearest,
+            ..Default::default()
+        });
+        let info = render_state.adapter.get_info();
+        let adapter = format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type);
+        render_state
+            .renderer
+            .write()
+            .callback_resources
+            .insert(ViewportResources {
+                renderer,
+                character: None,
+                target: None,
+                blit_pipeline,
+                blit_layout,
+                blit_uniforms,
+                blit_sampler,
+                blit_groups: None,
+                target_is_srgb: render_state.target_format.is_srgb(),
+            });
+        adapter
+    }
+}
+
+/// One frame's draw request.
+pub struct ViewportCallback {
+    pub character: Arc<Character>,
+    /// Changes whenever a different character is loaded.
+    pub generation: u64,
+    pub pose: Arc<Pose>,
+    pub camera: Camera,
+    pub size_px: [u32; 2],
+    pub mode: ViewMode,
+    pub grid: bool,
+}
+
+impl egui_wgpu::CallbackTrait for ViewportCallback {
+    fn prepare(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        _screen: &egui_wgpu::ScreenDescriptor,
+        encoder: &mut wgpu::CommandEncoder,
+        resources: &mut egui_wgpu::CallbackResources,
+    ) -> Vec<wgpu::CommandBuffer> {
+        let Some(res) = resources.get_mut::<ViewportResources>() else {
+            return Vec::new();
+        };
+        if res.character.as_ref().map(|c| c.0) != Some(self.generation) {
+            res.character = Some((
+                self.generation,
+                GpuCharacter::new(&res.renderer, device, queue, &self.character),
+            ));
+        }
+        let [w, h] = [self.size_px[0].max(1), self.size_px[1].max(1)];
+        if res
+            .target
+            .as_ref()
+            .is_none_or(|t| t.width != w || t.height != h)
+        {
+            let target = RenderTarget::new(device, w, h);
+            let group = |view: &wgpu::TextureView, offset: u64| {
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("blit"),
+                    layout: &res.blit_layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                                buffer: &res.blit_uniforms,
+                                offset,
+                                size: wgpu::BufferSize::new(std::mem::size_of::<
+                                    gpu_data::BlitUniforms,
+                                >()
+                                    as u64),
+                            }),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: wgpu::BindingResource::TextureView(view),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 2,
+                            resource: wgpu::BindingResource::Sampler(&res.blit_sampler),
+                        },
+                    ],
+                })
+            };
+            // Uniform offsets must be 256-byte aligned: colour at 0, normals at 256.
+            res.blit_groups = Some((
+                group(&target.color_view, 0),
+                group(&target.normal_view, 256),
+            ));
+            res.target = Some(target);
+        }
+        let encode_color = if res.target_is_srgb { 0.0 } else { 1.0 };
+        queue.write_buffer(
+            &res.blit_uniforms,
+            0,
+            bytemuck::bytes_of(&gpu_data::BlitUniforms {
+                params: [encode_color, 0.0, 0.0, 0.0],
+            }),
+        );
+        queue.write_buffer(
+            &res.blit_uniforms,
+            256,
+            bytemuck::bytes_of(&gpu_data::BlitUniforms { params: [0.0; 4] }),
+        );
+
+        let (Some((_, gpu)), Some(target)) = (res.character.as_mut(), res.target.as_ref()) else {
+            return Vec::new();
+        };
+        let shading = if self.mode == ViewMode::Albedo {
+            Shading::Unlit
+        } else {
+            Shading::Lit
+        };
+        gpu.set_pose(queue, &self.character, &self.pose, SkinningMode::Gpu);
+        gpu.set_camera(queue, &self.camera, w as f32 / h as f32, shading);
+        let options = DrawOptions {
+            shading,
+            clear_color: [0.045, 0.05, 0.06, 1.0],
+            grid: self.grid,
+        };
+        res.renderer.encode(encoder, target, gpu, &options);
+        Vec::new()
+    }
+
+    fn paint(
+        &self,
+        _info: egui::PaintCallbackInfo,
+        pass: &mut wgpu::RenderPass<'static>,
+        resources: &egui_wgpu::CallbackResources,
+    ) {
+        let Some(res) = resources.get::<ViewportResources>() else {
+            return;
+        };
+        let Some((color, normal)) = &res.blit_groups else {
+            return;
+        };
+        if res.target.is_none() {
+            return;
+        }
+        pass.set_pipeline(&res.blit_pipeline);
+        pass.set_bind_group(
+            0,
+            if self.mode == ViewMode::Normals {
+                normal
+            } else {
+                color
+            },
+            &[],
+        );
+        pass.draw(0..3, 0..1);
+    }
+}

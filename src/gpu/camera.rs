@@ -1,0 +1,147 @@
+//! Cameras: a look-at eye with a perspective or orthographic projection (wgpu's 0..1 depth).
+
+use glam::camera::rh::proj::directx as proj;
+use glam::camera::rh::view::look_at_mat4;
+use glam::{Mat4, Vec3};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Vertical field of view in radians.
+    Perspective { fov_y_rad: f32 },
+    /// Half the visible height in world units (the width follows the aspect ratio).
+    Orthographic { half_height: f32 },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub eye: Vec3,
+    pub target: Vec3,
+    pub up: Vec3,
+    pub projection: Projection,
+    pub near: f32,
+    pub far: f32,
+}
+
+impl Camera {
+    /// A perspective camera orbiting `target`: `yaw` about +Y (0 looks from +Z), `pitch` up.
+    pub fn orbit(
+        target: Vec3,
+        yaw_rad: f32,
+        pitch_rad: f32,
+        distance: f32,
+        fov_y_rad: f32,
+    ) -> Self {
+        let dir = Vec3::new(
+            pitch_rad.cos() * yaw_rad.sin(),
+            pitch_rad.sin(),
+            pitch_rad.cos() * yaw_rad.cos(),
+        );
+        let distance = distance.max(1e-3);
+        Self {
+            eye: target + dir * distance,
+            target,
+            up: Vec3::Y,
+            projection: Projection::Perspective { fov_y_rad },
+            near: (distance * 0.01).max(1e-3),
+            far: distance * 100.0 + 100.0,
+        }
+    }
+
+    /// An orthographic camera looking along `-view_dir` (from `view_dir`) that frames the
+    /// box `(min, max)` with a relative `margin`.
+    pub fn ortho_framing(min: Vec3, max: Vec3, view_dir: Vec3, margin: f32) -> Self {
+        let center = (min + max) * 0.5;
+        let radius = ((max - min) * 0.5).length().max(1e-3);
+        let dir = view_dir.normalize_or(Vec3::Z);
+        let up = if dir.cross(Vec3::Y).length_squared() < 1e-6 {
+            Vec3::Z
+        } else {
+            Vec3::Y
+        };
+        Self {
+            eye: center + dir * radius * 2.0,
+            target: center,
+            up,
+            projection: Projection::Orthographic {
+                half_height: radius * (1.0 + margin),
+            },
+            near: radius * 0.5,
+            far: radius * 3.5,
+        }
+    }
+
+    pub fn view_from_world(&self) -> Mat4 {
+        let up = if (self.eye - self.target).cross(self.up).length_squared() < 1e-10 {
+            Vec3::Z
+        } else {
+            self.up
+        };
+        look_at_mat4(self.eye, self.target, up)
+    }
+
+    pub fn clip_from_view(&self, aspect: f32) -> Mat4 {
+        let aspect = if aspect.is_finite() && aspect > 0.0 {
+            aspect
+        } else {
+            1.0
+        };
+        match self.projection {
+            Projection::Perspective { fov_y_rad } => {
+                proj::perspective(fov_y_rad, aspect, self.near, self.far)
+            }
+            Projection::Orthographic { half_height } => {
+                let hw = half_height * aspect;
+                proj::orthographic(-hw, hw, -half_height, half_height, self.near, self.far)
+            }
+        }
+    }
+
+    pub fn clip_from_world(&self, aspect: f32) -> Mat4 {
+        self.clip_from_view(aspect) * self.view_from_world()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn target_projects_to_centre_at_mid_depth_range() {
+        for cam in [
+            Camera::orbit(Vec3::new(1.0, 2.0, 3.0), 0.7, 0.3, 5.0, 0.8),
+            Camera::ortho_framing(
+                Vec3::splat(-1.0),
+                Vec3::splat(1.0),
+                Vec3::new(0.3, 0.5, 1.0),
+                0.05,
+            ),
+        ] {
+            let p = cam.clip_from_world(1.5).project_point3(cam.target);
+            assert!(p.x.abs() < 1e-5 && p.y.abs() < 1e-5, "{p:?}");
+            assert!(p.z > 0.0 && p.z < 1.0, "{p:?}");
+        }
+    }
+
+    #[test]
+    fn ortho_framing_contains_the_box() {
+        let (min, max) = (Vec3::new(-0.3, 0.0, -0.2), Vec3::new(0.4, 1.8, 0.3));
+        for dir in [Vec3::Z, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y] {
+            let cam = Camera::ortho_framing(min, max, dir, 0.0);
+            let m = cam.clip_from_world(1.0);
+            for i in 0..8 {
+                let c = Vec3::new(
+                    if i & 1 == 0 { min.x } else { max.x },
+                    if i & 2 == 0 { min.y } else { max.y },
+                    if i & 4 == 0 { min.z } else { max.z },
+                );
+                let p = m.project_point3(c);
+                assert!(
+                    p.x.abs() <= 1.0 + 1e-5
+                        && p.y.abs() <= 1.0 + 1e-5
+                        && (0.0..=1.0).contains(&p.z),
+                    "{dir:?} {p:?}"
+                );
+            }
+        }
+    }
+}

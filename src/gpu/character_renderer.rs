@@ -1,0 +1,668 @@
+//! Drawing a skinned character into colour, normal and depth targets.
+
+use glam::{Mat4, Vec3};
+use wgpu::util::DeviceExt;
+
+use super::gpu_data::{
+    Attributes, Bones, FrameUniforms, MAX_BONES, MaterialUniforms, PositionNormal,
+};
+use super::{Camera, DepthImage, GpuError, read_depth, read_rgba8, shaders};
+use crate::animation::{Pose, skin_vertices};
+use crate::character::{Character, Texture};
+
+/// Colour target: sRGB-encoded RGBA8 (linear values written, encoded by the hardware).
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+/// Normal target: view-space unit normal encoded as `n * 0.5 + 0.5`, alpha 1 on the character.
+pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// How colour is shaded.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Shading {
+    /// Diffuse light from the upper left plus ambient and a soft rim.
+    #[default]
+    Lit,
+    /// The base colour alone (what the bake matches).
+    Unlit,
+}
+
+/// Where skinning happens.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SkinningMode {
+    /// In the vertex shader (the default; falls back to CPU above [`MAX_BONES`] bones).
+    #[default]
+    Gpu,
+    /// On the CPU with [`skin_vertices`], uploaded each pose.
+    Cpu,
+}
+
+/// Options of one draw.
+#[derive(Clone, Copy, Debug)]
+pub struct DrawOptions {
+    pub shading: Shading,
+    /// Linear RGBA clear colour of the colour target.
+    pub clear_color: [f64; 4],
+    pub grid: bool,
+}
+
+impl Default for DrawOptions {
+    fn default() -> Self {
+        Self {
+            shading: Shading::Lit,
+            clear_color: [0.0, 0.0, 0.0, 0.0],
+            grid: false,
+        }
+    }
+}
+
+/// Colour, normal and depth textures of one size.
+pub struct RenderTarget {
+    pub width: u32,
+    pub height: u32,
+    pub color: wgpu::Texture,
+    pub color_view: wgpu::TextureView,
+    pub normal: wgpu::Texture,
+    pub normal_view: wgpu::TextureView,
+    pub depth: wgpu::Texture,
+    pub depth_view: wgpu::TextureView,
+}
+
+impl RenderTarget {
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Self {
+        let (width, height) = (width.max(1), height.max(1));
+        let make = |label, format| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            })
+        };
+        let color = make("target colour", COLOR_FORMAT);
+        let normal = make("target normal", NORMAL_FORMAT);
+        let depth = make("target depth", DEPTH_FORMAT);
+        Self {
+            width,
+            height,
+            color_view: color.create_view(&Default::default()),
+            normal_view: normal.create_view(&Default::default()),
+            depth_view: depth.create_view(&Default::default()),
+            color,
+            normal,
+            depth,
+        }
+    }
+
+    pub fn read_color(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Result<image::RgbaImage, GpuError> {
+        read_rgba8(device, queue, &self.color)
+    }
+    pub fn read_normal(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Result<image::RgbaImage, GpuError> {
+        read_rgba8(device, queue, &self.normal)
+    }
+    pub fn read_depth(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Result<DepthImage, GpuError> {
+        read_depth(device, queue, &self.depth)
+    }
+}
+
+/// Pipelines and layouts shared by every character.
+pub struct CharacterRenderer {
+    frame_layout: wgpu::BindGroupLayout,
+    material_layout: wgpu::BindGroupLayout,
+    pipeline: wgpu::RenderPipeline,
+    grid_pipeline: wgpu::RenderPipeline,
+    sampler: wgpu::Sampler,
+}
+
+fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+impl CharacterRenderer {
+    pub fn new(device: &wgpu::Device) -> Self {
+        let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("frame"),
+            entries: &[
+                uniform_entry(0, wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT),
+                uniform_entry(1, wgpu::ShaderStages::VERTEX),
+            ],
+        });
+        let material_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("material"),
+            entries: &[
+                uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("character"),
+            bind_group_layouts: &[Some(&frame_layout), Some(&material_layout)],
+            immediate_size: 0,
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("character.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(shaders::CHARACTER.into()),
+        });
+        let targets = [
+            Some(wgpu::ColorTargetState {
+                format: COLOR_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+            Some(wgpu::ColorTargetState {
+                format: NORMAL_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+        ];
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("character"),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                buffers: &[
+                    Some(wgpu::VertexBufferLayout {
+                        array_stride: std::mem::size_of::<PositionNormal>() as u64,
+                        step_mode: wgpu::VertexStepMode::Vertex,
+                        attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3],
+                    }),
+                    Some(wgpu::VertexBufferLayout {
+                        array_stride: std::mem::size_of::<Attributes>() as u64,
+                        step_mode: wgpu::VertexStepMode::Vertex,
+                        attributes: &wgpu::vertex_attr_array![2 => Float32x2, 3 => Float32x4, 4 => Uint16x4, 5 => Float32x4],
+                    }),
+                ],
+                compilation_options: Default::default(),
+            },
+            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                targets: &targets,
+                compilation_options: Default::default(),
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+
+        let grid_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("grid"),
+            bind_group_layouts: &[Some(&frame_layout)],
+            immediate_size: 0,
+        });
+        let grid_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("grid.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(shaders::GRID.into()),
+        });
+        let grid_targets = [
+            Some(wgpu::ColorTargetState {
+                format: COLOR_FORMAT,
+                blend: Some(wgpu::BlendState::ALPHA_BLENDING),
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+            Some(wgpu::ColorTargetState {
+                format: NORMAL_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::empty(),
+            }),
+        ];
+        let grid_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("grid"),
+            layout: Some(&grid_layout),
+            vertex: wgpu::VertexState {
+                module: &grid_module,
+                entry_point: Some("vs_main"),
+                buffers: &[],
+                compilation_options: Default::default(),
+            },
+            primitive: wgpu::PrimitiveState {
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(false),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &grid_module,
+                entry_point: Some("fs_main"),
+                targets: &grid_targets,
+                compilation_options: Default::default(),
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("base colour"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::Repeat,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            ..Default::default()
+        });
+        Self {
+            frame_layout,
+            material_layout,
+            pipeline,
+            grid_pipeline,
+            sampler,
+        }
+    }
+
+    /// Records a draw of `character` into `target` (clearing it) on `encoder`. Call
+    /// [`GpuCharacter::prepare`] first so the uniforms hold this camera.
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        character: &GpuCharacter,
+        options: &DrawOptions,
+    ) {
+        let [r, g, b, a] = options.clear_color;
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("character"),
+            color_attachments: &[
+                Some(wgpu::RenderPassColorAttachment {
+                    view: &target.color_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                }),
+                Some(wgpu::RenderPassColorAttachment {
+                    view: &target.normal_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        store: wgpu::StoreOp::Store,
+                    },
+                }),
+            ],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &target.depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &character.frame_group, &[]);
+        pass.set_vertex_buffer(0, character.stream0.slice(..));
+        pass.set_vertex_buffer(1, character.stream1.slice(..));
+        pass.set_index_buffer(character.indices.slice(..), wgpu::IndexFormat::Uint32);
+        for s in &character.submeshes {
+            pass.set_bind_group(1, &character.materials[s.material].1, &[]);
+            pass.draw_indexed(s.first_index..s.first_index + s.index_count, 0, 0..1);
+        }
+        if options.grid {
+            pass.set_pipeline(&self.grid_pipeline);
+            pass.set_bind_group(0, &character.frame_group, &[]);
+            pass.draw(0..6, 0..1);
+        }
+    }
+
+    /// Sets the pose and camera, draws, and submits: a complete headless render.
+    #[allow(clippy::too_many_arguments)]
+    pub fn render(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        target: &RenderTarget,
+        gpu: &mut GpuCharacter,
+        character: &Character,
+        pose: &Pose,
+        mode: SkinningMode,
+        camera: &Camera,
+        options: &DrawOptions,
+    ) {
+        gpu.set_pose(queue, character, pose, mode);
+        gpu.set_camera(
+            queue,
+            camera,
+            target.width as f32 / target.height as f32,
+            options.shading,
+        );
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("render"),
+        });
+        self.encode(&mut encoder, target, gpu, options);
+        queue.submit([encoder.finish()]);
+    }
+}
+
+/// GPU resources of one character.
+pub struct GpuCharacter {
+    stream0: wgpu::Buffer,
+    stream1: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    frame_buffer: wgpu::Buffer,
+    bones_buffer: wgpu::Buffer,
+    frame_group: wgpu::BindGroup,
+    materials: Vec<(wgpu::Buffer, wgpu::BindGroup)>,
+    submeshes: Vec<crate::character::Submesh>,
+    bind_pose: Vec<PositionNormal>,
+    /// True when stream 0 holds CPU-skinned vertices rather than the bind pose.
+    stream0_skinned: bool,
+    bone_count: usize,
+}
+
+/// Mip chain of an sRGB RGBA8 texture by 2×2 box filtering (in sRGB space).
+fn mip_chain(t: &Texture) -> Vec<(u32, u32, Vec<u8>)> {
+    let mut levels = vec![(t.width, t.height, t.rgba8.clone())];
+    while let Some((w, h, data)) = levels.last().filter(|l| l.0 > 1 || l.1 > 1) {
+        let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
+        let mut out = vec![0u8; (nw * nh * 4) as usize];
+        for y in 0..nh {
+            for x in 0..nw {
+                for c in 0..4 {
+                    let mut sum = 0u32;
+                    for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                        let sx = (x * 2 + dx).min(w - 1);
+                        let sy = (y * 2 + dy).min(h - 1);
+                        sum += data[((sy * w + sx) * 4 + c) as usize] as u32;
+                    }
+                    out[((y * nw + x) * 4 + c) as usize] = ((sum + 2) / 4) as u8;
+                }
+            }
+        }
+        levels.push((nw, nh, out));
+    }
+    levels
+}
+
+fn upload_texture(device: &wgpu::Device, queue: &wgpu::Queue, t: &Texture) -> wgpu::Texture {
+    let levels = mip_chain(t);
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(&t.name),
+        size: wgpu::Extent3d {
+            width: t.width,
+            height: t.height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: levels.len() as u32,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba8UnormSrgb,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    for (level, (w, h, data)) in levels.iter().enumerate() {
+        queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &texture,
+                mip_level: level as u32,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            data,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(4 * w),
+                rows_per_image: Some(*h),
+            },
+            wgpu::Extent3d {
+                width: *w,
+                height: *h,
+                depth_or_array_layers: 1,
+            },
+        );
+    }
+    texture
+}
+
+impl GpuCharacter {
+    pub fn new(
+        renderer: &CharacterRenderer,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        c: &Character,
+    ) -> Self {
+        let bind_pose: Vec<PositionNormal> = c
+            .vertices
+            .iter()
+            .map(|v| PositionNormal {
+                position: v.position.to_array(),
+                normal: v.normal.to_array(),
+            })
+            .collect();
+        let attrs: Vec<Attributes> = c
+            .vertices
+            .iter()
+            .map(|v| Attributes {
+                uv: v.uv,
+                color: v.color,
+                bones: v.bones,
+                weights: v.weights,
+            })
+            .collect();
+        let stream0 = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("positions+normals"),
+            contents: bytemuck::cast_slice(&bind_pose),
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+        });
+        let stream1 = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("attributes"),
+            contents: bytemuck::cast_slice(&attrs),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        let indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("indices"),
+            contents: bytemuck::cast_slice(&c.indices),
+            usage: wgpu::BufferUsages::INDEX,
+        });
+        let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame"),
+            size: std::mem::size_of::<FrameUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let identity = Bones {
+            m: [Mat4::IDENTITY.to_cols_array_2d(); MAX_BONES],
+        };
+        let bones_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("bones"),
+            contents: bytemuck::bytes_of(&identity),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let frame_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("frame"),
+            layout: &renderer.frame_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: frame_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: bones_buffer.as_entire_binding(),
+                },
+            ],
+        });
+        let white = upload_texture(device, queue, &Texture::white());
+        let textures: Vec<wgpu::Texture> = c
+            .textures
+            .iter()
+            .map(|t| upload_texture(device, queue, t))
+            .collect();
+        let materials = c
+            .materials
+            .iter()
+            .map(|m| {
+                let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(&m.name),
+                    contents: bytemuck::bytes_of(&MaterialUniforms {
+                        base_color_factor: m.base_color_factor,
+                    }),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                });
+                let tex = m
+                    .base_color_texture
+                    .and_then(|i| textures.get(i))
+                    .unwrap_or(&white);
+                let view = tex.create_view(&Default::default());
+                let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some(&m.name),
+                    layout: &renderer.material_layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: buffer.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: wgpu::BindingResource::TextureView(&view),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 2,
+                            resource: wgpu::BindingResource::Sampler(&renderer.sampler),
+                        },
+                    ],
+                });
+                (buffer, group)
+            })
+            .collect();
+        Self {
+            stream0,
+            stream1,
+            indices,
+            frame_buffer,
+            bones_buffer,
+            frame_group,
+            materials,
+            submeshes: c.submeshes.clone(),
+            bind_pose,
+            stream0_skinned: false,
+            bone_count: c.bones.len(),
+        }
+    }
+
+    /// True when this character has more bones than one GPU draw can skin.
+    pub fn needs_cpu_skinning(&self) -> bool {
+        self.bone_count > MAX_BONES
+    }
+
+    /// Uploads a pose: bone matrices for GPU skinning, or CPU-skinned vertices.
+    pub fn set_pose(
+        &mut self,
+        queue: &wgpu::Queue,
+        character: &Character,
+        pose: &Pose,
+        mode: SkinningMode,
+    ) {
+        let mode = if self.needs_cpu_skinning() {
+            SkinningMode::Cpu
+        } else {
+            mode
+        };
+        let mut bones = Bones {
+            m: [Mat4::IDENTITY.to_cols_array_2d(); MAX_BONES],
+        };
+        match mode {
+            SkinningMode::Gpu => {
+                for (dst, m) in bones.m.iter_mut().zip(&pose.skin_from_bind) {
+                    *dst = m.to_cols_array_2d();
+                }
+                if self.stream0_skinned {
+                    queue.write_buffer(&self.stream0, 0, bytemuck::cast_slice(&self.bind_pose));
+                    self.stream0_skinned = false;
+                }
+            }
+            SkinningMode::Cpu => {
+                let (p, n) = skin_vertices(character, pose);
+                let data: Vec<PositionNormal> = p
+                    .iter()
+                    .zip(&n)
+                    .map(|(p, n)| PositionNormal {
+                        position: p.to_array(),
+                        normal: n.to_array(),
+                    })
+                    .collect();
+                queue.write_buffer(&self.stream0, 0, bytemuck::cast_slice(&data));
+                self.stream0_skinned = true;
+            }
+        }
+        queue.write_buffer(&self.bones_buffer, 0, bytemuck::bytes_of(&bones));
+    }
+
+    /// Uploads the camera and shading for the next draw.
+    pub fn set_camera(&self, queue: &wgpu::Queue, camera: &Camera, aspect: f32, shading: Shading) {
+        let light = Vec3::new(-0.45, 0.65, 0.6).normalize();
+        let frame = FrameUniforms {
+            clip_from_world: camera.clip_from_world(aspect).to_cols_array_2d(),
+            view_from_world: camera.view_from_world().to_cols_array_2d(),
+            light_dir_view: [light.x, light.y, light.z, 0.0],
+            params: match shading {
+                Shading::Lit => [1.0, 0.35, 0.12, 0.0],
+                Shading::Unlit => [0.0, 1.0, 0.0, 0.0],
+            },
+        };
+        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
+    }
+}

@@ -1,0 +1,144 @@
+//! Adapter selection and device creation.
+
+/// Which adapters to prefer.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum AdapterPreference {
+    /// Hardware GPUs first, then software (Vulkan lavapipe, then GL llvmpipe).
+    #[default]
+    HardwareFirst,
+    /// Software rasterisers first (reproducible images in tests).
+    SoftwareFirst,
+    /// The first adapter whose name contains this text (case-insensitive).
+    Named(String),
+}
+
+impl AdapterPreference {
+    /// From `POLYPOSTOR_ADAPTER` (`gpu`, `cpu` or part of a name), else the default.
+    pub fn from_env() -> Self {
+        match std::env::var("POLYPOSTOR_ADAPTER")
+            .ok()
+            .as_deref()
+            .map(str::trim)
+        {
+            None | Some("") | Some("gpu") | Some("hardware") => Self::HardwareFirst,
+            Some("cpu") | Some("software") => Self::SoftwareFirst,
+            Some(name) => Self::Named(name.to_string()),
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error("no GPU adapter found (install Vulkan or OpenGL drivers, e.g. mesa-vulkan-drivers)")]
+    NoAdapter,
+    #[error("no adapter matches '{0}'")]
+    NoMatchingAdapter(String),
+    #[error("cannot create a device on '{adapter}': {message}")]
+    Device { adapter: String, message: String },
+    #[error("GPU readback failed: {0}")]
+    Readback(String),
+}
+
+/// Lower is better: hardware before software, then Vulkan, Metal, DX12, GL.
+pub fn rank_adapter(info: &wgpu::AdapterInfo, pref: &AdapterPreference) -> (u32, u32) {
+    let kind = match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Other => 3,
+        wgpu::DeviceType::Cpu => 4,
+    };
+    let kind = if *pref == AdapterPreference::SoftwareFirst {
+        4 - kind
+    } else {
+        kind
+    };
+    let backend = match info.backend {
+        wgpu::Backend::Vulkan => 0,
+        wgpu::Backend::Metal => 1,
+        wgpu::Backend::Dx12 => 2,
+        wgpu::Backend::Gl => 3,
+        _ => 9,
+    };
+    (kind, backend)
+}
+
+/// A device and queue on the chosen adapter.
+pub struct GpuContext {
+    pub instance: wgpu::Instance,
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+}
+
+impl GpuContext {
+    /// A headless context on the preferred adapter.
+    pub fn new(pref: &AdapterPreference) -> Result<Self, GpuError> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        desc.backends &= wgpu::Backends::VULKAN
+            | wgpu::Backends::GL
+            | wgpu::Backends::METAL
+            | wgpu::Backends::DX12;
+        let instance = wgpu::Instance::new(desc);
+        let mut adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+        if adapters.is_empty() {
+            return Err(GpuError::NoAdapter);
+        }
+        if let AdapterPreference::Named(name) = pref {
+            let needle = name.to_lowercase();
+            adapters.retain(|a| a.get_info().name.to_lowercase().contains(&needle));
+            if adapters.is_empty() {
+                return Err(GpuError::NoMatchingAdapter(name.clone()));
+            }
+        }
+        adapters.sort_by_key(|a| rank_adapter(&a.get_info(), pref));
+        let mut last_err = None;
+        for adapter in adapters {
+            let info = adapter.get_info();
+            let desc = wgpu::DeviceDescriptor {
+                label: Some("polypostor"),
+                required_limits: wgpu::Limits::downlevel_defaults()
+                    .using_resolution(adapter.limits()),
+                ..Default::default()
+            };
+            match pollster::block_on(adapter.request_device(&desc)) {
+                Ok((device, queue)) => {
+                    log::info!(
+                        "GPU adapter: {} ({:?}, {:?})",
+                        info.name,
+                        info.backend,
+                        info.device_type
+                    );
+                    return Ok(Self {
+                        instance,
+                        adapter,
+                        device,
+                        queue,
+                    });
+                }
+                Err(e) => {
+                    last_err = Some(GpuError::Device {
+                        adapter: info.name.clone(),
+                        message: e.to_string(),
+                    })
+                }
+            }
+        }
+        Err(last_err.unwrap_or(GpuError::NoAdapter))
+    }
+
+    /// A context from `POLYPOSTOR_ADAPTER` or the default preference.
+    pub fn from_env() -> Result<Self, GpuError> {
+        Self::new(&AdapterPreference::from_env())
+    }
+
+    /// "name (backend, type)" of the adapter in use.
+    pub fn adapter_description(&self) -> String {
+        describe_adapter(&self.adapter.get_info())
+    }
+}
+
+/// "name (backend, type)".
+pub fn describe_adapter(info: &wgpu::AdapterInfo) -> String {
+    format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type)
+}

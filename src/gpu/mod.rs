@@ -1,0 +1,24 @@
+//! GPU rendering core, usable headless and inside the editor.
+//!
+//! - [`GpuContext`]: adapter selection (hardware first, then Vulkan lavapipe, then GL
+//!   llvmpipe), naming the adapter it uses.
+//! - [`Camera`]: orthographic and perspective cameras.
+//! - [`CharacterRenderer`] / [`GpuCharacter`]: a skinned character drawn with GPU skinning
+//!   (`shaders/character.wgsl`) into a [`RenderTarget`] of colour, view-space normal and depth,
+//!   with readback to CPU images.
+//! - [`shaders`]: every WGSL source of `shaders/`, embedded, for pipelines and validation.
+
+mod camera;
+mod character_renderer;
+mod context;
+pub mod gpu_data;
+mod readback;
+pub mod shaders;
+
+pub use camera::{Camera, Projection};
+pub use character_renderer::{
+    COLOR_FORMAT, CharacterRenderer, DEPTH_FORMAT, DrawOptions, GpuCharacter, NORMAL_FORMAT,
+    RenderTarget, Shading, SkinningMode,
+};
+pub use context::{AdapterPreference, GpuContext, GpuError, rank_adapter};
+pub use readback::{DepthImage, read_depth, read_rgba8};

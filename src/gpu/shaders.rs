@@ -1,0 +1,12 @@
+//! The WGSL sources of `shaders/`, embedded at compile time.
+
+pub const CHARACTER: &str = include_str!("../../shaders/character.wgsl");
+pub const GRID: &str = include_str!("../../shaders/grid.wgsl");
+pub const BLIT: &str = include_str!("../../shaders/blit.wgsl");
+
+/// Every shader with its file name (a test validates each one with naga).
+pub const ALL: &[(&str, &str)] = &[
+    ("character.wgsl", CHARACTER),
+    ("grid.wgsl", GRID),
+    ("blit.wgsl", BLIT),
+];

@@ -1,0 +1,1191 @@
+//! glTF 2.0 import: `.glb`, and `.gltf` with external or data-URI buffers and images.
+//!
+//! [`import_path`] / [`import_slice`] turn a file into a [`Character`]: the default scene's
+//! skinned primitives merged into one mesh with its skeleton and all animation clips. Meshes
+//! without a skin join rigidly bound to their own node (props parented to a joint follow it);
+//! a file with no skin at all becomes a one-joint character. Every offset and count is checked
+//! against the data before use, so malformed files give an [`ImportError`] naming the
+//! problem, never a panic or an unbounded allocation. Harmless problems become
+//! [`Character::warnings`].
+
+mod accessor;
+mod glb;
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use glam::{Mat4, Quat, Vec3};
+use gltf::json;
+use json::validation::Checked;
+
+use crate::character::{
+    Bone, Channel, ChannelValues, Character, Clip, Interpolation, Material, Node, Skeleton,
+    Submesh, Texture, Transform, Vertex,
+};
+
+/// Largest file (and external buffer or image) the importer reads.
+pub const MAX_FILE_BYTES: u64 = 1 << 31;
+/// Largest texture side accepted.
+pub const MAX_TEXTURE_SIDE: u32 = 16384;
+
+/// Why a file could not be imported.
+#[derive(Debug, thiserror::Error)]
+pub enum ImportError {
+    #[error("cannot read '{path}': {message}")]
+    Io { path: PathBuf, message: String },
+    #[error("'{0}' is too large to import")]
+    TooLarge(PathBuf),
+    #[error("invalid GLB container: {0}")]
+    Glb(String),
+    #[error("invalid JSON: {0}")]
+    Json(String),
+    #[error("invalid glTF: {0}")]
+    Validation(String),
+    #[error("unsupported glTF: {0}")]
+    Unsupported(String),
+    #[error("invalid glTF data: {0}")]
+    Invalid(String),
+    #[error("buffer {index}: {message}")]
+    Buffer { index: usize, message: String },
+    #[error("the default scene has no triangle meshes to import")]
+    NoGeometry,
+}
+
+/// Imports a `.glb` or `.gltf` file from disk.
+pub fn import_path(path: &Path) -> Result<Character, ImportError> {
+    let bytes = read_file(path)?;
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "character".into());
+    import_slice(&bytes, path.parent(), &name)
+}
+
+fn read_file(path: &Path) -> Result<Vec<u8>, ImportError> {
+    let io = |e: std::io::Error| ImportError::Io {
+        path: path.to_owned(),
+        message: e.to_string(),
+    };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if meta.is_dir() {
+        return Err(ImportError::Io {
+            path: path.to_owned(),
+            message: "is a directory".into(),
+        });
+    }
+    if meta.len() > MAX_FILE_BYTES {
+        return Err(ImportError::TooLarge(path.to_owned()));
+    }
+    std::fs::read(path).map_err(io)
+}
+
+/// Imports from bytes. `base_dir` resolves relative URIs of external buffers and images
+/// (`None`: only embedded data is allowed).
+pub fn import_slice(
+    bytes: &[u8],
+    base_dir: Option<&Path>,
+    name: &str,
+) -> Result<Character, ImportError> {
+    let mut warnings = Vec::new();
+    let (json_bytes, bin) = if glb::looks_like_glb(bytes) {
+        let g = glb::parse(bytes, &mut warnings)?;
+        (g.json, g.bin)
+    } else {
+        (bytes, None)
+    };
+    if json_bytes.is_empty() {
+        return Err(ImportError::Json("the file is empty".into()));
+    }
+    if json_bytes.starts_with(&[0xEF, 0xBB, 0xBF]) {
+        return Err(ImportError::Json(
+            "the JSON starts with a byte-order mark (BOM), which glTF forbids".into(),
+        ));
+    }
+    let root: json::Root =
+        json::deserialize::from_slice(json_bytes).map_err(|e| ImportError::Json(e.to_string()))?;
+    check_asset(&root, &mut warnings)?;
+    let doc = gltf::Document::from_json(root)
+        .map_err(|e| ImportError::Validation(describe_validation(e)))?;
+    let root = doc.into_json();
+    let buffers = load_buffers(&root, bin, base_dir)?;
+    Builder {
+        root: &root,
+        buffers: &buffers,
+        base_dir,
+        warnings,
+    }
+    .build(name)
+}
+
+fn describe_validation(e: gltf::Error) -> String {
+    match e {
+        gltf::Error::Validation(list) => {
+            let mut parts: Vec<String> = list
+                .iter()
+                .take(8)
+                .map(|(path, err)| format!("{path}: {err}"))
+                .collect();
+            if list.len() > 8 {
+                parts.push(format!("… and {} more", list.len() - 8));
+            }
+            parts.join("; ")
+        }
+        other => other.to_string(),
+    }
+}
+
+fn check_asset(root: &json::Root, warnings: &mut Vec<String>) -> Result<(), ImportError> {
+    let parse = |v: &str| -> Option<(u32, u32)> {
+        let (a, b) = v.split_once('.')?;
+        if a.is_empty() || b.is_empty() || !a.bytes().chain(b.bytes()).all(|c| c.is_ascii_digit()) {
+            return None;
+        }
+        Some((a.parse().ok()?, b.parse().ok()?))
+    };
+    let version = &root.asset.version;
+    match parse(version) {
+        Some((2, _)) => {}
+        Some((major, minor)) => {
+            return Err(ImportError::Unsupported(format!(
+                "asset version {major}.{minor} (only glTF 2.x is supported)"
+            )));
+        }
+        None => {
+            return Err(ImportError::Validation(format!(
+                "asset.version '{version}' is not of the form MAJOR.MINOR"
+            )));
+        }
+    }
+    if let Some(min) = &root.asset.min_version {
+        match parse(min) {
+            Some((2, 0)) => {}
+            Some((major, minor)) => {
+                return Err(ImportError::Unsupported(format!(
+                    "asset minVersion {major}.{minor} is newer than 2.0"
+                )));
+            }
+            None => {
+                return Err(ImportError::Validation(format!(
+                    "asset.minVersion '{min}' is not of the form MAJOR.MINOR"
+                )));
+            }
+        }
+    }
+    for ext in &root.extensions_required {
+        match ext.as_str() {
+            // Quantized attributes are read natively.
+            "KHR_mesh_quantization" => {}
+            // Purely visual extensions: the base colour is still right without them.
+            e if e.starts_with("KHR_materials_") || e == "KHR_texture_transform" => {
+                warnings.push(format!("required extension {e} is ignored"));
+            }
+            e => {
+                return Err(ImportError::Unsupported(format!(
+                    "the file requires extension {e}"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Decodes a `data:` URI's base64 payload.
+fn decode_data_uri(uri: &str) -> Option<Result<Vec<u8>, String>> {
+    let rest = uri.strip_prefix("data:")?;
+    let Some((header, payload)) = rest.split_once(',') else {
+        return Some(Err("malformed data URI (no comma)".into()));
+    };
+    if !header.ends_with(";base64") {
+        return Some(Err("data URI is not base64-encoded".into()));
+    }
+    use base64::Engine;
+    Some(
+        base64::engine::general_purpose::STANDARD
+            .decode(payload.trim())
+            .map_err(|e| format!("bad base64 in data URI: {e}")),
+    )
+}
+
+fn percent_decode(s: &str) -> String {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' && i + 2 < b.len() {
+            if let Some(v) = std::str::from_utf8(&b[i + 1..i + 3])
+                .ok()
+                .and_then(|h| u8::from_str_radix(h, 16).ok())
+            {
+                out.push(v);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+/// Resolves a relative URI to a file path under `base_dir`.
+fn resolve_uri(uri: &str, base_dir: Option<&Path>) -> Result<PathBuf, String> {
+    if uri.is_empty() {
+        return Err("empty URI".into());
+    }
+    if let Some(colon) = uri.find(':') {
+        let scheme = &uri[..colon];
+        let is_scheme = !scheme.is_empty()
+            && scheme
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c));
+        if is_scheme || colon == 0 {
+            return Err(format!(
+                "URI '{uri}' is not a relative file reference (only relative paths and data URIs are read)"
+            ));
+        }
+    }
+    let decoded = percent_decode(uri);
+    let rel = Path::new(&decoded);
+    if rel.is_absolute() {
+        return Err(format!("URI '{uri}' is an absolute path"));
+    }
+    let base = base_dir
+        .ok_or_else(|| format!("URI '{uri}' refers to an external file, but no folder is known"))?;
+    Ok(base.join(rel))
+}
+
+fn load_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>, String> {
+    if let Some(r) = decode_data_uri(uri) {
+        return r;
+    }
+    let path = resolve_uri(uri, base_dir)?;
+    read_file(&path).map_err(|e| e.to_string())
+}
+
+fn load_buffers(
+    root: &json::Root,
+    bin: Option<&[u8]>,
+    base_dir: Option<&Path>,
+) -> Result<Vec<Vec<u8>>, ImportError> {
+    let mut out = Vec::with_capacity(root.buffers.len());
+    for (index, b) in root.buffers.iter().enumerate() {
+        let err = |message: String| ImportError::Buffer { index, message };
+        let mut data = match &b.uri {
+            None => match (index, bin) {
+                (0, Some(bin)) => bin.to_vec(),
+                (0, None) => {
+                    return Err(err("has no URI and the file has no GLB BIN chunk".into()));
+                }
+                _ => {
+                    return Err(err(
+                        "has no URI (only buffer 0 may refer to the GLB BIN chunk)".into(),
+                    ));
+                }
+            },
+            Some(uri) => load_uri(uri, base_dir).map_err(err)?,
+        };
+        let declared = b.byte_length.0;
+        if (data.len() as u64) < declared {
+            return Err(err(format!(
+                "declares {declared} bytes but only {} are present",
+                data.len()
+            )));
+        }
+        data.truncate(declared as usize);
+        out.push(data);
+    }
+    Ok(out)
+}
+
+fn node_local(n: &json::scene::Node) -> Transform {
+    if let Some(m) = n.matrix {
+        let t = Transform::from_mat4(Mat4::from_cols_array(&m));
+        if t.translation.is_finite() && t.rotation.is_finite() && t.scale.is_finite() {
+            return t;
+        }
+        return Transform::IDENTITY;
+    }
+    let translation = n.translation.map_or(Vec3::ZERO, Vec3::from_array);
+    let rotation = n
+        .rotation
+        .map_or(Quat::IDENTITY, |q| Quat::from_array(q.0).normalize());
+    let scale = n.scale.map_or(Vec3::ONE, Vec3::from_array);
+    Transform {
+        translation: if translation.is_finite() {
+            translation
+        } else {
+            Vec3::ZERO
+        },
+        rotation: if rotation.is_finite() {
+            rotation
+        } else {
+            Quat::IDENTITY
+        },
+        scale: if scale.is_finite() { scale } else { Vec3::ONE },
+    }
+}
+
+/// Where a mesh node's vertices are bound.
+enum Binding {
+    /// Skinned: bone index of each skin joint slot.
+    Skin(Vec<u16>),
+    /// Rigid: all vertices follow one bone.
+    Rigid(u16),
+}
+
+struct Builder<'a> {
+    root: &'a json::Root,
+    buffers: &'a [Vec<u8>],
+    base_dir: Option<&'a Path>,
+    warnings: Vec<String>,
+}
+
+impl Builder<'_> {
+    fn warn(&mut self, w: impl Into<String>) {
+        let w = w.into();
+        if !self.warnings.contains(&w) {
+            self.warnings.push(w);
+        }
+    }
+
+    /// Parent of every node, checking that the hierarchy is a forest.
+    fn parents(&self) -> Result<Vec<Option<usize>>, ImportError> {
+        let n = self.root.nodes.len();
+        let mut parent = vec![None; n];
+        for (i, node) in self.root.nodes.iter().enumerate() {
+            for c in node.children.iter().flatten() {
+                let c = c.value();
+                if c >= n {
+                    return Err(ImportError::Invalid(format!(
+                        "node {i} has missing child {c}"
+                    )));
+                }
+                if c == i {
+                    return Err(ImportError::Invalid(format!("node {i} is its own child")));
+                }
+                if let Some(p) = parent[c] {
+                    return Err(ImportError::Invalid(format!(
+                        "node {c} has two parents ({p} and {i})"
+                    )));
+                }
+                parent[c] = Some(i);
+            }
+        }
+        // With one parent per node, a cycle is a walk up that never ends.
+        for start in 0..n {
+            let mut at = start;
+            let mut steps = 0;
+            while let Some(p) = parent[at] {
+                at = p;
+                steps += 1;
+                if steps > n {
+                    return Err(ImportError::Invalid(format!(
+                        "the node hierarchy has a cycle through node {start}"
+                    )));
+                }
+            }
+        }
+        Ok(parent)
+    }
+
+    /// The nodes of the scene to import, in pre-order.
+    fn scene_nodes(&self, parent: &[Option<usize>]) -> Result<Vec<usize>, ImportError> {
+        let roots: Vec<usize> =
+            match self
+                .root
+                .scene
+                .map(|s| s.value())
+                .or(if self.root.scenes.is_empty() {
+                    None
+                } else {
+                    Some(0)
+                }) {
+                Some(s) => {
+                    let scene = self.root.scenes.get(s).ok_or_else(|| {
+                        ImportError::Invalid(format!("default scene {s} does not exist"))
+                    })?;
+                    scene.nodes.iter().map(|n| n.value()).collect()
+                }
+                None => (0..self.root.nodes.len())
+                    .filter(|&i| parent[i].is_none())
+                    .collect(),
+            };
+        let mut out = Vec::new();
+        let mut seen = vec![false; self.root.nodes.len()];
+        let mut stack: Vec<usize> = roots.into_iter().rev().collect();
+        while let Some(i) = stack.pop() {
+            let Some(node) = self.root.nodes.get(i) else {
+                return Err(ImportError::Invalid(format!(
+                    "scene refers to missing node {i}"
+                )));
+            };
+            if std::mem::replace(&mut seen[i], true) {
+                continue; // listed twice in the scene; already taken
+            }
+            out.push(i);
+            for c in node.children.iter().flatten().rev() {
+                stack.push(c.value());
+            }
+        }
+        Ok(out)
+    }
+
+    fn build(mut self, name: &str) -> Result<Character, ImportError> {
+        let root = self.root;
+        let parent = self.parents()?;
+        let scene = self.scene_nodes(&parent)?;
+        let mesh_nodes: Vec<usize> = scene
+            .iter()
+            .copied()
+            .filter(|&i| root.nodes[i].mesh.is_some())
+            .collect();
+        if mesh_nodes.is_empty() {
+            return Err(ImportError::NoGeometry);
+        }
+        let any_skin = mesh_nodes.iter().any(|&i| root.nodes[i].skin.is_some());
+
+        // Rest world matrices of every node (used for skinless files and checks).
+        let locals: Vec<Transform> = root.nodes.iter().map(node_local).collect();
+        let mut world_rest: Vec<Option<Mat4>> = vec![None; root.nodes.len()];
+        fn world_of(
+            i: usize,
+            parent: &[Option<usize>],
+            locals: &[Transform],
+            memo: &mut [Option<Mat4>],
+        ) -> Mat4 {
+            // Iterative: collect the chain up to a known ancestor.
+            let mut chain = vec![i];
+            let mut at = i;
+            while memo[at].is_none() {
+                match parent[at] {
+                    Some(p) if memo[p].is_none() => {
+                        chain.push(p);
+                        at = p;
+                    }
+                    _ => break,
+                }
+            }
+            for &n in chain.iter().rev() {
+                if memo[n].is_none() {
+                    let base = parent[n].and_then(|p| memo[p]).unwrap_or(Mat4::IDENTITY);
+                    memo[n] = Some(base * locals[n].to_mat4());
+                }
+            }
+            memo[i].unwrap_or(Mat4::IDENTITY)
+        }
+
+        let mut skeleton = Skeleton::default();
+        let mut bones: Vec<Bone> = Vec::new();
+        let mut bindings: HashMap<usize, Binding> = HashMap::new();
+        // File node index -> skeleton node index (empty for skinless files).
+        let mut node_map: HashMap<usize, usize> = HashMap::new();
+
+        if !any_skin {
+            skeleton.nodes.push(Node {
+                name: "root".into(),
+                parent: None,
+                rest: Transform::IDENTITY,
+                is_joint: true,
+            });
+            bones.push(Bone {
+                node: 0,
+                inverse_bind: Mat4::IDENTITY,
+            });
+            for &m in &mesh_nodes {
+                bindings.insert(m, Binding::Rigid(0));
+            }
+        } else {
+            // Skins used by the scene's meshes, and their joints.
+            let mut skins: Vec<usize> = mesh_nodes
+                .iter()
+                .filter_map(|&i| root.nodes[i].skin.map(|s| s.value()))
+                .collect();
+            skins.sort_unstable();
+            skins.dedup();
+            let mut joint_nodes: Vec<usize> = Vec::new();
+            for &s in &skins {
+                let skin = root
+                    .skins
+                    .get(s)
+                    .ok_or_else(|| ImportError::Invalid(format!("skin {s} does not exist")))?;
+                if skin.joints.is_empty() {
+                    return Err(ImportError::Invalid(format!("skin {s} has no joints")));
+                }
+                for j in &skin.joints {
+                    if j.value() >= root.nodes.len() {
+                        return Err(ImportError::Invalid(format!(
+                            "skin {s} refers to missing joint node {}",
+                            j.value()
+                        )));
+                    }
+                    joint_nodes.push(j.value());
+                }
+            }
+            // Needed nodes: joints, rigid mesh carriers, and all their ancestors.
+            let mut needed = vec![false; root.nodes.len()];
+            let rigid: Vec<usize> = mesh_nodes
+                .iter()
+                .copied()
+                .filter(|&i| root.nodes[i].skin.is_none())
+                .collect();
+            for &start in joint_nodes.iter().chain(&rigid) {
+                let mut at = Some(start);
+                while let Some(i) = at {
+                    if needed[i] {
+                        break;
+                    }
+                    needed[i] = true;
+                    at = parent[i];
+                }
+            }
+            // Parents first: order by depth, then index.
+            let depth = |mut i: usize| {
+                let mut d = 0;
+                while let Some(p) = parent[i] {
+                    d += 1;
+                    i = p;
+                }
+                d
+            };
+            let mut order: Vec<usize> = (0..root.nodes.len()).filter(|&i| needed[i]).collect();
+            order.sort_by_key(|&i| (depth(i), i));
+            let mut new_index: HashMap<usize, usize> = HashMap::new();
+            let mut is_joint = vec![false; root.nodes.len()];
+            for &j in &joint_nodes {
+                is_joint[j] = true;
+            }
+            for &i in &order {
+                let n = &root.nodes[i];
+                new_index.insert(i, skeleton.nodes.len());
+                skeleton.nodes.push(Node {
+                    name: n.name.clone().unwrap_or_else(|| format!("node{i}")),
+                    parent: parent[i].map(|p| new_index[&p]),
+                    rest: locals[i],
+                    is_joint: is_joint[i],
+                });
+            }
+            for &s in &skins {
+                let skin = &root.skins[s];
+                let ibms: Vec<Mat4> = match skin.inverse_bind_matrices {
+                    Some(a) => {
+                        let v = accessor::read_f32(root, self.buffers, a.value())?;
+                        if v.components != 16 || v.count() < skin.joints.len() {
+                            return Err(ImportError::Invalid(format!(
+                                "skin {s}: inverseBindMatrices must hold {} MAT4 values",
+                                skin.joints.len()
+                            )));
+                        }
+                        (0..skin.joints.len())
+                            .map(|k| {
+                                let m = Mat4::from_cols_slice(&v.data[k * 16..k * 16 + 16]);
+                                if m.is_finite() { m } else { Mat4::IDENTITY }
+                            })
+                            .collect()
+                    }
+                    None => vec![Mat4::IDENTITY; skin.joints.len()],
+                };
+                let mut slots = Vec::with_capacity(skin.joints.len());
+                for (k, j) in skin.joints.iter().enumerate() {
+                    slots.push(bones.len() as u16);
+                    bones.push(Bone {
+                        node: new_index[&j.value()],
+                        inverse_bind: ibms[k],
+                    });
+                }
+                for &m in &mesh_nodes {
+                    if root.nodes[m].skin.map(|x| x.value()) == Some(s) {
+                        bindings.insert(m, Binding::Skin(slots.clone()));
+                    }
+                }
+            }
+            for &m in &rigid {
+                bindings.insert(m, Binding::Rigid(bones.len() as u16));
+                bones.push(Bone {
+                    node: new_index[&m],
+                    inverse_bind: Mat4::IDENTITY,
+                });
+            }
+            node_map = new_index;
+            if bones.len() > u16::MAX as usize {
+                return Err(ImportError::Unsupported(format!(
+                    "{} bones (at most 65535)",
+                    bones.len()
+                )));
+            }
+        }
+
+        // Geometry.
+        let mut vertices: Vec<Vertex> = Vec::new();
+        let mut indices: Vec<u32> = Vec::new();
+        let mut submeshes: Vec<Submesh> = Vec::new();
+        let mut materials: Vec<Material> = Vec::new();
+        let mut material_map: HashMap<Option<usize>, usize> = HashMap::new();
+        let mut textures: Vec<Texture> = Vec::new();
+        let mut texture_map: HashMap<usize, Option<usize>> = HashMap::new();
+
+        for &m in &mesh_nodes {
+            let node = &root.nodes[m];
+            let mesh_index = node.mesh.map(|x| x.value()).unwrap_or(0);
+            let mesh = root.meshes.get(mesh_index).ok_or_else(|| {
+                ImportError::Invalid(format!("node {m} refers to missing mesh {mesh_index}"))
+            })?;
+            let mesh_name = mesh
+                .name
+                .clone()
+                .unwrap_or_else(|| format!("mesh {mesh_index}"));
+            let static_world = if any_skin {
+                None
+            } else {
+                Some(world_of(m, &parent, &locals, &mut world_rest))
+            };
+            for (pi, prim) in mesh.primitives.iter().enumerate() {
+                let what = format!("mesh '{mesh_name}' primitive {pi}");
+                if prim.targets.as_ref().is_some_and(|t| !t.is_empty()) {
+                    self.warn(format!("{what}: morph targets are ignored"));
+                }
+                let mode = match prim.mode {
+                    Checked::Valid(mode) => mode,
+                    Checked::Invalid => {
+                        return Err(ImportError::Invalid(format!("{what}: invalid mode")));
+                    }
+                };
+                use json::mesh::{Mode, Semantic};
+                if !matches!(
+                    mode,
+                    Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+                ) {
+                    self.warn(format!(
+                        "{what}: {mode:?} primitives are not triangles and were skipped"
+                    ));
+                    continue;
+                }
+                let attr = |s: Semantic| prim.attributes.get(&Checked::Valid(s)).map(|a| a.value());
+                let Some(pos_acc) = attr(Semantic::Positions) else {
+                    self.warn(format!("{what}: no POSITION attribute; skipped"));
+                    continue;
+                };
+                let positions = accessor::read_f32(root, self.buffers, pos_acc)?;
+                if positions.components != 3 {
+                    return Err(ImportError::Invalid(format!(
+                        "{what}: POSITION must be VEC3"
+                    )));
+                }
+                let n = positions.count();
+                if positions.data.iter().any(|x| !x.is_finite()) {
+                    return Err(ImportError::Invalid(format!(
+                        "{what}: POSITION holds non-finite values"
+                    )));
+                }
+                let read_attr =
+                    |s: Semantic,
+                     comps: &[usize],
+                     this: &mut Self|
+                     -> Result<Option<accessor::Values<f32>>, ImportError> {
+                        let Some(a) = attr(s.clone()) else {
+                            return Ok(None);
+                        };
+                        let v = accessor::read_f32(root, this.buffers, a)?;
+                        if !comps.contains(&v.components) {
+                            return Err(ImportError::Invalid(format!(
+                                "{what}: {s:?} has {} components",
+                                v.components
+                            )));
+                        }
+                        if v.count() != n {
+                            return Err(ImportError::Invalid(format!(
+                                "{what}: {s:?} has {} elements, POSITION has {n}",
+                                v.count()
+                            )));
+                        }
+                        Ok(Some(v))
+                    };
+                let normals = read_attr(Semantic::Normals, &[3], &mut self)?;
+                let uvs = read_attr(Semantic::TexCoords(0), &[2], &mut self)?;
+                let colors = read_attr(Semantic::Colors(0), &[3, 4], &mut self)?;
+                let weights = read_attr(Semantic::Weights(0), &[4], &mut self)?;
+                let joints = match attr(Semantic::Joints(0)) {
+                    Some(a) => {
+                        let v = accessor::read_u32(root, self.buffers, a)?;
+                        if v.components != 4 || v.count() != n {
+                            return Err(ImportError::Invalid(format!(
+                                "{what}: JOINTS_0 must be VEC4 with {n} elements"
+                            )));
+                        }
+                        Some(v)
+                    }
+                    None => None,
+                };
+                if attr(Semantic::Joints(1)).is_some() {
+                    self.warn(format!(
+                        "{what}: more than 4 influences per vertex; JOINTS_1/WEIGHTS_1 ignored"
+                    ));
+                }
+
+                // Triangle list.
+                let raw: Vec<u32> = match prim.indices {
+                    Some(a) => {
+                        let v = accessor::read_u32(root, self.buffers, a.value())?;
+                        if v.components != 1 {
+                            return Err(ImportError::Invalid(format!(
+                                "{what}: indices must be SCALAR"
+                            )));
+                        }
+                        v.data
+                    }
+                    None => (0..n as u32).collect(),
+                };
+                if let Some(&bad) = raw.iter().find(|&&i| i as usize >= n) {
+                    return Err(ImportError::Invalid(format!(
+                        "{what}: index {bad} is out of range ({n} vertices)"
+                    )));
+                }
+                let tris = triangulate(mode, &raw);
+                if tris.is_empty() {
+                    self.warn(format!("{what}: no triangles"));
+                    continue;
+                }
+
+                let binding = bindings.get(&m);
+                let base = vertices.len() as u32;
+                let mut bad_weights = false;
+                for i in 0..n {
+                    let mut position = Vec3::from_array(positions.get::<3>(i));
+                    let mut normal = normals
+                        .as_ref()
+                        .map_or(Vec3::ZERO, |v| Vec3::from_array(v.get::<3>(i)));
+                    if !normal.is_finite() {
+                        normal = Vec3::ZERO;
+                    }
+                    let uv = uvs.as_ref().map_or([0.0; 2], |v| v.get::<2>(i));
+                    let uv = if uv.iter().all(|x| x.is_finite()) {
+                        uv
+                    } else {
+                        [0.0; 2]
+                    };
+                    let color = match &colors {
+                        Some(c) if c.components == 3 => {
+                            let [r, g, b] = c.get::<3>(i);
+                            [r, g, b, 1.0]
+                        }
+                        Some(c) => c.get::<4>(i),
+                        None => [1.0; 4],
+                    };
+                    let (vb, vw) = match binding {
+                        Some(Binding::Skin(slots)) => match (&joints, &weights) {
+                            (Some(j), Some(w)) => {
+                                let js = j.get::<4>(i);
+                                let mut ws = w.get::<4>(i);
+                                let mut b = [0u16; 4];
+                                for k in 0..4 {
+                                    if !ws[k].is_finite() || ws[k] < 0.0 {
+                                        ws[k] = 0.0;
+                                    }
+                                    match slots.get(js[k] as usize) {
+                                        Some(&bone) => b[k] = bone,
+                                        None if ws[k] == 0.0 => b[k] = slots[0],
+                                        None => {
+                                            return Err(ImportError::Invalid(format!(
+                                                "{what}: vertex {i} uses joint {} but the skin has {}",
+                                                js[k],
+                                                slots.len()
+                                            )));
+                                        }
+                                    }
+                                }
+                                let sum: f32 = ws.iter().sum();
+                                if sum > 0.0 {
+                                    (b, ws.map(|x| x / sum))
+                                } else {
+                                    bad_weights = true;
+                                    (b, [1.0, 0.0, 0.0, 0.0])
+                                }
+                            }
+                            _ => {
+                                self.warn(format!("{what}: skinned without JOINTS_0/WEIGHTS_0; bound to the first joint"));
+                                ([slots[0], 0, 0, 0], [1.0, 0.0, 0.0, 0.0])
+                            }
+                        },
+                        Some(Binding::Rigid(b)) => ([*b, 0, 0, 0], [1.0, 0.0, 0.0, 0.0]),
+                        None => ([0; 4], [1.0, 0.0, 0.0, 0.0]),
+                    };
+                    if let Some(w) = static_world {
+                        position = w.transform_point3(position);
+                        normal = w.transform_vector3(normal);
+                    }
+                    vertices.push(Vertex {
+                        position,
+                        normal: normal.normalize_or_zero(),
+                        uv,
+                        color,
+                        bones: vb,
+                        weights: vw,
+                    });
+                }
+                if bad_weights {
+                    self.warn(format!(
+                        "{what}: vertices with zero weights bound to their first joint"
+                    ));
+                }
+                // Mirrored node transforms flip the winding.
+                let flip = static_world.is_some_and(|w| w.determinant() < 0.0);
+                let first_index = indices.len() as u32;
+                for t in tris.chunks_exact(3) {
+                    if flip {
+                        indices.extend_from_slice(&[base + t[0], base + t[2], base + t[1]]);
+                    } else {
+                        indices.extend_from_slice(&[base + t[0], base + t[1], base + t[2]]);
+                    }
+                }
+                if normals.is_none() {
+                    compute_normals(
+                        &mut vertices[base as usize..],
+                        &indices[first_index as usize..],
+                        base,
+                    );
+                }
+                let mat_index = prim.material.map(|x| x.value());
+                let material = match material_map.get(&mat_index) {
+                    Some(&k) => k,
+                    None => {
+                        let mat = self.material(mat_index, &mut textures, &mut texture_map)?;
+                        materials.push(mat);
+                        material_map.insert(mat_index, materials.len() - 1);
+                        materials.len() - 1
+                    }
+                };
+                submeshes.push(Submesh {
+                    first_index,
+                    index_count: indices.len() as u32 - first_index,
+                    material,
+                });
+            }
+        }
+        if indices.is_empty() {
+            return Err(ImportError::NoGeometry);
+        }
+
+        let clips = self.clips(&node_map, any_skin)?;
+        let name = scene_name(root).unwrap_or_else(|| name.to_string());
+        Ok(Character {
+            name,
+            vertices,
+            indices,
+            submeshes,
+            materials,
+            textures,
+            skeleton,
+            bones,
+            clips,
+            warnings: self.warnings,
+        })
+    }
+
+    fn material(
+        &mut self,
+        index: Option<usize>,
+        textures: &mut Vec<Texture>,
+        texture_map: &mut HashMap<usize, Option<usize>>,
+    ) -> Result<Material, ImportError> {
+        let Some(i) = index else {
+            return Ok(Material::default());
+        };
+        let Some(m) = self.root.materials.get(i) else {
+            return Err(ImportError::Invalid(format!("material {i} does not exist")));
+        };
+        let pbr = &m.pbr_metallic_roughness;
+        let mut factor = pbr.base_color_factor.0;
+        if !factor.iter().all(|x| x.is_finite()) {
+            factor = [1.0; 4];
+        }
+        let base_color_texture = match &pbr.base_color_texture {
+            Some(info) => {
+                if info.tex_coord != 0 {
+                    self.warn(format!(
+                        "material {i}: texture uses TEXCOORD_{}; TEXCOORD_0 is used instead",
+                        info.tex_coord
+                    ));
+                }
+                let t = info.index.value();
+                match texture_map.get(&t) {
+                    Some(&k) => k,
+                    None => {
+                        let k = match self.texture(t) {
+                            Ok(tex) => {
+                                textures.push(tex);
+                                Some(textures.len() - 1)
+                            }
+                            Err(e) => {
+                                self.warn(format!("material {i}: base colour texture {t} could not be loaded ({e}); using white"));
+                                None
+                            }
+                        };
+                        texture_map.insert(t, k);
+                        k
+                    }
+                }
+            }
+            None => None,
+        };
+        Ok(Material {
+            name: m.name.clone().unwrap_or_else(|| format!("material {i}")),
+            base_color_factor: factor,
+            base_color_texture,
+            double_sided: m.double_sided,
+        })
+    }
+
+    fn texture(&self, index: usize) -> Result<Texture, String> {
+        let root = self.root;
+        let tex = root
+            .textures
+            .get(index)
+            .ok_or_else(|| format!("texture {index} does not exist"))?;
+        let img_index = tex.source.value();
+        let img = root
+            .images
+            .get(img_index)
+            .ok_or_else(|| format!("image {img_index} does not exist"))?;
+        let bytes: Vec<u8> = match (&img.buffer_view, &img.uri) {
+            (Some(v), _) => accessor::view_bytes(root, self.buffers, v.value())
+                .map_err(|e| e.to_string())?
+                .to_vec(),
+            (None, Some(uri)) => load_uri(uri, self.base_dir)?,
+            (None, None) => {
+                return Err(format!(
+                    "image {img_index} has neither a bufferView nor a URI"
+                ));
+            }
+        };
+        let mut reader = image::ImageReader::new(std::io::Cursor::new(&bytes[..]))
+            .with_guessed_format()
+            .map_err(|e| format!("image {img_index}: {e}"))?;
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(MAX_TEXTURE_SIDE);
+        limits.max_image_height = Some(MAX_TEXTURE_SIDE);
+        limits.max_alloc = Some(1 << 30);
+        reader.limits(limits);
+        let decoded = reader
+            .decode()
+            .map_err(|e| format!("image {img_index}: {e}"))?
+            .to_rgba8();
+        let name = img
+            .name
+            .clone()
+            .or_else(|| {
+                img.uri
+                    .as_ref()
+                    .filter(|u| !u.starts_with("data:"))
+                    .cloned()
+            })
+            .unwrap_or_else(|| format!("image {img_index}"));
+        Ok(Texture {
+            name,
+            width: decoded.width(),
+            height: decoded.height(),
+            rgba8: decoded.into_raw(),
+        })
+    }
+
+    fn clips(
+        &mut self,
+        node_map: &HashMap<usize, usize>,
+        any_skin: bool,
+    ) -> Result<Vec<Clip>, ImportError> {
+        let root = self.root;
+        let mut clips = Vec::new();
+        let mut skipped_skinless = 0usize;
+        for (ai, anim) in root.animations.iter().enumerate() {
+            let name = anim
+                .name
+                .clone()
+                .unwrap_or_else(|| format!("Animation {ai}"));
+            let mut channels = Vec::new();
+            let mut duration = 0.0f32;
+            for (ci, ch) in anim.channels.iter().enumerate() {
+                let what = format!("animation '{name}' channel {ci}");
+                let Some(sampler) = anim.samplers.get(ch.sampler.value()) else {
+                    self.warn(format!("{what}: missing sampler; skipped"));
+                    continue;
+                };
+                let times = match accessor::read_f32(root, self.buffers, sampler.input.value()) {
+                    Ok(t) if t.components == 1 => t.data,
+                    Ok(_) => {
+                        self.warn(format!("{what}: input must be SCALAR; skipped"));
+                        continue;
+                    }
+                    Err(e) => {
+                        self.warn(format!("{what}: {e}; skipped"));
+                        continue;
+                    }
+                };
+                if times.iter().any(|t| !t.is_finite() || *t < 0.0)
+                    || times.windows(2).any(|w| w[1] <= w[0])
+                {
+                    self.warn(format!(
+                        "{what}: key times are not non-negative and strictly increasing; skipped"
+                    ));
+                    continue;
+                }
+                if let Some(&last) = times.last() {
+                    duration = duration.max(last);
+                }
+                let path = match ch.target.path {
+                    Checked::Valid(p) => p,
+                    Checked::Invalid => {
+                        self.warn(format!("{what}: invalid target path; skipped"));
+                        continue;
+                    }
+                };
+                use json::animation::Property;
+                if path == Property::MorphTargetWeights {
+                    self.warn(format!(
+                        "animation '{name}': morph target weights are ignored"
+                    ));
+                    continue;
+                }
+                let file_node = ch.target.node.value();
+                let node = if any_skin {
+                    match node_map.get(&file_node) {
+                        Some(&n) => n,
+                        None => continue, // animates a node that does not move the character
+                    }
+                } else {
+                    skipped_skinless += 1;
+                    continue;
+                };
+                let interpolation = match sampler.interpolation {
+                    Checked::Valid(json::animation::Interpolation::Linear) => Interpolation::Linear,
+                    Checked::Valid(json::animation::Interpolation::Step) => Interpolation::Step,
+                    Checked::Valid(json::animation::Interpolation::CubicSpline) => {
+                        Interpolation::CubicSpline
+                    }
+                    Checked::Invalid => {
+                        self.warn(format!("{what}: invalid interpolation; skipped"));
+                        continue;
+                    }
+                };
+                let out = match accessor::read_f32(root, self.buffers, sampler.output.value()) {
+                    Ok(o) => o,
+                    Err(e) => {
+                        self.warn(format!("{what}: {e}; skipped"));
+                        continue;
+                    }
+                };
+                let want_comps = if path == Property::Rotation { 4 } else { 3 };
+                let per_key = if interpolation == Interpolation::CubicSpline {
+                    3
+                } else {
+                    1
+                };
+                if out.components != want_comps || out.count() != times.len() * per_key {
+                    self.warn(format!(
+                        "{what}: output has {} values of {} components, expected {} of {want_comps}; skipped",
+                        out.count(),
+                        out.components,
+                        times.len() * per_key
+                    ));
+                    continue;
+                }
+                if out.data.iter().any(|x| !x.is_finite()) {
+                    self.warn(format!("{what}: output holds non-finite values; skipped"));
+                    continue;
+                }
+                let values = match path {
+                    Property::Translation => ChannelValues::Translation(
+                        out.data.chunks_exact(3).map(Vec3::from_slice).collect(),
+                    ),
+                    Property::Scale => ChannelValues::Scale(
+                        out.data.chunks_exact(3).map(Vec3::from_slice).collect(),
+                    ),
+                    Property::Rotation => ChannelValues::Rotation(
+                        out.data
+                            .chunks_exact(4)
+                            .enumerate()
+                            .map(|(k, q)| {
+                                let q = Quat::from_slice(q);
+                                // Tangents of cubic splines are not unit quaternions.
+                                if per_key == 3 && k % 3 != 1 {
+                                    q
+                                } else {
+                                    q.normalize()
+                                }
+                            })
+                            .map(|q| if q.is_finite() { q } else { Quat::IDENTITY })
+                            .collect(),
+                    ),
+                    Property::MorphTargetWeights => unreachable!("handled above"),
+                };
+                channels.push(Channel {
+                    node,
+                    interpolation,
+                    times,
+                    values,
+                });
+            }
+            clips.push(Clip {
+                name,
+                duration_secs: duration,
+                channels,
+            });
+        }
+        if skipped_skinless > 0 {
+            self.warn(format!(
+                "the file has no skin: imported as a rigid one-joint character; {skipped_skinless} node animation channels do not move it"
+            ));
+        }
+        Ok(clips)
+    }
+}
+
+fn scene_name(root: &json::Root) -> Option<String> {
+    let s = root.scene.map(|s| s.value()).unwrap_or(0);
+    root.scenes
+        .get(s)
+        .and_then(|s| s.name.clone())
+        .filter(|n| !n.is_empty() && n != "Scene")
+}
+
+/// Converts strips and fans to a triangle list, dropping degenerate index triples.
+fn triangulate(mode: json::mesh::Mode, idx: &[u32]) -> Vec<u32> {
+    use json::mesh::Mode;
+    let mut out = Vec::new();
+    match mode {
+        Mode::Triangles => {
+            for t in idx.chunks_exact(3) {
+                out.extend_from_slice(t);
+            }
+        }
+        Mode::TriangleStrip => {
+            for i in 2..idx.len() {
+                if i % 2 == 0 {
+                    out.extend_from_slice(&[idx[i - 2], idx[i - 1], idx[i]]);
+                } else {
+                    out.extend_from_slice(&[idx[i - 1], idx[i - 2], idx[i]]);
+                }
+            }
+        }
+        Mode::TriangleFan => {
+            for i in 2..idx.len() {
+                out.extend_from_slice(&[idx[0], idx[i - 1], idx[i]]);
+            }
+        }
+        _ => {}
+    }
+    out
+}
+
+/// Area-weighted smooth normals for vertices `base..` from a triangle list.
+fn compute_normals(vertices: &mut [Vertex], indices: &[u32], base: u32) {
+    let mut acc = vec![Vec3::ZERO; vertices.len()];
+    for t in indices.chunks_exact(3) {
+        let [a, b, c] = [t[0] - base, t[1] - base, t[2] - base].map(|x| x as usize);
+        let n = (vertices[b].position - vertices[a].position)
+            .cross(vertices[c].position - vertices[a].position);
+        for i in [a, b, c] {
+            acc[i] += n;
+        }
+    }
+    for (v, n) in vertices.iter_mut().zip(acc) {
+        v.normal = n.normalize_or(Vec3::Y);
+    }
+}

@@ -1,0 +1,227 @@
+//! The project document: a versioned JSON file that points at a character and keeps the
+//! user's choices. Saving is atomic (write a temporary file beside it, then rename), so a
+//! crash mid-save never leaves a half-written project; loading never modifies the file.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+/// The project file format version this build writes.
+pub const FORMAT_VERSION: u32 = 1;
+/// The file name of a project inside its folder.
+pub const PROJECT_FILE: &str = "project.json";
+/// The default project, relative to the repository root.
+pub const DEFAULT_PROJECT_DIR: &str = "projects/default";
+
+#[derive(Debug, thiserror::Error)]
+pub enum ProjectError {
+    #[error("cannot read project '{path}': {message}")]
+    Read { path: PathBuf, message: String },
+    #[error("project '{path}' is not a valid project file: {message}")]
+    Parse { path: PathBuf, message: String },
+    #[error(
+        "project '{path}' has format version {found}, newer than this build supports ({FORMAT_VERSION})"
+    )]
+    TooNew { path: PathBuf, found: u32 },
+    #[error("cannot save project to '{path}': {message}")]
+    Write { path: PathBuf, message: String },
+}
+
+/// Which character the project works on.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CharacterRef {
+    /// Path of the .glb/.gltf, relative to the project file's folder (or absolute).
+    pub path: String,
+}
+
+/// Viewer state worth keeping with the project.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ViewState {
+    /// Name of the selected clip.
+    pub clip: Option<String>,
+    pub playback_speed: Option<f32>,
+}
+
+/// The project document.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Project {
+    pub format_version: u32,
+    pub name: String,
+    pub character: CharacterRef,
+    #[serde(default)]
+    pub view: ViewState,
+}
+
+impl Project {
+    /// A new project for a character file, with the path stored relative to `project_dir`
+    /// when possible.
+    pub fn new_for_character(name: &str, character: &Path, project_dir: &Path) -> Self {
+        Self {
+            format_version: FORMAT_VERSION,
+            name: name.to_string(),
+            character: CharacterRef {
+                path: relative_path(character, project_dir),
+            },
+            view: ViewState::default(),
+        }
+    }
+
+    /// The character's absolute path, resolved against the project file's folder.
+    pub fn character_path(&self, project_file: &Path) -> PathBuf {
+        let p = Path::new(&self.character.path);
+        if p.is_absolute() {
+            p.to_owned()
+        } else {
+            project_file.parent().unwrap_or(Path::new(".")).join(p)
+        }
+    }
+
+    /// Loads a project from a `project.json` or from the folder that holds one.
+    pub fn load(path: &Path) -> Result<(Self, PathBuf), ProjectError> {
+        let file = resolve_project_file(path);
+        let text = std::fs::read_to_string(&file).map_err(|e| ProjectError::Read {
+            path: file.clone(),
+            message: e.to_string(),
+        })?;
+        // Read the version first so a newer file is reported as such, not as a parse error.
+        #[derive(Deserialize)]
+        struct Version {
+            format_version: Option<u32>,
+        }
+        let v: Version = serde_json::from_str(&text).map_err(|e| ProjectError::Parse {
+            path: file.clone(),
+            message: e.to_string(),
+        })?;
+        match v.format_version {
+            Some(found) if found > FORMAT_VERSION => {
+                return Err(ProjectError::TooNew { path: file, found });
+            }
+            None => {
+                return Err(ProjectError::Parse {
+                    path: file,
+                    message: "missing field `format_version`".into(),
+                });
+            }
+            _ => {}
+        }
+        let project: Project = serde_json::from_str(&text).map_err(|e| ProjectError::Parse {
+            path: file.clone(),
+            message: e.to_string(),
+        })?;
+        Ok((project, file))
+    }
+
+    /// Saves atomically to `file` (a temporary file in the same folder, then a rename).
+    pub fn save(&self, file: &Path) -> Result<(), ProjectError> {
+        let werr = |message: String| ProjectError::Write {
+            path: file.to_owned(),
+            message,
+        };
+        let text = serde_json::to_string_pretty(self).map_err(|e| werr(e.to_string()))?;
+        write_atomic(file, text.as_bytes()).map_err(|e| werr(e.to_string()))
+    }
+}
+
+/// `path` itself if it is a file, else `path/project.json`.
+pub fn resolve_project_file(path: &Path) -> PathBuf {
+    if path.is_dir() {
+        path.join(PROJECT_FILE)
+    } else {
+        path.to_owned()
+    }
+}
+
+/// Writes `bytes` to `path` atomically: a temporary file in the same folder, flushed, then
+/// renamed over the target.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir)?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "file".into());
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        drop(f);
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// `target` relative to `base` when they share a prefix, else `target` as given.
+pub fn relative_path(target: &Path, base: &Path) -> String {
+    let abs = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_owned());
+    let (t, b) = (abs(target), abs(base));
+    let tc: Vec<_> = t.components().collect();
+    let bc: Vec<_> = b.components().collect();
+    let common = tc.iter().zip(&bc).take_while(|(a, b)| a == b).count();
+    if common == 0 {
+        return t.to_string_lossy().into_owned();
+    }
+    let mut rel = PathBuf::new();
+    for _ in common..bc.len() {
+        rel.push("..");
+    }
+    for c in &tc[common..] {
+        rel.push(c);
+    }
+    rel.to_string_lossy().replace('\\', "/")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn save_then_load_round_trips() {
+        let dir = std::env::temp_dir().join(format!("pp-project-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut p = Project::new_for_character("t", &dir.join("chars/a.glb"), &dir);
+        p.view.clip = Some("Walk".into());
+        let file = dir.join(PROJECT_FILE);
+        p.save(&file).unwrap();
+        let (q, f) = Project::load(&dir).unwrap();
+        assert_eq!(p, q);
+        assert_eq!(f, file);
+        assert_eq!(q.character.path, "chars/a.glb");
+        assert_eq!(q.character_path(&file), dir.join("chars/a.glb"));
+        // No temporary file is left behind.
+        let leftovers: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+            .collect();
+        assert!(leftovers.is_empty());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn broken_and_newer_files_are_reported_and_untouched() {
+        let dir = std::env::temp_dir().join(format!("pp-project-bad-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join(PROJECT_FILE);
+        std::fs::write(&file, "{ not json").unwrap();
+        let e = Project::load(&file).unwrap_err();
+        assert!(matches!(e, ProjectError::Parse { .. }), "{e}");
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), "{ not json");
+        std::fs::write(
+            &file,
+            r#"{"format_version": 99, "name": "x", "character": {"path": "a"}}"#,
+        )
+        .unwrap();
+        let e = Project::load(&file).unwrap_err();
+        assert!(e.to_string().contains("99"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,160 @@
+//! Every way a glTF can store its data imports the same character; forged and truncated
+//! files fail cleanly; interpolation modes round-trip.
+
+mod common;
+
+use glam::{Quat, Vec3};
+use polypostor::animation::{Pose, skin_vertices};
+use polypostor::character::{ChannelValues, Interpolation};
+use polypostor::gltf_write::{BufferStorage, write_glb, write_gltf};
+use polypostor::import::import_slice;
+
+fn small_character() -> polypostor::Character {
+    polypostor::default_character::generate()
+}
+
+#[test]
+fn glb_data_uri_and_external_buffer_import_identically() {
+    let c = small_character();
+    let from_glb = import_slice(&write_glb(&c).unwrap(), None, "x").unwrap();
+
+    let embedded = write_gltf(&c, &BufferStorage::DataUri).unwrap();
+    let from_data_uri = import_slice(embedded.json.as_bytes(), None, "x").unwrap();
+
+    let dir = common::temp_dir("external");
+    let external = write_gltf(&c, &BufferStorage::External("body%20data.bin".into())).unwrap();
+    std::fs::write(dir.join("body data.bin"), external.bin.unwrap()).unwrap();
+    std::fs::write(dir.join("c.gltf"), &external.json).unwrap();
+    let from_file = polypostor::import_path(&dir.join("c.gltf")).unwrap();
+
+    for other in [&from_data_uri, &from_file] {
+        assert_eq!(other.vertices, from_glb.vertices);
+        assert_eq!(other.indices, from_glb.indices);
+        assert_eq!(other.clips, from_glb.clips);
+        assert_eq!(other.textures, from_glb.textures);
+    }
+    // Without a folder, an external buffer is a clear error.
+    let err = import_slice(external.json.as_bytes(), None, "x")
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("external"), "{err}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn step_and_cubic_spline_channels_survive_a_round_trip() {
+    let mut c = small_character();
+    // Replace the first clip's channels with a STEP translation and a CUBICSPLINE rotation.
+    let head = c.skeleton.find("Head").unwrap();
+    let hips = c.skeleton.find("Hips").unwrap();
+    let rest = c.skeleton.nodes[hips].rest.translation;
+    let q = Quat::from_rotation_y(0.8);
+    c.clips[0].channels = vec![
+        polypostor::character::Channel {
+            node: hips,
+            interpolation: Interpolation::Step,
+            times: vec![0.0, 0.5, 1.0],
+            values: ChannelValues::Translation(vec![rest, rest + Vec3::X * 0.3, rest]),
+        },
+        polypostor::character::Channel {
+            node: head,
+            interpolation: Interpolation::CubicSpline,
+            times: vec![0.0, 1.0],
+            values: ChannelValues::Rotation(vec![
+                Quat::from_xyzw(0.0, 0.0, 0.0, 0.0),
+                Quat::IDENTITY,
+                Quat::from_xyzw(0.0, 0.0, 0.0, 0.0),
+                Quat::from_xyzw(0.0, 0.0, 0.0, 0.0),
+                q,
+                Quat::from_xyzw(0.0, 0.0, 0.0, 0.0),
+            ]),
+        },
+    ];
+    let back = import_slice(&write_glb(&c).unwrap(), None, "x").unwrap();
+    assert_eq!(back.clips[0].channels, c.clips[0].channels);
+    let clip = &back.clips[0];
+    let at = |t: f32| Pose::sample(&back, clip, t);
+    assert_eq!(at(0.49).locals[hips].translation, rest);
+    assert!((at(0.51).locals[hips].translation - (rest + Vec3::X * 0.3)).length() < 1e-6);
+    // Zero tangents: smoothstep between identity and q, symmetric at the midpoint.
+    let mid = at(0.5).locals[head].rotation;
+    assert!(
+        mid.angle_between(Quat::IDENTITY) > 0.3 && mid.angle_between(q) > 0.3,
+        "{mid:?}"
+    );
+    let (p, _) = skin_vertices(&back, &at(0.25));
+    assert!(p.iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn forged_counts_and_truncations_fail_cleanly() {
+    let glb = write_glb(&small_character()).unwrap();
+    // Every truncation of the file fails with an error (and never panics).
+    for cut in (0..glb.len()).step_by(997).chain([1, 11, 12, 19, 20, 21]) {
+        let r = import_slice(&glb[..cut], None, "x");
+        assert!(r.is_err(), "truncated at {cut} bytes should fail");
+    }
+    // Forge the first accessor's count to 2^31 inside the JSON chunk.
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let json = std::str::from_utf8(&glb[20..20 + json_len]).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(json.trim_end()).unwrap();
+    for (field, value) in [("count", 2_147_483_647u64), ("byteOffset", 4_000_000_000)] {
+        let mut forged = v.clone();
+        forged["accessors"][0][field] = serde_json::json!(value);
+        let text = serde_json::to_string(&forged).unwrap();
+        let err = import_slice(text.as_bytes(), None, "x")
+            .unwrap_err()
+            .to_string();
+        assert!(!err.is_empty());
+    }
+    // An index pointing past the vertices is reported.
+    let idx = v["meshes"][0]["primitives"][0]["indices"].as_u64().unwrap() as usize;
+    v["accessors"][idx]["count"] = serde_json::json!(3);
+    let positions = v["meshes"][0]["primitives"][0]["attributes"]["POSITION"]
+        .as_u64()
+        .unwrap() as usize;
+    v["accessors"][positions]["count"] = serde_json::json!(1);
+    for (_, a) in v["meshes"][0]["primitives"][0]["attributes"]
+        .as_object()
+        .unwrap()
+        .clone()
+    {
+        v["accessors"][a.as_u64().unwrap() as usize]["count"] = serde_json::json!(1);
+    }
+    let mut bytes = glb.clone();
+    let text = serde_json::to_string(&v).unwrap();
+    let mut padded = text.into_bytes();
+    while padded.len() % 4 != 0 {
+        padded.push(b' ');
+    }
+    let bin = glb[20 + json_len..].to_vec();
+    bytes.truncate(12);
+    bytes.extend_from_slice(&(padded.len() as u32).to_le_bytes());
+    bytes.extend_from_slice(b"JSON");
+    bytes.extend_from_slice(&padded);
+    bytes.extend_from_slice(&bin);
+    let total = bytes.len() as u32;
+    bytes[8..12].copy_from_slice(&total.to_le_bytes());
+    let err = import_slice(&bytes, None, "x").unwrap_err().to_string();
+    assert!(err.contains("out of range"), "{err}");
+}
+
+#[test]
+fn a_file_without_skin_is_a_one_joint_character() {
+    // A static triangle, no skin, with a node transform that must be applied.
+    let json = r#"{
+        "asset": {"version": "2.0"},
+        "scene": 0, "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0, "translation": [0, 1, 0]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "buffers": [{"byteLength": 36, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]
+    }"#;
+    let c = import_slice(json.as_bytes(), None, "tri").unwrap();
+    assert_eq!(c.skeleton.joint_count(), 1);
+    assert_eq!(c.triangle_count(), 1);
+    assert!((c.vertices[1].position - Vec3::new(1.0, 1.0, 0.0)).length() < 1e-6);
+    // Normals were computed (+Z for this counter-clockwise triangle).
+    assert!((c.vertices[0].normal - Vec3::Z).length() < 1e-5);
+}
