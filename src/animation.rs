@@ -50,13 +50,7 @@ impl Pose {
         let skin_from_bind = character
             .bones
             .iter()
-            .map(|b| {
-                world_from_node
-                    .get(b.node)
-                    .copied()
-                    .unwrap_or(Mat4::IDENTITY)
-                    * b.inverse_bind
-            })
+            .map(|b| world_from_node.get(b.node).copied().unwrap_or(Mat4::IDENTITY) * b.inverse_bind)
             .collect();
         Self {
             locals,
@@ -82,10 +76,7 @@ pub fn vertex_matrix(skin_from_bind: &[Mat4], bones: [u16; 4], weights: [f32; 4]
     for k in 0..4 {
         let w = weights[k];
         if w != 0.0 {
-            let b = skin_from_bind
-                .get(bones[k] as usize)
-                .copied()
-                .unwrap_or(Mat4::IDENTITY);
+            let b = skin_from_bind.get(bones[k] as usize).copied().unwrap_or(Mat4::IDENTITY);
             m += b * w;
         }
     }
@@ -105,11 +96,7 @@ pub fn skin_vertices(character: &Character, pose: &Pose) -> (Vec<Vec3>, Vec<Vec3
 }
 
 /// Bounds of the skinned mesh over a whole clip, sampled `samples` times (at least 2).
-pub fn clip_bounds(
-    character: &Character,
-    clip_index: Option<usize>,
-    samples: usize,
-) -> (Vec3, Vec3) {
+pub fn clip_bounds(character: &Character, clip_index: Option<usize>, samples: usize) -> (Vec3, Vec3) {
     let duration = clip_index
         .and_then(|i| character.clips.get(i))
         .map_or(0.0, |c| c.duration_secs);
@@ -183,20 +170,10 @@ where
 {
     let u2 = u * u;
     let u3 = u2 * u;
-    p0 * (2.0 * u3 - 3.0 * u2 + 1.0)
-        + m0 * (u3 - 2.0 * u2 + u)
-        + p1 * (-2.0 * u3 + 3.0 * u2)
-        + m1 * (u3 - u2)
+    p0 * (2.0 * u3 - 3.0 * u2 + 1.0) + m0 * (u3 - 2.0 * u2 + u) + p1 * (-2.0 * u3 + 3.0 * u2) + m1 * (u3 - u2)
 }
 
-fn interp_vec3(
-    mode: Interpolation,
-    v: &[Vec3],
-    i0: usize,
-    i1: usize,
-    u: f32,
-    dt: f32,
-) -> Option<Vec3> {
+fn interp_vec3(mode: Interpolation, v: &[Vec3], i0: usize, i1: usize, u: f32, dt: f32) -> Option<Vec3> {
     match mode {
         Interpolation::Step => v.get(i0).copied(),
         Interpolation::Linear => Some(v.get(i0)?.lerp(*v.get(i1)?, u)),
@@ -213,14 +190,7 @@ fn interp_vec3(
     }
 }
 
-fn interp_quat(
-    mode: Interpolation,
-    v: &[Quat],
-    i0: usize,
-    i1: usize,
-    u: f32,
-    dt: f32,
-) -> Option<Quat> {
+fn interp_quat(mode: Interpolation, v: &[Quat], i0: usize, i1: usize, u: f32, dt: f32) -> Option<Quat> {
     let q = match mode {
         Interpolation::Step => *v.get(i0)?,
         Interpolation::Linear => {
@@ -310,11 +280,7 @@ mod tests {
         let pose = Pose::sample(&c, &c.clips[0], 0.5);
         let (p, n) = skin_vertices(&c, &pose);
         let s = std::f32::consts::FRAC_1_SQRT_2;
-        assert!(
-            (p[0] - Vec3::new(-s, 1.0 + s, 0.0)).length() < 1e-5,
-            "{:?}",
-            p[0]
-        );
+        assert!((p[0] - Vec3::new(-s, 1.0 + s, 0.0)).length() < 1e-5, "{:?}", p[0]);
         assert!((n[0] - Vec3::new(s, s, 0.0)).length() < 1e-5, "{:?}", n[0]);
     }
 

@@ -42,8 +42,7 @@ impl Bin {
 
     fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
         self.align();
-        let mut v =
-            json!({ "buffer": 0, "byteOffset": self.data.len(), "byteLength": bytes.len() });
+        let mut v = json!({ "buffer": 0, "byteOffset": self.data.len(), "byteLength": bytes.len() });
         if let Some(t) = target {
             v["target"] = json!(t);
         }
@@ -52,18 +51,10 @@ impl Bin {
         self.views.len() - 1
     }
 
-    fn accessor_f32(
-        &mut self,
-        values: &[f32],
-        ty: &str,
-        comps: usize,
-        minmax: bool,
-        target: Option<u32>,
-    ) -> usize {
+    fn accessor_f32(&mut self, values: &[f32], ty: &str, comps: usize, minmax: bool, target: Option<u32>) -> usize {
         let view = self.view(bytemuck::cast_slice(values), target);
         let count = values.len() / comps;
-        let mut a =
-            json!({ "bufferView": view, "componentType": 5126, "count": count, "type": ty });
+        let mut a = json!({ "bufferView": view, "componentType": 5126, "count": count, "type": ty });
         if minmax && count > 0 {
             let mut min = vec![f32::INFINITY; comps];
             let mut max = vec![f32::NEG_INFINITY; comps];
@@ -80,21 +71,17 @@ impl Bin {
         self.accessors.len() - 1
     }
 
-    fn accessor_u16(
-        &mut self,
-        values: &[u16],
-        ty: &str,
-        comps: usize,
-        target: Option<u32>,
-    ) -> usize {
+    fn accessor_u16(&mut self, values: &[u16], ty: &str, comps: usize, target: Option<u32>) -> usize {
         let view = self.view(bytemuck::cast_slice(values), target);
-        self.accessors.push(json!({ "bufferView": view, "componentType": 5123, "count": values.len() / comps, "type": ty }));
+        self.accessors
+            .push(json!({ "bufferView": view, "componentType": 5123, "count": values.len() / comps, "type": ty }));
         self.accessors.len() - 1
     }
 
     fn accessor_u32(&mut self, values: &[u32], target: Option<u32>) -> usize {
         let view = self.view(bytemuck::cast_slice(values), target);
-        self.accessors.push(json!({ "bufferView": view, "componentType": 5125, "count": values.len(), "type": "SCALAR" }));
+        self.accessors
+            .push(json!({ "bufferView": view, "componentType": 5125, "count": values.len(), "type": "SCALAR" }));
         self.accessors.len() - 1
     }
 }
@@ -104,16 +91,8 @@ fn build(c: &Character) -> Result<(Value, Vec<u8>), String> {
     const ARRAY: Option<u32> = Some(34962);
     const ELEMENTS: Option<u32> = Some(34963);
 
-    let pos: Vec<f32> = c
-        .vertices
-        .iter()
-        .flat_map(|v| v.position.to_array())
-        .collect();
-    let nrm: Vec<f32> = c
-        .vertices
-        .iter()
-        .flat_map(|v| v.normal.to_array())
-        .collect();
+    let pos: Vec<f32> = c.vertices.iter().flat_map(|v| v.position.to_array()).collect();
+    let nrm: Vec<f32> = c.vertices.iter().flat_map(|v| v.normal.to_array()).collect();
     let uv: Vec<f32> = c.vertices.iter().flat_map(|v| v.uv).collect();
     let joints: Vec<u16> = c.vertices.iter().flat_map(|v| v.bones).collect();
     let weights: Vec<f32> = c.vertices.iter().flat_map(|v| v.weights).collect();
@@ -134,10 +113,7 @@ fn build(c: &Character) -> Result<(Value, Vec<u8>), String> {
     let mut primitives = Vec::new();
     for s in &c.submeshes {
         let range = s.first_index as usize..(s.first_index + s.index_count) as usize;
-        let idx = c
-            .indices
-            .get(range)
-            .ok_or("submesh index range out of bounds")?;
+        let idx = c.indices.get(range).ok_or("submesh index range out of bounds")?;
         let a = bin.accessor_u32(idx, ELEMENTS);
         primitives.push(json!({ "attributes": attributes, "indices": a, "material": s.material }));
     }
@@ -145,8 +121,7 @@ fn build(c: &Character) -> Result<(Value, Vec<u8>), String> {
     let mut images = Vec::new();
     for t in &c.textures {
         let mut png = Vec::new();
-        let img = image::RgbaImage::from_raw(t.width, t.height, t.rgba8.clone())
-            .ok_or("texture size mismatch")?;
+        let img = image::RgbaImage::from_raw(t.width, t.height, t.rgba8.clone()).ok_or("texture size mismatch")?;
         img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
             .map_err(|e| e.to_string())?;
         let view = bin.view(&png, None);
@@ -159,7 +134,8 @@ fn build(c: &Character) -> Result<(Value, Vec<u8>), String> {
         .materials
         .iter()
         .map(|m| {
-            let mut pbr = json!({ "baseColorFactor": m.base_color_factor, "metallicFactor": 0.0, "roughnessFactor": 0.8 });
+            let mut pbr =
+                json!({ "baseColorFactor": m.base_color_factor, "metallicFactor": 0.0, "roughnessFactor": 0.8 });
             if let Some(t) = m.base_color_texture {
                 pbr["baseColorTexture"] = json!({ "index": t });
             }
@@ -183,10 +159,7 @@ fn build(c: &Character) -> Result<(Value, Vec<u8>), String> {
         .collect();
     for (i, n) in c.skeleton.nodes.iter().enumerate() {
         if let Some(p) = n.parent {
-            let children = nodes[p]
-                .get("children")
-                .cloned()
-                .unwrap_or_else(|| json!([]));
+            let children = nodes[p].get("children").cloned().unwrap_or_else(|| json!([]));
             let mut children: Vec<Value> = serde_json::from_value(children).unwrap_or_default();
             children.push(json!(i));
             nodes[p]["children"] = json!(children);
@@ -204,11 +177,7 @@ fn build(c: &Character) -> Result<(Value, Vec<u8>), String> {
         .chain([mesh_node])
         .collect();
 
-    let ibm: Vec<f32> = c
-        .bones
-        .iter()
-        .flat_map(|b| b.inverse_bind.to_cols_array())
-        .collect();
+    let ibm: Vec<f32> = c.bones.iter().flat_map(|b| b.inverse_bind.to_cols_array()).collect();
     let a_ibm = bin.accessor_f32(&ibm, "MAT4", 16, false, None);
     let skin = json!({ "joints": c.bones.iter().map(|b| b.node).collect::<Vec<_>>(), "inverseBindMatrices": a_ibm });
 
@@ -255,11 +224,8 @@ fn build(c: &Character) -> Result<(Value, Vec<u8>), String> {
                 Interpolation::Linear => "LINEAR",
                 Interpolation::CubicSpline => "CUBICSPLINE",
             };
-            channels.push(
-                json!({ "sampler": samplers.len(), "target": { "node": ch.node, "path": path } }),
-            );
-            samplers
-                .push(json!({ "input": input, "output": output, "interpolation": interpolation }));
+            channels.push(json!({ "sampler": samplers.len(), "target": { "node": ch.node, "path": path } }));
+            samplers.push(json!({ "input": input, "output": output, "interpolation": interpolation }));
         }
         animations.push(json!({ "name": clip.name, "samplers": samplers, "channels": channels }));
     }
@@ -280,8 +246,7 @@ fn build(c: &Character) -> Result<(Value, Vec<u8>), String> {
     if !c.textures.is_empty() {
         root["images"] = json!(images);
         root["textures"] = json!(textures);
-        root["samplers"] =
-            json!([{ "magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497 }]);
+        root["samplers"] = json!([{ "magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497 }]);
     }
     if !animations.is_empty() {
         root["animations"] = json!(animations);
@@ -317,8 +282,7 @@ pub fn write_gltf(c: &Character, storage: &BufferStorage) -> Result<GltfFiles, S
         BufferStorage::DataUri => {
             use base64::Engine;
             let b64 = base64::engine::general_purpose::STANDARD.encode(&bin);
-            root["buffers"][0]["uri"] =
-                json!(format!("data:application/octet-stream;base64,{b64}"));
+            root["buffers"][0]["uri"] = json!(format!("data:application/octet-stream;base64,{b64}"));
             None
         }
         BufferStorage::External(name) => {

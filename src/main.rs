@@ -80,10 +80,7 @@ pub fn repo_root() -> PathBuf {
 }
 
 fn main() -> ExitCode {
-    env_logger::Builder::from_env(
-        env_logger::Env::default().default_filter_or("warn,polypostor=info"),
-    )
-    .init();
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn,polypostor=info")).init();
     let cli = Cli::parse();
     let result = match cli.command {
         Some(Command::Inspect { file, json }) => inspect(&file, json),
@@ -97,17 +94,7 @@ fn main() -> ExitCode {
             pitch,
             normals,
             unlit,
-        }) => render(
-            &file,
-            &out,
-            clip.as_deref(),
-            time,
-            size,
-            yaw,
-            pitch,
-            normals,
-            unlit,
-        ),
+        }) => render(&file, &out, clip.as_deref(), time, size, yaw, pitch, normals, unlit),
         Some(Command::GenerateDefault { out }) => generate_default(out),
         None => {
             let path = cli
@@ -162,8 +149,7 @@ fn render(
 ) -> anyhow::Result<()> {
     use polypostor::animation::{Pose, clip_bounds};
     use polypostor::gpu::*;
-    let c =
-        polypostor::import_path(file).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+    let c = polypostor::import_path(file).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
     let clip_index = match clip {
         Some(name) => Some(
             c.find_clip(name)

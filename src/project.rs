@@ -19,9 +19,7 @@ pub enum ProjectError {
     Read { path: PathBuf, message: String },
     #[error("project '{path}' is not a valid project file: {message}")]
     Parse { path: PathBuf, message: String },
-    #[error(
-        "project '{path}' has format version {found}, newer than this build supports ({FORMAT_VERSION})"
-    )]
+    #[error("project '{path}' has format version {found}, newer than this build supports ({FORMAT_VERSION})")]
     TooNew { path: PathBuf, found: u32 },
     #[error("cannot save project to '{path}': {message}")]
     Write { path: PathBuf, message: String },

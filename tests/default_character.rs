@@ -10,8 +10,7 @@ fn regeneration_is_deterministic_and_matches_the_stored_asset() {
     let a = generate_glb();
     let b = generate_glb();
     assert_eq!(a, b, "two generations differ");
-    let stored =
-        std::fs::read(common::repo_path(DEFAULT_CHARACTER_PATH)).expect("stored default character");
+    let stored = std::fs::read(common::repo_path(DEFAULT_CHARACTER_PATH)).expect("stored default character");
     assert!(
         stored == a,
         "the stored {DEFAULT_CHARACTER_PATH} is out of date: run `polypostor generate-default`"
@@ -75,11 +74,7 @@ fn default_character_meets_the_brief() {
         .collect();
     colours.sort_unstable();
     colours.dedup();
-    assert!(
-        colours.len() > 2000,
-        "only {} distinct colours",
-        colours.len()
-    );
+    assert!(colours.len() > 2000, "only {} distinct colours", colours.len());
 }
 
 #[test]

@@ -9,8 +9,7 @@ use polypostor::gpu::*;
 
 fn context() -> GpuContext {
     // Software adapters first: reproducible, and present on every CI machine (lavapipe/llvmpipe).
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst)
-        .expect("a wgpu adapter (install mesa-vulkan-drivers)");
+    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("a wgpu adapter (install mesa-vulkan-drivers)");
     eprintln!("adapter: {}", ctx.adapter_description());
     ctx
 }
@@ -70,25 +69,39 @@ fn skinning_agreement(ctx: &GpuContext, c: &Character, label: &str) {
         );
         let cpu_img = target.read_normal(&ctx.device, &ctx.queue).unwrap();
         let (a, b) = (mask(&gpu_img), mask(&cpu_img));
+        // The test can fail: the posed silhouette is not the bind-pose one.
+        if label == "default" {
+            let rest = Pose::rest(c);
+            renderer.render(
+                &ctx.device,
+                &ctx.queue,
+                &target,
+                &mut gpu,
+                c,
+                &rest,
+                SkinningMode::Gpu,
+                &cam,
+                &opts,
+            );
+            let rest_img = target.read_normal(&ctx.device, &ctx.queue).unwrap();
+            let moved = iou(&a, &mask(&rest_img));
+            assert!(
+                moved < 0.97,
+                "{label}: pose barely changes the silhouette (IoU {moved})"
+            );
+        }
         let covered = a.iter().filter(|x| **x).count();
         let score = iou(&a, &b);
         eprintln!("{label}: t={t:.2} yaw={yaw}: silhouette IoU {score:.5} ({covered} px)");
-        assert!(
-            covered > 1500,
-            "{label}: the character barely shows ({covered} px)"
-        );
+        assert!(covered > 1500, "{label}: the character barely shows ({covered} px)");
         assert!(
             score >= 0.99,
             "{label}: GPU/CPU skinning silhouettes differ: IoU {score}"
         );
         if std::env::var_os("POLYPOSTOR_TEST_IMAGES").is_some() {
             let dir = std::env::temp_dir();
-            gpu_img
-                .save(dir.join(format!("{label}-{k}-gpu.png")))
-                .unwrap();
-            cpu_img
-                .save(dir.join(format!("{label}-{k}-cpu.png")))
-                .unwrap();
+            gpu_img.save(dir.join(format!("{label}-{k}-gpu.png"))).unwrap();
+            cpu_img.save(dir.join(format!("{label}-{k}-cpu.png"))).unwrap();
         }
     }
 }
@@ -158,7 +171,7 @@ fn colour_normal_and_depth_are_consistent() {
     // Unlit colour reproduces the texture's palette: the shirt's blue is present.
     let blue = color
         .pixels()
-        .filter(|p| p[3] > 0 && p[2] > p[0] + 40)
+        .filter(|p| p[3] > 0 && p[2] as i32 > p[0] as i32 + 40)
         .count();
     assert!(blue > 200, "{blue}");
 }

@@ -102,9 +102,7 @@ fn forged_counts_and_truncations_fail_cleanly() {
         let mut forged = v.clone();
         forged["accessors"][0][field] = serde_json::json!(value);
         let text = serde_json::to_string(&forged).unwrap();
-        let err = import_slice(text.as_bytes(), None, "x")
-            .unwrap_err()
-            .to_string();
+        let err = import_slice(text.as_bytes(), None, "x").unwrap_err().to_string();
         assert!(!err.is_empty());
     }
     // An index pointing past the vertices is reported.
@@ -157,4 +155,22 @@ fn a_file_without_skin_is_a_one_joint_character() {
     assert!((c.vertices[1].position - Vec3::new(1.0, 1.0, 0.0)).length() < 1e-6);
     // Normals were computed (+Z for this counter-clockwise triangle).
     assert!((c.vertices[0].normal - Vec3::Z).length() < 1e-5);
+}
+
+#[test]
+fn a_missing_external_buffer_is_named_in_the_error() {
+    let dir = common::temp_dir("missing-bin");
+    let c = small_character();
+    let files = write_gltf(&c, &BufferStorage::External("gone.bin".into())).unwrap();
+    std::fs::write(dir.join("c.gltf"), &files.json).unwrap();
+    let err = polypostor::import_path(&dir.join("c.gltf")).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            polypostor::ImportError::Invalid(_) | polypostor::ImportError::Buffer { .. }
+        ),
+        "{err}"
+    );
+    assert!(err.to_string().contains("gone.bin"), "{err}");
+    std::fs::remove_dir_all(dir).unwrap();
 }

@@ -88,11 +88,7 @@ impl Summary {
         let _ = writeln!(s, "character   {}", self.name);
         let _ = writeln!(s, "vertices    {}", self.vertices);
         let _ = writeln!(s, "triangles   {}", self.triangles);
-        let _ = writeln!(
-            s,
-            "joints      {} ({} skeleton nodes)",
-            self.joints, self.nodes
-        );
+        let _ = writeln!(s, "joints      {} ({} skeleton nodes)", self.joints, self.nodes);
         let _ = writeln!(s, "materials   {}", self.materials);
         let _ = writeln!(
             s,

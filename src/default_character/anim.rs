@@ -77,16 +77,10 @@ fn gait(g: &Gait, w: f32) -> Pose {
         p.set(&format!("{side}UpperLeg"), rx(thigh - g.lean * 0.5));
         p.set(&format!("{side}LowerLeg"), rx(knee));
         p.set(&format!("{side}Foot"), rx(foot));
-        p.set(
-            &format!("{side}Toes"),
-            rx(-12.0 * (-wl.sin()).max(0.0) * swing),
-        );
+        p.set(&format!("{side}Toes"), rx(-12.0 * (-wl.sin()).max(0.0) * swing));
         // Arms swing against the leg of their side.
         let s = if side == "Left" { 1.0 } else { -1.0 };
-        p.set(
-            &format!("{side}UpperArm"),
-            rx(g.arm * wl.sin()) * rz(s * 4.0),
-        );
+        p.set(&format!("{side}UpperArm"), rx(g.arm * wl.sin()) * rz(s * 4.0));
         p.set(
             &format!("{side}LowerArm"),
             rx(-(g.elbow_base + g.elbow_swing * (0.5 - 0.5 * wl.sin()))),
@@ -135,10 +129,7 @@ fn idle(phase: f32) -> Pose {
     p.set("Chest", rx(2.0 * (2.0 * w).sin()));
     p.set("Head", rx(3.0 * (w + 0.7).sin()) * ry(8.0 * w.sin()));
     for (side, s) in [("Left", 1.0f32), ("Right", -1.0)] {
-        p.set(
-            &format!("{side}UpperArm"),
-            rx(3.0 * (w + s).sin()) * rz(s * 3.0),
-        );
+        p.set(&format!("{side}UpperArm"), rx(3.0 * (w + s).sin()) * rz(s * 3.0));
         p.set(&format!("{side}LowerArm"), rx(-8.0 - 3.0 * (2.0 * w).sin()));
         p.set(&format!("{side}UpperLeg"), rz(s * 1.5 * w.sin()));
     }
@@ -160,20 +151,13 @@ fn wave(phase: f32) -> Pose {
 fn sample(name: &str, duration: f32, f: fn(f32) -> Pose) -> Clip {
     let keys = (duration * KEYS_PER_SEC).round() as usize;
     let times: Vec<f32> = (0..=keys).map(|k| k as f32 / KEYS_PER_SEC).collect();
-    let poses: Vec<Pose> = (0..=keys)
-        .map(|k| f((k % keys) as f32 / keys as f32))
-        .collect();
+    let poses: Vec<Pose> = (0..=keys).map(|k| f((k % keys) as f32 / keys as f32)).collect();
     let hips = joint("Hips") as usize;
     let mut channels = vec![Channel {
         node: hips,
         interpolation: Interpolation::Linear,
         times: times.clone(),
-        values: ChannelValues::Translation(
-            poses
-                .iter()
-                .map(|p| joint_head(hips as u16) + p.hips_offset)
-                .collect(),
-        ),
+        values: ChannelValues::Translation(poses.iter().map(|p| joint_head(hips as u16) + p.hips_offset).collect()),
     }];
     for j in 0..JOINTS.len() {
         let values: Vec<Quat> = poses.iter().map(|p| p.rot[j]).collect();

@@ -96,9 +96,7 @@ impl MeshBuilder {
             for j in 0..=segments {
                 let s = j as f32 / segments as f32;
                 let theta = std::f32::consts::TAU * s;
-                let p = r.center
-                    - r.side * (theta.sin() * r.r_side)
-                    - r.front * (theta.cos() * r.r_front);
+                let p = r.center - r.side * (theta.sin() * r.r_side) - r.front * (theta.cos() * r.r_front);
                 self.vertex(p, region.uv(s, t), &r.weights);
             }
         }
@@ -115,10 +113,7 @@ impl MeshBuilder {
             }
         }
         let axis_dir = (rings[n - 1].center - rings[0].center).normalize_or(Vec3::Y);
-        for (ring_index, pole, t, outward) in [
-            (0, start_pole, 0.0f32, -axis_dir),
-            (n - 1, end_pole, 1.0, axis_dir),
-        ] {
+        for (ring_index, pole, t, outward) in [(0, start_pole, 0.0f32, -axis_dir), (n - 1, end_pole, 1.0, axis_dir)] {
             let Some(pole) = pole else { continue };
             let r = &rings[ring_index];
             let pv = self.vertex(pole, region.uv(0.5, t), &r.weights);
@@ -310,11 +305,7 @@ fn head_and_neck(m: &mut MeshBuilder) {
             let a = std::f32::consts::PI * i as f32 / n as f32; // 0 bottom .. PI top
             let y = c.y - 0.125 * a.cos();
             let r = a.sin();
-            let jaw = if a < 1.3 {
-                0.78 + 0.22 * (a / 1.3)
-            } else {
-                1.0
-            };
+            let jaw = if a < 1.3 { 0.78 + 0.22 * (a / 1.3) } else { 1.0 };
             Ring {
                 center: Vec3::new(0.0, y, c.z + 0.01 * r),
                 side: Vec3::X,
@@ -377,18 +368,11 @@ fn head_and_neck(m: &mut MeshBuilder) {
 }
 
 fn side_name(side: f32, name: &str) -> u16 {
-    joint(&format!(
-        "{}{name}",
-        if side > 0.0 { "Left" } else { "Right" }
-    ))
+    joint(&format!("{}{name}", if side > 0.0 { "Left" } else { "Right" }))
 }
 
 fn leg(m: &mut MeshBuilder, side: f32) {
-    let (upper, lower, hips) = (
-        side_name(side, "UpperLeg"),
-        side_name(side, "LowerLeg"),
-        joint("Hips"),
-    );
+    let (upper, lower, hips) = (side_name(side, "UpperLeg"), side_name(side, "LowerLeg"), joint("Hips"));
     let top = joint_head(upper) + Vec3::new(0.0, 0.03, 0.0);
     let knee = joint_head(lower);
     let ankle = joint_head(side_name(side, "Foot")) + Vec3::new(0.0, 0.01, 0.01);
@@ -514,11 +498,7 @@ fn arm(m: &mut MeshBuilder, side: f32) {
             } else {
                 elbow.lerp(wrist, (t - elbow_t) / (1.0 - elbow_t))
             };
-            let axis = if t < elbow_t {
-                elbow - top
-            } else {
-                wrist - elbow
-            };
+            let axis = if t < elbow_t { elbow - top } else { wrist - elbow };
             let mut w = blend(upper, lower, elbow_t - 0.05, elbow_t + 0.05, t);
             let sk = 1.0 - smoothstep(0.0, 0.1, t);
             if sk > 0.0 {
@@ -538,13 +518,7 @@ fn arm(m: &mut MeshBuilder, side: f32) {
             }
         })
         .collect();
-    m.tube(
-        &rings,
-        14,
-        Region::ARMS,
-        Some(top + Vec3::new(0.0, 0.02, 0.0)),
-        None,
-    );
+    m.tube(&rings, 14, Region::ARMS, Some(top + Vec3::new(0.0, 0.02, 0.0)), None);
 }
 
 fn hand(m: &mut MeshBuilder, side: f32) {

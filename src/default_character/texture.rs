@@ -142,9 +142,8 @@ fn cover(d: f32, px: f32) -> f32 {
 
 /// Integer hash to [0,1): deterministic value noise.
 fn hash(x: i32, y: i32, seed: u32) -> f32 {
-    let mut h = (x as u32).wrapping_mul(0x8da6_b343)
-        ^ (y as u32).wrapping_mul(0xd816_3841)
-        ^ seed.wrapping_mul(0xcb1a_b31f);
+    let mut h =
+        (x as u32).wrapping_mul(0x8da6_b343) ^ (y as u32).wrapping_mul(0xd816_3841) ^ seed.wrapping_mul(0xcb1a_b31f);
     h ^= h >> 13;
     h = h.wrapping_mul(0x5bd1_e995);
     h ^= h >> 15;
@@ -252,21 +251,12 @@ fn trousers(s: f32, t: f32, px: f32) -> Rgb {
     for seam in [0.25f32, 0.75] {
         let d = (s - seam).abs();
         c = mix(c, scale(DENIM, 0.65), cover(d - 0.004, px));
-        c = mix(
-            c,
-            [0.85, 0.62, 0.25],
-            cover((d - 0.012).abs() - 0.002, px) * 0.8,
-        );
+        c = mix(c, [0.85, 0.62, 0.25], cover((d - 0.012).abs() - 0.002, px) * 0.8);
     }
     // Knee patch at the front.
     let pd = ((s - 0.5).abs() - 0.12).max((t - 0.52).abs() - 0.06);
     c = mix(c, scale(DENIM, 1.35), cover(pd, px));
-    let stitch = cover(pd.abs() - 0.0025, px)
-        * if ((s + t) * 160.0).fract() < 0.5 {
-            1.0
-        } else {
-            0.0
-        };
+    let stitch = cover(pd.abs() - 0.0025, px) * if ((s + t) * 160.0).fract() < 0.5 { 1.0 } else { 0.0 };
     c = mix(c, [0.85, 0.62, 0.25], stitch);
     // Cuffs.
     if t > 0.92 {
@@ -281,11 +271,7 @@ fn head(s: f32, t: f32, px: f32) -> Rgb {
     // Cheeks.
     for side in [-1.0f32, 1.0] {
         let d = ((front - side * 0.1).powi(2) + ((t - 0.42) * 1.1).powi(2)).sqrt();
-        c = mix(
-            c,
-            [0.90, 0.52, 0.48],
-            (1.0 - d / 0.05).clamp(0.0, 1.0) * 0.35,
-        );
+        c = mix(c, [0.90, 0.52, 0.48], (1.0 - d / 0.05).clamp(0.0, 1.0) * 0.35);
     }
     // Eyes: white, iris, pupil, upper lid line; eyebrows.
     for side in [-1.0f32, 1.0] {
@@ -304,10 +290,8 @@ fn head(s: f32, t: f32, px: f32) -> Rgb {
             [0.25, 0.15, 0.10],
             cover(lid.abs() * 0.03 - 0.0025, px) * if ey > 0.0 { 1.0 } else { 0.0 },
         );
-        let brow = ((ex / 0.04).powi(2)
-            + ((t - 0.605 - 0.01 * (1.0 - (ex / 0.04).powi(2))) / 0.009).powi(2))
-        .sqrt()
-            - 1.0;
+        let brow =
+            ((ex / 0.04).powi(2) + ((t - 0.605 - 0.01 * (1.0 - (ex / 0.04).powi(2))) / 0.009).powi(2)).sqrt() - 1.0;
         c = mix(c, HAIR, cover(brow * 0.01, px));
     }
     // Nose shadow and mouth.
@@ -406,10 +390,7 @@ pub fn paint() -> Texture {
     let mut rgba8 = vec![0u8; (SIZE * SIZE * 4) as usize];
     for y in 0..SIZE {
         for x in 0..SIZE {
-            let (u, v) = (
-                (x as f32 + 0.5) / SIZE as f32,
-                (y as f32 + 0.5) / SIZE as f32,
-            );
+            let (u, v) = ((x as f32 + 0.5) / SIZE as f32, (y as f32 + 0.5) / SIZE as f32);
             let region = Region::ALL
                 .iter()
                 .find(|r| u >= r.u0 && u < r.u1 && v >= r.v0 && v < r.v1)

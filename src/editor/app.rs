@@ -143,15 +143,8 @@ pub struct EditorApp {
 }
 
 impl EditorApp {
-    pub fn new(
-        cc: &eframe::CreationContext<'_>,
-        options: AppOptions,
-        open: Option<PathBuf>,
-    ) -> Self {
-        let adapter = cc
-            .wgpu_render_state
-            .as_ref()
-            .map(ViewportResources::install);
+    pub fn new(cc: &eframe::CreationContext<'_>, options: AppOptions, open: Option<PathBuf>) -> Self {
+        let adapter = cc.wgpu_render_state.as_ref().map(ViewportResources::install);
         let settings = Settings::load(options.settings_path.as_deref());
         let mut app = Self {
             options,
@@ -244,10 +237,7 @@ impl EditorApp {
                 None => {}
             },
             Command::SaveAs(path) => {
-                let file = if path
-                    .extension()
-                    .is_some_and(|e| e.eq_ignore_ascii_case("json"))
-                {
+                let file = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
                     path
                 } else {
                     path.join(PROJECT_FILE)
@@ -268,18 +258,12 @@ impl EditorApp {
             Command::SetPlaying(p) => self.playback.playing = p,
             Command::TogglePlaying => self.playback.playing = !self.playback.playing,
             Command::Seek(t) => {
-                let d = self
-                    .doc
-                    .as_ref()
-                    .map_or(0.0, |d| d.clip_duration(self.playback.clip));
+                let d = self.doc.as_ref().map_or(0.0, |d| d.clip_duration(self.playback.clip));
                 self.playback.time_secs = t.clamp(0.0, d.max(0.0));
             }
             Command::StepFrames(n) => {
                 self.playback.playing = false;
-                let d = self
-                    .doc
-                    .as_ref()
-                    .map_or(0.0, |d| d.clip_duration(self.playback.clip));
+                let d = self.doc.as_ref().map_or(0.0, |d| d.clip_duration(self.playback.clip));
                 let frame = (self.playback.time_secs * TIMELINE_FPS).round() + n as f32;
                 let t = frame / TIMELINE_FPS;
                 self.playback.time_secs = if d > 0.0 { t.rem_euclid(d) } else { 0.0 };
@@ -347,13 +331,11 @@ impl EditorApp {
         }
         let (tx, rx) = channel();
         let ctx = ctx.clone();
-        let spawned = std::thread::Builder::new()
-            .name("load".into())
-            .spawn(move || {
-                let result = request.run();
-                let _ = tx.send(result);
-                ctx.request_repaint();
-            });
+        let spawned = std::thread::Builder::new().name("load".into()).spawn(move || {
+            let result = request.run();
+            let _ = tx.send(result);
+            ctx.request_repaint();
+        });
         match spawned {
             Ok(_) => {
                 self.loading = Some(Loading {
@@ -443,31 +425,28 @@ impl EditorApp {
     /// or dialog service on this desktop) falls back to the typed-path prompt.
     fn ask_path(&mut self, purpose: PathPurpose) {
         let (tx, rx) = channel();
-        let start_dir = self.doc.as_ref().and_then(|d| {
-            d.project_file
-                .as_ref()
-                .and_then(|f| f.parent().map(Path::to_owned))
+        let start_dir = self
+            .doc
+            .as_ref()
+            .and_then(|d| d.project_file.as_ref().and_then(|f| f.parent().map(Path::to_owned)));
+        let spawned = std::thread::Builder::new().name("file dialog".into()).spawn(move || {
+            let mut dialog = rfd::FileDialog::new();
+            if let Some(dir) = start_dir {
+                dialog = dialog.set_directory(dir);
+            }
+            let picked = match purpose {
+                PathPurpose::NewFromGltf => dialog
+                    .add_filter("glTF 2.0", &["glb", "gltf"])
+                    .set_title(purpose.title())
+                    .pick_file(),
+                PathPurpose::Open => dialog
+                    .set_title(purpose.title())
+                    .add_filter("Project or glTF", &["json", "glb", "gltf"])
+                    .pick_file(),
+                PathPurpose::SaveAs => dialog.set_title(purpose.title()).pick_folder(),
+            };
+            let _ = tx.send(picked);
         });
-        let spawned = std::thread::Builder::new()
-            .name("file dialog".into())
-            .spawn(move || {
-                let mut dialog = rfd::FileDialog::new();
-                if let Some(dir) = start_dir {
-                    dialog = dialog.set_directory(dir);
-                }
-                let picked = match purpose {
-                    PathPurpose::NewFromGltf => dialog
-                        .add_filter("glTF 2.0", &["glb", "gltf"])
-                        .set_title(purpose.title())
-                        .pick_file(),
-                    PathPurpose::Open => dialog
-                        .set_title(purpose.title())
-                        .add_filter("Project or glTF", &["json", "glb", "gltf"])
-                        .pick_file(),
-                    PathPurpose::SaveAs => dialog.set_title(purpose.title()).pick_folder(),
-                };
-                let _ = tx.send(picked);
-            });
         match spawned {
             Ok(_) => self.dialog = Some((purpose, Instant::now(), rx)),
             Err(_) => {
@@ -515,10 +494,7 @@ impl EditorApp {
             let open = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::O));
             let new = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::N));
             // Ctrl+Shift+S first, or Ctrl+S would take it.
-            let save_as = i.consume_shortcut(&KeyboardShortcut::new(
-                Modifiers::COMMAND | Modifiers::SHIFT,
-                Key::S,
-            ));
+            let save_as = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND | Modifiers::SHIFT, Key::S));
             let save = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::S));
             let quit = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::Q));
             (open, new, save_as, save, quit)
@@ -594,10 +570,7 @@ impl EditorApp {
                 {
                     self.ask_path(PathPurpose::NewFromGltf);
                 }
-                if ui
-                    .add(egui::Button::new("Open…").shortcut_text("Ctrl+O"))
-                    .clicked()
-                {
+                if ui.add(egui::Button::new("Open…").shortcut_text("Ctrl+O")).clicked() {
                     self.ask_path(PathPurpose::Open);
                 }
                 if ui.button("Open path…").clicked() {
@@ -625,28 +598,19 @@ impl EditorApp {
                     self.send(Command::Save);
                 }
                 if ui
-                    .add_enabled(
-                        has_doc,
-                        egui::Button::new("Save As…").shortcut_text("Ctrl+Shift+S"),
-                    )
+                    .add_enabled(has_doc, egui::Button::new("Save As…").shortcut_text("Ctrl+Shift+S"))
                     .clicked()
                 {
                     self.ask_path(PathPurpose::SaveAs);
                 }
-                if ui
-                    .add_enabled(has_doc, egui::Button::new("Save As path…"))
-                    .clicked()
-                {
+                if ui.add_enabled(has_doc, egui::Button::new("Save As path…")).clicked() {
                     self.prompt = Some(PathPrompt {
                         purpose: PathPurpose::SaveAs,
                         text: String::new(),
                     });
                 }
                 ui.separator();
-                if ui
-                    .add(egui::Button::new("Quit").shortcut_text("Ctrl+Q"))
-                    .clicked()
-                {
+                if ui.add(egui::Button::new("Quit").shortcut_text("Ctrl+Q")).clicked() {
                     ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
                 }
             });
@@ -688,16 +652,8 @@ impl EditorApp {
                 ));
                 ui.separator();
             }
-            let errors = self
-                .log
-                .iter()
-                .filter(|e| e.level == LogLevel::Error)
-                .count();
-            let warnings = self
-                .log
-                .iter()
-                .filter(|e| e.level == LogLevel::Warning)
-                .count();
+            let errors = self.log.iter().filter(|e| e.level == LogLevel::Error).count();
+            let warnings = self.log.iter().filter(|e| e.level == LogLevel::Warning).count();
             if ui
                 .selectable_label(self.show_log, format!("⚠ {warnings}  ⛔ {errors}"))
                 .on_hover_text("Show the log")
@@ -738,20 +694,13 @@ impl EditorApp {
                         commands.push(Command::SelectClip(None));
                     }
                     for (i, name) in clips.iter().enumerate() {
-                        if ui
-                            .selectable_label(self.playback.clip == Some(i), name)
-                            .clicked()
-                        {
+                        if ui.selectable_label(self.playback.clip == Some(i), name).clicked() {
                             commands.push(Command::SelectClip(Some(i)));
                         }
                     }
                 });
             ui.separator();
-            let label = if self.playback.playing {
-                "⏸ Pause"
-            } else {
-                "▶ Play"
-            };
+            let label = if self.playback.playing { "⏸ Pause" } else { "▶ Play" };
             if ui.button(label).on_hover_text("Space").clicked() {
                 commands.push(Command::SetPlaying(!self.playback.playing));
             }
@@ -811,55 +760,43 @@ impl EditorApp {
                 .weak(),
         );
         if let Some(f) = &doc.project_file {
-            ui.label(
-                egui::RichText::new(format!("project: {}", f.display()))
-                    .small()
-                    .weak(),
-            );
+            ui.label(egui::RichText::new(format!("project: {}", f.display())).small().weak());
         } else {
             ui.label(egui::RichText::new("project: not saved yet").small().weak());
         }
         ui.separator();
-        egui::Grid::new("summary")
-            .num_columns(2)
-            .striped(true)
-            .show(ui, |ui| {
-                for (k, v) in [
-                    ("Vertices", s.vertices.to_string()),
-                    ("Triangles", s.triangles.to_string()),
-                    ("Joints", s.joints.to_string()),
-                    ("Skeleton nodes", s.nodes.to_string()),
-                    ("Materials", s.materials.to_string()),
-                    ("Clips", s.clips.len().to_string()),
-                    ("Textures", s.textures.len().to_string()),
-                    ("Warnings", s.warnings.len().to_string()),
-                ] {
-                    ui.label(k);
-                    ui.label(v);
-                    ui.end_row();
-                }
-                ui.label("Height");
-                ui.label(format!("{:.2} m", s.bounds_max[1] - s.bounds_min[1]));
+        egui::Grid::new("summary").num_columns(2).striped(true).show(ui, |ui| {
+            for (k, v) in [
+                ("Vertices", s.vertices.to_string()),
+                ("Triangles", s.triangles.to_string()),
+                ("Joints", s.joints.to_string()),
+                ("Skeleton nodes", s.nodes.to_string()),
+                ("Materials", s.materials.to_string()),
+                ("Clips", s.clips.len().to_string()),
+                ("Textures", s.textures.len().to_string()),
+                ("Warnings", s.warnings.len().to_string()),
+            ] {
+                ui.label(k);
+                ui.label(v);
                 ui.end_row();
-            });
+            }
+            ui.label("Height");
+            ui.label(format!("{:.2} m", s.bounds_max[1] - s.bounds_min[1]));
+            ui.end_row();
+        });
         ui.separator();
         let mut select = None;
-        egui::CollapsingHeader::new("Clips")
-            .default_open(true)
-            .show(ui, |ui| {
-                for (i, clip) in s.clips.iter().enumerate() {
-                    let text = format!("{}  ({:.2} s)", clip.name, clip.duration_secs);
-                    if ui
-                        .selectable_label(self.playback.clip == Some(i), text)
-                        .clicked()
-                    {
-                        select = Some(i);
-                    }
+        egui::CollapsingHeader::new("Clips").default_open(true).show(ui, |ui| {
+            for (i, clip) in s.clips.iter().enumerate() {
+                let text = format!("{}  ({:.2} s)", clip.name, clip.duration_secs);
+                if ui.selectable_label(self.playback.clip == Some(i), text).clicked() {
+                    select = Some(i);
                 }
-                if s.clips.is_empty() {
-                    ui.label("(no clips)");
-                }
-            });
+            }
+            if s.clips.is_empty() {
+                ui.label("(no clips)");
+            }
+        });
         egui::CollapsingHeader::new("Joints")
             .default_open(false)
             .show(ui, |ui| {
@@ -893,20 +830,14 @@ impl EditorApp {
                 }
                 if let Some(tex) = c.textures.first() {
                     let generation = doc.generation;
-                    if self
-                        .texture_preview
-                        .as_ref()
-                        .is_none_or(|(g, _)| *g != generation)
-                    {
+                    if self.texture_preview.as_ref().is_none_or(|(g, _)| *g != generation) {
                         let image = egui::ColorImage::from_rgba_unmultiplied(
                             [tex.width as usize, tex.height as usize],
                             &tex.rgba8,
                         );
-                        let handle = ui.ctx().load_texture(
-                            "texture preview",
-                            image,
-                            egui::TextureOptions::LINEAR,
-                        );
+                        let handle = ui
+                            .ctx()
+                            .load_texture("texture preview", image, egui::TextureOptions::LINEAR);
                         self.texture_preview = Some((generation, handle));
                     }
                     if let Some((_, handle)) = &self.texture_preview {
@@ -966,8 +897,7 @@ impl EditorApp {
             return;
         };
         if self.adapter.is_some() {
-            let pose =
-                Pose::sample_index(&doc.character, self.playback.clip, self.playback.time_secs);
+            let pose = Pose::sample_index(&doc.character, self.playback.clip, self.playback.time_secs);
             let ppp = ui.ctx().pixels_per_point();
             let callback = ViewportCallback {
                 character: doc.character.clone(),
@@ -985,10 +915,7 @@ impl EditorApp {
                 .add(egui_wgpu::Callback::new_paint_callback(rect, callback));
         }
         // Overlay: view mode, grid, frame button; controls hint.
-        let overlay = egui::Rect::from_min_size(
-            rect.min + egui::vec2(8.0, 8.0),
-            egui::vec2(rect.width() - 16.0, 28.0),
-        );
+        let overlay = egui::Rect::from_min_size(rect.min + egui::vec2(8.0, 8.0), egui::vec2(rect.width() - 16.0, 28.0));
         let mut child = ui.new_child(
             egui::UiBuilder::new()
                 .max_rect(overlay)
@@ -1050,9 +977,7 @@ impl EditorApp {
                     if ui.button("OK").clicked() || enter {
                         submit = Some((prompt.purpose, prompt.text.trim().to_string()));
                     }
-                    if ui.button("Cancel").clicked()
-                        || ui.input(|i| i.key_pressed(egui::Key::Escape))
-                    {
+                    if ui.button("Cancel").clicked() || ui.input(|i| i.key_pressed(egui::Key::Escape)) {
                         cancel = true;
                     }
                 });
@@ -1069,27 +994,30 @@ impl EditorApp {
             self.prompt = None;
         }
         if self.show_about {
-            egui::Window::new("Polypostor Studio").open(&mut self.show_about).collapsible(false).show(ctx, |ui| {
-                ui.label(format!("Version {}", env!("CARGO_PKG_VERSION")));
-                ui.label("Turns skinned, animated glTF characters into crowd level-of-detail assets.");
-                ui.separator();
-                egui::Grid::new("controls").num_columns(2).show(ui, |ui| {
-                    for (k, v) in [
-                        ("Orbit", "left drag, or middle drag"),
-                        ("Pan", "shift + middle drag, or right drag"),
-                        ("Zoom", "mouse wheel"),
-                        ("Frame character", "F, or double-click"),
-                        ("Play / pause", "Space"),
-                        ("Step frame", "← / →"),
-                        ("Go to start", "Home"),
-                        ("New / Open / Save", "Ctrl+N / Ctrl+O / Ctrl+S"),
-                    ] {
-                        ui.label(k);
-                        ui.label(v);
-                        ui.end_row();
-                    }
+            egui::Window::new("Polypostor Studio")
+                .open(&mut self.show_about)
+                .collapsible(false)
+                .show(ctx, |ui| {
+                    ui.label(format!("Version {}", env!("CARGO_PKG_VERSION")));
+                    ui.label("Turns skinned, animated glTF characters into crowd level-of-detail assets.");
+                    ui.separator();
+                    egui::Grid::new("controls").num_columns(2).show(ui, |ui| {
+                        for (k, v) in [
+                            ("Orbit", "left drag, or middle drag"),
+                            ("Pan", "shift + middle drag, or right drag"),
+                            ("Zoom", "mouse wheel"),
+                            ("Frame character", "F, or double-click"),
+                            ("Play / pause", "Space"),
+                            ("Step frame", "← / →"),
+                            ("Go to start", "Home"),
+                            ("New / Open / Save", "Ctrl+N / Ctrl+O / Ctrl+S"),
+                        ] {
+                            ui.label(k);
+                            ui.label(v);
+                            ui.end_row();
+                        }
+                    });
                 });
-            });
         }
     }
 }
@@ -1124,8 +1052,8 @@ impl LoadRequest {
     fn run(self) -> Result<Loaded, String> {
         match self {
             LoadRequest::Gltf(path) => {
-                let character = polypostor::import_path(&path)
-                    .map_err(|e| format!("Cannot import {}:\n{e}", path.display()))?;
+                let character =
+                    polypostor::import_path(&path).map_err(|e| format!("Cannot import {}:\n{e}", path.display()))?;
                 let dir = path.parent().map(Path::to_owned).unwrap_or_default();
                 let name = path
                     .file_stem()
@@ -1176,8 +1104,7 @@ impl eframe::App for EditorApp {
         if let Some(doc) = &self.doc {
             let d = doc.clip_duration(self.playback.clip);
             if self.playback.playing && d > 0.0 {
-                self.playback.time_secs =
-                    (self.playback.time_secs + dt * self.playback.speed).rem_euclid(d);
+                self.playback.time_secs = (self.playback.time_secs + dt * self.playback.speed).rem_euclid(d);
             }
         }
 
@@ -1213,10 +1140,7 @@ impl eframe::App for EditorApp {
         self.dialogs(&ctx);
 
         // Keep animating while playing or loading.
-        if (self.playback.playing && self.doc.is_some())
-            || self.loading.is_some()
-            || self.dialog.is_some()
-        {
+        if (self.playback.playing && self.doc.is_some()) || self.loading.is_some() || self.dialog.is_some() {
             ctx.request_repaint();
         }
     }

@@ -62,11 +62,7 @@ fn open_default_project_switch_clip_and_toggle_play() {
     assert!(!h.state().playback.playing);
     let t = h.state().playback.time_secs;
     h.run_steps(3);
-    assert_eq!(
-        h.state().playback.time_secs,
-        t,
-        "time must not advance while paused"
-    );
+    assert_eq!(h.state().playback.time_secs, t, "time must not advance while paused");
     h.get_by_label("▶ Play").click();
     h.run_steps(2);
     assert!(h.state().playback.playing);
@@ -79,6 +75,9 @@ fn viewport_draws_the_character() {
     h.state_mut().send(Command::SetPlaying(false));
     h.run_steps(2);
     let image = h.render().expect("wgpu render");
+    if std::env::var_os("POLYPOSTOR_TEST_IMAGES").is_some() {
+        image.save(std::env::temp_dir().join("editor-viewport.png")).unwrap();
+    }
     // The viewport's middle column holds the character: bright, textured pixels over the
     // dark background, which the egui panels alone never paint there.
     let (w, hgt) = (image.width(), image.height());
@@ -91,10 +90,7 @@ fn viewport_draws_the_character() {
             }
         }
     }
-    assert!(
-        lit > 1500,
-        "the viewport shows no character ({lit} bright pixels)"
-    );
+    assert!(lit > 1500, "the viewport shows no character ({lit} bright pixels)");
 }
 
 #[test]
@@ -108,10 +104,7 @@ fn a_bad_file_shows_an_error_and_keeps_the_open_project() {
     h.run_steps(3);
     let app = h.state();
     let message = app.error.clone().expect("an error dialog");
-    assert!(
-        message.contains("GLB") || message.contains("glb"),
-        "{message}"
-    );
+    assert!(message.contains("GLB") || message.contains("glb"), "{message}");
     assert_eq!(
         app.doc.as_ref().unwrap().generation,
         before,
@@ -138,11 +131,7 @@ fn save_as_writes_a_project_that_reopens() {
     assert!(!h.state().doc.as_ref().unwrap().dirty);
     let (project, file) = polypostor::project::Project::load(&dir).unwrap();
     assert_eq!(project.view.clip.as_deref(), Some("Idle"));
-    assert!(
-        project.character_path(&file).exists(),
-        "{:?}",
-        project.character
-    );
+    assert!(project.character_path(&file).exists(), "{:?}", project.character);
     let mut again = harness(Some(dir.clone()));
     again.run_steps(3);
     assert_eq!(again.state().playback.clip, idle);

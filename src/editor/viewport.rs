@@ -10,8 +10,7 @@ use glam::Vec3;
 use polypostor::Character;
 use polypostor::animation::Pose;
 use polypostor::gpu::{
-    Camera, CharacterRenderer, DrawOptions, GpuCharacter, RenderTarget, Shading, SkinningMode,
-    gpu_data, shaders,
+    Camera, CharacterRenderer, DrawOptions, GpuCharacter, RenderTarget, Shading, SkinningMode, gpu_data, shaders,
 };
 
 /// What the viewport shows.
@@ -65,13 +64,7 @@ impl OrbitCamera {
     }
 
     pub fn camera(&self) -> Camera {
-        Camera::orbit(
-            self.target,
-            self.yaw_rad,
-            self.pitch_rad,
-            self.distance,
-            self.fov_y_rad,
-        )
+        Camera::orbit(self.target, self.yaw_rad, self.pitch_rad, self.distance, self.fov_y_rad)
     }
 
     pub fn orbit(&mut self, delta_px: egui::Vec2) {
@@ -84,8 +77,7 @@ impl OrbitCamera {
         let forward = (cam.target - cam.eye).normalize_or(Vec3::NEG_Z);
         let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
         let up = right.cross(forward);
-        let world_per_px =
-            2.0 * self.distance * (self.fov_y_rad * 0.5).tan() / viewport_height_px.max(1.0);
+        let world_per_px = 2.0 * self.distance * (self.fov_y_rad * 0.5).tan() / viewport_height_px.max(1.0);
         self.target += (-right * delta_px.x + up * delta_px.y) * world_per_px;
     }
 
@@ -268,11 +260,7 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
             ));
         }
         let [w, h] = [self.size_px[0].max(1), self.size_px[1].max(1)];
-        if res
-            .target
-            .as_ref()
-            .is_none_or(|t| t.width != w || t.height != h)
-        {
+        if res.target.as_ref().is_none_or(|t| t.width != w || t.height != h) {
             let target = RenderTarget::new(device, w, h);
             let group = |view: &wgpu::TextureView, offset: u64| {
                 device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -284,10 +272,7 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
                             resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                                 buffer: &res.blit_uniforms,
                                 offset,
-                                size: wgpu::BufferSize::new(std::mem::size_of::<
-                                    gpu_data::BlitUniforms,
-                                >()
-                                    as u64),
+                                size: wgpu::BufferSize::new(std::mem::size_of::<gpu_data::BlitUniforms>() as u64),
                             }),
                         },
                         wgpu::BindGroupEntry {
@@ -302,10 +287,7 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
                 })
             };
             // Uniform offsets must be 256-byte aligned: colour at 0, normals at 256.
-            res.blit_groups = Some((
-                group(&target.color_view, 0),
-                group(&target.normal_view, 256),
-            ));
+            res.blit_groups = Some((group(&target.color_view, 0), group(&target.normal_view, 256)));
             res.target = Some(target);
         }
         let encode_color = if res.target_is_srgb { 0.0 } else { 1.0 };
@@ -357,15 +339,7 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
             return;
         }
         pass.set_pipeline(&res.blit_pipeline);
-        pass.set_bind_group(
-            0,
-            if self.mode == ViewMode::Normals {
-                normal
-            } else {
-                color
-            },
-            &[],
-        );
+        pass.set_bind_group(0, if self.mode == ViewMode::Normals { normal } else { color }, &[]);
         pass.draw(0..3, 0..1);
     }
 }

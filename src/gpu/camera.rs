@@ -24,13 +24,7 @@ pub struct Camera {
 
 impl Camera {
     /// A perspective camera orbiting `target`: `yaw` about +Y (0 looks from +Z), `pitch` up.
-    pub fn orbit(
-        target: Vec3,
-        yaw_rad: f32,
-        pitch_rad: f32,
-        distance: f32,
-        fov_y_rad: f32,
-    ) -> Self {
+    pub fn orbit(target: Vec3, yaw_rad: f32, pitch_rad: f32, distance: f32, fov_y_rad: f32) -> Self {
         let dir = Vec3::new(
             pitch_rad.cos() * yaw_rad.sin(),
             pitch_rad.sin(),
@@ -86,9 +80,7 @@ impl Camera {
             1.0
         };
         match self.projection {
-            Projection::Perspective { fov_y_rad } => {
-                proj::perspective(fov_y_rad, aspect, self.near, self.far)
-            }
+            Projection::Perspective { fov_y_rad } => proj::perspective(fov_y_rad, aspect, self.near, self.far),
             Projection::Orthographic { half_height } => {
                 let hw = half_height * aspect;
                 proj::orthographic(-hw, hw, -half_height, half_height, self.near, self.far)
@@ -109,12 +101,7 @@ mod tests {
     fn target_projects_to_centre_at_mid_depth_range() {
         for cam in [
             Camera::orbit(Vec3::new(1.0, 2.0, 3.0), 0.7, 0.3, 5.0, 0.8),
-            Camera::ortho_framing(
-                Vec3::splat(-1.0),
-                Vec3::splat(1.0),
-                Vec3::new(0.3, 0.5, 1.0),
-                0.05,
-            ),
+            Camera::ortho_framing(Vec3::splat(-1.0), Vec3::splat(1.0), Vec3::new(0.3, 0.5, 1.0), 0.05),
         ] {
             let p = cam.clip_from_world(1.5).project_point3(cam.target);
             assert!(p.x.abs() < 1e-5 && p.y.abs() < 1e-5, "{p:?}");
@@ -136,9 +123,7 @@ mod tests {
                 );
                 let p = m.project_point3(c);
                 assert!(
-                    p.x.abs() <= 1.0 + 1e-5
-                        && p.y.abs() <= 1.0 + 1e-5
-                        && (0.0..=1.0).contains(&p.z),
+                    p.x.abs() <= 1.0 + 1e-5 && p.y.abs() <= 1.0 + 1e-5 && (0.0..=1.0).contains(&p.z),
                     "{dir:?} {p:?}"
                 );
             }

@@ -3,9 +3,7 @@
 use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
 
-use super::gpu_data::{
-    Attributes, Bones, FrameUniforms, MAX_BONES, MaterialUniforms, PositionNormal,
-};
+use super::gpu_data::{Attributes, Bones, FrameUniforms, MAX_BONES, MaterialUniforms, PositionNormal};
 use super::{Camera, DepthImage, GpuError, read_depth, read_rgba8, shaders};
 use crate::animation::{Pose, skin_vertices};
 use crate::character::{Character, Texture};
@@ -103,25 +101,13 @@ impl RenderTarget {
         }
     }
 
-    pub fn read_color(
-        &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-    ) -> Result<image::RgbaImage, GpuError> {
+    pub fn read_color(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<image::RgbaImage, GpuError> {
         read_rgba8(device, queue, &self.color)
     }
-    pub fn read_normal(
-        &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-    ) -> Result<image::RgbaImage, GpuError> {
+    pub fn read_normal(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<image::RgbaImage, GpuError> {
         read_rgba8(device, queue, &self.normal)
     }
-    pub fn read_depth(
-        &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-    ) -> Result<DepthImage, GpuError> {
+    pub fn read_depth(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<DepthImage, GpuError> {
         read_depth(device, queue, &self.depth)
     }
 }
@@ -389,9 +375,7 @@ impl CharacterRenderer {
             target.width as f32 / target.height as f32,
             options.shading,
         );
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("render"),
-        });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("render") });
         self.encode(&mut encoder, target, gpu, options);
         queue.submit([encoder.finish()]);
     }
@@ -478,12 +462,7 @@ fn upload_texture(device: &wgpu::Device, queue: &wgpu::Queue, t: &Texture) -> wg
 }
 
 impl GpuCharacter {
-    pub fn new(
-        renderer: &CharacterRenderer,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        c: &Character,
-    ) -> Self {
+    pub fn new(renderer: &CharacterRenderer, device: &wgpu::Device, queue: &wgpu::Queue, c: &Character) -> Self {
         let bind_pose: Vec<PositionNormal> = c
             .vertices
             .iter()
@@ -546,11 +525,7 @@ impl GpuCharacter {
             ],
         });
         let white = upload_texture(device, queue, &Texture::white());
-        let textures: Vec<wgpu::Texture> = c
-            .textures
-            .iter()
-            .map(|t| upload_texture(device, queue, t))
-            .collect();
+        let textures: Vec<wgpu::Texture> = c.textures.iter().map(|t| upload_texture(device, queue, t)).collect();
         let materials = c
             .materials
             .iter()
@@ -562,10 +537,7 @@ impl GpuCharacter {
                     }),
                     usage: wgpu::BufferUsages::UNIFORM,
                 });
-                let tex = m
-                    .base_color_texture
-                    .and_then(|i| textures.get(i))
-                    .unwrap_or(&white);
+                let tex = m.base_color_texture.and_then(|i| textures.get(i)).unwrap_or(&white);
                 let view = tex.create_view(&Default::default());
                 let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some(&m.name),
@@ -609,13 +581,7 @@ impl GpuCharacter {
     }
 
     /// Uploads a pose: bone matrices for GPU skinning, or CPU-skinned vertices.
-    pub fn set_pose(
-        &mut self,
-        queue: &wgpu::Queue,
-        character: &Character,
-        pose: &Pose,
-        mode: SkinningMode,
-    ) {
+    pub fn set_pose(&mut self, queue: &wgpu::Queue, character: &Character, pose: &Pose, mode: SkinningMode) {
         let mode = if self.needs_cpu_skinning() {
             SkinningMode::Cpu
         } else {

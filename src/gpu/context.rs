@@ -15,11 +15,7 @@ pub enum AdapterPreference {
 impl AdapterPreference {
     /// From `POLYPOSTOR_ADAPTER` (`gpu`, `cpu` or part of a name), else the default.
     pub fn from_env() -> Self {
-        match std::env::var("POLYPOSTOR_ADAPTER")
-            .ok()
-            .as_deref()
-            .map(str::trim)
-        {
+        match std::env::var("POLYPOSTOR_ADAPTER").ok().as_deref().map(str::trim) {
             None | Some("") | Some("gpu") | Some("hardware") => Self::HardwareFirst,
             Some("cpu") | Some("software") => Self::SoftwareFirst,
             Some(name) => Self::Named(name.to_string()),
@@ -75,10 +71,7 @@ impl GpuContext {
     /// A headless context on the preferred adapter.
     pub fn new(pref: &AdapterPreference) -> Result<Self, GpuError> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-        desc.backends &= wgpu::Backends::VULKAN
-            | wgpu::Backends::GL
-            | wgpu::Backends::METAL
-            | wgpu::Backends::DX12;
+        desc.backends &= wgpu::Backends::VULKAN | wgpu::Backends::GL | wgpu::Backends::METAL | wgpu::Backends::DX12;
         let instance = wgpu::Instance::new(desc);
         let mut adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
         if adapters.is_empty() {
@@ -97,8 +90,7 @@ impl GpuContext {
             let info = adapter.get_info();
             let desc = wgpu::DeviceDescriptor {
                 label: Some("polypostor"),
-                required_limits: wgpu::Limits::downlevel_defaults()
-                    .using_resolution(adapter.limits()),
+                required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),
                 ..Default::default()
             };
             match pollster::block_on(adapter.request_device(&desc)) {

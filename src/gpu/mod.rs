@@ -17,8 +17,8 @@ pub mod shaders;
 
 pub use camera::{Camera, Projection};
 pub use character_renderer::{
-    COLOR_FORMAT, CharacterRenderer, DEPTH_FORMAT, DrawOptions, GpuCharacter, NORMAL_FORMAT,
-    RenderTarget, Shading, SkinningMode,
+    COLOR_FORMAT, CharacterRenderer, DEPTH_FORMAT, DrawOptions, GpuCharacter, NORMAL_FORMAT, RenderTarget, Shading,
+    SkinningMode,
 };
 pub use context::{AdapterPreference, GpuContext, GpuError, rank_adapter};
 pub use readback::{DepthImage, read_depth, read_rgba8};

@@ -88,11 +88,7 @@ pub fn read_rgba8(
 }
 
 /// Reads a `Depth32Float` texture.
-pub fn read_depth(
-    device: &wgpu::Device,
-    queue: &wgpu::Queue,
-    texture: &wgpu::Texture,
-) -> Result<DepthImage, GpuError> {
+pub fn read_depth(device: &wgpu::Device, queue: &wgpu::Queue, texture: &wgpu::Texture) -> Result<DepthImage, GpuError> {
     let bytes = read_texture(device, queue, texture, wgpu::TextureAspect::DepthOnly, 4)?;
     let data = bytes
         .chunks_exact(4)

@@ -5,8 +5,4 @@ pub const GRID: &str = include_str!("../../shaders/grid.wgsl");
 pub const BLIT: &str = include_str!("../../shaders/blit.wgsl");
 
 /// Every shader with its file name (a test validates each one with naga).
-pub const ALL: &[(&str, &str)] = &[
-    ("character.wgsl", CHARACTER),
-    ("grid.wgsl", GRID),
-    ("blit.wgsl", BLIT),
-];
+pub const ALL: &[(&str, &str)] = &[("character.wgsl", CHARACTER), ("grid.wgsl", GRID), ("blit.wgsl", BLIT)];

@@ -34,9 +34,7 @@ pub fn parse<'a>(bytes: &'a [u8], warnings: &mut Vec<String>) -> Result<Glb<'a>,
     }
     let magic = u32_at(bytes, 0).unwrap_or(0);
     if magic != MAGIC {
-        return Err(err(format!(
-            "invalid magic 0x{magic:08X} (expected \"glTF\")"
-        )));
+        return Err(err(format!("invalid magic 0x{magic:08X} (expected \"glTF\")")));
     }
     let version = u32_at(bytes, 4).unwrap_or(0);
     if version != 2 {
@@ -71,24 +69,19 @@ pub fn parse<'a>(bytes: &'a [u8], warnings: &mut Vec<String>) -> Result<Glb<'a>,
     while at < data.len() {
         if data.len() - at < 8 {
             return Err(err(format!(
-                "chunk {index} header is truncated at byte {at}"
+                "chunk {index} header is truncated at byte {at} (total length declared: {declared})"
             )));
         }
         let length = u32_at(data, at).unwrap_or(0) as usize;
         let kind = u32_at(data, at + 4).unwrap_or(0);
         let start = at + 8;
-        let end = start
-            .checked_add(length)
-            .filter(|&e| e <= data.len())
-            .ok_or_else(|| {
-                err(format!(
-                    "chunk {index} of {length} bytes runs past the end of the file"
-                ))
-            })?;
+        let end = start.checked_add(length).filter(|&e| e <= data.len()).ok_or_else(|| {
+            err(format!(
+                "chunk {index} of {length} bytes runs past the declared end ({declared} bytes)"
+            ))
+        })?;
         if length % 4 != 0 {
-            return Err(err(format!(
-                "chunk {index} length {length} is not a multiple of 4"
-            )));
+            return Err(err(format!("chunk {index} length {length} is not a multiple of 4")));
         }
         let chunk = &data[start..end];
         match (index, kind) {

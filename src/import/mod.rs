@@ -19,8 +19,8 @@ use gltf::json;
 use json::validation::Checked;
 
 use crate::character::{
-    Bone, Channel, ChannelValues, Character, Clip, Interpolation, Material, Node, Skeleton,
-    Submesh, Texture, Transform, Vertex,
+    Bone, Channel, ChannelValues, Character, Clip, Interpolation, Material, Node, Skeleton, Submesh, Texture,
+    Transform, Vertex,
 };
 
 /// Largest file (and external buffer or image) the importer reads.
@@ -81,13 +81,11 @@ fn read_file(path: &Path) -> Result<Vec<u8>, ImportError> {
 
 /// Imports from bytes. `base_dir` resolves relative URIs of external buffers and images
 /// (`None`: only embedded data is allowed).
-pub fn import_slice(
-    bytes: &[u8],
-    base_dir: Option<&Path>,
-    name: &str,
-) -> Result<Character, ImportError> {
+pub fn import_slice(bytes: &[u8], base_dir: Option<&Path>, name: &str) -> Result<Character, ImportError> {
     let mut warnings = Vec::new();
-    let (json_bytes, bin) = if glb::looks_like_glb(bytes) {
+    // A binary file that is not JSON is read as GLB, so a bad header is reported as such.
+    let binary = !bytes.starts_with(&[0xEF, 0xBB, 0xBF]) && bytes.iter().take(12).any(|&b| b == 0 || b >= 0x80);
+    let (json_bytes, bin) = if glb::looks_like_glb(bytes) || binary {
         let g = glb::parse(bytes, &mut warnings)?;
         (g.json, g.bin)
     } else {
@@ -101,13 +99,12 @@ pub fn import_slice(
             "the JSON starts with a byte-order mark (BOM), which glTF forbids".into(),
         ));
     }
-    let root: json::Root =
-        json::deserialize::from_slice(json_bytes).map_err(|e| ImportError::Json(e.to_string()))?;
+    let root: json::Root = json::deserialize::from_slice(json_bytes).map_err(|e| ImportError::Json(e.to_string()))?;
     check_asset(&root, &mut warnings)?;
-    let doc = gltf::Document::from_json(root)
-        .map_err(|e| ImportError::Validation(describe_validation(e)))?;
-    let root = doc.into_json();
-    let buffers = load_buffers(&root, bin, base_dir)?;
+    // Every index is checked where it is used (`get`, never `[]`), so no separate
+    // validation pass is needed; gltf's own is stricter than the spec (it rejects accessors
+    // without a bufferView) and indexes unchecked in places.
+    let buffers = load_buffers(&root, bin, base_dir);
     Builder {
         root: &root,
         buffers: &buffers,
@@ -115,23 +112,6 @@ pub fn import_slice(
         warnings,
     }
     .build(name)
-}
-
-fn describe_validation(e: gltf::Error) -> String {
-    match e {
-        gltf::Error::Validation(list) => {
-            let mut parts: Vec<String> = list
-                .iter()
-                .take(8)
-                .map(|(path, err)| format!("{path}: {err}"))
-                .collect();
-            if list.len() > 8 {
-                parts.push(format!("… and {} more", list.len() - 8));
-            }
-            parts.join("; ")
-        }
-        other => other.to_string(),
-    }
 }
 
 fn check_asset(root: &json::Root, warnings: &mut Vec<String>) -> Result<(), ImportError> {
@@ -180,9 +160,7 @@ fn check_asset(root: &json::Root, warnings: &mut Vec<String>) -> Result<(), Impo
                 warnings.push(format!("required extension {e} is ignored"));
             }
             e => {
-                return Err(ImportError::Unsupported(format!(
-                    "the file requires extension {e}"
-                )));
+                return Err(ImportError::Unsupported(format!("the file requires extension {e}")));
             }
         }
     }
@@ -234,10 +212,7 @@ fn resolve_uri(uri: &str, base_dir: Option<&Path>) -> Result<PathBuf, String> {
     }
     if let Some(colon) = uri.find(':') {
         let scheme = &uri[..colon];
-        let is_scheme = !scheme.is_empty()
-            && scheme
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c));
+        let is_scheme = !scheme.is_empty() && scheme.chars().all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c));
         if is_scheme || colon == 0 {
             return Err(format!(
                 "URI '{uri}' is not a relative file reference (only relative paths and data URIs are read)"
@@ -249,8 +224,7 @@ fn resolve_uri(uri: &str, base_dir: Option<&Path>) -> Result<PathBuf, String> {
     if rel.is_absolute() {
         return Err(format!("URI '{uri}' is an absolute path"));
     }
-    let base = base_dir
-        .ok_or_else(|| format!("URI '{uri}' refers to an external file, but no folder is known"))?;
+    let base = base_dir.ok_or_else(|| format!("URI '{uri}' refers to an external file, but no folder is known"))?;
     Ok(base.join(rel))
 }
 
@@ -262,25 +236,16 @@ fn load_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>, String> {
     read_file(&path).map_err(|e| e.to_string())
 }
 
-fn load_buffers(
-    root: &json::Root,
-    bin: Option<&[u8]>,
-    base_dir: Option<&Path>,
-) -> Result<Vec<Vec<u8>>, ImportError> {
-    let mut out = Vec::with_capacity(root.buffers.len());
-    for (index, b) in root.buffers.iter().enumerate() {
+/// Loads every buffer. A buffer that cannot be loaded is kept as its error, reported only
+/// if the character actually reads from it.
+fn load_buffers(root: &json::Root, bin: Option<&[u8]>, base_dir: Option<&Path>) -> Vec<Result<Vec<u8>, ImportError>> {
+    let load = |index: usize, b: &json::buffer::Buffer| -> Result<Vec<u8>, ImportError> {
         let err = |message: String| ImportError::Buffer { index, message };
         let mut data = match &b.uri {
             None => match (index, bin) {
                 (0, Some(bin)) => bin.to_vec(),
-                (0, None) => {
-                    return Err(err("has no URI and the file has no GLB BIN chunk".into()));
-                }
-                _ => {
-                    return Err(err(
-                        "has no URI (only buffer 0 may refer to the GLB BIN chunk)".into(),
-                    ));
-                }
+                (0, None) => return Err(err("has no URI and the file has no GLB BIN chunk".into())),
+                _ => return Err(err("has no URI (only buffer 0 may refer to the GLB BIN chunk)".into())),
             },
             Some(uri) => load_uri(uri, base_dir).map_err(err)?,
         };
@@ -292,9 +257,9 @@ fn load_buffers(
             )));
         }
         data.truncate(declared as usize);
-        out.push(data);
-    }
-    Ok(out)
+        Ok(data)
+    };
+    root.buffers.iter().enumerate().map(|(i, b)| load(i, b)).collect()
 }
 
 fn node_local(n: &json::scene::Node) -> Transform {
@@ -306,9 +271,7 @@ fn node_local(n: &json::scene::Node) -> Transform {
         return Transform::IDENTITY;
     }
     let translation = n.translation.map_or(Vec3::ZERO, Vec3::from_array);
-    let rotation = n
-        .rotation
-        .map_or(Quat::IDENTITY, |q| Quat::from_array(q.0).normalize());
+    let rotation = n.rotation.map_or(Quat::IDENTITY, |q| Quat::from_array(q.0).normalize());
     let scale = n.scale.map_or(Vec3::ONE, Vec3::from_array);
     Transform {
         translation: if translation.is_finite() {
@@ -316,11 +279,7 @@ fn node_local(n: &json::scene::Node) -> Transform {
         } else {
             Vec3::ZERO
         },
-        rotation: if rotation.is_finite() {
-            rotation
-        } else {
-            Quat::IDENTITY
-        },
+        rotation: if rotation.is_finite() { rotation } else { Quat::IDENTITY },
         scale: if scale.is_finite() { scale } else { Vec3::ONE },
     }
 }
@@ -335,7 +294,7 @@ enum Binding {
 
 struct Builder<'a> {
     root: &'a json::Root,
-    buffers: &'a [Vec<u8>],
+    buffers: &'a [Result<Vec<u8>, ImportError>],
     base_dir: Option<&'a Path>,
     warnings: Vec<String>,
 }
@@ -356,17 +315,13 @@ impl Builder<'_> {
             for c in node.children.iter().flatten() {
                 let c = c.value();
                 if c >= n {
-                    return Err(ImportError::Invalid(format!(
-                        "node {i} has missing child {c}"
-                    )));
+                    return Err(ImportError::Invalid(format!("node {i} has missing child {c}")));
                 }
                 if c == i {
                     return Err(ImportError::Invalid(format!("node {i} is its own child")));
                 }
                 if let Some(p) = parent[c] {
-                    return Err(ImportError::Invalid(format!(
-                        "node {c} has two parents ({p} and {i})"
-                    )));
+                    return Err(ImportError::Invalid(format!("node {c} has two parents ({p} and {i})")));
                 }
                 parent[c] = Some(i);
             }
@@ -395,29 +350,24 @@ impl Builder<'_> {
                 .root
                 .scene
                 .map(|s| s.value())
-                .or(if self.root.scenes.is_empty() {
-                    None
-                } else {
-                    Some(0)
-                }) {
+                .or(if self.root.scenes.is_empty() { None } else { Some(0) })
+            {
                 Some(s) => {
-                    let scene = self.root.scenes.get(s).ok_or_else(|| {
-                        ImportError::Invalid(format!("default scene {s} does not exist"))
-                    })?;
+                    let scene = self
+                        .root
+                        .scenes
+                        .get(s)
+                        .ok_or_else(|| ImportError::Invalid(format!("default scene {s} does not exist")))?;
                     scene.nodes.iter().map(|n| n.value()).collect()
                 }
-                None => (0..self.root.nodes.len())
-                    .filter(|&i| parent[i].is_none())
-                    .collect(),
+                None => (0..self.root.nodes.len()).filter(|&i| parent[i].is_none()).collect(),
             };
         let mut out = Vec::new();
         let mut seen = vec![false; self.root.nodes.len()];
         let mut stack: Vec<usize> = roots.into_iter().rev().collect();
         while let Some(i) = stack.pop() {
             let Some(node) = self.root.nodes.get(i) else {
-                return Err(ImportError::Invalid(format!(
-                    "scene refers to missing node {i}"
-                )));
+                return Err(ImportError::Invalid(format!("scene refers to missing node {i}")));
             };
             if std::mem::replace(&mut seen[i], true) {
                 continue; // listed twice in the scene; already taken
@@ -439,7 +389,16 @@ impl Builder<'_> {
             .copied()
             .filter(|&i| root.nodes[i].mesh.is_some())
             .collect();
-        if mesh_nodes.is_empty() {
+        // A file with meshes but no nodes at all: the meshes as they are, static.
+        let instances: Vec<(Option<usize>, usize)> = if root.nodes.is_empty() {
+            (0..root.meshes.len()).map(|m| (None, m)).collect()
+        } else {
+            mesh_nodes
+                .iter()
+                .map(|&n| (Some(n), root.nodes[n].mesh.map_or(usize::MAX, |x| x.value())))
+                .collect()
+        };
+        if instances.is_empty() {
             return Err(ImportError::NoGeometry);
         }
         let any_skin = mesh_nodes.iter().any(|&i| root.nodes[i].skin.is_some());
@@ -447,12 +406,7 @@ impl Builder<'_> {
         // Rest world matrices of every node (used for skinless files and checks).
         let locals: Vec<Transform> = root.nodes.iter().map(node_local).collect();
         let mut world_rest: Vec<Option<Mat4>> = vec![None; root.nodes.len()];
-        fn world_of(
-            i: usize,
-            parent: &[Option<usize>],
-            locals: &[Transform],
-            memo: &mut [Option<Mat4>],
-        ) -> Mat4 {
+        fn world_of(i: usize, parent: &[Option<usize>], locals: &[Transform], memo: &mut [Option<Mat4>]) -> Mat4 {
             // Iterative: collect the chain up to a known ancestor.
             let mut chain = vec![i];
             let mut at = i;
@@ -538,17 +492,22 @@ impl Builder<'_> {
                     at = parent[i];
                 }
             }
-            // Parents first: order by depth, then index.
-            let depth = |mut i: usize| {
-                let mut d = 0;
-                while let Some(p) = parent[i] {
-                    d += 1;
-                    i = p;
-                }
-                d
-            };
-            let mut order: Vec<usize> = (0..root.nodes.len()).filter(|&i| needed[i]).collect();
-            order.sort_by_key(|&i| (depth(i), i));
+            // Parents first, otherwise in file order (a file that already lists parents
+            // first keeps its order). The hierarchy is a forest, so each pass emits at least
+            // one node.
+            let mut order: Vec<usize> = Vec::new();
+            let mut emitted = vec![false; root.nodes.len()];
+            let mut pending: Vec<usize> = (0..root.nodes.len()).filter(|&i| needed[i]).collect();
+            while !pending.is_empty() {
+                pending.retain(|&i| {
+                    let ready = parent[i].is_none_or(|p| emitted[p]);
+                    if ready {
+                        emitted[i] = true;
+                        order.push(i);
+                    }
+                    !ready
+                });
+            }
             let mut new_index: HashMap<usize, usize> = HashMap::new();
             let mut is_joint = vec![false; root.nodes.len()];
             for &j in &joint_nodes {
@@ -623,20 +582,17 @@ impl Builder<'_> {
         let mut textures: Vec<Texture> = Vec::new();
         let mut texture_map: HashMap<usize, Option<usize>> = HashMap::new();
 
-        for &m in &mesh_nodes {
-            let node = &root.nodes[m];
-            let mesh_index = node.mesh.map(|x| x.value()).unwrap_or(0);
-            let mesh = root.meshes.get(mesh_index).ok_or_else(|| {
-                ImportError::Invalid(format!("node {m} refers to missing mesh {mesh_index}"))
-            })?;
-            let mesh_name = mesh
-                .name
-                .clone()
-                .unwrap_or_else(|| format!("mesh {mesh_index}"));
-            let static_world = if any_skin {
-                None
-            } else {
-                Some(world_of(m, &parent, &locals, &mut world_rest))
+        for &(node, mesh_index) in &instances {
+            let m = node.unwrap_or(usize::MAX);
+            let mesh = root
+                .meshes
+                .get(mesh_index)
+                .ok_or_else(|| ImportError::Invalid(format!("node {m} refers to missing mesh {mesh_index}")))?;
+            let mesh_name = mesh.name.clone().unwrap_or_else(|| format!("mesh {mesh_index}"));
+            let static_world = match (any_skin, node) {
+                (true, _) => None,
+                (false, Some(n)) => Some(world_of(n, &parent, &locals, &mut world_rest)),
+                (false, None) => Some(Mat4::IDENTITY),
             };
             for (pi, prim) in mesh.primitives.iter().enumerate() {
                 let what = format!("mesh '{mesh_name}' primitive {pi}");
@@ -650,10 +606,7 @@ impl Builder<'_> {
                     }
                 };
                 use json::mesh::{Mode, Semantic};
-                if !matches!(
-                    mode,
-                    Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
-                ) {
+                if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
                     self.warn(format!(
                         "{what}: {mode:?} primitives are not triangles and were skipped"
                     ));
@@ -666,9 +619,7 @@ impl Builder<'_> {
                 };
                 let positions = accessor::read_f32(root, self.buffers, pos_acc)?;
                 if positions.components != 3 {
-                    return Err(ImportError::Invalid(format!(
-                        "{what}: POSITION must be VEC3"
-                    )));
+                    return Err(ImportError::Invalid(format!("{what}: POSITION must be VEC3")));
                 }
                 let n = positions.count();
                 if positions.data.iter().any(|x| !x.is_finite()) {
@@ -676,29 +627,28 @@ impl Builder<'_> {
                         "{what}: POSITION holds non-finite values"
                     )));
                 }
-                let read_attr =
-                    |s: Semantic,
-                     comps: &[usize],
-                     this: &mut Self|
-                     -> Result<Option<accessor::Values<f32>>, ImportError> {
-                        let Some(a) = attr(s.clone()) else {
-                            return Ok(None);
-                        };
-                        let v = accessor::read_f32(root, this.buffers, a)?;
-                        if !comps.contains(&v.components) {
-                            return Err(ImportError::Invalid(format!(
-                                "{what}: {s:?} has {} components",
-                                v.components
-                            )));
-                        }
-                        if v.count() != n {
-                            return Err(ImportError::Invalid(format!(
-                                "{what}: {s:?} has {} elements, POSITION has {n}",
-                                v.count()
-                            )));
-                        }
-                        Ok(Some(v))
+                let read_attr = |s: Semantic,
+                                 comps: &[usize],
+                                 this: &mut Self|
+                 -> Result<Option<accessor::Values<f32>>, ImportError> {
+                    let Some(a) = attr(s.clone()) else {
+                        return Ok(None);
                     };
+                    let v = accessor::read_f32(root, this.buffers, a)?;
+                    if !comps.contains(&v.components) {
+                        return Err(ImportError::Invalid(format!(
+                            "{what}: {s:?} has {} components",
+                            v.components
+                        )));
+                    }
+                    if v.count() != n {
+                        return Err(ImportError::Invalid(format!(
+                            "{what}: {s:?} has {} elements, POSITION has {n}",
+                            v.count()
+                        )));
+                    }
+                    Ok(Some(v))
+                };
                 let normals = read_attr(Semantic::Normals, &[3], &mut self)?;
                 let uvs = read_attr(Semantic::TexCoords(0), &[2], &mut self)?;
                 let colors = read_attr(Semantic::Colors(0), &[3, 4], &mut self)?;
@@ -726,9 +676,7 @@ impl Builder<'_> {
                     Some(a) => {
                         let v = accessor::read_u32(root, self.buffers, a.value())?;
                         if v.components != 1 {
-                            return Err(ImportError::Invalid(format!(
-                                "{what}: indices must be SCALAR"
-                            )));
+                            return Err(ImportError::Invalid(format!("{what}: indices must be SCALAR")));
                         }
                         v.data
                     }
@@ -745,23 +693,20 @@ impl Builder<'_> {
                     continue;
                 }
 
-                let binding = bindings.get(&m);
+                let binding = match node {
+                    Some(n) => bindings.get(&n),
+                    None => Some(&Binding::Rigid(0)),
+                };
                 let base = vertices.len() as u32;
                 let mut bad_weights = false;
                 for i in 0..n {
                     let mut position = Vec3::from_array(positions.get::<3>(i));
-                    let mut normal = normals
-                        .as_ref()
-                        .map_or(Vec3::ZERO, |v| Vec3::from_array(v.get::<3>(i)));
+                    let mut normal = normals.as_ref().map_or(Vec3::ZERO, |v| Vec3::from_array(v.get::<3>(i)));
                     if !normal.is_finite() {
                         normal = Vec3::ZERO;
                     }
                     let uv = uvs.as_ref().map_or([0.0; 2], |v| v.get::<2>(i));
-                    let uv = if uv.iter().all(|x| x.is_finite()) {
-                        uv
-                    } else {
-                        [0.0; 2]
-                    };
+                    let uv = if uv.iter().all(|x| x.is_finite()) { uv } else { [0.0; 2] };
                     let color = match &colors {
                         Some(c) if c.components == 3 => {
                             let [r, g, b] = c.get::<3>(i);
@@ -801,7 +746,9 @@ impl Builder<'_> {
                                 }
                             }
                             _ => {
-                                self.warn(format!("{what}: skinned without JOINTS_0/WEIGHTS_0; bound to the first joint"));
+                                self.warn(format!(
+                                    "{what}: skinned without JOINTS_0/WEIGHTS_0; bound to the first joint"
+                                ));
                                 ([slots[0], 0, 0, 0], [1.0, 0.0, 0.0, 0.0])
                             }
                         },
@@ -822,9 +769,7 @@ impl Builder<'_> {
                     });
                 }
                 if bad_weights {
-                    self.warn(format!(
-                        "{what}: vertices with zero weights bound to their first joint"
-                    ));
+                    self.warn(format!("{what}: vertices with zero weights bound to their first joint"));
                 }
                 // Mirrored node transforms flip the winding.
                 let flip = static_world.is_some_and(|w| w.determinant() < 0.0);
@@ -837,11 +782,7 @@ impl Builder<'_> {
                     }
                 }
                 if normals.is_none() {
-                    compute_normals(
-                        &mut vertices[base as usize..],
-                        &indices[first_index as usize..],
-                        base,
-                    );
+                    compute_normals(&mut vertices[base as usize..], &indices[first_index as usize..], base);
                 }
                 let mat_index = prim.material.map(|x| x.value());
                 let material = match material_map.get(&mat_index) {
@@ -915,7 +856,9 @@ impl Builder<'_> {
                                 Some(textures.len() - 1)
                             }
                             Err(e) => {
-                                self.warn(format!("material {i}: base colour texture {t} could not be loaded ({e}); using white"));
+                                self.warn(format!(
+                                    "material {i}: base colour texture {t} could not be loaded ({e}); using white"
+                                ));
                                 None
                             }
                         };
@@ -951,9 +894,7 @@ impl Builder<'_> {
                 .to_vec(),
             (None, Some(uri)) => load_uri(uri, self.base_dir)?,
             (None, None) => {
-                return Err(format!(
-                    "image {img_index} has neither a bufferView nor a URI"
-                ));
+                return Err(format!("image {img_index} has neither a bufferView nor a URI"));
             }
         };
         let mut reader = image::ImageReader::new(std::io::Cursor::new(&bytes[..]))
@@ -971,12 +912,7 @@ impl Builder<'_> {
         let name = img
             .name
             .clone()
-            .or_else(|| {
-                img.uri
-                    .as_ref()
-                    .filter(|u| !u.starts_with("data:"))
-                    .cloned()
-            })
+            .or_else(|| img.uri.as_ref().filter(|u| !u.starts_with("data:")).cloned())
             .unwrap_or_else(|| format!("image {img_index}"));
         Ok(Texture {
             name,
@@ -986,19 +922,12 @@ impl Builder<'_> {
         })
     }
 
-    fn clips(
-        &mut self,
-        node_map: &HashMap<usize, usize>,
-        any_skin: bool,
-    ) -> Result<Vec<Clip>, ImportError> {
+    fn clips(&mut self, node_map: &HashMap<usize, usize>, any_skin: bool) -> Result<Vec<Clip>, ImportError> {
         let root = self.root;
         let mut clips = Vec::new();
         let mut skipped_skinless = 0usize;
         for (ai, anim) in root.animations.iter().enumerate() {
-            let name = anim
-                .name
-                .clone()
-                .unwrap_or_else(|| format!("Animation {ai}"));
+            let name = anim.name.clone().unwrap_or_else(|| format!("Animation {ai}"));
             let mut channels = Vec::new();
             let mut duration = 0.0f32;
             for (ci, ch) in anim.channels.iter().enumerate() {
@@ -1018,9 +947,7 @@ impl Builder<'_> {
                         continue;
                     }
                 };
-                if times.iter().any(|t| !t.is_finite() || *t < 0.0)
-                    || times.windows(2).any(|w| w[1] <= w[0])
-                {
+                if times.iter().any(|t| !t.is_finite() || *t < 0.0) || times.windows(2).any(|w| w[1] <= w[0]) {
                     self.warn(format!(
                         "{what}: key times are not non-negative and strictly increasing; skipped"
                     ));
@@ -1038,9 +965,7 @@ impl Builder<'_> {
                 };
                 use json::animation::Property;
                 if path == Property::MorphTargetWeights {
-                    self.warn(format!(
-                        "animation '{name}': morph target weights are ignored"
-                    ));
+                    self.warn(format!("animation '{name}': morph target weights are ignored"));
                     continue;
                 }
                 let file_node = ch.target.node.value();
@@ -1056,9 +981,7 @@ impl Builder<'_> {
                 let interpolation = match sampler.interpolation {
                     Checked::Valid(json::animation::Interpolation::Linear) => Interpolation::Linear,
                     Checked::Valid(json::animation::Interpolation::Step) => Interpolation::Step,
-                    Checked::Valid(json::animation::Interpolation::CubicSpline) => {
-                        Interpolation::CubicSpline
-                    }
+                    Checked::Valid(json::animation::Interpolation::CubicSpline) => Interpolation::CubicSpline,
                     Checked::Invalid => {
                         self.warn(format!("{what}: invalid interpolation; skipped"));
                         continue;
@@ -1091,12 +1014,10 @@ impl Builder<'_> {
                     continue;
                 }
                 let values = match path {
-                    Property::Translation => ChannelValues::Translation(
-                        out.data.chunks_exact(3).map(Vec3::from_slice).collect(),
-                    ),
-                    Property::Scale => ChannelValues::Scale(
-                        out.data.chunks_exact(3).map(Vec3::from_slice).collect(),
-                    ),
+                    Property::Translation => {
+                        ChannelValues::Translation(out.data.chunks_exact(3).map(Vec3::from_slice).collect())
+                    }
+                    Property::Scale => ChannelValues::Scale(out.data.chunks_exact(3).map(Vec3::from_slice).collect()),
                     Property::Rotation => ChannelValues::Rotation(
                         out.data
                             .chunks_exact(4)
@@ -1104,11 +1025,7 @@ impl Builder<'_> {
                             .map(|(k, q)| {
                                 let q = Quat::from_slice(q);
                                 // Tangents of cubic splines are not unit quaternions.
-                                if per_key == 3 && k % 3 != 1 {
-                                    q
-                                } else {
-                                    q.normalize()
-                                }
+                                if per_key == 3 && k % 3 != 1 { q } else { q.normalize() }
                             })
                             .map(|q| if q.is_finite() { q } else { Quat::IDENTITY })
                             .collect(),
@@ -1179,8 +1096,7 @@ fn compute_normals(vertices: &mut [Vertex], indices: &[u32], base: u32) {
     let mut acc = vec![Vec3::ZERO; vertices.len()];
     for t in indices.chunks_exact(3) {
         let [a, b, c] = [t[0] - base, t[1] - base, t[2] - base].map(|x| x as usize);
-        let n = (vertices[b].position - vertices[a].position)
-            .cross(vertices[c].position - vertices[a].position);
+        let n = (vertices[b].position - vertices[a].position).cross(vertices[c].position - vertices[a].position);
         for i in [a, b, c] {
             acc[i] += n;
         }
