@@ -34,7 +34,7 @@ pub struct Summary {
     pub materials: usize,
     pub clips: Vec<ClipSummary>,
     pub textures: Vec<TextureSummary>,
-    /// Bind-pose bounds: `[min, max]`.
+    /// Rest-pose bounds in scene units: `[min, max]`.
     pub bounds_min: [f32; 3],
     pub bounds_max: [f32; 3],
     pub warnings: Vec<String>,
@@ -42,7 +42,10 @@ pub struct Summary {
 
 impl Summary {
     pub fn of(c: &Character) -> Self {
-        let (min, max) = c.bind_bounds();
+        // Bounds of the rest pose as it stands in the scene (bind-space coordinates can be
+        // in any unit, scaled by the skeleton).
+        let pose = crate::animation::Pose::rest(c);
+        let (min, max) = super::bounds(crate::animation::skin_vertices(c, &pose).0);
         Self {
             name: c.name.clone(),
             vertices: c.vertices.len(),

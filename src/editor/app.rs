@@ -81,6 +81,14 @@ impl PathPurpose {
 struct PathPrompt {
     purpose: PathPurpose,
     text: String,
+    /// Focus is given to the text field once, when the prompt opens.
+    focused: bool,
+}
+
+impl PathPrompt {
+    fn new(purpose: PathPurpose) -> Self {
+        Self { purpose, text: String::new(), focused: false }
+    }
 }
 
 struct Loading {
@@ -415,6 +423,7 @@ impl EditorApp {
             dirty: loaded.project_file.is_none(),
             project_file: loaded.project_file,
             character_path: loaded.character_path,
+            summary: loaded.character.summary(),
             character: Arc::new(loaded.character),
             generation,
         });
@@ -450,10 +459,7 @@ impl EditorApp {
         match spawned {
             Ok(_) => self.dialog = Some((purpose, Instant::now(), rx)),
             Err(_) => {
-                self.prompt = Some(PathPrompt {
-                    purpose,
-                    text: String::new(),
-                })
+                self.prompt = Some(PathPrompt::new(purpose))
             }
         }
     }
@@ -474,10 +480,7 @@ impl EditorApp {
                 let purpose = *purpose;
                 self.dialog = None;
                 if instant {
-                    self.prompt = Some(PathPrompt {
-                        purpose,
-                        text: String::new(),
-                    });
+                    self.prompt = Some(PathPrompt::new(purpose));
                 }
             }
             Err(std::sync::mpsc::TryRecvError::Empty) => {}
@@ -574,10 +577,7 @@ impl EditorApp {
                     self.ask_path(PathPurpose::Open);
                 }
                 if ui.button("Open path…").clicked() {
-                    self.prompt = Some(PathPrompt {
-                        purpose: PathPurpose::Open,
-                        text: String::new(),
-                    });
+                    self.prompt = Some(PathPrompt::new(PathPurpose::Open));
                 }
                 ui.menu_button("Open recent", |ui| {
                     if self.settings.recent.is_empty() {
@@ -604,10 +604,7 @@ impl EditorApp {
                     self.ask_path(PathPurpose::SaveAs);
                 }
                 if ui.add_enabled(has_doc, egui::Button::new("Save As path…")).clicked() {
-                    self.prompt = Some(PathPrompt {
-                        purpose: PathPurpose::SaveAs,
-                        text: String::new(),
-                    });
+                    self.prompt = Some(PathPrompt::new(PathPurpose::SaveAs));
                 }
                 ui.separator();
                 if ui.add(egui::Button::new("Quit").shortcut_text("Ctrl+Q")).clicked() {
@@ -711,7 +708,7 @@ impl EditorApp {
                 commands.push(Command::StepFrames(1));
             }
             let mut t = self.playback.time_secs;
-            let width = (ui.available_width() - 330.0).max(120.0);
+            let width = (ui.available_width() - 420.0).max(120.0);
             ui.spacing_mut().slider_width = width;
             let slider = ui.add_enabled(
                 duration > 0.0,
@@ -752,7 +749,7 @@ impl EditorApp {
             return;
         };
         let c = doc.character.clone();
-        let s = c.summary();
+        let s = doc.summary.clone();
         ui.heading(&s.name);
         ui.label(
             egui::RichText::new(doc.character_path.display().to_string())
@@ -971,8 +968,11 @@ impl EditorApp {
                         .hint_text(prompt.purpose.hint())
                         .desired_width(500.0),
                 );
-                edit.request_focus();
-                let enter = edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+                if !prompt.focused {
+                    edit.request_focus();
+                    prompt.focused = true;
+                }
+                let enter = (edit.has_focus() || edit.lost_focus()) && ui.input(|i| i.key_pressed(egui::Key::Enter));
                 ui.horizontal(|ui| {
                     if ui.button("OK").clicked() || enter {
                         submit = Some((prompt.purpose, prompt.text.trim().to_string()));
@@ -1072,6 +1072,7 @@ impl LoadRequest {
             LoadRequest::Project(path) => {
                 let (project, file) = Project::load(&path).map_err(|e| e.to_string())?;
                 let character_path = project.character_path(&file);
+                let character_path = std::fs::canonicalize(&character_path).unwrap_or(character_path);
                 let character = polypostor::import_path(&character_path).map_err(|e| {
                     format!(
                         "Project {} refers to a character that cannot be imported:\n{e}",

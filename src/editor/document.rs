@@ -33,6 +33,8 @@ pub struct Document {
     /// The character file the project points at (absolute).
     pub character_path: PathBuf,
     pub character: Arc<Character>,
+    /// Computed once on load (the side panel shows it every frame).
+    pub summary: polypostor::character::Summary,
     /// Unsaved changes.
     pub dirty: bool,
     /// Increases with every loaded character (the viewport re-uploads on change).

@@ -926,6 +926,7 @@ impl Builder<'_> {
         let root = self.root;
         let mut clips = Vec::new();
         let mut skipped_skinless = 0usize;
+        let mut morph_clips: Vec<String> = Vec::new();
         for (ai, anim) in root.animations.iter().enumerate() {
             let name = anim.name.clone().unwrap_or_else(|| format!("Animation {ai}"));
             let mut channels = Vec::new();
@@ -965,7 +966,9 @@ impl Builder<'_> {
                 };
                 use json::animation::Property;
                 if path == Property::MorphTargetWeights {
-                    self.warn(format!("animation '{name}': morph target weights are ignored"));
+                    if !morph_clips.contains(&name) {
+                        morph_clips.push(name.clone());
+                    }
                     continue;
                 }
                 let file_node = ch.target.node.value();
@@ -1045,6 +1048,13 @@ impl Builder<'_> {
                 channels,
             });
         }
+        if !morph_clips.is_empty() {
+            self.warn(format!(
+                "morph target weight channels are ignored ({} clips: {})",
+                morph_clips.len(),
+                morph_clips.join(", ")
+            ));
+        }
         if skipped_skinless > 0 {
             self.warn(format!(
                 "the file has no skin: imported as a rigid one-joint character; {skipped_skinless} node animation channels do not move it"
@@ -1059,7 +1069,8 @@ fn scene_name(root: &json::Root) -> Option<String> {
     root.scenes
         .get(s)
         .and_then(|s| s.name.clone())
-        .filter(|n| !n.is_empty() && n != "Scene")
+        // Exporters' generic scene names say nothing; the file name is better then.
+        .filter(|n| !n.is_empty() && !n.to_lowercase().contains("scene") && n != "Root")
 }
 
 /// Converts strips and fans to a triangle list, dropping degenerate index triples.
