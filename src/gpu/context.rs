@@ -70,13 +70,24 @@ pub struct GpuContext {
 impl GpuContext {
     /// A headless context on the preferred adapter.
     pub fn new(pref: &AdapterPreference) -> Result<Self, GpuError> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-        desc.backends &= wgpu::Backends::VULKAN | wgpu::Backends::GL | wgpu::Backends::METAL | wgpu::Backends::DX12;
-        let instance = wgpu::Instance::new(desc);
-        let mut adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
-        if adapters.is_empty() {
-            return Err(GpuError::NoAdapter);
+        // Native backends first; OpenGL only when none of them has an adapter (probing GL
+        // needlessly costs time and prints driver noise).
+        let native = wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12;
+        let mut found = None;
+        for backends in [native, wgpu::Backends::GL] {
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+            desc.backends &= backends;
+            if desc.backends.is_empty() {
+                continue;
+            }
+            let instance = wgpu::Instance::new(desc);
+            let adapters = pollster::block_on(instance.enumerate_adapters(backends));
+            if !adapters.is_empty() {
+                found = Some((instance, adapters));
+                break;
+            }
         }
+        let Some((instance, mut adapters)) = found else { return Err(GpuError::NoAdapter) };
         if let AdapterPreference::Named(name) = pref {
             let needle = name.to_lowercase();
             adapters.retain(|a| a.get_info().name.to_lowercase().contains(&needle));

@@ -1,0 +1,87 @@
+//! The `polypostor` command line: `inspect` prints the summary (text or JSON) and exits 1 with
+//! the error on bad input, never 101 (a panic).
+
+mod common;
+
+use std::process::Command;
+
+fn polypostor(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_polypostor")).args(args).output().expect("run polypostor")
+}
+
+#[test]
+fn inspect_json_reports_the_default_character() {
+    let path = common::repo_path(polypostor::default_character::DEFAULT_CHARACTER_PATH);
+    let out = polypostor(&["inspect", path.to_str().unwrap(), "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    assert!(v["vertices"].as_u64().unwrap() > 1000);
+    assert!(v["triangles"].as_u64().unwrap() >= 2000);
+    assert_eq!(v["joints"].as_u64(), Some(21));
+    let clips = v["clips"].as_array().unwrap();
+    assert!(clips.iter().any(|c| c["name"] == "Walk" && (c["duration_secs"].as_f64().unwrap() - 1.0).abs() < 1e-6));
+    assert!(v["warnings"].as_array().unwrap().is_empty());
+}
+
+#[test]
+fn inspect_text_and_json_agree_on_every_real_character() {
+    for f in common::real_characters() {
+        let text = polypostor(&["inspect", f.to_str().unwrap()]);
+        assert!(text.status.success());
+        let json = polypostor(&["inspect", f.to_str().unwrap(), "--json"]);
+        let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+        let text = String::from_utf8(text.stdout).unwrap();
+        assert!(text.contains(&format!("joints      {}", v["joints"])), "{text}");
+        assert!(text.contains(&format!("triangles   {}", v["triangles"])), "{text}");
+    }
+}
+
+#[test]
+fn inspect_exits_1_with_a_message_on_every_bad_file() {
+    let dir = common::temp_dir("cli-bad");
+    let cases: Vec<(std::path::PathBuf, &[u8])> = vec![
+        (dir.join("empty.glb"), b""),
+        (dir.join("garbage.glb"), b"glTF\x02\x00\x00\x00\xff\xff\xff\xffxx"),
+        (dir.join("notjson.gltf"), b"{ this is not json"),
+        (dir.join("noasset.gltf"), b"{}"),
+    ];
+    for (path, bytes) in &cases {
+        std::fs::write(path, bytes).unwrap();
+    }
+    let missing = dir.join("does-not-exist.glb");
+    for path in cases.iter().map(|c| c.0.clone()).chain([missing, dir.clone()]) {
+        for json in [false, true] {
+            let mut args = vec!["inspect", path.to_str().unwrap()];
+            if json {
+                args.push("--json");
+            }
+            let out = polypostor(&args);
+            assert_eq!(out.status.code(), Some(1), "{}: {:?}", path.display(), out);
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert!(stderr.contains("error:") && stderr.len() > 20, "{stderr}");
+            if json {
+                let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("an error object");
+                assert!(v["error"].as_str().is_some_and(|e| !e.is_empty()));
+            }
+        }
+    }
+    // The whole invalid corpus through the binary: exit 0 or 1, never a panic.
+    if let Some(shared) = common::shared_dir() {
+        let mut n = 0;
+        for group in std::fs::read_dir(shared.join("assets/invalid-gltf")).unwrap().filter_map(|e| e.ok()) {
+            if !group.path().is_dir() {
+                continue;
+            }
+            for f in std::fs::read_dir(group.path()).unwrap().filter_map(|e| e.ok()).map(|e| e.path()) {
+                if f.extension().is_some_and(|e| e == "gltf" || e == "glb") {
+                    let out = polypostor(&["inspect", f.to_str().unwrap(), "--json"]);
+                    let code = out.status.code();
+                    assert!(code == Some(0) || code == Some(1), "{}: exit {code:?}", f.display());
+                    n += 1;
+                }
+            }
+        }
+        assert!(n > 200);
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
