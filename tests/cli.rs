@@ -6,7 +6,10 @@ mod common;
 use std::process::Command;
 
 fn polypostor(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_polypostor")).args(args).output().expect("run polypostor")
+    Command::new(env!("CARGO_BIN_EXE_polypostor"))
+        .args(args)
+        .output()
+        .expect("run polypostor")
 }
 
 #[test]
@@ -19,7 +22,11 @@ fn inspect_json_reports_the_default_character() {
     assert!(v["triangles"].as_u64().unwrap() >= 2000);
     assert_eq!(v["joints"].as_u64(), Some(21));
     let clips = v["clips"].as_array().unwrap();
-    assert!(clips.iter().any(|c| c["name"] == "Walk" && (c["duration_secs"].as_f64().unwrap() - 1.0).abs() < 1e-6));
+    assert!(
+        clips
+            .iter()
+            .any(|c| c["name"] == "Walk" && (c["duration_secs"].as_f64().unwrap() - 1.0).abs() < 1e-6)
+    );
     assert!(v["warnings"].as_array().unwrap().is_empty());
 }
 
@@ -68,11 +75,18 @@ fn inspect_exits_1_with_a_message_on_every_bad_file() {
     // The whole invalid corpus through the binary: exit 0 or 1, never a panic.
     if let Some(shared) = common::shared_dir() {
         let mut n = 0;
-        for group in std::fs::read_dir(shared.join("assets/invalid-gltf")).unwrap().filter_map(|e| e.ok()) {
+        for group in std::fs::read_dir(shared.join("assets/invalid-gltf"))
+            .unwrap()
+            .filter_map(|e| e.ok())
+        {
             if !group.path().is_dir() {
                 continue;
             }
-            for f in std::fs::read_dir(group.path()).unwrap().filter_map(|e| e.ok()).map(|e| e.path()) {
+            for f in std::fs::read_dir(group.path())
+                .unwrap()
+                .filter_map(|e| e.ok())
+                .map(|e| e.path())
+            {
                 if f.extension().is_some_and(|e| e == "gltf" || e == "glb") {
                     let out = polypostor(&["inspect", f.to_str().unwrap(), "--json"]);
                     let code = out.status.code();

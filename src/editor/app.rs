@@ -87,7 +87,11 @@ struct PathPrompt {
 
 impl PathPrompt {
     fn new(purpose: PathPurpose) -> Self {
-        Self { purpose, text: String::new(), focused: false }
+        Self {
+            purpose,
+            text: String::new(),
+            focused: false,
+        }
     }
 }
 
@@ -458,9 +462,7 @@ impl EditorApp {
         });
         match spawned {
             Ok(_) => self.dialog = Some((purpose, Instant::now(), rx)),
-            Err(_) => {
-                self.prompt = Some(PathPrompt::new(purpose))
-            }
+            Err(_) => self.prompt = Some(PathPrompt::new(purpose)),
         }
     }
 

@@ -87,7 +87,9 @@ impl GpuContext {
                 break;
             }
         }
-        let Some((instance, mut adapters)) = found else { return Err(GpuError::NoAdapter) };
+        let Some((instance, mut adapters)) = found else {
+            return Err(GpuError::NoAdapter);
+        };
         if let AdapterPreference::Named(name) = pref {
             let needle = name.to_lowercase();
             adapters.retain(|a| a.get_info().name.to_lowercase().contains(&needle));

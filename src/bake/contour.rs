@@ -1,0 +1,283 @@
+//! Outer-contour tracing of a binary mask (Moore-neighbour tracing with Jacob's stopping
+//! criterion). Only the outer boundary of the largest 8-connected component is traced, so
+//! holes are filled by construction.
+//!
+//! Coordinates are pixel centres `(x + 0.5, y + 0.5)` in image space (x right, y down); the
+//! contour runs clockwise on screen.
+
+/// A binary image, row-major, `true` = covered.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mask {
+    pub width: usize,
+    pub height: usize,
+    pub data: Vec<bool>,
+}
+
+impl Mask {
+    pub fn new(width: usize, height: usize) -> Self {
+        Self {
+            width,
+            height,
+            data: vec![false; width * height],
+        }
+    }
+
+    /// From any per-pixel predicate.
+    pub fn from_fn(width: usize, height: usize, f: impl Fn(usize, usize) -> bool) -> Self {
+        let mut data = Vec::with_capacity(width * height);
+        for y in 0..height {
+            for x in 0..width {
+                data.push(f(x, y));
+            }
+        }
+        Self { width, height, data }
+    }
+
+    pub fn get(&self, x: i64, y: i64) -> bool {
+        x >= 0
+            && y >= 0
+            && (x as usize) < self.width
+            && (y as usize) < self.height
+            && self.data[y as usize * self.width + x as usize]
+    }
+
+    pub fn count(&self) -> usize {
+        self.data.iter().filter(|&&b| b).count()
+    }
+}
+
+/// Clockwise (on screen) neighbour offsets starting west.
+const DIRS: [(i64, i64); 8] = [(-1, 0), (-1, -1), (0, -1), (1, -1), (1, 0), (1, 1), (0, 1), (-1, 1)];
+
+/// Pixels of the largest 8-connected component (ties: the first in raster order), as a mask.
+pub fn largest_component(mask: &Mask) -> Mask {
+    let (w, h) = (mask.width, mask.height);
+    let mut label = vec![u32::MAX; w * h];
+    let mut best: Option<(usize, u32)> = None;
+    let mut next = 0u32;
+    let mut stack = Vec::new();
+    for start in 0..w * h {
+        if !mask.data[start] || label[start] != u32::MAX {
+            continue;
+        }
+        let id = next;
+        next += 1;
+        let mut size = 0usize;
+        label[start] = id;
+        stack.push(start);
+        while let Some(p) = stack.pop() {
+            size += 1;
+            let (x, y) = ((p % w) as i64, (p / w) as i64);
+            for (dx, dy) in DIRS {
+                let (nx, ny) = (x + dx, y + dy);
+                if mask.get(nx, ny) {
+                    let q = ny as usize * w + nx as usize;
+                    if label[q] == u32::MAX {
+                        label[q] = id;
+                        stack.push(q);
+                    }
+                }
+            }
+        }
+        if best.is_none_or(|(s, _)| size > s) {
+            best = Some((size, id));
+        }
+    }
+    let keep = best.map(|b| b.1);
+    Mask {
+        width: w,
+        height: h,
+        data: label.iter().map(|&l| Some(l) == keep).collect(),
+    }
+}
+
+/// The outer contour of the largest component, as pixel centres in tracing order (clockwise
+/// on screen, starting at the top-left-most pixel). Empty for an empty mask; one point for a
+/// single pixel.
+pub fn trace_outer(mask: &Mask) -> Vec<[f32; 2]> {
+    let comp = largest_component(mask);
+    let Some(start) = comp.data.iter().position(|&b| b) else {
+        return Vec::new();
+    };
+    let w = comp.width;
+    let s = ((start % w) as i64, (start / w) as i64);
+    // Entered from the west (raster order guarantees the west pixel is background).
+    let start_dir = 0usize;
+    let mut out = vec![s];
+    let mut cur = s;
+    let mut back = start_dir; // index in DIRS of the background pixel we came from
+    let limit = 4 * comp.width * comp.height + 8;
+    for _ in 0..limit {
+        // Search clockwise from the backtrack direction for the next foreground pixel.
+        let mut found = None;
+        for k in 1..=8 {
+            let d = (back + k) % 8;
+            let (nx, ny) = (cur.0 + DIRS[d].0, cur.1 + DIRS[d].1);
+            if comp.get(nx, ny) {
+                found = Some((d, (nx, ny)));
+                break;
+            }
+        }
+        let Some((d, next)) = found else { break }; // isolated pixel
+        // The new backtrack: the pixel checked just before `next`, seen from `next`.
+        let prev_d = (d + 7) % 8;
+        let prev = (cur.0 + DIRS[prev_d].0, cur.1 + DIRS[prev_d].1);
+        let back_from_next = DIRS
+            .iter()
+            .position(|&(dx, dy)| (next.0 + dx, next.1 + dy) == prev)
+            .unwrap_or((d + 4) % 8);
+        // Jacob's criterion: back at the start, entered the same way as at first.
+        if next == s && back_from_next == start_dir {
+            break;
+        }
+        out.push(next);
+        cur = next;
+        back = back_from_next;
+    }
+    if out.len() > 1 && out.last() == Some(&s) {
+        out.pop();
+    }
+    out.into_iter().map(|(x, y)| [x as f32 + 0.5, y as f32 + 0.5]).collect()
+}
+
+/// Twice the signed area (shoelace); positive for clockwise-on-screen (y down) order.
+pub fn signed_area2(poly: &[[f32; 2]]) -> f64 {
+    let n = poly.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (poly[i], poly[(i + 1) % n]);
+            a[0] as f64 * b[1] as f64 - b[0] as f64 * a[1] as f64
+        })
+        .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::HashSet;
+
+    fn pixels(c: &[[f32; 2]]) -> HashSet<(i64, i64)> {
+        c.iter().map(|p| ((p[0] - 0.5) as i64, (p[1] - 0.5) as i64)).collect()
+    }
+
+    /// Independent answer: foreground pixels next to the background that touches the border
+    /// (flood fill from outside, 4-connected background).
+    fn outer_boundary(mask: &Mask, eight: bool) -> HashSet<(i64, i64)> {
+        let (w, h) = (mask.width as i64, mask.height as i64);
+        let mut outside = HashSet::new();
+        let mut stack = vec![(-1i64, -1i64)];
+        outside.insert((-1, -1));
+        while let Some((x, y)) = stack.pop() {
+            for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx < -1 || ny < -1 || nx > w || ny > h || mask.get(nx, ny) || outside.contains(&(nx, ny)) {
+                    continue;
+                }
+                outside.insert((nx, ny));
+                stack.push((nx, ny));
+            }
+        }
+        let mut out = HashSet::new();
+        for y in 0..h {
+            for x in 0..w {
+                if !mask.get(x, y) {
+                    continue;
+                }
+                let near = |dx: i64, dy: i64| outside.contains(&(x + dx, y + dy));
+                let four = near(1, 0) || near(-1, 0) || near(0, 1) || near(0, -1);
+                let diag = near(1, 1) || near(-1, 1) || near(1, -1) || near(-1, -1);
+                if four || (eight && diag) {
+                    out.insert((x, y));
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn rectangle_contour_is_its_perimeter_in_order() {
+        let m = Mask::from_fn(10, 8, |x, y| (2..7).contains(&x) && (1..5).contains(&y));
+        let c = trace_outer(&m);
+        assert_eq!(c.len(), 2 * (5 + 4) - 4);
+        assert_eq!(c[0], [2.5, 1.5]);
+        // Consecutive points are 8-neighbours, and the loop closes.
+        for i in 0..c.len() {
+            let (a, b) = (c[i], c[(i + 1) % c.len()]);
+            assert!((a[0] - b[0]).abs() <= 1.0 && (a[1] - b[1]).abs() <= 1.0 && a != b);
+        }
+        assert!(signed_area2(&c) > 0.0, "clockwise on screen");
+    }
+
+    #[test]
+    fn holes_are_filled_and_only_the_largest_component_is_traced() {
+        // A ring (hole in the middle) plus a small separate blob.
+        let m = Mask::from_fn(20, 20, |x, y| {
+            let (dx, dy) = (x as f32 - 8.0, y as f32 - 8.0);
+            let r = (dx * dx + dy * dy).sqrt();
+            (3.0..7.0).contains(&r) || (x >= 17 && y >= 17)
+        });
+        let c = trace_outer(&m);
+        let got = pixels(&c);
+        assert!(got.iter().all(|&(x, y)| x < 16 && y < 16), "traced the small blob");
+        let lo = outer_boundary(&largest_component(&m), false);
+        let hi = outer_boundary(&largest_component(&m), true);
+        assert!(lo.is_subset(&got), "missed outer boundary pixels");
+        assert!(
+            got.is_subset(&hi),
+            "traced pixels off the outer boundary (e.g. the hole)"
+        );
+    }
+
+    #[test]
+    fn random_blobs_match_the_flood_fill_boundary_and_transpose_invariance() {
+        let mut s = 7u32;
+        for case in 0..40 {
+            let mut rnd = || {
+                s = s.wrapping_mul(1103515245).wrapping_add(12345);
+                (s >> 16) & 0x7fff
+            };
+            let (w, h) = (8 + (rnd() % 20) as usize, 8 + (rnd() % 20) as usize);
+            let blobs: Vec<(f32, f32, f32)> = (0..4)
+                .map(|_| {
+                    (
+                        (rnd() % w as u32) as f32,
+                        (rnd() % h as u32) as f32,
+                        1.5 + (rnd() % 5) as f32,
+                    )
+                })
+                .collect();
+            let inside = |x: usize, y: usize| {
+                blobs
+                    .iter()
+                    .any(|b| ((x as f32 - b.0).powi(2) + (y as f32 - b.1).powi(2)).sqrt() < b.2)
+            };
+            let m = Mask::from_fn(w, h, inside);
+            let c = trace_outer(&m);
+            if m.count() == 0 {
+                assert!(c.is_empty());
+                continue;
+            }
+            let comp = largest_component(&m);
+            let got = pixels(&c);
+            assert!(outer_boundary(&comp, false).is_subset(&got), "case {case}");
+            assert!(got.is_subset(&outer_boundary(&comp, true)), "case {case}");
+            // Transposing the mask transposes the traced pixel set.
+            let t = Mask::from_fn(h, w, |x, y| inside(y, x));
+            let tc: HashSet<(i64, i64)> = pixels(&trace_outer(&t)).into_iter().map(|(x, y)| (y, x)).collect();
+            if largest_component(&t).count() == comp.count() {
+                assert_eq!(tc, got, "case {case}");
+            }
+        }
+    }
+
+    #[test]
+    fn degenerate_masks() {
+        assert!(trace_outer(&Mask::new(5, 5)).is_empty());
+        let one = Mask::from_fn(5, 5, |x, y| x == 2 && y == 3);
+        assert_eq!(trace_outer(&one), vec![[2.5, 3.5]]);
+        let line = Mask::from_fn(6, 3, |_, y| y == 1);
+        let c = trace_outer(&line);
+        // A one-pixel-wide line is walked out and back.
+        assert_eq!(pixels(&c).len(), 6);
+    }
+}

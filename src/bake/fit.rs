@@ -1,0 +1,366 @@
+//! Polygon fitting (the paper's section 3.1): map the vertices of a source polygon `S`
+//! (n vertices, triangulated without interior vertices) onto the vertices of a target
+//! polygon `T` (m vertices) so that the summed per-triangle error is minimal.
+//!
+//! Exact dynamic program over the triangulation's dual tree, `O(n·m³)`: triangles are peeled
+//! in an order where each has one unprocessed neighbour; for the shared "base edge" (a, b)
+//! of each, a table over all `(P(a), P(b))` keeps the best `P(c)` of the opposite vertex and
+//! the best cost of everything already processed behind that edge. The last triangle closes
+//! the tree; backtracking in reverse order recovers `P`. Triangles may degenerate (several
+//! source vertices may map to one target vertex), as in the paper.
+
+use std::collections::HashMap;
+
+/// A solved mapping.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Fit {
+    /// `mapping[i]` is the target vertex of source vertex `i`.
+    pub mapping: Vec<usize>,
+    /// The summed error of all triangles.
+    pub cost: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum FitError {
+    #[error("the target polygon has no vertices")]
+    EmptyTarget,
+    #[error("the source triangulation is empty")]
+    NoTriangles,
+    #[error("triangle {0} refers to a vertex outside the source polygon")]
+    BadVertex(usize),
+    #[error("the triangles do not form a tree through shared edges (triangle {0})")]
+    NotATree(usize),
+}
+
+/// The peeling order and base edges of a triangulation, independent of the target.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    n: usize,
+    /// Triangles as given.
+    triangles: Vec<[usize; 3]>,
+    /// Processing order; each entry `(triangle, a, b, c)` with (a, b) the base edge (the
+    /// last entry has none and lists its vertices as a, b, c).
+    order: Vec<(usize, usize, usize, usize)>,
+}
+
+fn key(a: usize, b: usize) -> (usize, usize) {
+    (a.min(b), a.max(b))
+}
+
+impl Plan {
+    /// Orders the triangles by repeatedly removing one with a single remaining neighbour.
+    pub fn new(n: usize, triangles: &[[usize; 3]]) -> Result<Self, FitError> {
+        if triangles.is_empty() {
+            return Err(FitError::NoTriangles);
+        }
+        for (t, tri) in triangles.iter().enumerate() {
+            if tri.iter().any(|&v| v >= n) {
+                return Err(FitError::BadVertex(t));
+            }
+        }
+        let mut by_edge: HashMap<(usize, usize), Vec<usize>> = HashMap::new();
+        for (t, tri) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                by_edge.entry(key(tri[k], tri[(k + 1) % 3])).or_default().push(t);
+            }
+        }
+        let neighbours: Vec<Vec<(usize, (usize, usize))>> = triangles
+            .iter()
+            .enumerate()
+            .map(|(t, tri)| {
+                (0..3)
+                    .flat_map(|k| {
+                        let e = key(tri[k], tri[(k + 1) % 3]);
+                        by_edge[&e].iter().filter(move |&&u| u != t).map(move |&u| (u, e))
+                    })
+                    .collect()
+            })
+            .collect();
+        if by_edge.values().any(|v| v.len() > 2) {
+            return Err(FitError::NotATree(0));
+        }
+        let count = triangles.len();
+        let mut remaining: Vec<usize> = neighbours.iter().map(|v| v.len()).collect();
+        let mut done = vec![false; count];
+        let mut order = Vec::with_capacity(count);
+        let mut roots = 0;
+        // Deterministic: always the lowest-index leaf.
+        let mut leaves: std::collections::BTreeSet<usize> = (0..count).filter(|&t| remaining[t] <= 1).collect();
+        while let Some(t) = leaves.pop_first() {
+            if done[t] {
+                continue;
+            }
+            done[t] = true;
+            let tri = triangles[t];
+            let open: Vec<&(usize, (usize, usize))> = neighbours[t].iter().filter(|(u, _)| !done[*u]).collect();
+            match open.as_slice() {
+                [] => {
+                    roots += 1;
+                    order.push((t, tri[0], tri[1], tri[2]));
+                }
+                [(u, (e0, e1))] => {
+                    // Orient (a, b, c) along the triangle's own vertex order.
+                    let k = (0..3)
+                        .find(|&k| key(tri[k], tri[(k + 1) % 3]) == (*e0, *e1))
+                        .ok_or(FitError::NotATree(t))?;
+                    order.push((t, tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]));
+                    remaining[*u] -= 1;
+                    if remaining[*u] <= 1 {
+                        leaves.insert(*u);
+                    }
+                }
+                _ => return Err(FitError::NotATree(t)),
+            }
+        }
+        // A tree peels completely, and only its last triangle has no open neighbour.
+        if order.len() != count || roots != 1 {
+            return Err(FitError::NotATree(order.first().map_or(0, |o| o.0)));
+        }
+        Ok(Self {
+            n,
+            triangles: triangles.to_vec(),
+            order,
+        })
+    }
+
+    pub fn triangles(&self) -> &[[usize; 3]] {
+        &self.triangles
+    }
+
+    /// Solves the fit exactly. `cost(t, [pa, pb, pc])` is the error of mapping triangle `t`'s
+    /// vertices `triangles[t] = [a, b, c]` to target vertices `pa, pb, pc` (in that order).
+    pub fn solve(&self, m: usize, cost: impl Fn(usize, [usize; 3]) -> f64) -> Result<Fit, FitError> {
+        if m == 0 {
+            return Err(FitError::EmptyTarget);
+        }
+        // Cost of triangle t with its vertices in (a, b, c) order of the plan.
+        let tri_cost = |t: usize, a: usize, b: usize, pa: usize, pb: usize, pc: usize| {
+            let tri = self.triangles[t];
+            let mut p = [0usize; 3];
+            for k in 0..3 {
+                p[k] = if tri[k] == a {
+                    pa
+                } else if tri[k] == b {
+                    pb
+                } else {
+                    pc
+                };
+            }
+            cost(t, p)
+        };
+        // tables[(a, b)] = (cost[pa * m + pb], argmin pc) for processed base edges.
+        let mut tables: HashMap<(usize, usize), (Vec<f64>, Vec<u32>)> = HashMap::new();
+        let lookup =
+            |tables: &HashMap<(usize, usize), (Vec<f64>, Vec<u32>)>, x: usize, y: usize, px: usize, py: usize| -> f64 {
+                if let Some((c, _)) = tables.get(&(x, y)) {
+                    c[px * m + py]
+                } else if let Some((c, _)) = tables.get(&(y, x)) {
+                    c[py * m + px]
+                } else {
+                    0.0
+                }
+            };
+        let (last, rest) = self.order.split_last().expect("non-empty");
+        for &(t, a, b, c) in rest {
+            let mut best = vec![f64::INFINITY; m * m];
+            let mut arg = vec![0u32; m * m];
+            for pa in 0..m {
+                for pb in 0..m {
+                    let mut bc = f64::INFINITY;
+                    let mut bi = 0u32;
+                    for pc in 0..m {
+                        let v = tri_cost(t, a, b, pa, pb, pc)
+                            + lookup(&tables, a, c, pa, pc)
+                            + lookup(&tables, c, b, pc, pb);
+                        if v < bc {
+                            bc = v;
+                            bi = pc as u32;
+                        }
+                    }
+                    best[pa * m + pb] = bc;
+                    arg[pa * m + pb] = bi;
+                }
+            }
+            tables.insert((a, b), (best, arg));
+        }
+        let &(t, a, b, c) = last;
+        let mut best = (f64::INFINITY, 0, 0, 0);
+        for pa in 0..m {
+            for pb in 0..m {
+                for pc in 0..m {
+                    let v = tri_cost(t, a, b, pa, pb, pc)
+                        + lookup(&tables, a, b, pa, pb)
+                        + lookup(&tables, b, c, pb, pc)
+                        + lookup(&tables, c, a, pc, pa);
+                    if v < best.0 {
+                        best = (v, pa, pb, pc);
+                    }
+                }
+            }
+        }
+        let mut mapping = vec![usize::MAX; self.n];
+        mapping[a] = best.1;
+        mapping[b] = best.2;
+        mapping[c] = best.3;
+        for &(_, a, b, c) in rest.iter().rev() {
+            let (_, arg) = &tables[&(a, b)];
+            mapping[c] = arg[mapping[a] * m + mapping[b]] as usize;
+        }
+        // Vertices in no triangle (cannot happen for a triangulated polygon) map to 0.
+        for v in &mut mapping {
+            if *v == usize::MAX {
+                *v = 0;
+            }
+        }
+        Ok(Fit { mapping, cost: best.0 })
+    }
+}
+
+/// Total cost of a given mapping (the objective the fit minimises).
+pub fn mapping_cost(triangles: &[[usize; 3]], mapping: &[usize], cost: impl Fn(usize, [usize; 3]) -> f64) -> f64 {
+    triangles
+        .iter()
+        .enumerate()
+        .map(|(t, tri)| cost(t, tri.map(|v| mapping[v])))
+        .sum()
+}
+
+/// Exhaustive search over all `m^n` mappings (tests and tiny cases only).
+pub fn brute_force(n: usize, triangles: &[[usize; 3]], m: usize, cost: impl Fn(usize, [usize; 3]) -> f64) -> Fit {
+    let mut mapping = vec![0usize; n];
+    let mut best = Fit {
+        mapping: mapping.clone(),
+        cost: f64::INFINITY,
+    };
+    loop {
+        let c = mapping_cost(triangles, &mapping, &cost);
+        if c < best.cost {
+            best = Fit {
+                mapping: mapping.clone(),
+                cost: c,
+            };
+        }
+        // Next mapping in odometer order.
+        let mut i = 0;
+        loop {
+            if i == n {
+                return best;
+            }
+            mapping[i] += 1;
+            if mapping[i] < m {
+                break;
+            }
+            mapping[i] = 0;
+            i += 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bake::triangulate::triangulate;
+
+    fn hash_cost(seed: u64) -> impl Fn(usize, [usize; 3]) -> f64 {
+        move |t, p| {
+            let mut h = seed ^ (t as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+            for x in p {
+                h = (h ^ x as u64).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+                h ^= h >> 31;
+            }
+            (h % 1000) as f64 / 10.0
+        }
+    }
+
+    fn polygon(n: usize, seed: u32) -> Vec<[f32; 2]> {
+        (0..n)
+            .map(|i| {
+                let a = std::f32::consts::TAU * i as f32 / n as f32;
+                let r = 5.0 + ((i as u32 * 7 + seed) % 5) as f32;
+                [r * a.cos(), r * a.sin()]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn dynamic_program_equals_brute_force_on_small_cases() {
+        for n in 3..=6 {
+            for m in 1..=5 {
+                for seed in 0..4u32 {
+                    let poly = polygon(n, seed);
+                    let tris = triangulate(&poly).unwrap();
+                    let cost = hash_cost(seed as u64 * 31 + n as u64 * 7 + m as u64);
+                    let dp = Plan::new(n, &tris).unwrap().solve(m, &cost).unwrap();
+                    let bf = brute_force(n, &tris, m, &cost);
+                    assert!(
+                        (dp.cost - bf.cost).abs() < 1e-9,
+                        "n {n} m {m} seed {seed}: dp {} bf {}",
+                        dp.cost,
+                        bf.cost
+                    );
+                    // The returned mapping really has the returned cost.
+                    assert!((mapping_cost(&tris, &dp.mapping, &cost) - dp.cost).abs() < 1e-9);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn geometric_cost_recovers_a_known_correspondence() {
+        // A cost that is zero only for one known correspondence (source vertex i to target
+        // vertex i·m/n + 3): the fit must find it exactly.
+        let n = 8;
+        let src = polygon(n, 1);
+        let m = 12;
+        let want: Vec<usize> = (0..n).map(|i| (i * m / n + 3) % m).collect();
+        let tris = triangulate(&src).unwrap();
+        let cost = |t: usize, p: [usize; 3]| {
+            tris[t]
+                .iter()
+                .zip(p)
+                .map(|(&v, pj)| if want[v] == pj { 0.0 } else { 1.0 })
+                .sum::<f64>()
+        };
+        let fit = Plan::new(n, &tris).unwrap().solve(m, cost).unwrap();
+        assert_eq!(fit.mapping, want);
+        assert_eq!(fit.cost, 0.0);
+    }
+
+    #[test]
+    fn result_does_not_depend_on_vertex_numbering_start() {
+        // Relabel the source polygon cyclically: the optimal cost is unchanged.
+        let n = 6;
+        let m = 4;
+        let poly = polygon(n, 2);
+        let tris = triangulate(&poly).unwrap();
+        let base_cost = |t_tri: [usize; 3], p: [usize; 3]| -> f64 {
+            // Cost defined on geometry (vertex ids), not triangle order.
+            let mut s = 0.0;
+            for k in 0..3 {
+                s += ((t_tri[k] * 3 + p[k] * 5) % 7) as f64;
+            }
+            s
+        };
+        let a = Plan::new(n, &tris)
+            .unwrap()
+            .solve(m, |t, p| base_cost(tris[t], p))
+            .unwrap();
+        let shift = 2;
+        let rel: Vec<[usize; 3]> = tris.iter().map(|t| t.map(|v| (v + shift) % n)).collect();
+        let b = Plan::new(n, &rel)
+            .unwrap()
+            .solve(m, |t, p| base_cost(rel[t].map(|v| (v + n - shift) % n), p))
+            .unwrap();
+        assert!((a.cost - b.cost).abs() < 1e-9);
+    }
+
+    #[test]
+    fn rejects_invalid_input() {
+        assert!(matches!(Plan::new(3, &[]), Err(FitError::NoTriangles)));
+        assert!(matches!(Plan::new(3, &[[0, 1, 5]]), Err(FitError::BadVertex(0))));
+        let plan = Plan::new(3, &[[0, 1, 2]]).unwrap();
+        assert!(matches!(plan.solve(0, |_, _| 0.0), Err(FitError::EmptyTarget)));
+        // Two triangles that share no edge are not a tree.
+        assert!(Plan::new(6, &[[0, 1, 2], [3, 4, 5]]).is_err());
+    }
+}

@@ -1,0 +1,20 @@
+//! The Polypostor bake, stage by stage (the pipeline of `../shared/DESIGN.md`, steps 3–9).
+//!
+//! Each module is one algorithm on plain data, testable without a GPU:
+//! - [`viewpoints`]: directions spread uniformly over the upper hemisphere (or the sphere),
+//!   with nearest-view lookup.
+//! - [`contour`]: outer-contour tracing of a part mask (Moore neighbourhood, holes filled).
+//! - [`simplify`]: greedy polygon simplification with the edge-length-ratio term.
+//! - [`triangulate`]: constrained Delaunay triangulation of a simple polygon without interior
+//!   vertices (spade), `n - 2` triangles.
+//! - [`fit`]: the exact dynamic program that maps a source polygon's vertices onto a target
+//!   polygon's, over the triangulation's dual tree, `O(n·m³)`.
+//! - [`visibility`]: the drawing order of parts from the occlusion graph (exact minimum
+//!   feedback arc set).
+
+pub mod contour;
+pub mod fit;
+pub mod simplify;
+pub mod triangulate;
+pub mod viewpoints;
+pub mod visibility;
