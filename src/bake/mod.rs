@@ -9,11 +9,13 @@
 //!   vertices (spade), `n - 2` triangles.
 //! - [`fit`]: the exact dynamic program that maps a source polygon's vertices onto a target
 //!   polygon's, over the triangulation's dual tree, `O(n·m³)`.
+//! - [`segment`]: per-triangle body-part labels, automatic from the skin and the hierarchy.
 //! - [`visibility`]: the drawing order of parts from the occlusion graph (exact minimum
 //!   feedback arc set).
 
 pub mod contour;
 pub mod fit;
+pub mod segment;
 pub mod simplify;
 pub mod triangulate;
 pub mod viewpoints;

@@ -1,0 +1,476 @@
+//! Body-part segmentation: per-triangle part labels, computed automatically from the skin
+//! weights and the joint hierarchy (the trunk chain plus one part per limb chain), then
+//! painted by the artist.
+//!
+//! Limbs are found as mirror pairs of child chains hanging off the trunk (by name —
+//! Left/Right, L/R tokens — or, failing that, by shape: same chain length, mirrored offsets).
+//! The trunk continues through the remaining child with the largest subtree. A humanoid
+//! gives the paper's five parts (torso with head, two arms, two legs); a quadruped gives
+//! four legs plus body (plus a tail if long enough); a 2-joint rig gives one part.
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use crate::character::Character;
+
+/// A body part.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Part {
+    pub name: String,
+    /// Display colour (sRGB bytes).
+    pub color: [u8; 3],
+}
+
+/// Per-triangle part labels and the parts they refer to.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Segmentation {
+    pub parts: Vec<Part>,
+    /// `labels[t]` is the part of triangle `t` of the character.
+    pub labels: Vec<u16>,
+}
+
+const PALETTE: [[u8; 3]; 8] = [
+    [230, 160, 60],
+    [70, 150, 230],
+    [90, 200, 110],
+    [220, 80, 90],
+    [170, 110, 220],
+    [60, 200, 200],
+    [220, 210, 70],
+    [150, 150, 150],
+];
+
+impl Segmentation {
+    /// Triangles of one part.
+    pub fn triangles_of(&self, part: usize) -> Vec<usize> {
+        self.labels
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| **l as usize == part)
+            .map(|(t, _)| t)
+            .collect()
+    }
+
+    /// Triangle count per part.
+    pub fn part_sizes(&self) -> Vec<usize> {
+        let mut n = vec![0; self.parts.len()];
+        for &l in &self.labels {
+            if let Some(c) = n.get_mut(l as usize) {
+                *c += 1;
+            }
+        }
+        n
+    }
+}
+
+/// Name tokens without side markers, lower case, for matching mirror pairs.
+fn side_free_name(name: &str) -> (String, Option<char>) {
+    let mut tokens: Vec<String> = Vec::new();
+    let mut cur = String::new();
+    let chars: Vec<char> = name.chars().collect();
+    for (i, &c) in chars.iter().enumerate() {
+        let boundary = !c.is_alphanumeric()
+            || (c.is_uppercase() && i > 0 && chars[i - 1].is_lowercase())
+            || (c.is_ascii_digit() != chars.get(i.wrapping_sub(1)).is_some_and(|p| p.is_ascii_digit()) && i > 0);
+        if boundary && !cur.is_empty() {
+            tokens.push(std::mem::take(&mut cur).to_lowercase());
+        }
+        if c.is_alphanumeric() {
+            cur.push(c);
+        }
+    }
+    if !cur.is_empty() {
+        tokens.push(cur.to_lowercase());
+    }
+    let mut side = None;
+    let kept: Vec<String> = tokens
+        .into_iter()
+        .filter(|t| match t.as_str() {
+            "left" | "l" => {
+                side = Some('l');
+                false
+            }
+            "right" | "r" => {
+                side = Some('r');
+                false
+            }
+            _ => true,
+        })
+        .collect();
+    (kept.join("_"), side)
+}
+
+struct JointTree {
+    /// Skeleton node index of each joint.
+    node: Vec<usize>,
+    parent: Vec<Option<usize>>,
+    children: Vec<Vec<usize>>,
+    /// Rest-pose world position.
+    pos: Vec<Vec3>,
+    name: Vec<String>,
+    /// Skin weight carried by the joint's subtree.
+    mass: Vec<f64>,
+    /// Joints in the subtree (itself included).
+    size: Vec<usize>,
+}
+
+impl JointTree {
+    fn new(c: &Character) -> Self {
+        let nodes = &c.skeleton.nodes;
+        let world = c.skeleton.rest_world();
+        // Joints: skin joints, or every node when the file had none marked.
+        let mut is_joint: Vec<bool> = nodes.iter().map(|n| n.is_joint).collect();
+        if !is_joint.iter().any(|&j| j) {
+            is_joint = vec![true; nodes.len()];
+        }
+        let node: Vec<usize> = (0..nodes.len()).filter(|&i| is_joint[i]).collect();
+        let index_of = |n: usize| node.iter().position(|&x| x == n);
+        let parent: Vec<Option<usize>> = node
+            .iter()
+            .map(|&n| {
+                let mut at = nodes[n].parent;
+                while let Some(p) = at {
+                    if let Some(j) = index_of(p) {
+                        return Some(j);
+                    }
+                    at = nodes[p].parent;
+                }
+                None
+            })
+            .collect();
+        let mut children = vec![Vec::new(); node.len()];
+        for (j, p) in parent.iter().enumerate() {
+            if let Some(p) = p {
+                children[*p].push(j);
+            }
+        }
+        let mut own = vec![0.0f64; node.len()];
+        for v in &c.vertices {
+            for k in 0..4 {
+                if let Some(b) = c.bones.get(v.bones[k] as usize) {
+                    if let Some(j) = joint_of_node(c, &node, b.node) {
+                        own[j] += v.weights[k] as f64;
+                    }
+                }
+            }
+        }
+        // Subtree sums: nodes are stored parents first, so children have larger indices.
+        let mut mass = own.clone();
+        let mut size = vec![1usize; node.len()];
+        for j in (0..node.len()).rev() {
+            if let Some(p) = parent[j] {
+                mass[p] += mass[j];
+                size[p] += size[j];
+            }
+        }
+        Self {
+            pos: node.iter().map(|&n| world[n].w_axis.truncate()).collect(),
+            name: node.iter().map(|&n| nodes[n].name.clone()).collect(),
+            node,
+            parent,
+            children,
+            mass,
+            size,
+        }
+    }
+
+    fn is_mirror_pair(&self, a: usize, b: usize) -> bool {
+        let (na, sa) = side_free_name(&self.name[a]);
+        let (nb, sb) = side_free_name(&self.name[b]);
+        if let (Some(sa), Some(sb)) = (sa, sb) {
+            if sa == sb {
+                return false;
+            }
+            let strip = |n: &str| {
+                n.chars()
+                    .filter(|c| !c.is_ascii_digit() && *c != '_')
+                    .collect::<String>()
+            };
+            if strip(&na) == strip(&nb) {
+                return true;
+            }
+        }
+        // Shape: same subtree size, offsets of similar length pointing apart.
+        let p = self.parent[a].map_or(Vec3::ZERO, |p| self.pos[p]);
+        let (da, db) = (self.pos[a] - p, self.pos[b] - p);
+        let (la, lb) = (da.length(), db.length());
+        self.size[a] == self.size[b]
+            && self.size[a] >= 2
+            && la > 0.0
+            && lb > 0.0
+            && (la - lb).abs() <= 0.3 * la.max(lb)
+            && da.angle_between(db) > 50f32.to_radians()
+    }
+}
+
+/// Joint index (in `nodes`) of a skeleton node: itself if a joint, else its nearest joint
+/// ancestor.
+fn joint_of_node(c: &Character, joints: &[usize], mut n: usize) -> Option<usize> {
+    loop {
+        if let Some(j) = joints.iter().position(|&x| x == n) {
+            return Some(j);
+        }
+        n = c.skeleton.nodes.get(n)?.parent?;
+    }
+}
+
+/// The automatic segmentation.
+pub fn auto_segment(c: &Character) -> Segmentation {
+    let tree = JointTree::new(c);
+    let count = tree.node.len();
+    // part_of_joint[j]: the part each joint's influence goes to (0 = trunk).
+    let mut part_of_joint = vec![0usize; count];
+    let mut parts = vec![Part {
+        name: "Torso".into(),
+        color: PALETTE[0],
+    }];
+    if count > 0 {
+        let root = (0..count)
+            .filter(|&j| tree.parent[j].is_none())
+            .max_by(|&a, &b| tree.mass[a].total_cmp(&tree.mass[b]).then(b.cmp(&a)));
+        let mut at = root;
+        let mut limb_roots: Vec<usize> = Vec::new();
+        while let Some(j) = at {
+            let kids = &tree.children[j];
+            let mut paired = vec![false; kids.len()];
+            for x in 0..kids.len() {
+                for y in x + 1..kids.len() {
+                    if !paired[x] && !paired[y] && tree.is_mirror_pair(kids[x], kids[y]) {
+                        paired[x] = true;
+                        paired[y] = true;
+                    }
+                }
+            }
+            for (k, &child) in kids.iter().enumerate() {
+                if paired[k] {
+                    limb_roots.push(child);
+                }
+            }
+            // The trunk goes on through the biggest unpaired child.
+            let next = kids
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| !paired[*k])
+                .max_by(|a, b| {
+                    tree.size[*a.1]
+                        .cmp(&tree.size[*b.1])
+                        .then(tree.mass[*a.1].total_cmp(&tree.mass[*b.1]))
+                })
+                .map(|(_, &c)| c);
+            // Other long unpaired branches (a tail) become parts of their own.
+            for (k, &child) in kids.iter().enumerate() {
+                if !paired[k] && Some(child) != next && tree.size[child] >= 3 && tree.parent[j].is_some() {
+                    limb_roots.push(child);
+                }
+            }
+            at = next;
+        }
+        let subtree = |r: usize| {
+            let mut out = Vec::new();
+            let mut stack = vec![r];
+            while let Some(j) = stack.pop() {
+                out.push(j);
+                stack.extend(tree.children[j].iter().copied());
+            }
+            out
+        };
+        let ground = tree.pos.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+        let top = tree.pos.iter().map(|p| p.y).fold(f32::NEG_INFINITY, f32::max);
+        let limbs: Vec<(usize, Vec<usize>)> = limb_roots.iter().map(|&r| (r, subtree(r))).collect();
+        // A single-joint "limb" (an IK foot, a prop) joins the nearest real limb, else the trunk.
+        let mut target: Vec<Option<usize>> = vec![None; limbs.len()];
+        for (i, (_, joints)) in limbs.iter().enumerate() {
+            if joints.len() > 1 {
+                target[i] = Some(i);
+                continue;
+            }
+            let p = tree.pos[joints[0]];
+            target[i] = limbs
+                .iter()
+                .enumerate()
+                .filter(|(k, l)| *k != i && l.1.len() > 1)
+                .map(|(k, l)| {
+                    (
+                        k,
+                        l.1.iter()
+                            .map(|&j| tree.pos[j].distance(p))
+                            .fold(f32::INFINITY, f32::min),
+                    )
+                })
+                .filter(|(_, d)| *d < 0.25 * (top - ground).max(1e-3))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(k, _)| k);
+        }
+        let mut part_of_limb = vec![0usize; limbs.len()];
+        for (i, (r, joints)) in limbs.iter().enumerate() {
+            if target[i] != Some(i) {
+                continue;
+            }
+            let (base, side) = side_free_name(&tree.name[*r]);
+            let side_word = match side {
+                Some('l') => "Left ",
+                Some('r') => "Right ",
+                _ => "",
+            };
+            // Paired limbs that reach the ground are legs, the others arms.
+            let lowest = joints.iter().map(|&j| tree.pos[j].y).fold(f32::INFINITY, f32::min);
+            let kind = if side.is_none() {
+                pretty(&base)
+            } else if lowest < ground + 0.25 * (top - ground) {
+                "Leg".to_string()
+            } else {
+                "Arm".to_string()
+            };
+            let kind = if kind.is_empty() { "Part".to_string() } else { kind };
+            let mut label = format!("{side_word}{kind}");
+            let mut k = 2;
+            while parts.iter().any(|p| p.name == label) {
+                label = format!("{side_word}{kind} {k}");
+                k += 1;
+            }
+            part_of_limb[i] = parts.len();
+            parts.push(Part {
+                name: label,
+                color: PALETTE[parts.len() % PALETTE.len()],
+            });
+        }
+        for (i, (_, joints)) in limbs.iter().enumerate() {
+            let part = target[i].map_or(0, |t| part_of_limb[t]);
+            for &j in joints {
+                part_of_joint[j] = part;
+            }
+        }
+    }
+    // Vertex parts by summed weight, triangle parts by the majority of weight.
+    let bone_part: Vec<usize> = c
+        .bones
+        .iter()
+        .map(|b| joint_of_node(c, &tree.node, b.node).map_or(0, |j| part_of_joint[j]))
+        .collect();
+    let np = parts.len();
+    let vertex_weights: Vec<Vec<f32>> = c
+        .vertices
+        .iter()
+        .map(|v| {
+            let mut w = vec![0.0f32; np];
+            for k in 0..4 {
+                if let Some(&p) = bone_part.get(v.bones[k] as usize) {
+                    w[p] += v.weights[k];
+                }
+            }
+            w
+        })
+        .collect();
+    let labels = c
+        .indices
+        .chunks_exact(3)
+        .map(|t| {
+            let mut w = vec![0.0f32; np];
+            for &v in t {
+                for (p, x) in vertex_weights[v as usize].iter().enumerate() {
+                    w[p] += x;
+                }
+            }
+            (0..np)
+                .max_by(|&a, &b| w[a].total_cmp(&w[b]).then(b.cmp(&a)))
+                .unwrap_or(0) as u16
+        })
+        .collect();
+    // Drop parts that received no triangle (keeps labels dense).
+    let mut seg = Segmentation { parts, labels };
+    compact(&mut seg);
+    seg
+}
+
+fn pretty(base: &str) -> String {
+    base.split('_')
+        .filter(|t| {
+            !t.chars().all(|c| c.is_ascii_digit()) && !matches!(*t, "mixamorig" | "joint" | "bone" | "def" | "jnt")
+        })
+        .map(|t| {
+            let mut c = t.chars();
+            c.next()
+                .map(|f| f.to_uppercase().collect::<String>() + c.as_str())
+                .unwrap_or_default()
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Removes parts without triangles and renumbers the labels.
+pub fn compact(seg: &mut Segmentation) {
+    let sizes = seg.part_sizes();
+    let mut map = vec![u16::MAX; seg.parts.len()];
+    let mut parts = Vec::new();
+    for (p, part) in seg.parts.iter().enumerate() {
+        if sizes[p] > 0 || p == 0 {
+            map[p] = parts.len() as u16;
+            parts.push(part.clone());
+        }
+    }
+    for l in &mut seg.labels {
+        *l = map.get(*l as usize).copied().filter(|&m| m != u16::MAX).unwrap_or(0);
+    }
+    seg.parts = parts;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn side_tokens_are_found_in_common_naming_schemes() {
+        for (a, b) in [
+            ("LeftUpperArm", "RightUpperArm"),
+            ("mixamorig:LeftLeg", "mixamorig:RightLeg"),
+            ("leg_joint_L_1", "leg_joint_R_1"),
+            ("UpperArm.L", "UpperArm.R"),
+            ("Shoulder_L", "Shoulder_R"),
+        ] {
+            let (na, sa) = side_free_name(a);
+            let (nb, sb) = side_free_name(b);
+            assert_eq!(na, nb, "{a} / {b}");
+            assert!(sa.is_some() && sb.is_some() && sa != sb, "{a} / {b}");
+        }
+        assert_eq!(side_free_name("Spine").1, None);
+    }
+
+    #[test]
+    fn default_humanoid_gets_the_papers_five_parts() {
+        let c = crate::default_character::generate();
+        let s = auto_segment(&c);
+        let mut names: Vec<&str> = s.parts.iter().map(|p| p.name.as_str()).collect();
+        names.sort();
+        assert_eq!(
+            names,
+            ["Left Arm", "Left Leg", "Right Arm", "Right Leg", "Torso"],
+            "{names:?}"
+        );
+        assert_eq!(s.labels.len(), c.triangle_count());
+        assert!(s.part_sizes().iter().all(|&n| n > 100), "{:?}", s.part_sizes());
+        // The head belongs to the torso; the hands to the arms.
+        let head = c.skeleton.find("Head").unwrap() as u16;
+        let hand = c.skeleton.find("LeftHand").unwrap() as u16;
+        let label_of_bone = |b: u16| {
+            let t = c
+                .indices
+                .chunks_exact(3)
+                .position(|t| {
+                    t.iter()
+                        .all(|&v| c.vertices[v as usize].bones[0] == b && c.vertices[v as usize].weights[0] > 0.99)
+                })
+                .unwrap();
+            s.parts[s.labels[t] as usize].name.clone()
+        };
+        assert_eq!(label_of_bone(head), "Torso");
+        assert_eq!(label_of_bone(hand), "Left Arm");
+    }
+
+    #[test]
+    fn segmentation_is_invariant_to_a_rigid_move_of_the_rig() {
+        let c = crate::default_character::generate();
+        let mut moved = c.clone();
+        moved.skeleton.nodes[0].rest.translation += Vec3::new(3.0, 0.0, -2.0);
+        assert_eq!(auto_segment(&c), auto_segment(&moved));
+    }
+}
