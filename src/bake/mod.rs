@@ -10,9 +10,11 @@
 //! - [`fit`]: the exact dynamic program that maps a source polygon's vertices onto a target
 //!   polygon's, over the triangulation's dual tree, `O(n·m³)`.
 //! - [`segment`]: per-triangle body-part labels, automatic from the skin and the hierarchy.
+//! - [`caps`]: the loops each cut opens, closed by coloured caps; per-part meshes.
 //! - [`visibility`]: the drawing order of parts from the occlusion graph (exact minimum
 //!   feedback arc set).
 
+pub mod caps;
 pub mod contour;
 pub mod fit;
 pub mod segment;
