@@ -17,6 +17,7 @@
 pub mod caps;
 pub mod contour;
 pub mod fit;
+pub mod renders;
 pub mod segment;
 pub mod simplify;
 pub mod triangulate;

@@ -294,6 +294,33 @@ impl CharacterRenderer {
         }
     }
 
+    pub(crate) fn pipeline(&self) -> &wgpu::RenderPipeline {
+        &self.pipeline
+    }
+
+    /// A group-0 bind group of a camera buffer and a bones buffer.
+    pub(crate) fn frame_group(
+        &self,
+        device: &wgpu::Device,
+        frame: &wgpu::Buffer,
+        bones: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("frame"),
+            layout: &self.frame_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: frame.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: bones.as_entire_binding(),
+                },
+            ],
+        })
+    }
+
     /// Records a draw of `character` into `target` (clearing it) on `encoder`. Call
     /// [`GpuCharacter::prepare`] first so the uniforms hold this camera.
     pub fn encode(
@@ -461,7 +488,49 @@ fn upload_texture(device: &wgpu::Device, queue: &wgpu::Queue, t: &Texture) -> wg
     texture
 }
 
+/// Uniforms of a camera for one draw.
+pub(crate) fn frame_uniforms(camera: &Camera, aspect: f32, shading: Shading) -> FrameUniforms {
+    let light = Vec3::new(-0.45, 0.65, 0.6).normalize();
+    FrameUniforms {
+        clip_from_world: camera.clip_from_world(aspect).to_cols_array_2d(),
+        view_from_world: camera.view_from_world().to_cols_array_2d(),
+        light_dir_view: [light.x, light.y, light.z, 0.0],
+        params: match shading {
+            Shading::Lit => [1.0, 0.35, 0.12, 0.0],
+            Shading::Unlit => [0.0, 1.0, 0.0, 0.0],
+        },
+    }
+}
+
+/// Bone matrices of a pose in the uniform layout (identity past the pose's bones).
+pub(crate) fn bones_uniforms(pose: &Pose) -> Bones {
+    let mut bones = Bones {
+        m: [Mat4::IDENTITY.to_cols_array_2d(); MAX_BONES],
+    };
+    for (dst, m) in bones.m.iter_mut().zip(&pose.skin_from_bind) {
+        *dst = m.to_cols_array_2d();
+    }
+    bones
+}
+
 impl GpuCharacter {
+    /// Binds the vertex and index buffers.
+    pub(crate) fn bind_geometry<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>) {
+        pass.set_vertex_buffer(0, self.stream0.slice(..));
+        pass.set_vertex_buffer(1, self.stream1.slice(..));
+        pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+    }
+
+    /// Draws index ranges with their materials (geometry must be bound).
+    pub(crate) fn draw_ranges<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, ranges: &[crate::character::Submesh]) {
+        for s in ranges {
+            if let Some((_, group)) = self.materials.get(s.material) {
+                pass.set_bind_group(1, group, &[]);
+                pass.draw_indexed(s.first_index..s.first_index + s.index_count, 0, 0..1);
+            }
+        }
+    }
+
     pub fn new(renderer: &CharacterRenderer, device: &wgpu::Device, queue: &wgpu::Queue, c: &Character) -> Self {
         let bind_pose: Vec<PositionNormal> = c
             .vertices
@@ -619,16 +688,7 @@ impl GpuCharacter {
 
     /// Uploads the camera and shading for the next draw.
     pub fn set_camera(&self, queue: &wgpu::Queue, camera: &Camera, aspect: f32, shading: Shading) {
-        let light = Vec3::new(-0.45, 0.65, 0.6).normalize();
-        let frame = FrameUniforms {
-            clip_from_world: camera.clip_from_world(aspect).to_cols_array_2d(),
-            view_from_world: camera.view_from_world().to_cols_array_2d(),
-            light_dir_view: [light.x, light.y, light.z, 0.0],
-            params: match shading {
-                Shading::Lit => [1.0, 0.35, 0.12, 0.0],
-                Shading::Unlit => [0.0, 1.0, 0.0, 0.0],
-            },
-        };
+        let frame = frame_uniforms(camera, aspect, shading);
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
     }
 }

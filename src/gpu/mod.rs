@@ -12,6 +12,7 @@ mod camera;
 mod character_renderer;
 mod context;
 pub mod gpu_data;
+mod part_renderer;
 mod readback;
 pub mod shaders;
 
@@ -21,4 +22,5 @@ pub use character_renderer::{
     SkinningMode,
 };
 pub use context::{AdapterPreference, GpuContext, GpuError, rank_adapter};
+pub use part_renderer::{PartImages, PartRenderer};
 pub use readback::{DepthImage, read_depth, read_rgba8};
