@@ -46,15 +46,34 @@ fn part_tiles_cover_the_character_exactly() {
                 assert!(n > 20, "view {v} part {p} frame {f}: only {n} pixels");
             }
             let pose = Pose::sample(&c, &c.clips[0], times[f]);
-            let opts = DrawOptions { shading: Shading::Unlit, ..Default::default() };
-            renderer.render(&ctx.device, &ctx.queue, &target, &mut whole, &c, &pose, SkinningMode::Gpu, cam, &opts);
+            let opts = DrawOptions {
+                shading: Shading::Unlit,
+                ..Default::default()
+            };
+            renderer.render(
+                &ctx.device,
+                &ctx.queue,
+                &target,
+                &mut whole,
+                &c,
+                &pose,
+                SkinningMode::Gpu,
+                cam,
+                &opts,
+            );
             let full = target.read_normal(&ctx.device, &ctx.queue).unwrap();
             let full: Vec<bool> = full.pixels().map(|p| p[3] > 127).collect();
             let inter = union.iter().zip(&full).filter(|(a, b)| **a && **b).count() as f64;
             let uni = union.iter().zip(&full).filter(|(a, b)| **a || **b).count() as f64;
-            assert!(inter / uni > 0.98, "view {v} frame {f}: part union vs whole IoU {}", inter / uni);
+            assert!(
+                inter / uni > 0.98,
+                "view {v} frame {f}: part union vs whole IoU {}",
+                inter / uni
+            );
             if std::env::var_os("POLYPOSTOR_TEST_IMAGES").is_some() {
-                img.color.save(std::env::temp_dir().join(format!("parts-view{v}.png"))).unwrap();
+                img.color
+                    .save(std::env::temp_dir().join(format!("parts-view{v}.png")))
+                    .unwrap();
             }
         }
     }

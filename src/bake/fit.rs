@@ -133,6 +133,22 @@ impl Plan {
         if m == 0 {
             return Err(FitError::EmptyTarget);
         }
+        let all: Vec<usize> = (0..m).collect();
+        self.solve_candidates(&vec![all; self.n], cost)
+    }
+
+    /// Solves the fit exactly over restricted choices: source vertex `i` may only map to a
+    /// target vertex in `candidates[i]`. With every target vertex as a candidate this is
+    /// [`Plan::solve`]; with one candidate it pins the vertex. Cost `O(n·k³)` for `k`
+    /// candidates per vertex.
+    pub fn solve_candidates(
+        &self,
+        candidates: &[Vec<usize>],
+        cost: impl Fn(usize, [usize; 3]) -> f64,
+    ) -> Result<Fit, FitError> {
+        if candidates.len() < self.n || candidates.iter().take(self.n).any(|c| c.is_empty()) {
+            return Err(FitError::EmptyTarget);
+        }
         // Cost of triangle t with its vertices in (a, b, c) order of the plan.
         let tri_cost = |t: usize, a: usize, b: usize, pa: usize, pb: usize, pc: usize| {
             let tri = self.triangles[t];
@@ -148,70 +164,72 @@ impl Plan {
             }
             cost(t, p)
         };
-        // tables[(a, b)] = (cost[pa * m + pb], argmin pc) for processed base edges.
-        let mut tables: HashMap<(usize, usize), (Vec<f64>, Vec<u32>)> = HashMap::new();
-        let lookup =
-            |tables: &HashMap<(usize, usize), (Vec<f64>, Vec<u32>)>, x: usize, y: usize, px: usize, py: usize| -> f64 {
-                if let Some((c, _)) = tables.get(&(x, y)) {
-                    c[px * m + py]
-                } else if let Some((c, _)) = tables.get(&(y, x)) {
-                    c[py * m + px]
-                } else {
-                    0.0
-                }
-            };
+        // tables[(a, b)] = (best cost, argmin candidate of c), indexed [ka * |cand b| + kb].
+        type Table = (Vec<f64>, Vec<u32>);
+        let mut tables: HashMap<(usize, usize), Table> = HashMap::new();
+        let lookup = |tables: &HashMap<(usize, usize), Table>, x: usize, y: usize, kx: usize, ky: usize| -> f64 {
+            if let Some((c, _)) = tables.get(&(x, y)) {
+                c[kx * candidates[y].len() + ky]
+            } else if let Some((c, _)) = tables.get(&(y, x)) {
+                c[ky * candidates[x].len() + kx]
+            } else {
+                0.0
+            }
+        };
         let (last, rest) = self.order.split_last().expect("non-empty");
         for &(t, a, b, c) in rest {
-            let mut best = vec![f64::INFINITY; m * m];
-            let mut arg = vec![0u32; m * m];
-            for pa in 0..m {
-                for pb in 0..m {
+            let (ca, cb, cc) = (&candidates[a], &candidates[b], &candidates[c]);
+            let mut best = vec![f64::INFINITY; ca.len() * cb.len()];
+            let mut arg = vec![0u32; ca.len() * cb.len()];
+            for (ka, &pa) in ca.iter().enumerate() {
+                for (kb, &pb) in cb.iter().enumerate() {
                     let mut bc = f64::INFINITY;
                     let mut bi = 0u32;
-                    for pc in 0..m {
+                    for (kc, &pc) in cc.iter().enumerate() {
                         let v = tri_cost(t, a, b, pa, pb, pc)
-                            + lookup(&tables, a, c, pa, pc)
-                            + lookup(&tables, c, b, pc, pb);
+                            + lookup(&tables, a, c, ka, kc)
+                            + lookup(&tables, c, b, kc, kb);
                         if v < bc {
                             bc = v;
-                            bi = pc as u32;
+                            bi = kc as u32;
                         }
                     }
-                    best[pa * m + pb] = bc;
-                    arg[pa * m + pb] = bi;
+                    best[ka * cb.len() + kb] = bc;
+                    arg[ka * cb.len() + kb] = bi;
                 }
             }
             tables.insert((a, b), (best, arg));
         }
         let &(t, a, b, c) = last;
         let mut best = (f64::INFINITY, 0, 0, 0);
-        for pa in 0..m {
-            for pb in 0..m {
-                for pc in 0..m {
+        for (ka, &pa) in candidates[a].iter().enumerate() {
+            for (kb, &pb) in candidates[b].iter().enumerate() {
+                for (kc, &pc) in candidates[c].iter().enumerate() {
                     let v = tri_cost(t, a, b, pa, pb, pc)
-                        + lookup(&tables, a, b, pa, pb)
-                        + lookup(&tables, b, c, pb, pc)
-                        + lookup(&tables, c, a, pc, pa);
+                        + lookup(&tables, a, b, ka, kb)
+                        + lookup(&tables, b, c, kb, kc)
+                        + lookup(&tables, c, a, kc, ka);
                     if v < best.0 {
-                        best = (v, pa, pb, pc);
+                        best = (v, ka, kb, kc);
                     }
                 }
             }
         }
-        let mut mapping = vec![usize::MAX; self.n];
-        mapping[a] = best.1;
-        mapping[b] = best.2;
-        mapping[c] = best.3;
+        // Backtrack in candidate indices, then translate.
+        let mut k = vec![usize::MAX; self.n];
+        k[a] = best.1;
+        k[b] = best.2;
+        k[c] = best.3;
         for &(_, a, b, c) in rest.iter().rev() {
             let (_, arg) = &tables[&(a, b)];
-            mapping[c] = arg[mapping[a] * m + mapping[b]] as usize;
+            k[c] = arg[k[a] * candidates[b].len() + k[b]] as usize;
         }
-        // Vertices in no triangle (cannot happen for a triangulated polygon) map to 0.
-        for v in &mut mapping {
-            if *v == usize::MAX {
-                *v = 0;
-            }
-        }
+        // Vertices in no triangle (cannot happen for a triangulated polygon) take their first candidate.
+        let mapping = k
+            .iter()
+            .enumerate()
+            .map(|(i, &ki)| candidates[i][if ki == usize::MAX { 0 } else { ki }])
+            .collect();
         Ok(Fit { mapping, cost: best.0 })
     }
 }
@@ -352,6 +370,40 @@ mod tests {
             .solve(m, |t, p| base_cost(rel[t].map(|v| (v + n - shift) % n), p))
             .unwrap();
         assert!((a.cost - b.cost).abs() < 1e-9);
+    }
+
+    #[test]
+    fn candidate_restriction_equals_brute_force_over_the_same_choices() {
+        for seed in 0..6u64 {
+            let n = 6;
+            let m = 5;
+            let poly = polygon(n, seed as u32);
+            let tris = triangulate(&poly).unwrap();
+            let cost = hash_cost(seed * 13 + 5);
+            // Each vertex may take 2 or 3 of the targets; vertex 0 is pinned.
+            let cands: Vec<Vec<usize>> = (0..n)
+                .map(|i| {
+                    if i == 0 {
+                        vec![3]
+                    } else {
+                        (0..m).filter(|j| (i + j + seed as usize) % 3 != 0).collect()
+                    }
+                })
+                .collect();
+            let dp = Plan::new(n, &tris).unwrap().solve_candidates(&cands, &cost).unwrap();
+            let bf = brute_force(n, &tris, m, |t, p| {
+                let ok = tris[t].iter().zip(p).all(|(&v, pj)| cands[v].contains(&pj));
+                if ok { cost(t, p) } else { 1e12 }
+            });
+            assert!(
+                (dp.cost - bf.cost).abs() < 1e-9,
+                "seed {seed}: {} vs {}",
+                dp.cost,
+                bf.cost
+            );
+            assert_eq!(dp.mapping[0], 3);
+            assert!(dp.mapping.iter().enumerate().all(|(i, p)| cands[i].contains(p)));
+        }
     }
 
     #[test]

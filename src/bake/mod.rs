@@ -17,6 +17,8 @@
 pub mod caps;
 pub mod contour;
 pub mod fit;
+pub mod image_cost;
+pub mod part_fit;
 pub mod renders;
 pub mod segment;
 pub mod simplify;

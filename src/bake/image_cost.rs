@@ -1,0 +1,163 @@
+//! The fitting error: SSD between the source texture (colour + normal + coverage), sampled at
+//! fixed barycentric points of each source triangle, and the target image at the affinely
+//! mapped points.
+
+/// One image of a part at one frame: colour, normal and coverage per pixel, as floats.
+#[derive(Clone, Debug)]
+pub struct PartTile {
+    pub size: u32,
+    /// Per pixel: r, g, b (sRGB-encoded 0..1), normal x, y, z (encoded 0..1), coverage.
+    pub px: Vec<[f32; 7]>,
+}
+
+/// Channels' weights in the SSD (coverage counts most: mapping a triangle onto the
+/// background is the worst error).
+pub const CHANNEL_WEIGHTS: [f32; 7] = [1.0, 1.0, 1.0, 0.5, 0.5, 0.5, 2.0];
+
+impl PartTile {
+    /// From a colour and a normal image of the same size (normal alpha = coverage).
+    pub fn from_images(color: &image::RgbaImage, normal: &image::RgbaImage) -> Self {
+        let size = color.width();
+        let px = color
+            .pixels()
+            .zip(normal.pixels())
+            .map(|(c, n)| {
+                let a = n[3] as f32 / 255.0;
+                [
+                    c[0] as f32 / 255.0 * a,
+                    c[1] as f32 / 255.0 * a,
+                    c[2] as f32 / 255.0 * a,
+                    n[0] as f32 / 255.0 * a,
+                    n[1] as f32 / 255.0 * a,
+                    n[2] as f32 / 255.0 * a,
+                    a,
+                ]
+            })
+            .collect();
+        Self { size, px }
+    }
+
+    /// The coverage mask.
+    pub fn mask(&self) -> super::contour::Mask {
+        super::contour::Mask {
+            width: self.size as usize,
+            height: self.size as usize,
+            data: self.px.iter().map(|p| p[6] > 0.5).collect(),
+        }
+    }
+
+    /// Bilinear sample at pixel coordinates (pixel centres at `i + 0.5`); zero outside.
+    pub fn sample(&self, x: f32, y: f32) -> [f32; 7] {
+        let (fx, fy) = (x - 0.5, y - 0.5);
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (tx, ty) = (fx - x0, fy - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let s = self.size as i64;
+        let get = |x: i64, y: i64| -> [f32; 7] {
+            if x < 0 || y < 0 || x >= s || y >= s {
+                [0.0; 7]
+            } else {
+                self.px[(y * s + x) as usize]
+            }
+        };
+        let (a, b, c, d) = (get(x0, y0), get(x0 + 1, y0), get(x0, y0 + 1), get(x0 + 1, y0 + 1));
+        let mut out = [0.0; 7];
+        for k in 0..7 {
+            let top = a[k] + (b[k] - a[k]) * tx;
+            let bottom = c[k] + (d[k] - c[k]) * tx;
+            out[k] = top + (bottom - top) * ty;
+        }
+        out
+    }
+}
+
+/// The fixed barycentric sample points of a triangle.
+pub const SAMPLES: [[f32; 3]; 10] = [
+    [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0],
+    [0.6, 0.2, 0.2],
+    [0.2, 0.6, 0.2],
+    [0.2, 0.2, 0.6],
+    [0.45, 0.45, 0.1],
+    [0.1, 0.45, 0.45],
+    [0.45, 0.1, 0.45],
+    [0.8, 0.1, 0.1],
+    [0.1, 0.8, 0.1],
+    [0.1, 0.1, 0.8],
+];
+
+/// Source texture values at the sample points of every source triangle, and the weight of
+/// each triangle (its area in pixels, so the error is an integral over the source).
+pub struct SourceSamples {
+    values: Vec<[[f32; 7]; SAMPLES.len()]>,
+    weights: Vec<f64>,
+}
+
+impl SourceSamples {
+    pub fn new(key: &PartTile, vertices: &[[f32; 2]], triangles: &[[usize; 3]]) -> Self {
+        let mut values = Vec::with_capacity(triangles.len());
+        let mut weights = Vec::with_capacity(triangles.len());
+        for t in triangles {
+            let [a, b, c] = t.map(|i| vertices[i]);
+            let mut v = [[0.0; 7]; SAMPLES.len()];
+            for (k, w) in SAMPLES.iter().enumerate() {
+                let x = w[0] * a[0] + w[1] * b[0] + w[2] * c[0];
+                let y = w[0] * a[1] + w[1] * b[1] + w[2] * c[1];
+                v[k] = key.sample(x, y);
+            }
+            values.push(v);
+            let area = 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])).abs() as f64;
+            weights.push(area.max(0.5));
+        }
+        Self { values, weights }
+    }
+
+    /// Error of mapping source triangle `t` onto the target triangle with corners `p`.
+    pub fn cost(&self, t: usize, target: &PartTile, p: [[f32; 2]; 3]) -> f64 {
+        let mut ssd = 0.0f32;
+        for (k, w) in SAMPLES.iter().enumerate() {
+            let x = w[0] * p[0][0] + w[1] * p[1][0] + w[2] * p[2][0];
+            let y = w[0] * p[0][1] + w[1] * p[1][1] + w[2] * p[2][1];
+            let s = target.sample(x, y);
+            let v = &self.values[t][k];
+            for c in 0..7 {
+                let d = s[c] - v[c];
+                ssd += CHANNEL_WEIGHTS[c] * d * d;
+            }
+        }
+        self.weights[t] * ssd as f64 / SAMPLES.len() as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tile(f: impl Fn(u32, u32) -> [f32; 7]) -> PartTile {
+        let size = 16;
+        PartTile {
+            size,
+            px: (0..size * size).map(|i| f(i % size, i / size)).collect(),
+        }
+    }
+
+    #[test]
+    fn identity_mapping_costs_nothing_and_a_shift_costs_something() {
+        let t = tile(|x, y| [x as f32 / 16.0, y as f32 / 16.0, 0.5, 0.5, 0.5, 1.0, 1.0]);
+        let verts = [[3.0, 3.0], [12.0, 4.0], [6.0, 12.0]];
+        let s = SourceSamples::new(&t, &verts, &[[0, 1, 2]]);
+        assert!(s.cost(0, &t, verts) < 1e-9);
+        let shifted = verts.map(|p| [p[0] + 2.0, p[1]]);
+        assert!(s.cost(0, &t, shifted) > 1e-3);
+        // Off the image entirely: coverage mismatch dominates.
+        let away = verts.map(|p| [p[0] + 40.0, p[1]]);
+        assert!(s.cost(0, &t, away) > s.cost(0, &t, shifted));
+    }
+
+    #[test]
+    fn bilinear_sampling_is_exact_at_pixel_centres_and_linear_between() {
+        let t = tile(|x, _| [x as f32, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]);
+        assert_eq!(t.sample(3.5, 7.5)[0], 3.0);
+        assert!((t.sample(4.0, 7.5)[0] - 3.5).abs() < 1e-6);
+        assert_eq!(t.sample(-5.0, 2.0), [0.0; 7]);
+    }
+}

@@ -1,0 +1,378 @@
+//! Fitting one part in one view over every frame: trace each frame's mask, simplify the key
+//! frame to `S` (40 vertices) and every frame to `T` (50), triangulate `S`, fit `S` onto each
+//! `T` (exact DP, or the fast candidate-window mode), then simplify `S` with the deformation
+//! in mind to the final polygon (20 vertices, 18 triangles).
+
+use super::contour::trace_outer;
+use super::fit::{Fit, FitError, Plan};
+use super::image_cost::{PartTile, SourceSamples};
+use super::simplify::{SimplifyOptions, is_simple, simplify};
+use super::triangulate::{TriangulateError, triangulate};
+
+/// Options of [`fit_part`]. Defaults are the paper's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PartFitOptions {
+    /// Vertices of the key-frame polygon S. Default value: 40.
+    pub key_vertices: usize,
+    /// Vertices of every frame's polygon T. Default value: 50.
+    pub frame_vertices: usize,
+    /// Vertices after deformation-aware simplification. Default value: 20.
+    pub final_vertices: usize,
+    /// Exact DP over every target vertex (`O(n·m³)`) instead of the fast mode.
+    /// Default value: false.
+    pub exhaustive: bool,
+    /// Fast mode: candidate target vertices per source vertex, nearest to where the vertex
+    /// was in the previous frame. Default value: [`DEFAULT_WINDOW`].
+    pub window: usize,
+}
+
+/// Candidates per source vertex in the fast mode.
+pub const DEFAULT_WINDOW: usize = 12;
+
+impl Default for PartFitOptions {
+    fn default() -> Self {
+        Self {
+            key_vertices: 40,
+            frame_vertices: 50,
+            final_vertices: 20,
+            exhaustive: false,
+            window: DEFAULT_WINDOW,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PartFitError {
+    #[error("the part is not visible in frame {0}")]
+    Empty(usize),
+    #[error("triangulation failed: {0}")]
+    Triangulate(#[from] TriangulateError),
+    #[error("fitting failed: {0}")]
+    Fit(#[from] FitError),
+}
+
+/// The fitted polygons of one part in one view.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PartFit {
+    pub key_frame: usize,
+    /// S: the key-frame polygon (pixels of the key tile).
+    pub key_polygon: Vec<[f32; 2]>,
+    pub key_triangles: Vec<[usize; 3]>,
+    /// T per frame.
+    pub targets: Vec<Vec<[f32; 2]>>,
+    /// P per frame: `mappings[f][i]` is the vertex of `targets[f]` that S vertex `i` maps to.
+    pub mappings: Vec<Vec<usize>>,
+    /// Fit error per frame (the DP objective).
+    pub costs: Vec<f64>,
+    /// The final polygon: indices of the kept S vertices, in order.
+    pub kept: Vec<usize>,
+    /// Final triangles, indices into `kept`.
+    pub triangles: Vec<[usize; 3]>,
+}
+
+impl PartFit {
+    /// Positions of the final polygon's vertices at frame `f` (pixels of that frame's tile).
+    pub fn positions(&self, f: usize) -> Vec<[f32; 2]> {
+        self.kept
+            .iter()
+            .map(|&i| self.targets[f][self.mappings[f][i]])
+            .collect()
+    }
+
+    /// Texture coordinates of the final polygon's vertices (pixels of the key tile).
+    pub fn uvs(&self) -> Vec<[f32; 2]> {
+        self.kept.iter().map(|&i| self.key_polygon[i]).collect()
+    }
+
+    pub fn total_cost(&self) -> f64 {
+        self.costs.iter().sum()
+    }
+}
+
+fn polygon_of(tile: &PartTile, vertices: usize, frame: usize) -> Result<Vec<[f32; 2]>, PartFitError> {
+    let contour = trace_outer(&tile.mask());
+    if contour.len() < 3 {
+        return Err(PartFitError::Empty(frame));
+    }
+    let kept = simplify(&contour, vertices, &SimplifyOptions::default());
+    let poly: Vec<[f32; 2]> = kept.iter().map(|&i| contour[i]).collect();
+    // Remove exact repeats (thin one-pixel spurs visit a pixel twice).
+    let mut out: Vec<[f32; 2]> = Vec::with_capacity(poly.len());
+    for p in poly {
+        if !out.contains(&p) {
+            out.push(p);
+        }
+    }
+    if out.len() < 3 {
+        return Err(PartFitError::Empty(frame));
+    }
+    Ok(out)
+}
+
+/// Candidate targets of each source vertex: the `window` target vertices nearest to its
+/// predicted position.
+fn candidates(pred: &[[f32; 2]], target: &[[f32; 2]], window: usize) -> Vec<Vec<usize>> {
+    pred.iter()
+        .map(|p| {
+            let mut idx: Vec<usize> = (0..target.len()).collect();
+            idx.sort_by(|&a, &b| {
+                let da = (target[a][0] - p[0]).powi(2) + (target[a][1] - p[1]).powi(2);
+                let db = (target[b][0] - p[0]).powi(2) + (target[b][1] - p[1]).powi(2);
+                da.total_cmp(&db).then(a.cmp(&b))
+            });
+            idx.truncate(window.max(1));
+            idx.sort_unstable();
+            idx
+        })
+        .collect()
+}
+
+/// Fits S onto one target; `pred` gives the fast mode's predicted positions.
+pub fn fit_frame(
+    plan: &Plan,
+    samples: &SourceSamples,
+    target_tile: &PartTile,
+    target: &[[f32; 2]],
+    pred: &[[f32; 2]],
+    options: &PartFitOptions,
+    pins: &[(usize, usize)],
+) -> Result<Fit, FitError> {
+    let cost = |t: usize, p: [usize; 3]| samples.cost(t, target_tile, p.map(|j| target[j]));
+    let pin = |cands: &mut Vec<Vec<usize>>| {
+        for &(i, j) in pins {
+            if i < cands.len() && j < target.len() {
+                cands[i] = vec![j];
+            }
+        }
+    };
+    if options.exhaustive {
+        let mut cands = vec![(0..target.len()).collect(); pred.len()];
+        pin(&mut cands);
+        return plan.solve_candidates(&cands, cost);
+    }
+    let mut cands = candidates(pred, target, options.window);
+    pin(&mut cands);
+    let mut best = plan.solve_candidates(&cands, cost)?;
+    // Refine: re-centre the windows on the current solution (near it in space and along
+    // the target contour) and solve again; the old solution stays feasible, so the cost
+    // never rises.
+    let m = target.len() as i64;
+    let half = (options.window / 2) as i64;
+    for _ in 0..REFINE_PASSES {
+        let at: Vec<[f32; 2]> = best.mapping.iter().map(|&j| target[j]).collect();
+        let mut cands = candidates(&at, target, options.window);
+        for (i, c) in cands.iter_mut().enumerate() {
+            let j = best.mapping[i] as i64;
+            for d in -half..=half {
+                let k = (j + d).rem_euclid(m) as usize;
+                if !c.contains(&k) {
+                    c.push(k);
+                }
+            }
+            c.sort_unstable();
+        }
+        pin(&mut cands);
+        let next = plan.solve_candidates(&cands, cost)?;
+        if next.cost < best.cost - 1e-12 {
+            best = next;
+        } else {
+            break;
+        }
+    }
+    Ok(best)
+}
+
+/// Refinement passes of the fast mode.
+pub const REFINE_PASSES: usize = 3;
+
+/// Removes S vertices one at a time, each time the one whose removal moves the outline least,
+/// averaged over every frame, until `target` remain; keeps the key polygon simple.
+pub fn deformation_aware_simplify(fit_positions: &[Vec<[f32; 2]>], key: &[[f32; 2]], target: usize) -> Vec<usize> {
+    let n = key.len();
+    let mut kept: Vec<usize> = (0..n).collect();
+    let dist = |p: [f32; 2], a: [f32; 2], b: [f32; 2]| {
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let l2 = dx * dx + dy * dy;
+        let t = if l2 > 0.0 {
+            (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        ((p[0] - a[0] - t * dx).powi(2) + (p[1] - a[1] - t * dy).powi(2)).sqrt()
+    };
+    while kept.len() > target.max(3) {
+        let m = kept.len();
+        let mut best: Option<(f32, usize)> = None;
+        for k in 0..m {
+            let (a, i, b) = (kept[(k + m - 1) % m], kept[k], kept[(k + 1) % m]);
+            let err: f32 = fit_positions
+                .iter()
+                .map(|pos| dist(pos[i], pos[a], pos[b]))
+                .sum::<f32>()
+                / fit_positions.len().max(1) as f32;
+            if best.is_some_and(|(e, _)| e <= err) {
+                continue;
+            }
+            let trial: Vec<[f32; 2]> = kept
+                .iter()
+                .enumerate()
+                .filter(|(q, _)| *q != k)
+                .map(|(_, &v)| key[v])
+                .collect();
+            if is_simple(&trial) {
+                best = Some((err, k));
+            }
+        }
+        let Some((_, k)) = best else { break };
+        kept.remove(k);
+    }
+    kept
+}
+
+/// Fits one part over all frames of one view. `tiles[f]` is the part at frame `f`; `key` is
+/// the key frame. `pins[f]` are pinned correspondences `(S vertex, T vertex)` at frame `f`.
+pub fn fit_part(
+    tiles: &[PartTile],
+    key: usize,
+    options: &PartFitOptions,
+    pins: &[Vec<(usize, usize)>],
+) -> Result<PartFit, PartFitError> {
+    let frames = tiles.len();
+    let key_polygon = polygon_of(&tiles[key], options.key_vertices, key)?;
+    let key_triangles = triangulate(&key_polygon)?;
+    let plan = Plan::new(key_polygon.len(), &key_triangles)?;
+    let samples = SourceSamples::new(&tiles[key], &key_polygon, &key_triangles);
+    let targets: Vec<Vec<[f32; 2]>> = (0..frames)
+        .map(|f| polygon_of(&tiles[f], options.frame_vertices, f))
+        .collect::<Result<_, _>>()?;
+    let mut mappings = vec![Vec::new(); frames];
+    let mut costs = vec![0.0; frames];
+    // Walk the loop from the key frame so each frame is predicted from its predecessor.
+    let mut pred = key_polygon.clone();
+    for step in 0..frames {
+        let f = (key + step) % frames;
+        let none = Vec::new();
+        let fit = fit_frame(
+            &plan,
+            &samples,
+            &tiles[f],
+            &targets[f],
+            &pred,
+            options,
+            pins.get(f).unwrap_or(&none),
+        )?;
+        pred = fit.mapping.iter().map(|&j| targets[f][j]).collect();
+        mappings[f] = fit.mapping;
+        costs[f] = fit.cost;
+    }
+    let positions: Vec<Vec<[f32; 2]>> = (0..frames)
+        .map(|f| mappings[f].iter().map(|&j| targets[f][j]).collect())
+        .collect();
+    let kept = deformation_aware_simplify(&positions, &key_polygon, options.final_vertices);
+    let final_poly: Vec<[f32; 2]> = kept.iter().map(|&i| key_polygon[i]).collect();
+    let triangles = triangulate(&final_poly)?;
+    Ok(PartFit {
+        key_frame: key,
+        key_polygon,
+        key_triangles,
+        targets,
+        mappings,
+        costs,
+        kept,
+        triangles,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A textured ellipse that moves and stretches over frames.
+    fn tiles(frames: usize) -> Vec<PartTile> {
+        (0..frames)
+            .map(|f| {
+                let size = 64u32;
+                let (cx, cy) = (28.0 + f as f32 * 2.0, 32.0);
+                let (rx, ry) = (14.0 + f as f32, 20.0 - f as f32 * 0.5);
+                let px = (0..size * size)
+                    .map(|i| {
+                        let (x, y) = ((i % size) as f32 + 0.5, (i / size) as f32 + 0.5);
+                        let (u, v) = ((x - cx) / rx, (y - cy) / ry);
+                        if u * u + v * v < 1.0 {
+                            // Texture attached to the shape: stripes along v.
+                            let stripe = if ((v + 1.0) * 4.0).floor() as i32 % 2 == 0 {
+                                1.0
+                            } else {
+                                0.2
+                            };
+                            [
+                                stripe,
+                                v * 0.5 + 0.5,
+                                u * 0.5 + 0.5,
+                                0.5 + 0.3 * u,
+                                0.5 + 0.3 * v,
+                                1.0,
+                                1.0,
+                            ]
+                        } else {
+                            [0.0; 7]
+                        }
+                    })
+                    .collect();
+                PartTile { size, px }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn fits_a_moving_textured_shape_and_simplifies_to_the_final_size() {
+        let t = tiles(5);
+        let fit = fit_part(&t, 0, &PartFitOptions::default(), &[]).unwrap();
+        assert!(
+            fit.key_polygon.len() <= 42 && fit.key_polygon.len() >= 30,
+            "{}",
+            fit.key_polygon.len()
+        );
+        assert_eq!(fit.kept.len(), 20);
+        assert_eq!(fit.triangles.len(), 18);
+        assert!(is_simple(&fit.uvs()));
+        // Mapped vertices follow the motion: their centroid moves right by ~2 px per frame.
+        let centroid = |p: &[[f32; 2]]| p.iter().map(|q| q[0]).sum::<f32>() / p.len() as f32;
+        let c0 = centroid(&fit.positions(0));
+        let c4 = centroid(&fit.positions(4));
+        assert!((c4 - c0 - 8.0).abs() < 3.0, "{c0} -> {c4}");
+    }
+
+    #[test]
+    fn fast_mode_is_within_two_percent_of_the_exact_dp() {
+        let t = tiles(4);
+        let fast = fit_part(&t, 0, &PartFitOptions::default(), &[]).unwrap();
+        let exact = fit_part(
+            &t,
+            0,
+            &PartFitOptions {
+                exhaustive: true,
+                ..Default::default()
+            },
+            &[],
+        )
+        .unwrap();
+        assert!(exact.total_cost() <= fast.total_cost() + 1e-9);
+        assert!(
+            fast.total_cost() <= exact.total_cost() * 1.02 + 1e-6,
+            "fast {} exact {}",
+            fast.total_cost(),
+            exact.total_cost()
+        );
+    }
+
+    #[test]
+    fn a_pin_is_respected() {
+        let t = tiles(3);
+        let free = fit_part(&t, 0, &PartFitOptions::default(), &[]).unwrap();
+        let j = (free.mappings[1][0] + 5) % free.targets[1].len();
+        let pinned = fit_part(&t, 0, &PartFitOptions::default(), &[vec![], vec![(0, j)], vec![]]).unwrap();
+        assert_eq!(pinned.mappings[1][0], j);
+        assert!(pinned.costs[1] >= free.costs[1] - 1e-9);
+    }
+}
