@@ -19,6 +19,8 @@ pub mod contour;
 pub mod fit;
 pub mod image_cost;
 pub mod part_fit;
+pub mod pipeline;
+pub mod raster;
 pub mod renders;
 pub mod segment;
 pub mod simplify;

@@ -27,7 +27,7 @@ pub struct PartFitOptions {
 }
 
 /// Candidates per source vertex in the fast mode.
-pub const DEFAULT_WINDOW: usize = 12;
+pub const DEFAULT_WINDOW: usize = 6;
 
 impl Default for PartFitOptions {
     fn default() -> Self {
@@ -183,7 +183,7 @@ pub fn fit_frame(
 }
 
 /// Refinement passes of the fast mode.
-pub const REFINE_PASSES: usize = 3;
+pub const REFINE_PASSES: usize = 2;
 
 /// Removes S vertices one at a time, each time the one whose removal moves the outline least,
 /// averaged over every frame, until `target` remain; keeps the key polygon simple.

@@ -1,0 +1,411 @@
+//! The whole bake: segmentation and caps in, per-view fitted polygons, visibility orders,
+//! key-frame images and fit errors out. GPU renders run on the calling thread; fitting runs
+//! on the rayon pool, a few views ahead of the renderer.
+
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::caps::{CapOverrides, find_caps};
+use super::image_cost::PartTile;
+use super::part_fit::{PartFit, PartFitOptions, fit_part};
+use super::raster::{Canvas, psnr, tile_canvas};
+use super::renders::{frame_times, merge_parts, sample_frames, view_cameras};
+use super::segment::Segmentation;
+use super::viewpoints::{Coverage, directions};
+use super::visibility::draw_order;
+use crate::character::Character;
+use crate::gpu::{Camera, CharacterRenderer, GpuContext, GpuError, PartImages, PartRenderer};
+
+/// How the texture key-frame is chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum KeyFrame {
+    /// The frame that lets the others fit best (tried on a few views).
+    Auto,
+    Frame(usize),
+}
+
+/// Every setting of a bake.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakeOptions {
+    pub views: usize,
+    pub coverage: Coverage,
+    pub resolution: u32,
+    pub fps: f32,
+    /// Clip index (None: rest pose).
+    pub clip: Option<usize>,
+    pub key_frame: KeyFrame,
+    pub fit: PartFitOptions,
+    /// Views used to choose the key frame automatically.
+    pub key_frame_probe_views: usize,
+}
+
+impl Default for BakeOptions {
+    fn default() -> Self {
+        Self {
+            views: super::viewpoints::DEFAULT_VIEW_COUNT,
+            coverage: Coverage::UpperHemisphere,
+            resolution: super::renders::DEFAULT_RESOLUTION,
+            fps: super::renders::DEFAULT_FPS,
+            clip: Some(0),
+            key_frame: KeyFrame::Auto,
+            fit: PartFitOptions::default(),
+            key_frame_probe_views: 4,
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum BakeError {
+    #[error("GPU: {0}")]
+    Gpu(#[from] GpuError),
+    #[error("the segmentation has {got} labels but the character has {want} triangles")]
+    Segmentation { got: usize, want: usize },
+    #[error("key frame {0} is out of range ({1} frames)")]
+    KeyFrame(usize, usize),
+    #[error("cancelled")]
+    Cancelled,
+}
+
+/// The result for one part in one view.
+#[derive(Clone, Debug)]
+pub struct PartResult {
+    /// `None` when the part could not be fitted here (e.g. seen edge-on); the message says why.
+    pub fit: Option<PartFit>,
+    pub problem: Option<String>,
+    /// PSNR of the part's polypostor against its own render, per frame.
+    pub psnr: Vec<f64>,
+    /// The key-frame colour and normal images of the part (RGBA8, `resolution²`).
+    pub key_color: image::RgbaImage,
+    pub key_normal: image::RgbaImage,
+}
+
+/// The result for one view.
+#[derive(Clone, Debug)]
+pub struct ViewResult {
+    pub direction: Vec3,
+    pub camera: Camera,
+    pub parts: Vec<PartResult>,
+    /// `hidden[a][b]`: pixels of part b hidden by part a, averaged over frames.
+    pub hidden: Vec<Vec<f64>>,
+    /// Drawing order, back to front.
+    pub order: Vec<usize>,
+    /// Composited character PSNR per frame.
+    pub psnr: Vec<f64>,
+    /// The same for the key-frame polygons left still (what fitting gains over a static
+    /// textured polygon).
+    pub psnr_static: Vec<f64>,
+}
+
+/// A finished bake.
+pub struct Bake {
+    pub options: BakeOptions,
+    pub frame_times: Vec<f32>,
+    pub key_frame: usize,
+    pub segmentation: Segmentation,
+    pub views: Vec<ViewResult>,
+    /// Seconds per stage.
+    pub stage_secs: BTreeMap<String, f64>,
+    pub adapter: String,
+}
+
+/// Progress callback data.
+#[derive(Clone, Debug)]
+pub struct Progress {
+    pub stage: &'static str,
+    pub done: usize,
+    pub total: usize,
+}
+
+struct ViewData {
+    tiles: Vec<Vec<PartTile>>,
+    hidden: Vec<Vec<f64>>,
+    depth_order_tiles: PartImages,
+}
+
+fn extract(images: PartImages) -> ViewData {
+    let (parts, frames, r) = (images.parts, images.frames, images.resolution);
+    let tiles: Vec<Vec<PartTile>> = (0..parts)
+        .map(|p| {
+            (0..frames)
+                .map(|f| PartTile::from_images(&images.tile(&images.color, p, f), &images.tile(&images.normal, p, f)))
+                .collect()
+        })
+        .collect();
+    let mut hidden = vec![vec![0.0f64; parts]; parts];
+    for f in 0..frames {
+        for y in 0..r {
+            for x in 0..r {
+                let covering: Vec<(usize, f32)> = (0..parts)
+                    .filter(|&p| images.covered(p, f, x, y))
+                    .map(|p| (p, images.depth_at(p, f, x, y)))
+                    .collect();
+                for &(a, da) in &covering {
+                    for &(b, db) in &covering {
+                        if a != b && da < db {
+                            hidden[a][b] += 1.0;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    for row in &mut hidden {
+        for w in row {
+            *w /= frames.max(1) as f64;
+        }
+    }
+    ViewData {
+        tiles,
+        hidden,
+        depth_order_tiles: images,
+    }
+}
+
+/// The ground truth of a frame: the parts composited by depth.
+fn ground_truth(images: &PartImages, frame: usize) -> Canvas {
+    let r = images.resolution;
+    let mut c = Canvas::new(r);
+    for y in 0..r {
+        for x in 0..r {
+            let mut best: Option<(f32, usize)> = None;
+            for p in 0..images.parts {
+                if images.covered(p, frame, x, y) {
+                    let d = images.depth_at(p, frame, x, y);
+                    if best.is_none_or(|(bd, _)| d < bd) {
+                        best = Some((d, p));
+                    }
+                }
+            }
+            if let Some((_, p)) = best {
+                let (ox, oy) = images.tile_origin(p, frame);
+                let q = images.color.get_pixel(ox + x, oy + y);
+                c.px[(y * r + x) as usize] = [q[0] as f32 / 255.0, q[1] as f32 / 255.0, q[2] as f32 / 255.0, 1.0];
+            }
+        }
+    }
+    c
+}
+
+/// Draws the polypostor of one view at one frame.
+pub fn render_polypostor(
+    parts: &[PartResult],
+    key_tiles: &[PartTile],
+    order: &[usize],
+    frame: usize,
+    size: u32,
+) -> Canvas {
+    let mut c = Canvas::new(size);
+    for &p in order {
+        let Some(fit) = &parts[p].fit else { continue };
+        let pos = fit.positions(frame);
+        let uv = fit.uvs();
+        for t in &fit.triangles {
+            c.draw_textured(t.map(|i| pos[i]), t.map(|i| uv[i]), &key_tiles[p]);
+        }
+    }
+    c
+}
+
+fn fit_view(direction: Vec3, camera: Camera, data: ViewData, key: usize, options: &PartFitOptions) -> ViewResult {
+    let parts_n = data.tiles.len();
+    let frames = data.tiles.first().map_or(0, |t| t.len());
+    let images = &data.depth_order_tiles;
+    let parts: Vec<PartResult> = (0..parts_n)
+        .into_par_iter()
+        .map(|p| {
+            let tiles = &data.tiles[p];
+            let (fit, problem) = match fit_part(tiles, key, options, &[]) {
+                Ok(f) => (Some(f), None),
+                Err(e) => (None, Some(e.to_string())),
+            };
+            let psnr_per_frame = (0..frames)
+                .map(|f| match &fit {
+                    Some(fit) => {
+                        let mut c = Canvas::new(tiles[f].size);
+                        let pos = fit.positions(f);
+                        let uv = fit.uvs();
+                        for t in &fit.triangles {
+                            c.draw_textured(t.map(|i| pos[i]), t.map(|i| uv[i]), &tiles[key]);
+                        }
+                        psnr(c.rmse(&tile_canvas(&tiles[f])).0)
+                    }
+                    None => 0.0,
+                })
+                .collect();
+            PartResult {
+                fit,
+                problem,
+                psnr: psnr_per_frame,
+                key_color: images.tile(&images.color, p, key),
+                key_normal: images.tile(&images.normal, p, key),
+            }
+        })
+        .collect();
+    let order = draw_order(&data.hidden).order;
+    let key_tiles: Vec<PartTile> = data.tiles.iter().map(|t| t[key].clone()).collect();
+    let still = render_polypostor(&parts, &key_tiles, &order, key, images.resolution);
+    let (psnr_frames, psnr_static) = (0..frames)
+        .map(|f| {
+            let gt = ground_truth(images, f);
+            let poly = render_polypostor(&parts, &key_tiles, &order, f, images.resolution);
+            (psnr(poly.rmse(&gt).0), psnr(still.rmse(&gt).0))
+        })
+        .unzip();
+    ViewResult {
+        direction,
+        camera,
+        parts,
+        hidden: data.hidden,
+        order,
+        psnr: psnr_frames,
+        psnr_static,
+    }
+}
+
+/// Runs the whole bake.
+pub fn bake(
+    ctx: &GpuContext,
+    character: &Character,
+    segmentation: &Segmentation,
+    cap_overrides: &CapOverrides,
+    options: &BakeOptions,
+    progress: &(dyn Fn(Progress) + Sync),
+    cancel: &AtomicBool,
+) -> Result<Bake, BakeError> {
+    if segmentation.labels.len() != character.triangle_count() {
+        return Err(BakeError::Segmentation {
+            got: segmentation.labels.len(),
+            want: character.triangle_count(),
+        });
+    }
+    let mut stage_secs = BTreeMap::new();
+    let t0 = Instant::now();
+    let caps = find_caps(character, segmentation);
+    let (merged, ranges) = merge_parts(character, segmentation, &caps, cap_overrides);
+    let duration = options
+        .clip
+        .and_then(|i| character.clips.get(i))
+        .map_or(0.0, |c| c.duration_secs);
+    let times = frame_times(duration, options.fps);
+    let (poses, points) = sample_frames(&merged, options.clip, &times);
+    let dirs = directions(options.views.max(1), options.coverage);
+    let cameras = view_cameras(&points, &dirs);
+    stage_secs.insert("prepare".into(), t0.elapsed().as_secs_f64());
+
+    let t1 = Instant::now();
+    let renderer = CharacterRenderer::new(&ctx.device);
+    let batch = PartRenderer::new(
+        &renderer,
+        &ctx.device,
+        &ctx.queue,
+        &merged,
+        ranges,
+        &poses,
+        options.resolution,
+    );
+    stage_secs.insert("upload".into(), t1.elapsed().as_secs_f64());
+
+    // Key frame.
+    let t2 = Instant::now();
+    let key = match options.key_frame {
+        KeyFrame::Frame(k) if k < times.len() => k,
+        KeyFrame::Frame(k) => return Err(BakeError::KeyFrame(k, times.len())),
+        KeyFrame::Auto if times.len() == 1 => 0,
+        KeyFrame::Auto => {
+            let probes: Vec<usize> = (0..options.key_frame_probe_views.max(1))
+                .map(|i| (i * dirs.len()) / options.key_frame_probe_views.max(1))
+                .collect();
+            let mut totals = vec![0.0f64; times.len()];
+            for (n, &v) in probes.iter().enumerate() {
+                if cancel.load(Ordering::Relaxed) {
+                    return Err(BakeError::Cancelled);
+                }
+                progress(Progress {
+                    stage: "key frame",
+                    done: n,
+                    total: probes.len(),
+                });
+                let data = extract(batch.render_view(&renderer, &ctx.device, &ctx.queue, &cameras[v])?);
+                let per_key: Vec<f64> = (0..times.len())
+                    .into_par_iter()
+                    .map(|k| {
+                        data.tiles
+                            .iter()
+                            .map(|tiles| fit_part(tiles, k, &options.fit, &[]).map_or(0.0, |f| f.total_cost()))
+                            .sum()
+                    })
+                    .collect();
+                for (t, c) in totals.iter_mut().zip(per_key) {
+                    *t += c;
+                }
+            }
+            (0..times.len())
+                .min_by(|&a, &b| totals[a].total_cmp(&totals[b]))
+                .unwrap_or(0)
+        }
+    };
+    stage_secs.insert("key_frame".into(), t2.elapsed().as_secs_f64());
+
+    // Render views on this thread; fit them on the rayon pool, a few views in flight.
+    let t3 = Instant::now();
+    let (tx, rx) = std::sync::mpsc::channel::<(usize, ViewResult)>();
+    let mut results: Vec<Option<ViewResult>> = vec![None; dirs.len()];
+    let mut received = 0usize;
+    let mut render_secs = 0.0;
+    let in_flight_limit = 2 * rayon::current_num_threads().max(1);
+    let mut store = |pair: (usize, ViewResult), received: &mut usize| {
+        results[pair.0] = Some(pair.1);
+        *received += 1;
+        progress(Progress {
+            stage: "views",
+            done: *received,
+            total: dirs.len(),
+        });
+    };
+    for (v, cam) in cameras.iter().enumerate() {
+        if cancel.load(Ordering::Relaxed) {
+            return Err(BakeError::Cancelled);
+        }
+        while v - received >= in_flight_limit {
+            match rx.recv() {
+                Ok(pair) => store(pair, &mut received),
+                Err(_) => return Err(BakeError::Cancelled),
+            }
+        }
+        let tr = Instant::now();
+        let images = batch.render_view(&renderer, &ctx.device, &ctx.queue, cam)?;
+        render_secs += tr.elapsed().as_secs_f64();
+        let tx = tx.clone();
+        let (dir, cam, fit_options) = (dirs[v], *cam, options.fit);
+        rayon::spawn(move || {
+            let r = fit_view(dir, cam, extract(images), key, &fit_options);
+            let _ = tx.send((v, r));
+        });
+    }
+    drop(tx);
+    while received < dirs.len() {
+        if cancel.load(Ordering::Relaxed) {
+            return Err(BakeError::Cancelled);
+        }
+        match rx.recv() {
+            Ok(pair) => store(pair, &mut received),
+            Err(_) => return Err(BakeError::Cancelled),
+        }
+    }
+    stage_secs.insert("render".into(), render_secs);
+    stage_secs.insert("fit".into(), t3.elapsed().as_secs_f64() - render_secs);
+    let views: Vec<ViewResult> = results.into_iter().map(|r| r.expect("every view fitted")).collect();
+    Ok(Bake {
+        options: options.clone(),
+        frame_times: times,
+        key_frame: key,
+        segmentation: segmentation.clone(),
+        views,
+        stage_secs,
+        adapter: ctx.adapter_description(),
+    })
+}

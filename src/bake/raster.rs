@@ -1,0 +1,162 @@
+//! A small CPU rasteriser for polypostors: textured 2D triangles drawn in order over an
+//! image (painter's algorithm), used to measure the fit error against the ground truth and
+//! to draw debug images. Pixel centres at `i + 0.5`; a pixel is covered when its centre is
+//! inside the triangle (top-left rule not needed for error statistics).
+
+use super::image_cost::PartTile;
+
+/// An RGBA float image (colour in 0..1, alpha = coverage).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Canvas {
+    pub size: u32,
+    pub px: Vec<[f32; 4]>,
+}
+
+impl Canvas {
+    pub fn new(size: u32) -> Self {
+        Self {
+            size,
+            px: vec![[0.0; 4]; (size * size) as usize],
+        }
+    }
+
+    /// Draws triangle `pos` textured from `texture` at `uv` (both in pixels).
+    pub fn draw_textured(&mut self, pos: [[f32; 2]; 3], uv: [[f32; 2]; 3], texture: &PartTile) {
+        let area =
+            (pos[1][0] - pos[0][0]) * (pos[2][1] - pos[0][1]) - (pos[1][1] - pos[0][1]) * (pos[2][0] - pos[0][0]);
+        if area.abs() < 1e-9 {
+            return;
+        }
+        let min_x = pos.iter().map(|p| p[0]).fold(f32::INFINITY, f32::min).floor().max(0.0) as i64;
+        let max_x = pos
+            .iter()
+            .map(|p| p[0])
+            .fold(f32::NEG_INFINITY, f32::max)
+            .ceil()
+            .min(self.size as f32) as i64;
+        let min_y = pos.iter().map(|p| p[1]).fold(f32::INFINITY, f32::min).floor().max(0.0) as i64;
+        let max_y = pos
+            .iter()
+            .map(|p| p[1])
+            .fold(f32::NEG_INFINITY, f32::max)
+            .ceil()
+            .min(self.size as f32) as i64;
+        for y in min_y..max_y {
+            for x in min_x..max_x {
+                let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+                let w0 = ((pos[1][0] - px) * (pos[2][1] - py) - (pos[1][1] - py) * (pos[2][0] - px)) / area;
+                let w1 = ((pos[2][0] - px) * (pos[0][1] - py) - (pos[2][1] - py) * (pos[0][0] - px)) / area;
+                let w2 = 1.0 - w0 - w1;
+                if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
+                    continue;
+                }
+                let u = w0 * uv[0][0] + w1 * uv[1][0] + w2 * uv[2][0];
+                let v = w0 * uv[0][1] + w1 * uv[1][1] + w2 * uv[2][1];
+                let s = texture.sample(u, v);
+                // Texture values are premultiplied by coverage; un-premultiply the colour.
+                let a = s[6];
+                if a <= 1e-3 {
+                    continue;
+                }
+                self.px[(y as u32 * self.size + x as u32) as usize] = [s[0] / a, s[1] / a, s[2] / a, 1.0];
+            }
+        }
+    }
+
+    /// Root-mean-square colour error against `other` over pixels covered in either image
+    /// (uncovered pixels count as black), and the number of such pixels.
+    pub fn rmse(&self, other: &Canvas) -> (f64, usize) {
+        let mut sum = 0.0f64;
+        let mut n = 0usize;
+        for (a, b) in self.px.iter().zip(&other.px) {
+            if a[3] < 0.5 && b[3] < 0.5 {
+                continue;
+            }
+            n += 1;
+            for c in 0..3 {
+                let (x, y) = (a[c] * a[3], b[c] * b[3]);
+                sum += ((x - y) as f64).powi(2);
+            }
+        }
+        if n == 0 {
+            (0.0, 0)
+        } else {
+            ((sum / (3 * n) as f64).sqrt(), n)
+        }
+    }
+
+    pub fn to_image(&self) -> image::RgbaImage {
+        let mut img = image::RgbaImage::new(self.size, self.size);
+        for (p, q) in img.pixels_mut().zip(&self.px) {
+            *p = image::Rgba(q.map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8));
+        }
+        img
+    }
+}
+
+/// PSNR in dB for an RMSE on a 0..1 scale (capped at 99 dB for a perfect match).
+pub fn psnr(rmse: f64) -> f64 {
+    if rmse <= 1e-5 {
+        99.0
+    } else {
+        (20.0 * (1.0 / rmse).log10()).min(99.0)
+    }
+}
+
+/// A part tile as a canvas (colour un-premultiplied).
+pub fn tile_canvas(tile: &PartTile) -> Canvas {
+    Canvas {
+        size: tile.size,
+        px: tile
+            .px
+            .iter()
+            .map(|p| {
+                if p[6] > 1e-3 {
+                    [p[0] / p[6], p[1] / p[6], p[2] / p[6], p[6]]
+                } else {
+                    [0.0; 4]
+                }
+            })
+            .collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identity_texturing_reproduces_the_texture() {
+        let size = 32;
+        let tex = PartTile {
+            size,
+            px: (0..size * size)
+                .map(|i| {
+                    [
+                        (i % size) as f32 / 32.0,
+                        (i / size) as f32 / 32.0,
+                        0.5,
+                        0.5,
+                        0.5,
+                        1.0,
+                        1.0,
+                    ]
+                })
+                .collect(),
+        };
+        let mut c = Canvas::new(size);
+        let quad = [[0.0, 0.0], [32.0, 0.0], [32.0, 32.0], [0.0, 32.0]];
+        c.draw_textured([quad[0], quad[1], quad[2]], [quad[0], quad[1], quad[2]], &tex);
+        c.draw_textured([quad[0], quad[2], quad[3]], [quad[0], quad[2], quad[3]], &tex);
+        let (rmse, n) = c.rmse(&tile_canvas(&tex));
+        assert_eq!(n, (size * size) as usize);
+        assert!(rmse < 1e-4, "{rmse}");
+        assert_eq!(psnr(rmse), 99.0);
+        // Shifting the texture costs accuracy.
+        let mut d = Canvas::new(size);
+        let off = quad.map(|p| [p[0] + 3.0, p[1]]);
+        d.draw_textured([off[0], off[1], off[2]], [quad[0], quad[1], quad[2]], &tex);
+        d.draw_textured([off[0], off[2], off[3]], [quad[0], quad[2], quad[3]], &tex);
+        assert!(psnr(d.rmse(&tile_canvas(&tex)).0) < 30.0);
+    }
+}

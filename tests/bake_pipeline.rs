@@ -1,0 +1,101 @@
+//! The bake end to end on a few views: every part fitted in every view, sensible errors.
+
+mod common;
+
+use std::sync::atomic::AtomicBool;
+
+use polypostor::bake::caps::CapOverrides;
+use polypostor::bake::pipeline::{BakeOptions, KeyFrame, bake};
+use polypostor::bake::segment::auto_segment;
+use polypostor::gpu::{AdapterPreference, GpuContext};
+
+#[test]
+fn small_bake_of_the_default_character() {
+    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let c = polypostor::default_character::generate();
+    let seg = auto_segment(&c);
+    let options = BakeOptions {
+        views: 3,
+        resolution: 96,
+        key_frame: KeyFrame::Frame(0),
+        ..Default::default()
+    };
+    let t = std::time::Instant::now();
+    let b = bake(
+        &ctx,
+        &c,
+        &seg,
+        &CapOverrides::default(),
+        &options,
+        &|_| {},
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    eprintln!(
+        "bake: {:.1} s, stages {:?}, key frame {}",
+        t.elapsed().as_secs_f64(),
+        b.stage_secs,
+        b.key_frame
+    );
+    assert_eq!(b.views.len(), 3);
+    assert_eq!(b.frame_times.len(), 10);
+    let mut all = Vec::new();
+    for (v, view) in b.views.iter().enumerate() {
+        let mut order = view.order.clone();
+        order.sort();
+        assert_eq!(order, (0..seg.parts.len()).collect::<Vec<_>>());
+        for (p, part) in view.parts.iter().enumerate() {
+            let fit = part
+                .fit
+                .as_ref()
+                .unwrap_or_else(|| panic!("view {v} part {p}: {:?}", part.problem));
+            assert!(fit.kept.len() <= 20 && fit.kept.len() >= 3);
+            assert_eq!(fit.triangles.len(), fit.kept.len() - 2);
+        }
+        eprintln!(
+            "view {v}: psnr {:?} order {:?}",
+            view.psnr.iter().map(|x| (x * 10.0).round() / 10.0).collect::<Vec<_>>(),
+            view.order
+        );
+        all.extend(view.psnr.iter().copied());
+    }
+    if std::env::var_os("POLYPOSTOR_TEST_IMAGES").is_some() {
+        use polypostor::bake::image_cost::PartTile;
+        let v = &b.views[0];
+        let keys: Vec<PartTile> = v
+            .parts
+            .iter()
+            .map(|p| PartTile::from_images(&p.key_color, &p.key_normal))
+            .collect();
+        for f in [b.key_frame, (b.key_frame + 5) % 10] {
+            let img = polypostor::bake::pipeline::render_polypostor(&v.parts, &keys, &v.order, f, 96).to_image();
+            img.save(std::env::temp_dir().join(format!("poly-{f}.png"))).unwrap();
+        }
+        for (p, part) in v.parts.iter().enumerate() {
+            part.key_color
+                .save(std::env::temp_dir().join(format!("key-{p}.png")))
+                .unwrap();
+        }
+    }
+    let mean = all.iter().sum::<f64>() / all.len() as f64;
+    // Baseline: the key-frame polygons left where they are (no fitting). The fitted
+    // polygons must follow the animation better on the other frames.
+    let (mut fitted, mut frozen, mut n) = (0.0, 0.0, 0);
+    for view in &b.views {
+        for f in (0..b.frame_times.len()).filter(|&f| f != b.key_frame) {
+            fitted += view.psnr[f];
+            frozen += view.psnr_static[f];
+            n += 1;
+        }
+    }
+    eprintln!(
+        "mean PSNR {mean:.2} dB; other frames: fitted {:.2} dB, frozen {:.2} dB",
+        fitted / n as f64,
+        frozen / n as f64
+    );
+    assert!(
+        fitted > frozen + n as f64 * 0.5,
+        "fitting does not beat frozen polygons"
+    );
+    assert!(mean > 12.0, "mean PSNR {mean}");
+}
