@@ -1,0 +1,67 @@
+//! The manifest: what `manifest.json` holds (serde).
+
+use serde::{Deserialize, Serialize};
+
+pub const FORMAT_NAME: &str = "polypostor-pack";
+pub const FORMAT_VERSION: u32 = 1;
+
+/// The orthographic camera of a view: a world point maps to view-plane coordinates
+/// `((p - center)·right, (p - center)·up) / half_size`, in [-1, 1] inside the frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PackCamera {
+    pub center: [f32; 3],
+    pub right: [f32; 3],
+    pub up: [f32; 3],
+    /// Towards the camera.
+    pub forward: [f32; 3],
+    pub half_size: f32,
+}
+
+/// One part in one view.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ManifestPart {
+    /// First f32 of this part's block in `vertices.bin`. The block holds `vertex_count` UVs
+    /// (atlas-normalised, 2 floats each) then `frames × vertex_count` positions (view-plane
+    /// coordinates, 2 floats each).
+    pub vertex_offset: u64,
+    pub vertex_count: u32,
+    /// First u16 of this part's triangles in `indices.bin` (indices local to the part).
+    pub index_offset: u64,
+    pub index_count: u32,
+    /// The part's rectangle in the colour half of the atlas, pixels `[x, y, w, h]`.
+    pub atlas_rect: [u32; 4],
+}
+
+/// One view.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ManifestView {
+    /// Unit direction from the character towards the camera.
+    pub direction: [f32; 3],
+    pub camera: PackCamera,
+    /// Atlas PNG file name (in the pack folder).
+    pub atlas: String,
+    pub atlas_size: [u32; 2],
+    /// Parts in drawing order, back to front.
+    pub order: Vec<u32>,
+    /// Per part (indexed like `Manifest::parts`); `None` when not drawn in this view.
+    pub parts: Vec<Option<ManifestPart>>,
+}
+
+/// `manifest.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    pub format: String,
+    pub version: u32,
+    pub character: String,
+    pub clip: Option<String>,
+    pub fps: f32,
+    pub frames: u32,
+    pub key_frame: u32,
+    pub resolution: u32,
+    pub parts: Vec<String>,
+    pub views: Vec<ManifestView>,
+    pub vertex_file: String,
+    pub vertex_bytes: u64,
+    pub index_file: String,
+    pub index_bytes: u64,
+}

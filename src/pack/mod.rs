@@ -1,0 +1,16 @@
+//! The Polypostor pack: a versioned, documented on-disk format (see `docs/PACK_FORMAT.md`)
+//! with a writer and a loader that validates everything it reads.
+//!
+//! A pack is a folder: `manifest.json`, `vertices.bin` (little-endian f32), `indices.bin`
+//! (little-endian u16) and one atlas PNG per view holding every part's key-frame colour
+//! (left half) and normal (right half) images.
+
+mod atlas;
+mod format;
+mod load;
+mod write;
+
+pub use atlas::{Atlas, AtlasRect, pack_atlas};
+pub use format::{FORMAT_NAME, FORMAT_VERSION, Manifest, ManifestPart, ManifestView, PackCamera};
+pub use load::{LoadedPack, LoadedView, PackError, load_pack};
+pub use write::{PackStats, write_pack};

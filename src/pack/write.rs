@@ -1,0 +1,186 @@
+//! Writing a pack from a bake, atomically: everything goes to a temporary folder beside the
+//! target, which is renamed into place only when complete.
+
+use std::path::{Path, PathBuf};
+
+use super::atlas::pack_atlas;
+use super::format::{FORMAT_NAME, FORMAT_VERSION, Manifest, ManifestPart, ManifestView, PackCamera};
+use crate::bake::pipeline::Bake;
+use crate::gpu::Projection;
+
+/// Sizes of a written pack.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct PackStats {
+    /// Textures (uncompressed RGBA8) + vertex + index data.
+    pub pack_bytes: u64,
+    pub texture_bytes: u64,
+    pub vertex_bytes: u64,
+    pub index_bytes: u64,
+    /// The same textures block-compressed (BC3/DXT5: 1 byte per texel).
+    pub pack_bytes_bc: u64,
+    /// Bytes on disk (PNG-compressed atlases).
+    pub file_bytes: u64,
+    pub triangles_per_view: f64,
+}
+
+fn io(path: &Path, e: impl std::fmt::Display) -> String {
+    format!("{}: {e}", path.display())
+}
+
+/// Writes the pack of `bake` to the folder `out` (replacing it only once the new pack is
+/// complete).
+pub fn write_pack(bake: &Bake, character: &str, clip: Option<&str>, out: &Path) -> Result<PackStats, String> {
+    let parent = out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .map(Path::to_owned)
+        .unwrap_or_else(|| PathBuf::from("."));
+    std::fs::create_dir_all(&parent).map_err(|e| io(&parent, e))?;
+    let name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "pack".into());
+    let tmp = parent.join(format!(".{name}.writing-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir_all(&tmp).map_err(|e| io(&tmp, e))?;
+    let result = write_into(bake, character, clip, &tmp);
+    match result {
+        Ok(stats) => {
+            let old = parent.join(format!(".{name}.old-{}", std::process::id()));
+            if out.exists() {
+                std::fs::rename(out, &old).map_err(|e| io(out, e))?;
+            }
+            if let Err(e) = std::fs::rename(&tmp, out) {
+                let _ = std::fs::rename(&old, out);
+                return Err(io(out, e));
+            }
+            let _ = std::fs::remove_dir_all(&old);
+            Ok(stats)
+        }
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&tmp);
+            Err(e)
+        }
+    }
+}
+
+fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> Result<PackStats, String> {
+    let r = bake.options.resolution as f32;
+    let frames = bake.frame_times.len();
+    let mut vertices: Vec<f32> = Vec::new();
+    let mut indices: Vec<u16> = Vec::new();
+    let mut views = Vec::new();
+    let mut stats = PackStats::default();
+    let mut triangles = 0usize;
+    for (v, view) in bake.views.iter().enumerate() {
+        let items: Vec<_> = view
+            .parts
+            .iter()
+            .map(|p| {
+                p.fit.as_ref().map(|f| {
+                    let uv = f.uvs();
+                    let b = [
+                        uv.iter().map(|q| q[0]).fold(f32::INFINITY, f32::min),
+                        uv.iter().map(|q| q[1]).fold(f32::INFINITY, f32::min),
+                        uv.iter().map(|q| q[0]).fold(f32::NEG_INFINITY, f32::max),
+                        uv.iter().map(|q| q[1]).fold(f32::NEG_INFINITY, f32::max),
+                    ];
+                    (&p.key_color, &p.key_normal, b)
+                })
+            })
+            .collect();
+        let atlas = pack_atlas(&items);
+        let atlas_name = format!("atlas_{v:03}.png");
+        let path = dir.join(&atlas_name);
+        atlas.image.save(&path).map_err(|e| io(&path, e))?;
+        stats.texture_bytes += atlas.image.width() as u64 * atlas.image.height() as u64 * 4;
+        let (aw, ah) = (atlas.image.width() as f32, atlas.image.height() as f32);
+        let mut parts = Vec::new();
+        for (p, part) in view.parts.iter().enumerate() {
+            let (Some(fit), Some(rect)) = (&part.fit, atlas.rects[p]) else {
+                parts.push(None);
+                continue;
+            };
+            let vertex_offset = vertices.len() as u64;
+            for q in fit.uvs() {
+                vertices.push((rect.x as f32 + q[0] - rect.src_x as f32) / aw);
+                vertices.push((rect.y as f32 + q[1] - rect.src_y as f32) / ah);
+            }
+            for f in 0..frames {
+                for q in fit.positions(f) {
+                    vertices.push(q[0] / r * 2.0 - 1.0);
+                    vertices.push(1.0 - q[1] / r * 2.0);
+                }
+            }
+            let index_offset = indices.len() as u64;
+            for t in &fit.triangles {
+                indices.extend(t.iter().map(|&i| i as u16));
+            }
+            triangles += fit.triangles.len();
+            parts.push(Some(ManifestPart {
+                vertex_offset,
+                vertex_count: fit.kept.len() as u32,
+                index_offset,
+                index_count: (fit.triangles.len() * 3) as u32,
+                atlas_rect: [rect.x, rect.y, rect.w, rect.h],
+            }));
+        }
+        let cam = &view.camera;
+        let view_m = cam.view_from_world();
+        let row = |i: usize| [view_m.row(i).x, view_m.row(i).y, view_m.row(i).z];
+        let half = match cam.projection {
+            Projection::Orthographic { half_height } => half_height,
+            Projection::Perspective { .. } => 1.0,
+        };
+        views.push(ManifestView {
+            direction: view.direction.to_array(),
+            camera: PackCamera {
+                center: cam.target.to_array(),
+                right: row(0),
+                up: row(1),
+                forward: row(2),
+                half_size: half,
+            },
+            atlas: atlas_name,
+            atlas_size: [atlas.image.width(), atlas.image.height()],
+            order: view.order.iter().map(|&o| o as u32).collect(),
+            parts,
+        });
+    }
+    let vpath = dir.join("vertices.bin");
+    let vbytes: Vec<u8> = vertices.iter().flat_map(|x| x.to_le_bytes()).collect();
+    std::fs::write(&vpath, &vbytes).map_err(|e| io(&vpath, e))?;
+    let ipath = dir.join("indices.bin");
+    let ibytes: Vec<u8> = indices.iter().flat_map(|x| x.to_le_bytes()).collect();
+    std::fs::write(&ipath, &ibytes).map_err(|e| io(&ipath, e))?;
+    let manifest = Manifest {
+        format: FORMAT_NAME.into(),
+        version: FORMAT_VERSION,
+        character: character.into(),
+        clip: clip.map(String::from),
+        fps: bake.options.fps,
+        frames: frames as u32,
+        key_frame: bake.key_frame as u32,
+        resolution: bake.options.resolution,
+        parts: bake.segmentation.parts.iter().map(|p| p.name.clone()).collect(),
+        views,
+        vertex_file: "vertices.bin".into(),
+        vertex_bytes: vbytes.len() as u64,
+        index_file: "indices.bin".into(),
+        index_bytes: ibytes.len() as u64,
+    };
+    let mpath = dir.join("manifest.json");
+    let text = serde_json::to_string_pretty(&manifest).map_err(|e| e.to_string())?;
+    std::fs::write(&mpath, text).map_err(|e| io(&mpath, e))?;
+    stats.vertex_bytes = vbytes.len() as u64;
+    stats.index_bytes = ibytes.len() as u64;
+    stats.pack_bytes = stats.texture_bytes + stats.vertex_bytes + stats.index_bytes;
+    stats.pack_bytes_bc = stats.texture_bytes / 4 + stats.vertex_bytes + stats.index_bytes;
+    stats.file_bytes = std::fs::read_dir(dir)
+        .map_err(|e| io(dir, e))?
+        .filter_map(|e| e.ok()?.metadata().ok())
+        .map(|m| m.len())
+        .sum();
+    stats.triangles_per_view = triangles as f64 / bake.views.len().max(1) as f64;
+    Ok(stats)
+}
