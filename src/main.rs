@@ -61,6 +61,41 @@ enum Command {
         #[arg(long)]
         unlit: bool,
     },
+    /// Bake a character into a Polypostor pack (with report.json).
+    Bake {
+        /// A .glb/.gltf, or a project (folder or project.json).
+        input: PathBuf,
+        /// Project whose segmentation and cap colours to use (when INPUT is a glTF).
+        #[arg(long)]
+        project: Option<PathBuf>,
+        /// Clip name (default: the project's clip, else Walk, else the first).
+        #[arg(long)]
+        clip: Option<String>,
+        /// Output pack folder (default: <input>-<clip>.pack in the current folder).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Number of viewpoints.
+        #[arg(long, default_value_t = polypostor::bake::viewpoints::DEFAULT_VIEW_COUNT)]
+        views: usize,
+        /// Part image resolution (pixels, square).
+        #[arg(long, default_value_t = polypostor::bake::renders::DEFAULT_RESOLUTION)]
+        resolution: u32,
+        /// Clip sampling rate (frames per second).
+        #[arg(long, default_value_t = polypostor::bake::renders::DEFAULT_FPS)]
+        fps: f32,
+        /// Texture key-frame: a frame number, or auto.
+        #[arg(long, default_value = "auto")]
+        key_frame: String,
+        /// Exact dynamic programme over every target vertex (slow) instead of the fast mode.
+        #[arg(long)]
+        exhaustive: bool,
+        /// Views on the whole sphere instead of the upper hemisphere.
+        #[arg(long)]
+        full_sphere: bool,
+        /// Write per-view PNGs of the traced and fitted polygons into <out>/debug/.
+        #[arg(long)]
+        debug_images: bool,
+    },
     /// Regenerate the built-in default character (.glb).
     GenerateDefault {
         /// Output path (default: assets/characters/default_humanoid.glb).
@@ -96,6 +131,31 @@ fn main() -> ExitCode {
             unlit,
         }) => render(&file, &out, clip.as_deref(), time, size, yaw, pitch, normals, unlit),
         Some(Command::GenerateDefault { out }) => generate_default(out),
+        Some(Command::Bake {
+            input,
+            project,
+            clip,
+            out,
+            views,
+            resolution,
+            fps,
+            key_frame,
+            exhaustive,
+            full_sphere,
+            debug_images,
+        }) => bake_cmd(BakeArgs {
+            input,
+            project,
+            clip,
+            out,
+            views,
+            resolution,
+            fps,
+            key_frame,
+            exhaustive,
+            full_sphere,
+            debug_images,
+        }),
         None => {
             let path = cli
                 .path
@@ -205,5 +265,190 @@ fn generate_default(out: Option<PathBuf>) -> anyhow::Result<()> {
     let bytes = polypostor::default_character::generate_glb();
     polypostor::project::write_atomic(&out, &bytes)?;
     eprintln!("wrote {} ({} bytes)", out.display(), bytes.len());
+    Ok(())
+}
+
+struct BakeArgs {
+    input: PathBuf,
+    project: Option<PathBuf>,
+    clip: Option<String>,
+    out: Option<PathBuf>,
+    views: usize,
+    resolution: u32,
+    fps: f32,
+    key_frame: String,
+    exhaustive: bool,
+    full_sphere: bool,
+    debug_images: bool,
+}
+
+static CANCEL: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
+    use polypostor::bake::pipeline::{BakeOptions, KeyFrame, bake};
+    use polypostor::project::Project;
+    let started = std::time::Instant::now();
+    let is_gltf = a
+        .input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"));
+    let (project, character_path) = if is_gltf {
+        let project = match &a.project {
+            Some(p) => Some(Project::load(p)?.0),
+            None => None,
+        };
+        (project, a.input.clone())
+    } else {
+        let (p, file) = Project::load(&a.input)?;
+        let path = p.character_path(&file);
+        (Some(p), path)
+    };
+    let c =
+        polypostor::import_path(&character_path).map_err(|e| anyhow::anyhow!("{}: {e}", character_path.display()))?;
+    for w in &c.warnings {
+        eprintln!("warning: {w}");
+    }
+    let clip_name = a
+        .clip
+        .clone()
+        .or_else(|| project.as_ref().and_then(|p| p.view.clip.clone()))
+        .or_else(|| c.find_clip("Walk").map(|_| "Walk".to_string()))
+        .or_else(|| c.clips.first().map(|k| k.name.clone()));
+    let clip = match &clip_name {
+        Some(n) => Some(c.find_clip(n).ok_or_else(|| {
+            anyhow::anyhow!(
+                "no clip named '{n}' (clips: {})",
+                c.clips.iter().map(|k| k.name.as_str()).collect::<Vec<_>>().join(", ")
+            )
+        })?),
+        None => None,
+    };
+    let seg = match project.as_ref().and_then(|p| p.segmentation.as_ref()) {
+        Some(s) => match s.to_segmentation(c.triangle_count()) {
+            Ok(seg) => seg,
+            Err(e) => {
+                eprintln!(
+                    "warning: the project's segmentation does not fit this character ({e}); using the automatic one"
+                );
+                polypostor::bake::segment::auto_segment(&c)
+            }
+        },
+        None => polypostor::bake::segment::auto_segment(&c),
+    };
+    let caps = project.as_ref().map(|p| p.caps.clone()).unwrap_or_default();
+    let key_frame = match a.key_frame.as_str() {
+        "auto" => KeyFrame::Auto,
+        k => KeyFrame::Frame(
+            k.parse()
+                .map_err(|_| anyhow::anyhow!("--key-frame must be a frame number or 'auto', not '{k}'"))?,
+        ),
+    };
+    if a.views == 0 || a.resolution < 16 || a.resolution > 2048 || !(a.fps > 0.0 && a.fps <= 240.0) {
+        anyhow::bail!("--views must be at least 1, --resolution 16..=2048 and --fps in (0, 240]");
+    }
+    let options = BakeOptions {
+        views: a.views,
+        coverage: if a.full_sphere {
+            polypostor::bake::viewpoints::Coverage::FullSphere
+        } else {
+            polypostor::bake::viewpoints::Coverage::UpperHemisphere
+        },
+        resolution: a.resolution,
+        fps: a.fps,
+        clip,
+        key_frame,
+        fit: polypostor::bake::part_fit::PartFitOptions {
+            exhaustive: a.exhaustive,
+            ..Default::default()
+        },
+        keep_frame_images: a.debug_images,
+        ..Default::default()
+    };
+    let stem = character_path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "character".into());
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("{stem}-{}.pack", clip_name.as_deref().unwrap_or("rest"))));
+    let ctx = polypostor::gpu::GpuContext::from_env()?;
+    eprintln!(
+        "baking {} ({} parts: {}), clip {}, {} views, {}², {} fps, on {}",
+        c.name,
+        seg.parts.len(),
+        seg.parts.iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join(", "),
+        clip_name.as_deref().unwrap_or("(rest pose)"),
+        options.views,
+        options.resolution,
+        options.fps,
+        ctx.adapter_description()
+    );
+    let _ = ctrlc::set_handler(|| {
+        CANCEL.store(true, std::sync::atomic::Ordering::Relaxed);
+        eprintln!("\ncancelling…");
+    });
+    let bar = indicatif::ProgressBar::new(options.views as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} {msg:>10} [{bar:40}] {pos}/{len} {elapsed_precise} (eta {eta})",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    let progress = |p: polypostor::bake::pipeline::Progress| {
+        bar.set_message(p.stage);
+        bar.set_length(p.total as u64);
+        bar.set_position(p.done as u64);
+    };
+    let result = bake(&ctx, &c, &seg, &caps, &options, &progress, &CANCEL);
+    bar.finish_and_clear();
+    let b = match result {
+        Ok(b) => b,
+        Err(polypostor::bake::pipeline::BakeError::Cancelled) => {
+            eprintln!("cancelled: nothing was written");
+            std::process::exit(130);
+        }
+        Err(e) => return Err(e.into()),
+    };
+    let write_started = std::time::Instant::now();
+    let stats = polypostor::pack::write_pack_with(&b, &c.name, clip_name.as_deref(), &out, &|dir, stats| {
+        let mut report = polypostor::bake::report::build_report(
+            &b,
+            &c.name,
+            clip_name.as_deref(),
+            stats,
+            started.elapsed().as_secs_f64(),
+        );
+        report
+            .stage_seconds
+            .insert("write".into(), write_started.elapsed().as_secs_f64());
+        let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+        std::fs::write(dir.join("report.json"), text).map_err(|e| e.to_string())?;
+        if a.debug_images {
+            let d = dir.join("debug");
+            std::fs::create_dir_all(&d).map_err(|e| e.to_string())?;
+            for v in 0..b.views.len() {
+                let img = polypostor::bake::report::debug_image(&b, v, &b.views[v].frame_colors);
+                img.save(d.join(format!("view_{v:03}.png")))
+                    .map_err(|e| e.to_string())?;
+            }
+        }
+        Ok(())
+    })
+    .map_err(|e| anyhow::anyhow!("writing the pack: {e}"))?;
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json"))?)?;
+    eprintln!(
+        "wrote {} in {:.1} s: key frame {}, mean PSNR {:.2} dB (worst {:.2}), {} KiB vs {} KiB for impostors ({:.1}×), {:.0} triangles per view",
+        out.display(),
+        started.elapsed().as_secs_f64(),
+        b.key_frame,
+        report["mean_psnr"].as_f64().unwrap_or(0.0),
+        report["worst_psnr"].as_f64().unwrap_or(0.0),
+        stats.pack_bytes / 1024,
+        report["impostor_bytes"].as_u64().unwrap_or(0) / 1024,
+        report["memory_ratio"].as_f64().unwrap_or(0.0),
+        stats.triangles_per_view
+    );
     Ok(())
 }

@@ -41,6 +41,60 @@ pub struct ViewState {
     pub playback_speed: Option<f32>,
 }
 
+/// A segmentation as stored: parts and run-length encoded per-triangle labels.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StoredSegmentation {
+    pub parts: Vec<crate::bake::segment::Part>,
+    /// Triangle count of the character it was made for.
+    pub triangles: usize,
+    /// `(label, run length)` pairs covering every triangle in order.
+    pub runs: Vec<(u16, u32)>,
+}
+
+impl StoredSegmentation {
+    pub fn from_segmentation(seg: &crate::bake::segment::Segmentation) -> Self {
+        let mut runs: Vec<(u16, u32)> = Vec::new();
+        for &l in &seg.labels {
+            match runs.last_mut() {
+                Some((x, n)) if *x == l => *n += 1,
+                _ => runs.push((l, 1)),
+            }
+        }
+        Self {
+            parts: seg.parts.clone(),
+            triangles: seg.labels.len(),
+            runs,
+        }
+    }
+
+    /// The segmentation, if it fits a character of `triangles` triangles and is consistent.
+    pub fn to_segmentation(&self, triangles: usize) -> Result<crate::bake::segment::Segmentation, String> {
+        if self.triangles != triangles {
+            return Err(format!(
+                "it was painted on {} triangles, the character has {triangles}",
+                self.triangles
+            ));
+        }
+        let mut labels = Vec::with_capacity(triangles);
+        for &(l, n) in &self.runs {
+            if l as usize >= self.parts.len() {
+                return Err(format!("label {l} refers to a missing part"));
+            }
+            if labels.len() + n as usize > triangles {
+                return Err("more labels than triangles".into());
+            }
+            labels.extend(std::iter::repeat_n(l, n as usize));
+        }
+        if labels.len() != triangles {
+            return Err(format!("{} labels for {triangles} triangles", labels.len()));
+        }
+        Ok(crate::bake::segment::Segmentation {
+            parts: self.parts.clone(),
+            labels,
+        })
+    }
+}
+
 /// The project document.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Project {
@@ -49,6 +103,12 @@ pub struct Project {
     pub character: CharacterRef,
     #[serde(default)]
     pub view: ViewState,
+    /// The painted segmentation (absent: automatic).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub segmentation: Option<StoredSegmentation>,
+    /// Cap colours chosen by the artist.
+    #[serde(default)]
+    pub caps: crate::bake::caps::CapOverrides,
 }
 
 impl Project {
@@ -62,6 +122,8 @@ impl Project {
                 path: relative_path(character, project_dir),
             },
             view: ViewState::default(),
+            segmentation: None,
+            caps: Default::default(),
         }
     }
 
@@ -202,6 +264,23 @@ mod tests {
             .collect();
         assert!(leftovers.is_empty());
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn segmentation_round_trips_through_run_lengths() {
+        let c = crate::default_character::generate();
+        let seg = crate::bake::segment::auto_segment(&c);
+        let stored = StoredSegmentation::from_segmentation(&seg);
+        assert!(
+            stored.runs.len() < seg.labels.len() / 4,
+            "runs do not compress: {}",
+            stored.runs.len()
+        );
+        assert_eq!(stored.to_segmentation(c.triangle_count()).unwrap(), seg);
+        assert!(stored.to_segmentation(c.triangle_count() + 1).is_err());
+        let mut bad = stored.clone();
+        bad.runs[0].0 = 99;
+        assert!(bad.to_segmentation(c.triangle_count()).is_err());
     }
 
     #[test]

@@ -16,8 +16,22 @@ fn pack_round_trip_and_damage() {
     let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
     let c = polypostor::default_character::generate();
     let seg = auto_segment(&c);
-    let options = BakeOptions { views: 3, resolution: 64, key_frame: KeyFrame::Frame(2), ..Default::default() };
-    let b = bake(&ctx, &c, &seg, &CapOverrides::default(), &options, &|_| {}, &AtomicBool::new(false)).unwrap();
+    let options = BakeOptions {
+        views: 3,
+        resolution: 64,
+        key_frame: KeyFrame::Frame(2),
+        ..Default::default()
+    };
+    let b = bake(
+        &ctx,
+        &c,
+        &seg,
+        &CapOverrides::default(),
+        &options,
+        &|_| {},
+        &AtomicBool::new(false),
+    )
+    .unwrap();
     let dir = common::temp_dir("pack");
     let out = dir.join("walk.pack");
     let stats = write_pack(&b, &c.name, Some("Walk"), &out).unwrap();
@@ -36,7 +50,11 @@ fn pack_round_trip_and_damage() {
     }
     // Writing again replaces the pack in one step and leaves no temporary folders.
     write_pack(&b, &c.name, Some("Walk"), &out).unwrap();
-    let leftovers: Vec<_> = std::fs::read_dir(&dir).unwrap().filter_map(|e| e.ok()).filter(|e| e.file_name() != "walk.pack").collect();
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name() != "walk.pack")
+        .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
 
     // Damage, one kind at a time, on copies.
@@ -55,17 +73,25 @@ fn pack_round_trip_and_damage() {
         let mut v: serde_json::Value = serde_json::from_str(&manifest_text).unwrap();
         f(&mut v);
         std::fs::write(d.join("manifest.json"), serde_json::to_string(&v).unwrap()).unwrap();
-        load_pack(&d).err().unwrap_or_else(|| panic!("{name}: damaged pack loaded"))
+        load_pack(&d)
+            .err()
+            .unwrap_or_else(|| panic!("{name}: damaged pack loaded"))
     };
     let e = edit("version", &|v| v["version"] = 99.into());
     assert!(matches!(e, PackError::Version(99)), "{e}");
-    let e = edit("offset", &|v| v["views"][0]["parts"][0]["vertex_offset"] = 1_000_000_000u64.into());
+    let e = edit("offset", &|v| {
+        v["views"][0]["parts"][0]["vertex_offset"] = 1_000_000_000u64.into()
+    });
     assert!(e.to_string().contains("past the end"), "{e}");
     let e = edit("huge", &|v| v["views"][0]["parts"][0]["vertex_count"] = u32::MAX.into());
     assert!(matches!(e, PackError::Damaged(_)), "{e}");
-    let e = edit("order", &|v| v["views"][1]["order"] = serde_json::json!([0, 0, 1, 2, 3]));
+    let e = edit("order", &|v| {
+        v["views"][1]["order"] = serde_json::json!([0, 0, 1, 2, 3])
+    });
     assert!(e.to_string().contains("permutation"), "{e}");
-    let e = edit("rect", &|v| v["views"][0]["parts"][1]["atlas_rect"] = serde_json::json!([0, 0, 100000, 4]));
+    let e = edit("rect", &|v| {
+        v["views"][0]["parts"][1]["atlas_rect"] = serde_json::json!([0, 0, 100000, 4])
+    });
     assert!(e.to_string().contains("atlas"), "{e}");
     let e = edit("escape", &|v| v["views"][0]["atlas"] = "../../etc/passwd".into());
     assert!(e.to_string().contains("plain name"), "{e}");

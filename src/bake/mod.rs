@@ -22,6 +22,7 @@ pub mod part_fit;
 pub mod pipeline;
 pub mod raster;
 pub mod renders;
+pub mod report;
 pub mod segment;
 pub mod simplify;
 pub mod triangulate;

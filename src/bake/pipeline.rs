@@ -41,6 +41,8 @@ pub struct BakeOptions {
     pub fit: PartFitOptions,
     /// Views used to choose the key frame automatically.
     pub key_frame_probe_views: usize,
+    /// Keep every frame's part images (for debug images; memory grows with views × frames).
+    pub keep_frame_images: bool,
 }
 
 impl Default for BakeOptions {
@@ -54,6 +56,7 @@ impl Default for BakeOptions {
             key_frame: KeyFrame::Auto,
             fit: PartFitOptions::default(),
             key_frame_probe_views: 4,
+            keep_frame_images: false,
         }
     }
 }
@@ -98,6 +101,8 @@ pub struct ViewResult {
     /// The same for the key-frame polygons left still (what fitting gains over a static
     /// textured polygon).
     pub psnr_static: Vec<f64>,
+    /// Every part's colour image per frame, when [`BakeOptions::keep_frame_images`] is set.
+    pub frame_colors: Vec<Vec<image::RgbaImage>>,
 }
 
 /// A finished bake.
@@ -210,7 +215,14 @@ pub fn render_polypostor(
     c
 }
 
-fn fit_view(direction: Vec3, camera: Camera, data: ViewData, key: usize, options: &PartFitOptions) -> ViewResult {
+fn fit_view(
+    direction: Vec3,
+    camera: Camera,
+    data: ViewData,
+    key: usize,
+    options: &PartFitOptions,
+    keep: bool,
+) -> ViewResult {
     let parts_n = data.tiles.len();
     let frames = data.tiles.first().map_or(0, |t| t.len());
     let images = &data.depth_order_tiles;
@@ -255,6 +267,13 @@ fn fit_view(direction: Vec3, camera: Camera, data: ViewData, key: usize, options
             (psnr(poly.rmse(&gt).0), psnr(still.rmse(&gt).0))
         })
         .unzip();
+    let frame_colors = if keep {
+        (0..parts_n)
+            .map(|p| (0..frames).map(|f| images.tile(&images.color, p, f)).collect())
+            .collect()
+    } else {
+        Vec::new()
+    };
     ViewResult {
         direction,
         camera,
@@ -263,6 +282,7 @@ fn fit_view(direction: Vec3, camera: Camera, data: ViewData, key: usize, options
         order,
         psnr: psnr_frames,
         psnr_static,
+        frame_colors,
     }
 }
 
@@ -380,9 +400,9 @@ pub fn bake(
         let images = batch.render_view(&renderer, &ctx.device, &ctx.queue, cam)?;
         render_secs += tr.elapsed().as_secs_f64();
         let tx = tx.clone();
-        let (dir, cam, fit_options) = (dirs[v], *cam, options.fit);
+        let (dir, cam, fit_options, keep) = (dirs[v], *cam, options.fit, options.keep_frame_images);
         rayon::spawn(move || {
-            let r = fit_view(dir, cam, extract(images), key, &fit_options);
+            let r = fit_view(dir, cam, extract(images), key, &fit_options, keep);
             let _ = tx.send((v, r));
         });
     }

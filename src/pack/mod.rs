@@ -13,4 +13,4 @@ mod write;
 pub use atlas::{Atlas, AtlasRect, pack_atlas};
 pub use format::{FORMAT_NAME, FORMAT_VERSION, Manifest, ManifestPart, ManifestView, PackCamera};
 pub use load::{LoadedPack, LoadedView, PackError, load_pack};
-pub use write::{PackStats, write_pack};
+pub use write::{PackStats, write_pack, write_pack_with};

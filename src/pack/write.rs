@@ -30,6 +30,18 @@ fn io(path: &Path, e: impl std::fmt::Display) -> String {
 /// Writes the pack of `bake` to the folder `out` (replacing it only once the new pack is
 /// complete).
 pub fn write_pack(bake: &Bake, character: &str, clip: Option<&str>, out: &Path) -> Result<PackStats, String> {
+    write_pack_with(bake, character, clip, out, &|_, _| Ok(()))
+}
+
+/// [`write_pack`], with `extra(folder, stats)` writing more files (a report, debug images)
+/// into the pack folder before it is moved into place.
+pub fn write_pack_with(
+    bake: &Bake,
+    character: &str,
+    clip: Option<&str>,
+    out: &Path,
+    extra: &dyn Fn(&Path, &PackStats) -> Result<(), String>,
+) -> Result<PackStats, String> {
     let parent = out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -43,7 +55,7 @@ pub fn write_pack(bake: &Bake, character: &str, clip: Option<&str>, out: &Path) 
     let tmp = parent.join(format!(".{name}.writing-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
     std::fs::create_dir_all(&tmp).map_err(|e| io(&tmp, e))?;
-    let result = write_into(bake, character, clip, &tmp);
+    let result = write_into(bake, character, clip, &tmp).and_then(|stats| extra(&tmp, &stats).map(|_| stats));
     match result {
         Ok(stats) => {
             let old = parent.join(format!(".{name}.old-{}", std::process::id()));

@@ -1,0 +1,215 @@
+//! The bake report (`report.json`) and debug images.
+
+use serde::Serialize;
+
+use super::pipeline::Bake;
+use crate::pack::PackStats;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct PartReport {
+    pub name: String,
+    /// PSNR of the part against its own render, per frame (dB).
+    pub psnr: Vec<f64>,
+    /// Fit error (the DP objective) per frame.
+    pub fit_cost: Vec<f64>,
+    pub vertices: usize,
+    pub triangles: usize,
+    pub problem: Option<String>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ViewReport {
+    pub index: usize,
+    pub direction: [f32; 3],
+    /// Composited character PSNR per frame (dB).
+    pub psnr: Vec<f64>,
+    /// The same for still key-frame polygons (what fitting gains).
+    pub psnr_static: Vec<f64>,
+    pub mean_psnr: f64,
+    pub order: Vec<usize>,
+    pub parts: Vec<PartReport>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct WorstView {
+    pub view: usize,
+    pub mean_psnr: f64,
+    pub direction: [f32; 3],
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Settings {
+    pub views: usize,
+    pub resolution: u32,
+    pub fps: f32,
+    pub frames: usize,
+    pub clip: Option<String>,
+    pub exhaustive: bool,
+    pub key_vertices: usize,
+    pub frame_vertices: usize,
+    pub final_vertices: usize,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Report {
+    pub character: String,
+    pub adapter: String,
+    pub settings: Settings,
+    pub seconds_total: f64,
+    pub stage_seconds: std::collections::BTreeMap<String, f64>,
+    pub key_frame: usize,
+    pub mean_psnr: f64,
+    pub worst_psnr: f64,
+    pub mean_psnr_static: f64,
+    pub pack_bytes: u64,
+    pub pack_bytes_bc: u64,
+    pub pack_file_bytes: u64,
+    /// Classic animated impostors at the same settings: colour + normal RGBA8 per view per frame.
+    pub impostor_bytes: u64,
+    pub impostor_bytes_bc: u64,
+    /// `impostor_bytes / pack_bytes`.
+    pub memory_ratio: f64,
+    pub triangles_per_view: f64,
+    /// The views with the lowest mean PSNR, worst first (where the artist should look).
+    pub worst_views: Vec<WorstView>,
+    pub views: Vec<ViewReport>,
+}
+
+fn mean(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        0.0
+    } else {
+        v.iter().sum::<f64>() / v.len() as f64
+    }
+}
+
+/// Builds the report of a finished bake and its written pack.
+pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &PackStats, seconds_total: f64) -> Report {
+    let frames = bake.frame_times.len();
+    let r = bake.options.resolution as u64;
+    let impostor_bytes = bake.views.len() as u64 * frames as u64 * r * r * 4 * 2;
+    let views: Vec<ViewReport> = bake
+        .views
+        .iter()
+        .enumerate()
+        .map(|(i, v)| ViewReport {
+            index: i,
+            direction: v.direction.to_array(),
+            psnr: v.psnr.clone(),
+            psnr_static: v.psnr_static.clone(),
+            mean_psnr: mean(&v.psnr),
+            order: v.order.clone(),
+            parts: v
+                .parts
+                .iter()
+                .enumerate()
+                .map(|(p, part)| PartReport {
+                    name: bake.segmentation.parts.get(p).map_or(String::new(), |x| x.name.clone()),
+                    psnr: part.psnr.clone(),
+                    fit_cost: part.fit.as_ref().map_or(Vec::new(), |f| f.costs.clone()),
+                    vertices: part.fit.as_ref().map_or(0, |f| f.kept.len()),
+                    triangles: part.fit.as_ref().map_or(0, |f| f.triangles.len()),
+                    problem: part.problem.clone(),
+                })
+                .collect(),
+        })
+        .collect();
+    let all: Vec<f64> = views.iter().flat_map(|v| v.psnr.iter().copied()).collect();
+    let all_static: Vec<f64> = views.iter().flat_map(|v| v.psnr_static.iter().copied()).collect();
+    let mut worst: Vec<WorstView> = views
+        .iter()
+        .map(|v| WorstView {
+            view: v.index,
+            mean_psnr: v.mean_psnr,
+            direction: v.direction,
+        })
+        .collect();
+    worst.sort_by(|a, b| a.mean_psnr.total_cmp(&b.mean_psnr));
+    worst.truncate(10);
+    Report {
+        character: character.to_string(),
+        adapter: bake.adapter.clone(),
+        settings: Settings {
+            views: bake.views.len(),
+            resolution: bake.options.resolution,
+            fps: bake.options.fps,
+            frames,
+            clip: clip.map(String::from),
+            exhaustive: bake.options.fit.exhaustive,
+            key_vertices: bake.options.fit.key_vertices,
+            frame_vertices: bake.options.fit.frame_vertices,
+            final_vertices: bake.options.fit.final_vertices,
+        },
+        seconds_total,
+        stage_seconds: bake.stage_secs.clone(),
+        key_frame: bake.key_frame,
+        mean_psnr: mean(&all),
+        worst_psnr: all.iter().copied().fold(f64::INFINITY, f64::min),
+        mean_psnr_static: mean(&all_static),
+        pack_bytes: stats.pack_bytes,
+        pack_bytes_bc: stats.pack_bytes_bc,
+        pack_file_bytes: stats.file_bytes,
+        impostor_bytes,
+        impostor_bytes_bc: impostor_bytes / 4,
+        memory_ratio: impostor_bytes as f64 / stats.pack_bytes.max(1) as f64,
+        triangles_per_view: stats.triangles_per_view,
+        worst_views: worst,
+        views,
+    }
+}
+
+fn line(img: &mut image::RgbaImage, a: [f32; 2], b: [f32; 2], ox: u32, oy: u32, color: [u8; 4]) {
+    let steps = ((b[0] - a[0]).abs().max((b[1] - a[1]).abs()).ceil() as usize).max(1);
+    for s in 0..=steps {
+        let t = s as f32 / steps as f32;
+        let (x, y) = (a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t);
+        let (px, py) = (ox as i64 + x as i64, oy as i64 + y as i64);
+        if px >= 0 && py >= 0 && (px as u32) < img.width() && (py as u32) < img.height() {
+            img.put_pixel(px as u32, py as u32, image::Rgba(color));
+        }
+    }
+}
+
+fn polygon(img: &mut image::RgbaImage, pts: &[[f32; 2]], ox: u32, oy: u32, color: [u8; 4]) {
+    for i in 0..pts.len() {
+        line(img, pts[i], pts[(i + 1) % pts.len()], ox, oy, color);
+    }
+}
+
+/// One debug image per view: a row per part, a column per frame; each tile shows the part's
+/// render with the traced target polygon T (green) and the fitted final polygon (red, with
+/// its triangles in dark red); the key frame's column shows S (yellow).
+pub fn debug_image(bake: &Bake, view: usize, tiles_color: &[Vec<image::RgbaImage>]) -> image::RgbaImage {
+    let v = &bake.views[view];
+    let r = bake.options.resolution;
+    let frames = bake.frame_times.len() as u32;
+    let parts = v.parts.len() as u32;
+    let mut img = image::RgbaImage::from_pixel(frames * r, parts * r, image::Rgba([24, 24, 28, 255]));
+    for (p, part) in v.parts.iter().enumerate() {
+        for f in 0..frames as usize {
+            let (ox, oy) = (f as u32 * r, p as u32 * r);
+            if let Some(tile) = tiles_color.get(p).and_then(|t| t.get(f)) {
+                for (x, y, q) in tile.enumerate_pixels() {
+                    if q[3] > 0 {
+                        img.put_pixel(
+                            ox + x,
+                            oy + y,
+                            image::Rgba([q[0] / 2 + 20, q[1] / 2 + 20, q[2] / 2 + 20, 255]),
+                        );
+                    }
+                }
+            }
+            let Some(fit) = &part.fit else { continue };
+            polygon(&mut img, &fit.targets[f], ox, oy, [60, 220, 90, 255]);
+            let pos = fit.positions(f);
+            for t in &fit.triangles {
+                polygon(&mut img, &t.map(|i| pos[i]), ox, oy, [140, 40, 40, 255]);
+            }
+            polygon(&mut img, &pos, ox, oy, [250, 70, 60, 255]);
+            if f == fit.key_frame {
+                polygon(&mut img, &fit.key_polygon, ox, oy, [250, 220, 60, 255]);
+            }
+        }
+    }
+    img
+}
