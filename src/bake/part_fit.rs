@@ -134,6 +134,7 @@ pub fn fit_frame(
     target_tile: &PartTile,
     target: &[[f32; 2]],
     pred: &[[f32; 2]],
+    index_hint: Option<&[usize]>,
     options: &PartFitOptions,
     pins: &[(usize, usize)],
 ) -> Result<Fit, FitError> {
@@ -151,13 +152,26 @@ pub fn fit_frame(
         return plan.solve_candidates(&cands, cost);
     }
     let mut cands = candidates(pred, target, options.window);
+    // Cyclic-order hint: where each vertex went last frame, carried along the contour.
+    let m = target.len() as i64;
+    if let Some(hint) = index_hint {
+        for (i, c) in cands.iter_mut().enumerate() {
+            let j = hint[i] as i64;
+            for d in -HINT_RADIUS..=HINT_RADIUS {
+                let k = (j + d).rem_euclid(m) as usize;
+                if !c.contains(&k) {
+                    c.push(k);
+                }
+            }
+            c.sort_unstable();
+        }
+    }
     pin(&mut cands);
     let mut best = plan.solve_candidates(&cands, cost)?;
     // Refine: re-centre the windows on the current solution (near it in space and along
     // the target contour) and solve again; the old solution stays feasible, so the cost
     // never rises.
-    let m = target.len() as i64;
-    let half = (options.window / 2) as i64;
+    let half = HINT_RADIUS;
     for _ in 0..REFINE_PASSES {
         let at: Vec<[f32; 2]> = best.mapping.iter().map(|&j| target[j]).collect();
         let mut cands = candidates(&at, target, options.window);
@@ -180,6 +194,27 @@ pub fn fit_frame(
         }
     }
     Ok(best)
+}
+
+/// Fast mode: how far along the target contour around the carried-over index to look.
+pub const HINT_RADIUS: i64 = 5;
+
+/// The cyclic shift `d` that best aligns polygon `a` onto `b` (`a[j]` near `b[j + d]`), for
+/// polygons with the same vertex count; `None` otherwise.
+pub fn cyclic_shift(a: &[[f32; 2]], b: &[[f32; 2]]) -> Option<usize> {
+    let m = b.len();
+    if a.len() != m || m == 0 {
+        return None;
+    }
+    (0..m)
+        .map(|d| {
+            let e: f32 = (0..m)
+                .map(|j| (a[j][0] - b[(j + d) % m][0]).powi(2) + (a[j][1] - b[(j + d) % m][1]).powi(2))
+                .sum();
+            (d, e)
+        })
+        .min_by(|x, y| x.1.total_cmp(&y.1))
+        .map(|x| x.0)
 }
 
 /// Refinement passes of the fast mode.
@@ -247,23 +282,34 @@ pub fn fit_part(
         .collect::<Result<_, _>>()?;
     let mut mappings = vec![Vec::new(); frames];
     let mut costs = vec![0.0; frames];
-    // Walk the loop from the key frame so each frame is predicted from its predecessor.
+    // Walk the loop from the key frame so each frame is predicted from its predecessor:
+    // positions (nearest target vertices) and contour indices (carried over by the cyclic
+    // shift between consecutive target polygons).
     let mut pred = key_polygon.clone();
+    let mut prev: Option<usize> = None;
     for step in 0..frames {
         let f = (key + step) % frames;
         let none = Vec::new();
+        let hint: Option<Vec<usize>> = prev.and_then(|pf| {
+            let shift = cyclic_shift(&targets[pf], &targets[f])?;
+            let m = targets[f].len();
+            Some(mappings[pf].iter().map(|&j| (j + shift) % m).collect())
+        });
+        let pins_f = pins.get(f).unwrap_or(&none);
         let fit = fit_frame(
             &plan,
             &samples,
             &tiles[f],
             &targets[f],
             &pred,
+            hint.as_deref(),
             options,
-            pins.get(f).unwrap_or(&none),
+            pins_f,
         )?;
         pred = fit.mapping.iter().map(|&j| targets[f][j]).collect();
         mappings[f] = fit.mapping;
         costs[f] = fit.cost;
+        prev = Some(f);
     }
     let positions: Vec<Vec<[f32; 2]>> = (0..frames)
         .map(|f| mappings[f].iter().map(|&j| targets[f][j]).collect())
