@@ -101,6 +101,45 @@ impl RenderTarget {
         }
     }
 
+    /// A render pass over the three targets, cleared (colour to `clear`, normal to
+    /// transparent, depth to far).
+    pub(crate) fn begin_pass<'e>(
+        &'e self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        label: &'static str,
+        clear: wgpu::Color,
+    ) -> wgpu::RenderPass<'e> {
+        let attachment = |view: &'e wgpu::TextureView, color: wgpu::Color| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(color),
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        };
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(label),
+            color_attachments: &[
+                attachment(&self.color_view, clear),
+                attachment(&self.normal_view, wgpu::Color::TRANSPARENT),
+            ],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &self.depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+    }
+
     pub fn read_color(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<image::RgbaImage, GpuError> {
         read_rgba8(device, queue, &self.color)
     }
@@ -331,40 +370,7 @@ impl CharacterRenderer {
         options: &DrawOptions,
     ) {
         let [r, g, b, a] = options.clear_color;
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("character"),
-            color_attachments: &[
-                Some(wgpu::RenderPassColorAttachment {
-                    view: &target.color_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                }),
-                Some(wgpu::RenderPassColorAttachment {
-                    view: &target.normal_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                        store: wgpu::StoreOp::Store,
-                    },
-                }),
-            ],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &target.depth_view,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = target.begin_pass(encoder, "character", wgpu::Color { r, g, b, a });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &character.frame_group, &[]);
         pass.set_vertex_buffer(0, character.stream0.slice(..));
