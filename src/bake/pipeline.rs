@@ -20,6 +20,9 @@ use super::visibility::draw_order;
 use crate::character::Character;
 use crate::gpu::{Camera, CharacterRenderer, GpuContext, GpuError, PartImages, PartRenderer};
 
+/// Most frames tried as the key frame by [`KeyFrame::Auto`] (evenly spread over the clip).
+pub const KEY_FRAME_CANDIDATES: usize = 5;
+
 /// How the texture key-frame is chosen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum KeyFrame {
@@ -339,7 +342,10 @@ pub fn bake(
             let probes: Vec<usize> = (0..options.key_frame_probe_views.max(1))
                 .map(|i| (i * dirs.len()) / options.key_frame_probe_views.max(1))
                 .collect();
-            let mut totals = vec![0.0f64; times.len()];
+            // Candidate key frames: at most KEY_FRAME_CANDIDATES, evenly spread.
+            let step = times.len().div_ceil(KEY_FRAME_CANDIDATES).max(1);
+            let candidates: Vec<usize> = (0..times.len()).step_by(step).collect();
+            let mut totals = vec![0.0f64; candidates.len()];
             for (n, &v) in probes.iter().enumerate() {
                 if cancel.load(Ordering::Relaxed) {
                     return Err(BakeError::Cancelled);
@@ -350,9 +356,9 @@ pub fn bake(
                     total: probes.len(),
                 });
                 let data = extract(batch.render_view(&renderer, &ctx.device, &ctx.queue, &cameras[v])?);
-                let per_key: Vec<f64> = (0..times.len())
-                    .into_par_iter()
-                    .map(|k| {
+                let per_key: Vec<f64> = candidates
+                    .par_iter()
+                    .map(|&k| {
                         data.tiles
                             .iter()
                             .map(|tiles| fit_part(tiles, k, &options.fit, &[]).map_or(0.0, |f| f.total_cost()))
@@ -363,9 +369,9 @@ pub fn bake(
                     *t += c;
                 }
             }
-            (0..times.len())
+            (0..candidates.len())
                 .min_by(|&a, &b| totals[a].total_cmp(&totals[b]))
-                .unwrap_or(0)
+                .map_or(0, |i| candidates[i])
         }
     };
     stage_secs.insert("key_frame".into(), t2.elapsed().as_secs_f64());
