@@ -17,7 +17,8 @@ fn small_bake_of_the_default_character() {
     let options = BakeOptions {
         views: 3,
         resolution: 96,
-        key_frame: KeyFrame::Frame(0),
+        key_frame: KeyFrame::Auto,
+        key_frame_probe_views: 1,
         ..Default::default()
     };
     let t = std::time::Instant::now();
@@ -39,6 +40,8 @@ fn small_bake_of_the_default_character() {
     );
     assert_eq!(b.views.len(), 3);
     assert_eq!(b.frame_times.len(), 10);
+    // Auto tries every second frame of the ten.
+    assert!(b.key_frame % 2 == 0 && b.key_frame < 10, "key frame {}", b.key_frame);
     let mut all = Vec::new();
     for (v, view) in b.views.iter().enumerate() {
         let mut order = view.order.clone();
