@@ -225,16 +225,9 @@ pub const REFINE_PASSES: usize = 2;
 pub fn deformation_aware_simplify(fit_positions: &[Vec<[f32; 2]>], key: &[[f32; 2]], target: usize) -> Vec<usize> {
     let n = key.len();
     let mut kept: Vec<usize> = (0..n).collect();
-    let dist = |p: [f32; 2], a: [f32; 2], b: [f32; 2]| {
-        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-        let l2 = dx * dx + dy * dy;
-        let t = if l2 > 0.0 {
-            (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        ((p[0] - a[0] - t * dx).powi(2) + (p[1] - a[1] - t * dy).powi(2)).sqrt()
-    };
+    let f64s = |p: [f32; 2]| [p[0] as f64, p[1] as f64];
+    let dist =
+        |p: [f32; 2], a: [f32; 2], b: [f32; 2]| super::simplify::dist_to_segment(f64s(p), f64s(a), f64s(b)) as f32;
     while kept.len() > target.max(3) {
         let m = kept.len();
         let mut best: Option<(f32, usize)> = None;
