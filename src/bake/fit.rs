@@ -146,69 +146,124 @@ impl Plan {
         candidates: &[Vec<usize>],
         cost: impl Fn(usize, [usize; 3]) -> f64,
     ) -> Result<Fit, FitError> {
+        self.solve_bounded(candidates, |t, p, _| cost(t, p))
+    }
+
+    /// [`Plan::solve_candidates`] with a cost that may stop early: `cost(t, p, limit)` must
+    /// return the exact error when it is below `limit`, and any value `>= limit` otherwise.
+    /// Costs are non-negative, so a choice whose subtrees alone already reach the best found
+    /// so far is skipped without evaluating its triangle; the result is still exact.
+    pub fn solve_bounded(
+        &self,
+        candidates: &[Vec<usize>],
+        cost: impl Fn(usize, [usize; 3], f64) -> f64,
+    ) -> Result<Fit, FitError> {
         if candidates.len() < self.n || candidates.iter().take(self.n).any(|c| c.is_empty()) {
             return Err(FitError::EmptyTarget);
         }
-        // Cost of triangle t with its vertices in (a, b, c) order of the plan.
-        let tri_cost = |t: usize, a: usize, b: usize, pa: usize, pb: usize, pc: usize| {
-            let tri = self.triangles[t];
-            let mut p = [0usize; 3];
-            for k in 0..3 {
-                p[k] = if tri[k] == a {
-                    pa
-                } else if tri[k] == b {
-                    pb
+        // Where each of (a, b, c) sits in triangle t's own vertex order.
+        let slots = |t: usize, a: usize, b: usize| -> [usize; 3] {
+            self.triangles[t].map(|v| {
+                if v == a {
+                    0
+                } else if v == b {
+                    1
                 } else {
-                    pc
-                };
-            }
-            cost(t, p)
+                    2
+                }
+            })
         };
-        // tables[(a, b)] = (best cost, argmin candidate of c), indexed [ka * |cand b| + kb].
-        type Table = (Vec<f64>, Vec<u32>);
-        let mut tables: HashMap<(usize, usize), Table> = HashMap::new();
-        let lookup = |tables: &HashMap<(usize, usize), Table>, x: usize, y: usize, kx: usize, ky: usize| -> f64 {
-            if let Some((c, _)) = tables.get(&(x, y)) {
-                c[kx * candidates[y].len() + ky]
-            } else if let Some((c, _)) = tables.get(&(y, x)) {
-                c[ky * candidates[x].len() + kx]
+        // Solved tables, one per base edge (a, b): best cost behind the edge and the argmin
+        // candidate of the opposite vertex, indexed `[ka * |cand b| + kb]`.
+        let mut best_of: Vec<Vec<f64>> = Vec::with_capacity(self.order.len());
+        let mut arg_of: Vec<Vec<u32>> = Vec::with_capacity(self.order.len());
+        let mut by_edge: HashMap<(usize, usize), usize> = HashMap::new();
+        // A solved table seen from edge (x, y): value at (kx, ky), or zero where nothing
+        // lies behind the edge.
+        type View<'t> = Option<(&'t [f64], usize, usize)>;
+        fn view<'t>(
+            best_of: &'t [Vec<f64>],
+            by_edge: &HashMap<(usize, usize), usize>,
+            candidates: &[Vec<usize>],
+            x: usize,
+            y: usize,
+        ) -> View<'t> {
+            if let Some(&i) = by_edge.get(&(x, y)) {
+                Some((i, candidates[y].len(), 1))
             } else {
-                0.0
+                by_edge.get(&(y, x)).map(|&i| (i, 1, candidates[x].len()))
             }
+            .map(|(i, sx, sy)| (best_of[i].as_slice(), sx, sy))
+        }
+        let at = |v: View, kx: usize, ky: usize| match v {
+            Some((d, sx, sy)) => d[kx * sx + ky * sy],
+            None => 0.0,
         };
         let (last, rest) = self.order.split_last().expect("non-empty");
         for &(t, a, b, c) in rest {
             let (ca, cb, cc) = (&candidates[a], &candidates[b], &candidates[c]);
+            let slot = slots(t, a, b);
             let mut best = vec![f64::INFINITY; ca.len() * cb.len()];
             let mut arg = vec![0u32; ca.len() * cb.len()];
-            for (ka, &pa) in ca.iter().enumerate() {
-                for (kb, &pb) in cb.iter().enumerate() {
-                    let mut bc = f64::INFINITY;
-                    let mut bi = 0u32;
-                    for (kc, &pc) in cc.iter().enumerate() {
-                        let v = tri_cost(t, a, b, pa, pb, pc)
-                            + lookup(&tables, a, c, ka, kc)
-                            + lookup(&tables, c, b, kc, kb);
-                        if v < bc {
-                            bc = v;
-                            bi = kc as u32;
+            {
+                let vac = view(&best_of, &by_edge, candidates, a, c);
+                let vcb = view(&best_of, &by_edge, candidates, c, b);
+                let mut warm = 0usize;
+                for (ka, &pa) in ca.iter().enumerate() {
+                    for (kb, &pb) in cb.iter().enumerate() {
+                        let eval = |kc: usize, bound: f64| {
+                            let lb = at(vac, ka, kc) + at(vcb, kc, kb);
+                            if lb >= bound {
+                                return f64::INFINITY;
+                            }
+                            let q = [pa, pb, cc[kc]];
+                            lb + cost(t, slot.map(|s| q[s]), bound - lb)
+                        };
+                        // Start from the previous pair's answer: neighbouring pairs usually
+                        // share it, and a good first bound prunes the rest.
+                        let mut bc = eval(warm, f64::INFINITY);
+                        let mut bi = warm;
+                        for kc in 0..cc.len() {
+                            if kc == warm {
+                                continue;
+                            }
+                            let v = eval(kc, bc);
+                            if v < bc || (v == bc && kc < bi) {
+                                bc = v;
+                                bi = kc;
+                            }
                         }
+                        warm = bi;
+                        best[ka * cb.len() + kb] = bc;
+                        arg[ka * cb.len() + kb] = bi as u32;
                     }
-                    best[ka * cb.len() + kb] = bc;
-                    arg[ka * cb.len() + kb] = bi;
                 }
             }
-            tables.insert((a, b), (best, arg));
+            by_edge.insert((a, b), best_of.len());
+            best_of.push(best);
+            arg_of.push(arg);
         }
         let &(t, a, b, c) = last;
+        let slot = slots(t, a, b);
+        let (vab, vbc, vca) = (
+            view(&best_of, &by_edge, candidates, a, b),
+            view(&best_of, &by_edge, candidates, b, c),
+            view(&best_of, &by_edge, candidates, c, a),
+        );
         let mut best = (f64::INFINITY, 0, 0, 0);
         for (ka, &pa) in candidates[a].iter().enumerate() {
             for (kb, &pb) in candidates[b].iter().enumerate() {
+                let lab = at(vab, ka, kb);
+                if lab >= best.0 {
+                    continue;
+                }
                 for (kc, &pc) in candidates[c].iter().enumerate() {
-                    let v = tri_cost(t, a, b, pa, pb, pc)
-                        + lookup(&tables, a, b, ka, kb)
-                        + lookup(&tables, b, c, kb, kc)
-                        + lookup(&tables, c, a, kc, ka);
+                    let lb = lab + at(vbc, kb, kc) + at(vca, kc, ka);
+                    if lb >= best.0 {
+                        continue;
+                    }
+                    let q = [pa, pb, pc];
+                    let v = lb + cost(t, slot.map(|s| q[s]), best.0 - lb);
                     if v < best.0 {
                         best = (v, ka, kb, kc);
                     }
@@ -220,9 +275,8 @@ impl Plan {
         k[a] = best.1;
         k[b] = best.2;
         k[c] = best.3;
-        for &(_, a, b, c) in rest.iter().rev() {
-            let (_, arg) = &tables[&(a, b)];
-            k[c] = arg[k[a] * candidates[b].len() + k[b]] as usize;
+        for (i, &(_, a, b, c)) in rest.iter().enumerate().rev() {
+            k[c] = arg_of[i][k[a] * candidates[b].len() + k[b]] as usize;
         }
         // Vertices in no triangle (cannot happen for a triangulated polygon) take their first candidate.
         let mapping = k
@@ -318,6 +372,23 @@ mod tests {
                     );
                     // The returned mapping really has the returned cost.
                     assert!((mapping_cost(&tris, &dp.mapping, &cost) - dp.cost).abs() < 1e-9);
+                    // A cost that gives up above its limit (returning some larger value)
+                    // leaves the optimum unchanged.
+                    let all = vec![(0..m).collect::<Vec<_>>(); n];
+                    let bounded = Plan::new(n, &tris)
+                        .unwrap()
+                        .solve_bounded(&all, |t, p, limit| {
+                            let c = cost(t, p);
+                            if c >= limit { limit + 7.0 } else { c }
+                        })
+                        .unwrap();
+                    assert!(
+                        (bounded.cost - bf.cost).abs() < 1e-9,
+                        "bounded {} bf {}",
+                        bounded.cost,
+                        bf.cost
+                    );
+                    assert!((mapping_cost(&tris, &bounded.mapping, &cost) - bf.cost).abs() < 1e-9);
                 }
             }
         }

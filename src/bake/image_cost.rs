@@ -85,10 +85,74 @@ pub const SAMPLES: [[f32; 3]; 10] = [
     [0.1, 0.1, 0.8],
 ];
 
+/// A target tile laid out for fast sampling: a one-pixel zero border (so bilinear
+/// taps need no bounds tests), channels pre-scaled by the square roots of
+/// [`CHANNEL_WEIGHTS`] (so the weighted SSD is a plain sum of squares) and padded to 8 lanes.
+pub struct TargetGrid {
+    stride: usize,
+    px: Vec<[Vec4; 2]>,
+}
+
+use glam::Vec4;
+
+fn lanes(p: [f32; 8]) -> [Vec4; 2] {
+    [Vec4::new(p[0], p[1], p[2], p[3]), Vec4::new(p[4], p[5], p[6], p[7])]
+}
+
+fn weighted(p: [f32; 7]) -> [f32; 8] {
+    let mut o = [0.0; 8];
+    for c in 0..7 {
+        o[c] = p[c] * CHANNEL_WEIGHTS[c].sqrt();
+    }
+    o
+}
+
+impl TargetGrid {
+    pub fn new(tile: &PartTile) -> Self {
+        let s = tile.size as usize;
+        let stride = s + 2;
+        let mut px = vec![[Vec4::ZERO; 2]; stride * stride];
+        for y in 0..s {
+            for x in 0..s {
+                px[(y + 1) * stride + x + 1] = lanes(weighted(tile.px[y * s + x]));
+            }
+        }
+        Self { stride, px }
+    }
+
+    /// Bilinear sample at pixel coordinates of the tile (as [`PartTile::sample`], weighted).
+    pub fn sample(&self, x: f32, y: f32) -> [f32; 8] {
+        let [a, b] = self.sample_lanes(x, y);
+        let (a, b) = (a.to_array(), b.to_array());
+        [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]
+    }
+
+    #[inline]
+    fn sample_lanes(&self, x: f32, y: f32) -> [Vec4; 2] {
+        // Padded coordinates: pixel i of the tile is cell i + 1, its centre at i + 1.5.
+        // Far outside, the clamp lands on the zero border exactly (t = 0 or 1).
+        let max = (self.stride - 1) as f32;
+        let fx = (x + 0.5).clamp(0.0, max);
+        let fy = (y + 0.5).clamp(0.0, max);
+        let (x0, y0) = ((fx as usize).min(self.stride - 2), (fy as usize).min(self.stride - 2));
+        let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
+        let i = y0 * self.stride + x0;
+        let rows = &self.px[i..i + self.stride + 2];
+        let (a, b, c, d) = (rows[0], rows[1], rows[self.stride], rows[self.stride + 1]);
+        let mut out = [Vec4::ZERO; 2];
+        for k in 0..2 {
+            let top = a[k] + (b[k] - a[k]) * tx;
+            let bottom = c[k] + (d[k] - c[k]) * tx;
+            out[k] = top + (bottom - top) * ty;
+        }
+        out
+    }
+}
+
 /// Source texture values at the sample points of every source triangle, and the weight of
 /// each triangle (its area in pixels, so the error is an integral over the source).
 pub struct SourceSamples {
-    values: Vec<[[f32; 7]; SAMPLES.len()]>,
+    values: Vec<[[Vec4; 2]; SAMPLES.len()]>,
     weights: Vec<f64>,
 }
 
@@ -98,11 +162,11 @@ impl SourceSamples {
         let mut weights = Vec::with_capacity(triangles.len());
         for t in triangles {
             let [a, b, c] = t.map(|i| vertices[i]);
-            let mut v = [[0.0; 7]; SAMPLES.len()];
+            let mut v = [[Vec4::ZERO; 2]; SAMPLES.len()];
             for (k, w) in SAMPLES.iter().enumerate() {
                 let x = w[0] * a[0] + w[1] * b[0] + w[2] * c[0];
                 let y = w[0] * a[1] + w[1] * b[1] + w[2] * c[1];
-                v[k] = key.sample(x, y);
+                v[k] = lanes(weighted(key.sample(x, y)));
             }
             values.push(v);
             let area = 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])).abs() as f64;
@@ -112,19 +176,31 @@ impl SourceSamples {
     }
 
     /// Error of mapping source triangle `t` onto the target triangle with corners `p`.
-    pub fn cost(&self, t: usize, target: &PartTile, p: [[f32; 2]; 3]) -> f64 {
+    pub fn cost(&self, t: usize, target: &TargetGrid, p: [[f32; 2]; 3]) -> f64 {
+        self.cost_bounded(t, target, p, f64::INFINITY)
+    }
+
+    /// [`SourceSamples::cost`], giving up (returning infinity) as soon as the partial sum
+    /// reaches `limit`; exact whenever the result is below `limit`.
+    #[inline]
+    pub fn cost_bounded(&self, t: usize, target: &TargetGrid, p: [[f32; 2]; 3], limit: f64) -> f64 {
+        let scale = self.weights[t] / SAMPLES.len() as f64;
+        let ssd_limit = (limit / scale) as f32;
+        let mut acc = Vec4::ZERO;
         let mut ssd = 0.0f32;
         for (k, w) in SAMPLES.iter().enumerate() {
             let x = w[0] * p[0][0] + w[1] * p[1][0] + w[2] * p[2][0];
             let y = w[0] * p[0][1] + w[1] * p[1][1] + w[2] * p[2][1];
-            let s = target.sample(x, y);
-            let v = &self.values[t][k];
-            for c in 0..7 {
-                let d = s[c] - v[c];
-                ssd += CHANNEL_WEIGHTS[c] * d * d;
+            let [s0, s1] = target.sample_lanes(x, y);
+            let [v0, v1] = self.values[t][k];
+            let (d0, d1) = (s0 - v0, s1 - v1);
+            acc += d0 * d0 + d1 * d1;
+            ssd = acc.element_sum();
+            if ssd >= ssd_limit {
+                return f64::INFINITY;
             }
         }
-        self.weights[t] * ssd as f64 / SAMPLES.len() as f64
+        scale * ssd as f64
     }
 }
 
@@ -145,12 +221,17 @@ mod tests {
         let t = tile(|x, y| [x as f32 / 16.0, y as f32 / 16.0, 0.5, 0.5, 0.5, 1.0, 1.0]);
         let verts = [[3.0, 3.0], [12.0, 4.0], [6.0, 12.0]];
         let s = SourceSamples::new(&t, &verts, &[[0, 1, 2]]);
-        assert!(s.cost(0, &t, verts) < 1e-9);
+        let g = TargetGrid::new(&t);
+        assert!(s.cost(0, &g, verts) < 1e-9);
         let shifted = verts.map(|p| [p[0] + 2.0, p[1]]);
-        assert!(s.cost(0, &t, shifted) > 1e-3);
+        assert!(s.cost(0, &g, shifted) > 1e-3);
         // Off the image entirely: coverage mismatch dominates.
         let away = verts.map(|p| [p[0] + 40.0, p[1]]);
-        assert!(s.cost(0, &t, away) > s.cost(0, &t, shifted));
+        assert!(s.cost(0, &g, away) > s.cost(0, &g, shifted));
+        // The bounded cost is exact below its limit and gives up above it.
+        let c = s.cost(0, &g, shifted);
+        assert_eq!(s.cost_bounded(0, &g, shifted, c * 1.01), c);
+        assert!(s.cost_bounded(0, &g, shifted, c * 0.99) >= c * 0.99);
     }
 
     #[test]
@@ -159,5 +240,29 @@ mod tests {
         assert_eq!(t.sample(3.5, 7.5)[0], 3.0);
         assert!((t.sample(4.0, 7.5)[0] - 3.5).abs() < 1e-6);
         assert_eq!(t.sample(-5.0, 2.0), [0.0; 7]);
+    }
+
+    #[test]
+    fn the_padded_grid_samples_like_the_tile() {
+        let t = tile(|x, y| {
+            let v = ((x * 7 + y * 13) % 11) as f32 / 11.0;
+            [v, 1.0 - v, 0.3, v * 0.5, 0.2, 0.9, 1.0]
+        });
+        let g = TargetGrid::new(&t);
+        for &(x, y) in &[
+            (0.0, 0.0),
+            (0.5, 0.5),
+            (3.3, 7.9),
+            (15.9, 16.0),
+            (16.0, 0.2),
+            (-3.0, 5.0),
+            (40.0, 40.0),
+        ] {
+            let a = weighted(t.sample(x, y));
+            let b = g.sample(x, y);
+            for k in 0..8 {
+                assert!((a[k] - b[k]).abs() < 1e-4, "({x}, {y}) lane {k}: {} vs {}", a[k], b[k]);
+            }
+        }
     }
 }

@@ -5,7 +5,7 @@
 
 use super::contour::trace_outer;
 use super::fit::{Fit, FitError, Plan};
-use super::image_cost::{PartTile, SourceSamples};
+use super::image_cost::{PartTile, SourceSamples, TargetGrid};
 use super::simplify::{SimplifyOptions, is_simple, simplify};
 use super::triangulate::{TriangulateError, triangulate};
 
@@ -131,14 +131,14 @@ fn candidates(pred: &[[f32; 2]], target: &[[f32; 2]], window: usize) -> Vec<Vec<
 pub fn fit_frame(
     plan: &Plan,
     samples: &SourceSamples,
-    target_tile: &PartTile,
+    target_tile: &TargetGrid,
     target: &[[f32; 2]],
     pred: &[[f32; 2]],
     index_hint: Option<&[usize]>,
     options: &PartFitOptions,
     pins: &[(usize, usize)],
 ) -> Result<Fit, FitError> {
-    let cost = |t: usize, p: [usize; 3]| samples.cost(t, target_tile, p.map(|j| target[j]));
+    let cost = |t: usize, p: [usize; 3], limit: f64| samples.cost_bounded(t, target_tile, p.map(|j| target[j]), limit);
     let pin = |cands: &mut Vec<Vec<usize>>| {
         for &(i, j) in pins {
             if i < cands.len() && j < target.len() {
@@ -149,15 +149,38 @@ pub fn fit_frame(
     if options.exhaustive {
         let mut cands = vec![(0..target.len()).collect(); pred.len()];
         pin(&mut cands);
-        return plan.solve_candidates(&cands, cost);
+        return plan.solve_bounded(&cands, cost);
     }
-    let mut cands = candidates(pred, target, options.window);
+    // The fast mode solves several overlapping candidate sets: remember every triangle cost
+    // (exact, or a lower bound where the evaluation gave up) so no triple is sampled twice.
+    let memo: std::cell::RefCell<rustc_hash::FxHashMap<u64, f64>> = Default::default();
+    let cost = |t: usize, p: [usize; 3], limit: f64| {
+        let key = (t as u64) << 48 | (p[0] as u64) << 32 | (p[1] as u64) << 16 | p[2] as u64;
+        // Stored values >= 0 are exact; a negative value -b records "cost >= b".
+        if let Some(&v) = memo.borrow().get(&key) {
+            if v >= 0.0 {
+                return v;
+            }
+            if -v >= limit {
+                return f64::INFINITY;
+            }
+        }
+        let c = cost(t, p, limit);
+        if c.is_finite() {
+            memo.borrow_mut().insert(key, c);
+        } else if limit > 0.0 {
+            memo.borrow_mut().insert(key, -limit);
+        }
+        c
+    };
     // Cyclic-order hint: where each vertex went last frame, carried along the contour.
     let m = target.len() as i64;
+    let (hint_radius, window) = (HINT_RADIUS, options.window);
+    let mut cands = candidates(pred, target, window);
     if let Some(hint) = index_hint {
         for (i, c) in cands.iter_mut().enumerate() {
             let j = hint[i] as i64;
-            for d in -HINT_RADIUS..=HINT_RADIUS {
+            for d in -hint_radius..=hint_radius {
                 let k = (j + d).rem_euclid(m) as usize;
                 if !c.contains(&k) {
                     c.push(k);
@@ -167,14 +190,14 @@ pub fn fit_frame(
         }
     }
     pin(&mut cands);
-    let mut best = plan.solve_candidates(&cands, cost)?;
+    let mut best = plan.solve_bounded(&cands, &cost)?;
     // Refine: re-centre the windows on the current solution (near it in space and along
     // the target contour) and solve again; the old solution stays feasible, so the cost
     // never rises.
-    let half = HINT_RADIUS;
+    let half = hint_radius;
     for _ in 0..REFINE_PASSES {
         let at: Vec<[f32; 2]> = best.mapping.iter().map(|&j| target[j]).collect();
-        let mut cands = candidates(&at, target, options.window);
+        let mut cands = candidates(&at, target, window);
         for (i, c) in cands.iter_mut().enumerate() {
             let j = best.mapping[i] as i64;
             for d in -half..=half {
@@ -186,10 +209,69 @@ pub fn fit_frame(
             c.sort_unstable();
         }
         pin(&mut cands);
-        let next = plan.solve_candidates(&cands, cost)?;
+        let next = plan.solve_bounded(&cands, &cost)?;
         if next.cost < best.cost - 1e-12 {
             best = next;
         } else {
+            break;
+        }
+    }
+    // Sweeps: free a set of vertices that share no triangle (each may jump to any of the
+    // SWEEP_FREE target vertices nearest to it) while the rest stay within one contour step
+    // of where they are; catches the far jumps (folds across a thin limb, where the other
+    // side of the contour is near in space but far along it) that the windows miss. Every
+    // vertex is freed once per round; the current mapping stays feasible, so the cost never
+    // rises.
+    let n = pred.len();
+    let mut touching = vec![Vec::new(); n];
+    for t in plan.triangles() {
+        for &a in t {
+            for &b in t {
+                if a != b && !touching[a].contains(&b) {
+                    touching[a].push(b);
+                }
+            }
+        }
+    }
+    for round in 0..SWEEPS {
+        let mut covered = vec![false; n];
+        let mut improved = false;
+        let mut start = round * 7;
+        while covered.iter().any(|c| !c) {
+            let mut free = vec![false; n];
+            let mut blocked = vec![false; n];
+            for s in 0..n {
+                let i = (start + s) % n;
+                if !covered[i] && !blocked[i] {
+                    free[i] = true;
+                    covered[i] = true;
+                    for &j in &touching[i] {
+                        blocked[j] = true;
+                    }
+                }
+            }
+            start += 1;
+            let mut cands: Vec<Vec<usize>> = (0..n)
+                .map(|i| {
+                    if free[i] {
+                        candidates(&[target[best.mapping[i]]], target, SWEEP_FREE).remove(0)
+                    } else {
+                        let j = best.mapping[i] as i64;
+                        let mut c: Vec<usize> = (-1..=1).map(|d| (j + d).rem_euclid(m) as usize).collect();
+                        c.sort_unstable();
+                        c.dedup();
+                        c
+                    }
+                })
+                .collect();
+            pin(&mut cands);
+            let next = plan.solve_bounded(&cands, &cost)?;
+            if next.cost < best.cost - 1e-12 {
+                best = next;
+                improved = true;
+            }
+        }
+        if !improved {
             break;
         }
     }
@@ -219,6 +301,12 @@ pub fn cyclic_shift(a: &[[f32; 2]], b: &[[f32; 2]]) -> Option<usize> {
 
 /// Refinement passes of the fast mode.
 pub const REFINE_PASSES: usize = 2;
+
+/// Fast mode: sweep rounds after the refinement passes (each frees every vertex once).
+pub const SWEEPS: usize = 1;
+
+/// Fast mode: target vertices (nearest in space) a freed vertex may jump to in a sweep.
+pub const SWEEP_FREE: usize = 16;
 
 /// Removes S vertices one at a time, each time the one whose removal moves the outline least,
 /// averaged over every frame, until `target` remain; keeps the key polygon simple.
@@ -292,7 +380,7 @@ pub fn fit_part(
         let fit = fit_frame(
             &plan,
             &samples,
-            &tiles[f],
+            &TargetGrid::new(&tiles[f]),
             &targets[f],
             &pred,
             hint.as_deref(),
