@@ -45,9 +45,49 @@ fn pack_round_trip_and_damage() {
     let (_, pos) = p.part_vertices(0, 0, 5).unwrap();
     let want = fit.positions(5);
     for (k, q) in want.iter().enumerate() {
-        assert!((pos[2 * k] - (q[0] / 64.0 * 2.0 - 1.0)).abs() < 1e-6);
-        assert!((pos[2 * k + 1] - (1.0 - q[1] / 64.0 * 2.0)).abs() < 1e-6);
+        // Stored as 16-bit fixed point: within 1/32768 of the view plane's half width.
+        assert!((pos[2 * k] - (q[0] / 64.0 * 2.0 - 1.0)).abs() < 4e-5);
+        assert!((pos[2 * k + 1] - (1.0 - q[1] / 64.0 * 2.0)).abs() < 4e-5);
     }
+    // Texture coordinates find the key-frame texels they were cut from (crops may be stored
+    // transposed): the centre of every triangle, mapped through the pack's UVs, reads the same
+    // colour as in the key-frame render.
+    let mut checked = 0;
+    for (v, view) in b.views.iter().enumerate() {
+        let [aw, ah] = p.manifest.views[v].atlas_size;
+        for (pi, part) in view.parts.iter().enumerate() {
+            let Some(fit) = &part.fit else { continue };
+            let (uv, _) = p.part_vertices(v, pi, 0).unwrap();
+            let tile_uv = fit.uvs();
+            for t in &fit.triangles {
+                let c_tile = t.iter().fold([0.0f32; 2], |a, &i| {
+                    [a[0] + tile_uv[i][0] / 3.0, a[1] + tile_uv[i][1] / 3.0]
+                });
+                let c_atlas = t.iter().fold([0.0f32; 2], |a, &i| {
+                    [
+                        a[0] + uv[2 * i] * aw as f32 / 3.0,
+                        a[1] + uv[2 * i + 1] * ah as f32 / 3.0,
+                    ]
+                });
+                // Skip centres within quantisation noise of a texel edge.
+                if c_tile.iter().chain(&c_atlas).any(|x| (x - x.round()).abs() < 0.01) {
+                    continue;
+                }
+                let want = part.key_color.get_pixel(c_tile[0] as u32, c_tile[1] as u32);
+                if want[3] == 0 {
+                    continue; // outside the mask: dilation may have filled it
+                }
+                let got = p.views[v].atlas.get_pixel(c_atlas[0] as u32, c_atlas[1] as u32);
+                assert_eq!(got, want, "view {v} part {pi} triangle {t:?}");
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 50, "{checked}");
+    // The normal atlas is the colour atlas's layout at half resolution.
+    let [aw, ah] = p.manifest.views[0].atlas_size;
+    assert_eq!(p.views[0].atlas.dimensions(), (aw, ah));
+    assert_eq!(p.views[0].normals.dimensions(), (aw / 2, ah / 2));
     // Writing again replaces the pack in one step and leaves no temporary folders.
     write_pack(&b, &c.name, Some("Walk"), &out).unwrap();
     let leftovers: Vec<_> = std::fs::read_dir(&dir)
@@ -108,6 +148,11 @@ fn pack_round_trip_and_damage() {
     let d = copy("image");
     std::fs::write(d.join("atlas_001.png"), b"\x89PNG broken").unwrap();
     assert!(load_pack(&d).unwrap_err().to_string().contains("atlas_001.png"));
+    let d = copy("normals");
+    let small = image::RgbaImage::new(2, 2);
+    small.save(d.join("normal_002.png")).unwrap();
+    let e = load_pack(&d).unwrap_err().to_string();
+    assert!(e.contains("normal_002.png") && e.contains("2×2"), "{e}");
     // Bad index inside the index data.
     let d = copy("index");
     let mut bytes = std::fs::read(d.join("indices.bin")).unwrap();

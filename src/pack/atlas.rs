@@ -1,6 +1,7 @@
 //! Atlas packing: each part's key-frame image cropped to its polygon's bounds (plus padding),
-//! packed on shelves, colour in the left half and normal in the right, with the empty texels
-//! around each polygon filled by dilation so filtering never bleeds in the background.
+//! packed on shelves into a colour atlas and a half-resolution normal atlas with the same
+//! layout, with the empty texels around each polygon filled by dilation so filtering never
+//! bleeds in the background.
 
 /// A placed rectangle: where the source crop `src` (in tile pixels) went in the atlas.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -12,13 +13,29 @@ pub struct AtlasRect {
     /// Top-left of the crop in the source tile.
     pub src_x: u32,
     pub src_y: u32,
+    /// The crop is stored transposed (its x runs down the atlas), when that packs tighter.
+    pub transposed: bool,
 }
 
-/// A packed atlas: `image` is `2 * width × height` (colour | normal).
+impl AtlasRect {
+    /// Where the tile point `q` (pixels) lies in the atlas (pixels).
+    pub fn to_atlas(&self, q: [f32; 2]) -> [f32; 2] {
+        let (dx, dy) = (q[0] - self.src_x as f32, q[1] - self.src_y as f32);
+        if self.transposed {
+            [self.x as f32 + dy, self.y as f32 + dx]
+        } else {
+            [self.x as f32 + dx, self.y as f32 + dy]
+        }
+    }
+}
+
+/// A packed atlas: `color` is `width × height`, `normal` the same layout at half resolution
+/// (`width / 2 × height / 2`; shading normals are smooth, so a quarter of the texels serves).
 pub struct Atlas {
     pub width: u32,
     pub height: u32,
-    pub image: image::RgbaImage,
+    pub color: image::RgbaImage,
+    pub normal: image::RgbaImage,
     pub rects: Vec<Option<AtlasRect>>,
 }
 
@@ -42,55 +59,114 @@ pub fn pack_atlas(items: &[Option<(&image::RgbaImage, &image::RgbaImage, [f32; 4
             })
         })
         .collect();
-    // Shelf packing, tallest first, into a width that fits the widest crop.
+    // Skyline packing (each crop, tallest first, goes where the skyline under it is lowest),
+    // tried over a range of atlas widths; the smallest atlas wins.
     let area: u64 = crops.iter().flatten().map(|c| c.2 as u64 * c.3 as u64).sum();
     let widest = crops.iter().flatten().map(|c| c.2).max().unwrap_or(1);
-    let width = ((area as f64).sqrt().ceil() as u32).max(widest).next_multiple_of(4);
-    let mut order: Vec<usize> = (0..crops.len()).filter(|&i| crops[i].is_some()).collect();
-    order.sort_by_key(|&i| (std::cmp::Reverse(crops[i].unwrap().3), i));
-    let mut rects = vec![None; crops.len()];
-    let (mut x, mut y, mut shelf) = (0u32, 0u32, 0u32);
-    for i in order {
-        let (sx, sy, w, h) = crops[i].unwrap();
-        if x + w > width {
-            x = 0;
-            y += shelf;
-            shelf = 0;
+    let present: Vec<usize> = (0..crops.len()).filter(|&i| crops[i].is_some()).collect();
+    let size = |i: usize| crops[i].map_or((0, 0), |c| (c.2, c.3));
+    // Orders to try: tallest, widest, largest first.
+    let orders: Vec<Vec<usize>> = [0usize, 1, 2]
+        .iter()
+        .map(|&k| {
+            let mut o = present.clone();
+            o.sort_by_key(|&i| {
+                let (w, h) = size(i);
+                let key = [h as u64, w as u64, w as u64 * h as u64][k];
+                (std::cmp::Reverse(key), i)
+            });
+            o
+        })
+        .collect();
+    let skyline = |width: u32, order: &[usize]| -> (u32, Vec<Option<AtlasRect>>) {
+        let mut sky = vec![0u32; width as usize];
+        let mut rects = vec![None; crops.len()];
+        for &i in order {
+            let (sx, sy, cw, ch) = crops[i].unwrap();
+            // Lowest top edge over both orientations, then leftmost.
+            let mut best: Option<(u32, u32, u32, bool)> = None;
+            for transposed in [false, true] {
+                let (w, h) = if transposed { (ch, cw) } else { (cw, ch) };
+                if w > width || (transposed && cw == ch) {
+                    continue;
+                }
+                for x in 0..=(width - w) {
+                    let y = sky[x as usize..(x + w) as usize].iter().copied().max().unwrap_or(0);
+                    if best.is_none_or(|(_, by, bh, _)| (y + h, y) < (by + bh, by)) {
+                        best = Some((x, y, h, transposed));
+                    }
+                }
+            }
+            let (x, y, _, transposed) = best.expect("the width fits the widest crop");
+            let (w, h) = if transposed { (ch, cw) } else { (cw, ch) };
+            sky[x as usize..(x + w) as usize].fill(y + h);
+            rects[i] = Some(AtlasRect {
+                x,
+                y,
+                w,
+                h,
+                src_x: sx,
+                src_y: sy,
+                transposed,
+            });
         }
-        rects[i] = Some(AtlasRect {
-            x,
-            y,
-            w,
-            h,
-            src_x: sx,
-            src_y: sy,
-        });
-        x += w;
-        shelf = shelf.max(h);
-    }
-    let height = (y + shelf).max(1).next_multiple_of(4);
-    let mut image = image::RgbaImage::new(width * 2, height);
+        // Even sizes: the normal atlas is exactly half.
+        let height = sky.iter().copied().max().unwrap_or(0).max(2).next_multiple_of(2);
+        (height, rects)
+    };
+    let lo = widest.max(2).next_multiple_of(2);
+    let hi = (((area as f64).sqrt() * 2.0).ceil() as u32).max(lo);
+    let (width, (height, rects)) = (lo..=hi)
+        .step_by(2)
+        .flat_map(|w| orders.iter().map(move |o| (w, o)))
+        .map(|(w, o)| (w, skyline(w, o)))
+        .min_by_key(|(w, (h, _))| (*w as u64 * *h as u64, *w))
+        .expect("at least one width");
+    let mut color = image::RgbaImage::new(width, height);
+    let mut normal_full = image::RgbaImage::new(width, height);
     for (i, r) in rects.iter().enumerate() {
         let (Some(r), Some((c, n, _))) = (r, items[i]) else {
             continue;
         };
-        for (half, src) in [(0, c), (width, n)] {
+        for (image, src) in [(&mut color, c), (&mut normal_full, n)] {
             let mut block = image::RgbaImage::new(r.w, r.h);
             for yy in 0..r.h {
                 for xx in 0..r.w {
-                    block.put_pixel(xx, yy, *src.get_pixel(r.src_x + xx, r.src_y + yy));
+                    let (u, v) = if r.transposed { (yy, xx) } else { (xx, yy) };
+                    block.put_pixel(xx, yy, *src.get_pixel(r.src_x + u, r.src_y + v));
                 }
             }
             dilate(&mut block, PADDING + 2);
-            image::imageops::replace(&mut image, &block, (half + r.x) as i64, r.y as i64);
+            image::imageops::replace(image, &block, r.x as i64, r.y as i64);
         }
     }
     Atlas {
         width,
         height,
-        image,
+        color,
+        normal: half_normals(&normal_full),
         rects,
     }
+}
+
+/// Box-filters an encoded normal image (`n × 0.5 + 0.5`, alpha = coverage) to half size,
+/// renormalising the averaged normals.
+pub fn half_normals(img: &image::RgbaImage) -> image::RgbaImage {
+    let (w, h) = (img.width() / 2, img.height() / 2);
+    image::RgbaImage::from_fn(w.max(1), h.max(1), |x, y| {
+        let mut n = [0.0f32; 3];
+        let mut a = 0u32;
+        for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+            let p = img.get_pixel((2 * x + dx).min(img.width() - 1), (2 * y + dy).min(img.height() - 1));
+            for c in 0..3 {
+                n[c] += p[c] as f32 / 255.0 * 2.0 - 1.0;
+            }
+            a += p[3] as u32;
+        }
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        let enc = |v: f32| (((if len > 1e-6 { v / len } else { 0.0 }) * 0.5 + 0.5) * 255.0).round() as u8;
+        image::Rgba([enc(n[0]), enc(n[1]), enc(n[2]), ((a + 2) / 4) as u8])
+    })
 }
 
 /// Fills transparent texels from covered neighbours, `steps` rings deep (alpha stays 0, so
@@ -161,19 +237,42 @@ mod tests {
                 let apart = r.x + r.w <= s.x || s.x + s.w <= r.x || r.y + r.h <= s.y || s.y + s.h <= r.y;
                 assert!(apart, "{r:?} overlaps {s:?}");
             }
-            // The crop covers the polygon bounds and copies the tile (colour and normal halves).
+            // The crop covers the polygon bounds and copies the tile (texel centres map
+            // onto texel centres, transposed or not).
             let b = bounds[i];
-            assert!(r.src_x as f32 <= b[0] && (r.src_x + r.w) as f32 >= b[2].min(64.0));
-            let (cx, cy) = (r.src_x + r.w / 2, r.src_y + r.h / 2);
-            assert_eq!(
-                a.image.get_pixel(r.x + r.w / 2, r.y + r.h / 2),
-                tiles[i].get_pixel(cx, cy)
-            );
-            assert_eq!(
-                a.image.get_pixel(a.width + r.x + r.w / 2, r.y + r.h / 2),
-                tiles[i].get_pixel(cx, cy)
-            );
+            let (cw, ch) = if r.transposed { (r.h, r.w) } else { (r.w, r.h) };
+            assert!(r.src_x as f32 <= b[0] && (r.src_x + cw) as f32 >= b[2].min(64.0));
+            assert!(r.src_y as f32 <= b[1] && (r.src_y + ch) as f32 >= b[3].min(64.0));
+            for (tx, ty) in [(r.src_x, r.src_y), (r.src_x + cw - 1, r.src_y + ch / 2)] {
+                let q = r.to_atlas([tx as f32 + 0.5, ty as f32 + 0.5]);
+                assert_eq!(
+                    a.color.get_pixel(q[0] as u32, q[1] as u32),
+                    tiles[i].get_pixel(tx, ty),
+                    "{r:?}"
+                );
+            }
         }
+        assert_eq!(a.normal.dimensions(), (a.width / 2, a.height / 2));
+    }
+
+    #[test]
+    fn half_normals_average_and_renormalise() {
+        // Left column points +x, right column +y: the average is the unit diagonal.
+        let img = image::RgbaImage::from_fn(2, 2, |x, _| {
+            if x == 0 {
+                image::Rgba([255, 128, 128, 255])
+            } else {
+                image::Rgba([128, 255, 128, 0])
+            }
+        });
+        let h = half_normals(&img);
+        assert_eq!(h.dimensions(), (1, 1));
+        let p = h.get_pixel(0, 0);
+        let d = |v: u8| v as f32 / 255.0 * 2.0 - 1.0;
+        let (x, y, z) = (d(p[0]), d(p[1]), d(p[2]));
+        assert!((x * x + y * y + z * z - 1.0).abs() < 0.03, "{p:?}");
+        assert!((x - y).abs() < 0.02 && x > 0.6, "{p:?}");
+        assert_eq!(p[3], 128);
     }
 
     #[test]

@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 pub const FORMAT_NAME: &str = "polypostor-pack";
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// The orthographic camera of a view: a world point maps to view-plane coordinates
 /// `((p - center)·right, (p - center)·up) / half_size`, in [-1, 1] inside the frame.
@@ -20,16 +20,20 @@ pub struct PackCamera {
 /// One part in one view.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ManifestPart {
-    /// First f32 of this part's block in `vertices.bin`. The block holds `vertex_count` UVs
-    /// (atlas-normalised, 2 floats each) then `frames × vertex_count` positions (view-plane
-    /// coordinates, 2 floats each).
+    /// First value (u16) of this part's block in `vertices.bin`. Every value is a normalised
+    /// u16 (`x / 65535` in [0, 1]). The block holds `vertex_count` UVs (atlas-normalised,
+    /// 2 values each) then `frames × vertex_count` positions (view-plane coordinates
+    /// `(x + 1) / 2, (y + 1) / 2`, 2 values each).
     pub vertex_offset: u64,
     pub vertex_count: u32,
     /// First u16 of this part's triangles in `indices.bin` (indices local to the part).
     pub index_offset: u64,
     pub index_count: u32,
-    /// The part's rectangle in the colour half of the atlas, pixels `[x, y, w, h]`.
+    /// The part's rectangle in the colour atlas, pixels `[x, y, w, h]`.
     pub atlas_rect: [u32; 4],
+    /// The part's image is stored transposed in the atlas (for tools; the UVs already say so).
+    #[serde(default)]
+    pub transposed: bool,
 }
 
 /// One view.
@@ -38,8 +42,11 @@ pub struct ManifestView {
     /// Unit direction from the character towards the camera.
     pub direction: [f32; 3],
     pub camera: PackCamera,
-    /// Atlas PNG file name (in the pack folder).
+    /// Colour atlas PNG file name (in the pack folder).
     pub atlas: String,
+    /// Normal atlas PNG file name: the colour atlas's layout at half resolution.
+    pub normal_atlas: String,
+    /// Colour atlas size (even); the normal atlas is half of it in each direction.
     pub atlas_size: [u32; 2],
     /// Parts in drawing order, back to front.
     pub order: Vec<u32>,

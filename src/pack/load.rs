@@ -23,12 +23,16 @@ pub enum PackError {
 #[derive(Debug)]
 pub struct LoadedView {
     pub atlas: image::RgbaImage,
+    /// Half the atlas size in each direction.
+    pub normals: image::RgbaImage,
 }
 
 /// A validated pack in memory.
 #[derive(Debug)]
 pub struct LoadedPack {
     pub manifest: Manifest,
+    /// `vertices.bin` decoded to [0, 1] (see [`LoadedPack::part_vertices`] for view-plane
+    /// positions).
     pub vertices: Vec<f32>,
     pub indices: Vec<u16>,
     pub views: Vec<LoadedView>,
@@ -89,7 +93,7 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
     }
     let vbytes = read(&member(dir, &manifest.vertex_file)?, MAX_FILE)?;
     let ibytes = read(&member(dir, &manifest.index_file)?, MAX_FILE)?;
-    if vbytes.len() as u64 != manifest.vertex_bytes || vbytes.len() % 4 != 0 {
+    if vbytes.len() as u64 != manifest.vertex_bytes || vbytes.len() % 2 != 0 {
         return Err(damaged(format!(
             "{} has {} bytes, the manifest says {}",
             manifest.vertex_file,
@@ -106,16 +110,13 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
         )));
     }
     let vertices: Vec<f32> = vbytes
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .chunks_exact(2)
+        .map(|b| u16::from_le_bytes([b[0], b[1]]) as f32 / 65535.0)
         .collect();
     let indices: Vec<u16> = ibytes
         .chunks_exact(2)
         .map(|b| u16::from_le_bytes([b[0], b[1]]))
         .collect();
-    if let Some(i) = vertices.iter().position(|x| !x.is_finite()) {
-        return Err(damaged(format!("vertex value {i} is not a finite number")));
-    }
     let parts = manifest.parts.len();
     let frames = manifest.frames as u64;
     let mut views = Vec::with_capacity(manifest.views.len());
@@ -155,7 +156,7 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
             )));
         }
         let [aw, ah] = view.atlas_size;
-        if aw == 0 || ah == 0 || aw > 16384 || ah > 16384 || aw % 2 != 0 {
+        if aw < 2 || ah < 2 || aw > 16384 || ah > 16384 || aw % 2 != 0 || ah % 2 != 0 {
             return Err(damaged(format!("{what}: atlas size {aw}×{ah} is not valid")));
         }
         for (p, part) in view.parts.iter().enumerate() {
@@ -197,37 +198,16 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
                 return Err(damaged(format!("{w}: index {bad} refers past its {vc} vertices")));
             }
             let [x, y, rw, rh] = part.atlas_rect;
-            if rw == 0 || rh == 0 || x as u64 + rw as u64 > aw as u64 / 2 || y as u64 + rh as u64 > ah as u64 {
+            if rw == 0 || rh == 0 || x as u64 + rw as u64 > aw as u64 || y as u64 + rh as u64 > ah as u64 {
                 return Err(damaged(format!(
-                    "{w}: atlas rectangle {:?} lies outside the colour half of the {aw}×{ah} atlas",
+                    "{w}: atlas rectangle {:?} lies outside the {aw}×{ah} atlas",
                     part.atlas_rect
                 )));
             }
-            let uvs = &vertices[part.vertex_offset as usize..(part.vertex_offset + vc * 2) as usize];
-            if uvs.iter().any(|&t| !(0.0..=1.0).contains(&t)) {
-                return Err(damaged(format!("{w}: texture coordinates outside the atlas")));
-            }
         }
-        let path = member(dir, &view.atlas)?;
-        let bytes = read(&path, 256 << 20)?;
-        let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), image::ImageFormat::Png);
-        let mut limits = image::Limits::default();
-        limits.max_image_width = Some(16384);
-        limits.max_image_height = Some(16384);
-        reader.limits(limits);
-        let atlas = reader
-            .decode()
-            .map_err(|e| damaged(format!("{}: {e}", path.display())))?
-            .to_rgba8();
-        if [atlas.width(), atlas.height()] != view.atlas_size {
-            return Err(damaged(format!(
-                "{}: {}×{} pixels, the manifest says {aw}×{ah}",
-                path.display(),
-                atlas.width(),
-                atlas.height()
-            )));
-        }
-        views.push(LoadedView { atlas });
+        let atlas = png(dir, &view.atlas, [aw, ah])?;
+        let normals = png(dir, &view.normal_atlas, [aw / 2, ah / 2])?;
+        views.push(LoadedView { atlas, normals });
     }
     Ok(LoadedPack {
         manifest,
@@ -237,14 +217,42 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
     })
 }
 
+/// Decodes the PNG `name` of the pack folder and checks its size.
+fn png(dir: &Path, name: &str, size: [u32; 2]) -> Result<image::RgbaImage, PackError> {
+    let path = member(dir, name)?;
+    let bytes = read(&path, 256 << 20)?;
+    let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), image::ImageFormat::Png);
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(16384);
+    limits.max_image_height = Some(16384);
+    reader.limits(limits);
+    let img = reader
+        .decode()
+        .map_err(|e| PackError::Damaged(format!("{}: {e}", path.display())))?
+        .to_rgba8();
+    if [img.width(), img.height()] != size {
+        return Err(PackError::Damaged(format!(
+            "{}: {}×{} pixels, the manifest says {}×{}",
+            path.display(),
+            img.width(),
+            img.height(),
+            size[0],
+            size[1]
+        )));
+    }
+    Ok(img)
+}
+
 impl LoadedPack {
-    /// Part `p` of view `v`: UVs and the positions at `frame`.
-    pub fn part_vertices(&self, v: usize, p: usize, frame: usize) -> Option<(&[f32], &[f32])> {
+    /// Part `p` of view `v`: UVs (atlas-normalised) and the positions at `frame` (view-plane
+    /// coordinates in [-1, 1]), as interleaved x, y values.
+    pub fn part_vertices(&self, v: usize, p: usize, frame: usize) -> Option<(Vec<f32>, Vec<f32>)> {
         let part = self.manifest.views.get(v)?.parts.get(p)?.as_ref()?;
         let vc = part.vertex_count as usize;
         let base = part.vertex_offset as usize;
         let uv = self.vertices.get(base..base + vc * 2)?;
         let start = base + vc * 2 * (1 + frame.min(self.manifest.frames as usize - 1));
-        Some((uv, self.vertices.get(start..start + vc * 2)?))
+        let pos = self.vertices.get(start..start + vc * 2)?;
+        Some((uv.to_vec(), pos.iter().map(|x| x * 2.0 - 1.0).collect()))
     }
 }

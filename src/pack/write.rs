@@ -79,7 +79,9 @@ pub fn write_pack_with(
 fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> Result<PackStats, String> {
     let r = bake.options.resolution as f32;
     let frames = bake.frame_times.len();
-    let mut vertices: Vec<f32> = Vec::new();
+    let mut vertices: Vec<u16> = Vec::new();
+    // Everything in vertices.bin is a number in [0, 1] stored as a normalised u16.
+    let unorm = |x: f32| (x.clamp(0.0, 1.0) * 65535.0).round() as u16;
     let mut indices: Vec<u16> = Vec::new();
     let mut views = Vec::new();
     let mut stats = PackStats::default();
@@ -103,10 +105,13 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
             .collect();
         let atlas = pack_atlas(&items);
         let atlas_name = format!("atlas_{v:03}.png");
-        let path = dir.join(&atlas_name);
-        atlas.image.save(&path).map_err(|e| io(&path, e))?;
-        stats.texture_bytes += atlas.image.width() as u64 * atlas.image.height() as u64 * 4;
-        let (aw, ah) = (atlas.image.width() as f32, atlas.image.height() as f32);
+        let normal_name = format!("normal_{v:03}.png");
+        for (name, img) in [(&atlas_name, &atlas.color), (&normal_name, &atlas.normal)] {
+            let path = dir.join(name);
+            img.save(&path).map_err(|e| io(&path, e))?;
+            stats.texture_bytes += img.width() as u64 * img.height() as u64 * 4;
+        }
+        let (aw, ah) = (atlas.width as f32, atlas.height as f32);
         let mut parts = Vec::new();
         for (p, part) in view.parts.iter().enumerate() {
             let (Some(fit), Some(rect)) = (&part.fit, atlas.rects[p]) else {
@@ -115,13 +120,15 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
             };
             let vertex_offset = vertices.len() as u64;
             for q in fit.uvs() {
-                vertices.push((rect.x as f32 + q[0] - rect.src_x as f32) / aw);
-                vertices.push((rect.y as f32 + q[1] - rect.src_y as f32) / ah);
+                let t = rect.to_atlas(q);
+                vertices.push(unorm(t[0] / aw));
+                vertices.push(unorm(t[1] / ah));
             }
+            // Positions as (x + 1) / 2, (y + 1) / 2 of view-plane coordinates.
             for f in 0..frames {
                 for q in fit.positions(f) {
-                    vertices.push(q[0] / r * 2.0 - 1.0);
-                    vertices.push(1.0 - q[1] / r * 2.0);
+                    vertices.push(unorm(q[0] / r));
+                    vertices.push(unorm(1.0 - q[1] / r));
                 }
             }
             let index_offset = indices.len() as u64;
@@ -135,6 +142,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                 index_offset,
                 index_count: (fit.triangles.len() * 3) as u32,
                 atlas_rect: [rect.x, rect.y, rect.w, rect.h],
+                transposed: rect.transposed,
             }));
         }
         let cam = &view.camera;
@@ -154,7 +162,8 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                 half_size: half,
             },
             atlas: atlas_name,
-            atlas_size: [atlas.image.width(), atlas.image.height()],
+            normal_atlas: normal_name,
+            atlas_size: [atlas.width, atlas.height],
             order: view.order.iter().map(|&o| o as u32).collect(),
             parts,
         });
