@@ -90,10 +90,9 @@ pub fn pack_atlas(items: &[Option<(&image::RgbaImage, &image::RgbaImage, [f32; 4
                 if w > width || (transposed && cw == ch) {
                     continue;
                 }
-                for x in 0..=(width - w) {
-                    let y = sky[x as usize..(x + w) as usize].iter().copied().max().unwrap_or(0);
+                for (x, y) in window_maxima(&sky, w as usize).into_iter().enumerate() {
                     if best.is_none_or(|(_, by, bh, _)| (y + h, y) < (by + bh, by)) {
-                        best = Some((x, y, h, transposed));
+                        best = Some((x as u32, y, h, transposed));
                     }
                 }
             }
@@ -114,10 +113,12 @@ pub fn pack_atlas(items: &[Option<(&image::RgbaImage, &image::RgbaImage, [f32; 4
         let height = sky.iter().copied().max().unwrap_or(0).max(2).next_multiple_of(2);
         (height, rects)
     };
+    // At most ~48 widths, so large resolutions stay cheap.
     let lo = widest.max(2).next_multiple_of(2);
     let hi = (((area as f64).sqrt() * 2.0).ceil() as u32).max(lo);
+    let step = ((hi - lo) / 48).max(2).next_multiple_of(2);
     let (width, (height, rects)) = (lo..=hi)
-        .step_by(2)
+        .step_by(step as usize)
         .flat_map(|w| orders.iter().map(move |o| (w, o)))
         .map(|(w, o)| (w, skyline(w, o)))
         .min_by_key(|(w, (h, _))| (*w as u64 * *h as u64, *w))
@@ -147,6 +148,26 @@ pub fn pack_atlas(items: &[Option<(&image::RgbaImage, &image::RgbaImage, [f32; 4
         normal: half_normals(&normal_full),
         rects,
     }
+}
+
+/// The maximum of every window of `w` consecutive values (`values.len() - w + 1` of them), in
+/// linear time (a deque of candidate maxima).
+fn window_maxima(values: &[u32], w: usize) -> Vec<u32> {
+    let mut out = Vec::with_capacity(values.len().saturating_sub(w) + 1);
+    let mut deque: std::collections::VecDeque<usize> = std::collections::VecDeque::new();
+    for (i, &v) in values.iter().enumerate() {
+        while deque.back().is_some_and(|&j| values[j] <= v) {
+            deque.pop_back();
+        }
+        deque.push_back(i);
+        if deque.front().is_some_and(|&j| j + w <= i) {
+            deque.pop_front();
+        }
+        if i + 1 >= w {
+            out.push(values[*deque.front().expect("holds i")]);
+        }
+    }
+    out
 }
 
 /// Box-filters an encoded normal image (`n × 0.5 + 0.5`, alpha = coverage) to half size,
@@ -253,6 +274,15 @@ mod tests {
             }
         }
         assert_eq!(a.normal.dimensions(), (a.width / 2, a.height / 2));
+    }
+
+    #[test]
+    fn window_maxima_match_brute_force() {
+        let values: Vec<u32> = (0..40u32).map(|i| (i * 37 + 11) % 23).collect();
+        for w in 1..=values.len() {
+            let brute: Vec<u32> = values.windows(w).map(|s| *s.iter().max().unwrap()).collect();
+            assert_eq!(window_maxima(&values, w), brute, "w {w}");
+        }
     }
 
     #[test]
