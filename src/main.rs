@@ -62,40 +62,7 @@ enum Command {
         unlit: bool,
     },
     /// Bake a character into a Polypostor pack (with report.json).
-    Bake {
-        /// A .glb/.gltf, or a project (folder or project.json).
-        input: PathBuf,
-        /// Project whose segmentation and cap colours to use (when INPUT is a glTF).
-        #[arg(long)]
-        project: Option<PathBuf>,
-        /// Clip name (default: the project's clip, else Walk, else the first).
-        #[arg(long)]
-        clip: Option<String>,
-        /// Output pack folder (default: <input>-<clip>.pack in the current folder).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Number of viewpoints.
-        #[arg(long, default_value_t = polypostor::bake::viewpoints::DEFAULT_VIEW_COUNT)]
-        views: usize,
-        /// Part image resolution (pixels, square).
-        #[arg(long, default_value_t = polypostor::bake::renders::DEFAULT_RESOLUTION)]
-        resolution: u32,
-        /// Clip sampling rate (frames per second).
-        #[arg(long, default_value_t = polypostor::bake::renders::DEFAULT_FPS)]
-        fps: f32,
-        /// Texture key-frame: a frame number, or auto.
-        #[arg(long, default_value = "auto")]
-        key_frame: String,
-        /// Exact dynamic programme over every target vertex (slow) instead of the fast mode.
-        #[arg(long)]
-        exhaustive: bool,
-        /// Views on the whole sphere instead of the upper hemisphere.
-        #[arg(long)]
-        full_sphere: bool,
-        /// Write per-view PNGs of the traced and fitted polygons into <out>/debug/.
-        #[arg(long)]
-        debug_images: bool,
-    },
+    Bake(BakeArgs),
     /// Regenerate the built-in default character (.glb).
     GenerateDefault {
         /// Output path (default: assets/characters/default_humanoid.glb).
@@ -131,31 +98,7 @@ fn main() -> ExitCode {
             unlit,
         }) => render(&file, &out, clip.as_deref(), time, size, yaw, pitch, normals, unlit),
         Some(Command::GenerateDefault { out }) => generate_default(out),
-        Some(Command::Bake {
-            input,
-            project,
-            clip,
-            out,
-            views,
-            resolution,
-            fps,
-            key_frame,
-            exhaustive,
-            full_sphere,
-            debug_images,
-        }) => bake_cmd(BakeArgs {
-            input,
-            project,
-            clip,
-            out,
-            views,
-            resolution,
-            fps,
-            key_frame,
-            exhaustive,
-            full_sphere,
-            debug_images,
-        }),
+        Some(Command::Bake(args)) => bake_cmd(args),
         None => {
             let path = cli
                 .path
@@ -268,17 +211,43 @@ fn generate_default(out: Option<PathBuf>) -> anyhow::Result<()> {
     Ok(())
 }
 
+#[derive(clap::Args)]
 struct BakeArgs {
+    /// A .glb/.gltf, or a project (folder or project.json).
     input: PathBuf,
+    /// Project whose segmentation and cap colours to use (when INPUT is a glTF).
+    #[arg(long)]
     project: Option<PathBuf>,
+    /// Clip name (default: the project's clip, else Walk, else the first).
+    #[arg(long)]
     clip: Option<String>,
+    /// Output pack folder (default: <input>-<clip>.pack in the current folder).
+    #[arg(long)]
     out: Option<PathBuf>,
+    /// Number of viewpoints.
+    #[arg(long, default_value_t = polypostor::bake::viewpoints::DEFAULT_VIEW_COUNT)]
     views: usize,
+    /// Part image resolution (pixels, square).
+    #[arg(long, default_value_t = polypostor::bake::renders::DEFAULT_RESOLUTION)]
     resolution: u32,
+    /// Clip sampling rate (frames per second).
+    #[arg(long, default_value_t = polypostor::bake::renders::DEFAULT_FPS)]
     fps: f32,
+    /// Texture key-frame: a frame number, or auto.
+    #[arg(long, default_value = "auto")]
     key_frame: String,
+    /// Exact dynamic programme over every target vertex (slow) instead of the fast mode.
+    #[arg(long)]
     exhaustive: bool,
+    /// Let fitted triangles turn inside out (the paper's unconstrained objective); by default
+    /// a triangle may degenerate but not fold over.
+    #[arg(long)]
+    allow_folds: bool,
+    /// Views on the whole sphere instead of the upper hemisphere.
+    #[arg(long)]
     full_sphere: bool,
+    /// Write per-view PNGs of the traced and fitted polygons into <out>/debug/.
+    #[arg(long)]
     debug_images: bool,
 }
 
@@ -359,6 +328,7 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         key_frame,
         fit: polypostor::bake::part_fit::PartFitOptions {
             exhaustive: a.exhaustive,
+            fold_free: !a.allow_folds,
             ..Default::default()
         },
         keep_frame_images: a.debug_images,

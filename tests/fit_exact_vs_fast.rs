@@ -14,8 +14,10 @@ use polypostor::bake::segment::auto_segment;
 use polypostor::bake::viewpoints::{Coverage, directions};
 use polypostor::gpu::*;
 
-/// Current guarantee of the fast mode relative to the exact optimum (target: 1.02).
-const FAST_MODE_BOUND: f64 = 1.10;
+/// Current guarantee of the fast mode relative to the exact optimum on this subset (issue 3
+/// asks for 1.02; this subset measures about 1.02 on the default character and 1.001 on
+/// CesiumMan, the whole 137-view default bake about 1.034, see the README).
+const FAST_MODE_BOUND: f64 = 1.03;
 
 fn compare(ctx: &GpuContext, c: &polypostor::Character, label: &str) {
     let seg = auto_segment(c);
@@ -32,8 +34,8 @@ fn compare(ctx: &GpuContext, c: &polypostor::Character, label: &str) {
         let img = batch
             .render_view(&renderer, &ctx.device, &ctx.queue, &cameras[v])
             .unwrap();
-        // The torso and one limb, over the key frame and the two after it.
-        for p in [0usize, 1] {
+        // Every part, over the key frame and the two after it.
+        for p in 0..seg.parts.len() {
             let tiles: Vec<PartTile> = (0..3)
                 .map(|f| PartTile::from_images(&img.tile(&img.color, p, f), &img.tile(&img.normal, p, f)))
                 .collect();
@@ -75,8 +77,8 @@ fn compare(ctx: &GpuContext, c: &polypostor::Character, label: &str) {
     }
     let ratio = fast_total / exact_total;
     eprintln!("{label}: fast/exact = {ratio:.4}");
-    // Issue 3 asks for 2 %; the fast mode is not there yet (see README, "Status"). This
-    // bound records what it achieves now, so a regression still fails.
+    // Issue 3 asks for 2 %; the fast mode is not reliably there yet (see README, "Status").
+    // This bound records what it achieves now, so a regression still fails.
     assert!(
         ratio <= FAST_MODE_BOUND,
         "{label}: fast mode is {:.2}% above the exact optimum",

@@ -1,6 +1,7 @@
 //! Outer-contour tracing of a binary mask (Moore-neighbour tracing with Jacob's stopping
 //! criterion). Only the outer boundary of the largest 8-connected component is traced, so
-//! holes are filled by construction.
+//! holes are filled by construction; [`bridge_pieces`] first joins a part's separate pieces
+//! (a foot seen apart from its leg) with thin bridges so one polygon covers them all.
 //!
 //! Coordinates are pixel centres `(x + 0.5, y + 0.5)` in image space (x right, y down); the
 //! contour runs clockwise on screen.
@@ -51,17 +52,30 @@ const DIRS: [(i64, i64); 8] = [(-1, 0), (-1, -1), (0, -1), (1, -1), (1, 0), (1, 
 
 /// Pixels of the largest 8-connected component (ties: the first in raster order), as a mask.
 pub fn largest_component(mask: &Mask) -> Mask {
+    let (label, sizes) = components(mask);
+    let keep = (0..sizes.len()).max_by(|&a, &b| sizes[a].cmp(&sizes[b]).then(b.cmp(&a)));
+    Mask {
+        width: mask.width,
+        height: mask.height,
+        data: label.iter().map(|&l| Some(l as usize) == keep).collect(),
+    }
+}
+
+/// Pieces smaller than this many pixels, or than 1/50 of the largest, are dropped by
+/// [`bridge_pieces`] (stray pixels of anti-aliasing or a sliver behind another part).
+pub const MIN_PIECE: usize = 8;
+
+/// 8-connected component labels (`u32::MAX` = background) and their sizes.
+fn components(mask: &Mask) -> (Vec<u32>, Vec<usize>) {
     let (w, h) = (mask.width, mask.height);
     let mut label = vec![u32::MAX; w * h];
-    let mut best: Option<(usize, u32)> = None;
-    let mut next = 0u32;
+    let mut sizes = Vec::new();
     let mut stack = Vec::new();
     for start in 0..w * h {
         if !mask.data[start] || label[start] != u32::MAX {
             continue;
         }
-        let id = next;
-        next += 1;
+        let id = sizes.len() as u32;
         let mut size = 0usize;
         label[start] = id;
         stack.push(start);
@@ -79,16 +93,85 @@ pub fn largest_component(mask: &Mask) -> Mask {
                 }
             }
         }
-        if best.is_none_or(|(s, _)| size > s) {
-            best = Some((size, id));
-        }
+        sizes.push(size);
     }
-    let keep = best.map(|b| b.1);
-    Mask {
+    (label, sizes)
+}
+
+/// The mask with its pieces joined: every piece of at least [`MIN_PIECE`] pixels (and 1/50
+/// of the largest) is connected to the largest by a three-pixel-wide bridge along a
+/// shortest path (closest piece first); smaller specks are dropped. A mask with one piece
+/// comes back unchanged.
+pub fn bridge_pieces(mask: &Mask) -> Mask {
+    let (label, sizes) = components(mask);
+    let Some(largest) = (0..sizes.len()).max_by(|&a, &b| sizes[a].cmp(&sizes[b]).then(b.cmp(&a))) else {
+        return mask.clone();
+    };
+    let min = MIN_PIECE.max(sizes[largest] / 50);
+    let kept: Vec<bool> = sizes.iter().map(|&s| s >= min).collect();
+    let (w, h) = (mask.width, mask.height);
+    let mut out = Mask {
         width: w,
         height: h,
-        data: label.iter().map(|&l| Some(l) == keep).collect(),
+        data: label.iter().map(|&l| l == largest as u32).collect(),
+    };
+    let mut joined: Vec<bool> = (0..sizes.len()).map(|c| c == largest).collect();
+    let mut parent = vec![usize::MAX; w * h];
+    let mut queue = std::collections::VecDeque::new();
+    while (0..sizes.len()).any(|c| kept[c] && !joined[c]) {
+        // Breadth-first from everything joined so far, to the nearest unjoined piece.
+        parent.fill(usize::MAX);
+        queue.clear();
+        for (i, &on) in out.data.iter().enumerate() {
+            if on {
+                parent[i] = i;
+                queue.push_back(i);
+            }
+        }
+        let mut hit = None;
+        while let Some(p) = queue.pop_front() {
+            let l = label[p];
+            if l != u32::MAX && kept[l as usize] && !joined[l as usize] {
+                hit = Some(p);
+                break;
+            }
+            let (x, y) = ((p % w) as i64, (p / w) as i64);
+            for (dx, dy) in DIRS {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx >= 0 && ny >= 0 && (nx as usize) < w && (ny as usize) < h {
+                    let q = ny as usize * w + nx as usize;
+                    if parent[q] == usize::MAX {
+                        parent[q] = p;
+                        queue.push_back(q);
+                    }
+                }
+            }
+        }
+        let Some(end) = hit else { break };
+        let piece = label[end];
+        joined[piece as usize] = true;
+        for (i, &l) in label.iter().enumerate() {
+            if l == piece {
+                out.data[i] = true;
+            }
+        }
+        // The bridge: the path back, widened by one pixel each way.
+        let mut at = end;
+        loop {
+            let (x, y) = ((at % w) as i64, (at / w) as i64);
+            for (dx, dy) in [(0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)] {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx >= 0 && ny >= 0 && (nx as usize) < w && (ny as usize) < h {
+                    out.data[ny as usize * w + nx as usize] = true;
+                }
+            }
+            if parent[at] == at {
+                break;
+            }
+            at = parent[at];
+        }
     }
+    out
 }
 
 /// The outer contour of the largest component, as pixel centres in tracing order (clockwise
@@ -268,6 +351,33 @@ mod tests {
                 assert_eq!(tc, got, "case {case}");
             }
         }
+    }
+
+    #[test]
+    fn separate_pieces_are_bridged_into_one_simple_outline_and_specks_dropped() {
+        // A leg, a foot below it with a gap, and a two-pixel speck far away.
+        let m = Mask::from_fn(40, 40, |x, y| {
+            ((10..16).contains(&x) && (3..25).contains(&y))
+                || ((8..20).contains(&x) && (29..34).contains(&y))
+                || ((35..37).contains(&x) && y == 2)
+        });
+        let b = bridge_pieces(&m);
+        assert_eq!(largest_component(&b).count(), b.count(), "one piece");
+        for y in 0..40 {
+            for x in 0..40 {
+                let (leg_or_foot, speck) = (m.get(x, y) && x < 30, m.get(x, y) && x >= 30);
+                assert!(!leg_or_foot || b.get(x, y), "lost ({x}, {y})");
+                assert!(!speck || !b.get(x, y), "kept the speck");
+            }
+        }
+        // The bridge is short (the gap is 4 rows) and thin.
+        assert!(b.count() - (m.count() - 2) <= 3 * 6, "{} extra", b.count() - m.count());
+        let c = trace_outer(&b);
+        assert!(crate::bake::simplify::is_simple(&c));
+        // Already one piece: unchanged.
+        let one = largest_component(&m);
+        assert_eq!(bridge_pieces(&one), one);
+        assert_eq!(bridge_pieces(&Mask::new(5, 5)), Mask::new(5, 5));
     }
 
     #[test]

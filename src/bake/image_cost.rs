@@ -149,17 +149,32 @@ impl TargetGrid {
     }
 }
 
+/// How far (in square pixels) a target triangle may turn inside out and still count as
+/// degenerate rather than folded.
+pub const FOLD_TOLERANCE: f32 = 0.5;
+
+/// Cost of a folded triangle when folds are forbidden: larger than any sum of real errors
+/// (those are at most a few units per square pixel of the tile), finite so that a candidate
+/// set with no fold-free choice still has a solution.
+pub const FOLD_COST: f64 = 1e12;
+
 /// Source texture values at the sample points of every source triangle, and the weight of
 /// each triangle (its area in pixels, so the error is an integral over the source).
 pub struct SourceSamples {
     values: Vec<[[Vec4; 2]; SAMPLES.len()]>,
     weights: Vec<f64>,
+    /// Sign of each source triangle's signed area (+1, -1, or 0 when degenerate).
+    orientation: Vec<f32>,
 }
 
 impl SourceSamples {
-    pub fn new(key: &PartTile, vertices: &[[f32; 2]], triangles: &[[usize; 3]]) -> Self {
+    /// `fold_free`: a mapping that turns a triangle inside out (its target has the opposite
+    /// orientation beyond [`FOLD_TOLERANCE`]) costs [`FOLD_COST`]; degenerate targets are
+    /// still allowed, as in the paper.
+    pub fn new(key: &PartTile, vertices: &[[f32; 2]], triangles: &[[usize; 3]], fold_free: bool) -> Self {
         let mut values = Vec::with_capacity(triangles.len());
         let mut weights = Vec::with_capacity(triangles.len());
+        let mut orientation = Vec::with_capacity(triangles.len());
         for t in triangles {
             let [a, b, c] = t.map(|i| vertices[i]);
             let mut v = [[Vec4::ZERO; 2]; SAMPLES.len()];
@@ -169,10 +184,19 @@ impl SourceSamples {
                 v[k] = lanes(weighted(key.sample(x, y)));
             }
             values.push(v);
-            let area = 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])).abs() as f64;
-            weights.push(area.max(0.5));
+            let signed = 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]));
+            orientation.push(if !fold_free || signed == 0.0 {
+                0.0
+            } else {
+                signed.signum()
+            });
+            weights.push((signed.abs() as f64).max(0.5));
         }
-        Self { values, weights }
+        Self {
+            values,
+            weights,
+            orientation,
+        }
     }
 
     /// Error of mapping source triangle `t` onto the target triangle with corners `p`.
@@ -184,6 +208,11 @@ impl SourceSamples {
     /// reaches `limit`; exact whenever the result is below `limit`.
     #[inline]
     pub fn cost_bounded(&self, t: usize, target: &TargetGrid, p: [[f32; 2]; 3], limit: f64) -> f64 {
+        // Orientation: 0 when folds are allowed, so this never fires.
+        let signed = 0.5 * ((p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]));
+        if signed * self.orientation[t] < -FOLD_TOLERANCE {
+            return if FOLD_COST < limit { FOLD_COST } else { f64::INFINITY };
+        }
         let scale = self.weights[t] / SAMPLES.len() as f64;
         let ssd_limit = (limit / scale) as f32;
         let mut acc = Vec4::ZERO;
@@ -220,7 +249,7 @@ mod tests {
     fn identity_mapping_costs_nothing_and_a_shift_costs_something() {
         let t = tile(|x, y| [x as f32 / 16.0, y as f32 / 16.0, 0.5, 0.5, 0.5, 1.0, 1.0]);
         let verts = [[3.0, 3.0], [12.0, 4.0], [6.0, 12.0]];
-        let s = SourceSamples::new(&t, &verts, &[[0, 1, 2]]);
+        let s = SourceSamples::new(&t, &verts, &[[0, 1, 2]], false);
         let g = TargetGrid::new(&t);
         assert!(s.cost(0, &g, verts) < 1e-9);
         let shifted = verts.map(|p| [p[0] + 2.0, p[1]]);
@@ -232,6 +261,36 @@ mod tests {
         let c = s.cost(0, &g, shifted);
         assert_eq!(s.cost_bounded(0, &g, shifted, c * 1.01), c);
         assert!(s.cost_bounded(0, &g, shifted, c * 0.99) >= c * 0.99);
+    }
+
+    #[test]
+    fn a_folded_target_costs_the_fold_penalty_only_when_folds_are_forbidden() {
+        let t = tile(|x, y| [x as f32 / 16.0, y as f32 / 16.0, 0.5, 0.5, 0.5, 1.0, 1.0]);
+        let verts = [[3.0, 3.0], [12.0, 4.0], [6.0, 12.0]];
+        let g = TargetGrid::new(&t);
+        let strict = SourceSamples::new(&t, &verts, &[[0, 1, 2]], true);
+        let loose = SourceSamples::new(&t, &verts, &[[0, 1, 2]], false);
+        // Mirrored across the vertical line x = 8: same shape, opposite orientation.
+        let mirrored = verts.map(|p| [16.0 - p[0], p[1]]);
+        assert_eq!(strict.cost(0, &g, mirrored), FOLD_COST);
+        assert!(loose.cost(0, &g, mirrored) < 1e3);
+        // Above the limit the penalty gives up like any other cost.
+        assert_eq!(strict.cost_bounded(0, &g, mirrored, 1.0), f64::INFINITY);
+        // Same orientation, or degenerate (a point, a segment): the ordinary error.
+        let shifted = verts.map(|p| [p[0] + 1.0, p[1]]);
+        assert_eq!(strict.cost(0, &g, shifted), loose.cost(0, &g, shifted));
+        for degenerate in [[verts[0]; 3], [verts[0], verts[1], verts[0]]] {
+            assert!(strict.cost(0, &g, degenerate) < 1e3);
+            assert_eq!(strict.cost(0, &g, degenerate), loose.cost(0, &g, degenerate));
+        }
+        // The test is on orientation, not on the order the source happens to use.
+        let reversed = [verts[0], verts[2], verts[1]];
+        let strict_rev = SourceSamples::new(&t, &reversed, &[[0, 1, 2]], true);
+        assert!(strict_rev.cost(0, &g, reversed) < 1e-9);
+        assert_eq!(
+            strict_rev.cost(0, &g, [mirrored[0], mirrored[2], mirrored[1]]),
+            FOLD_COST
+        );
     }
 
     #[test]

@@ -3,9 +3,9 @@
 //! `T` (exact DP, or the fast candidate-window mode), then simplify `S` with the deformation
 //! in mind to the final polygon (20 vertices, 18 triangles).
 
-use super::contour::trace_outer;
+use super::contour::{bridge_pieces, trace_outer};
 use super::fit::{Fit, FitError, Plan};
-use super::image_cost::{PartTile, SourceSamples, TargetGrid};
+use super::image_cost::{FOLD_COST, PartTile, SourceSamples, TargetGrid};
 use super::simplify::{SimplifyOptions, is_simple, simplify};
 use super::triangulate::{TriangulateError, triangulate};
 
@@ -21,6 +21,10 @@ pub struct PartFitOptions {
     /// Exact DP over every target vertex (`O(n·m³)`) instead of the fast mode.
     /// Default value: false.
     pub exhaustive: bool,
+    /// Forbid folds: a triangle may degenerate but not turn inside out (drawn, a folded
+    /// triangle shows its texture mirrored over its neighbours). Off gives the paper's
+    /// unconstrained objective. Default value: true.
+    pub fold_free: bool,
     /// Fast mode: candidate target vertices per source vertex, nearest to where the vertex
     /// was in the previous frame. Default value: [`DEFAULT_WINDOW`].
     pub window: usize,
@@ -36,6 +40,7 @@ impl Default for PartFitOptions {
             frame_vertices: 50,
             final_vertices: 20,
             exhaustive: false,
+            fold_free: true,
             window: DEFAULT_WINDOW,
         }
     }
@@ -90,7 +95,7 @@ impl PartFit {
 }
 
 fn polygon_of(tile: &PartTile, vertices: usize, frame: usize) -> Result<Vec<[f32; 2]>, PartFitError> {
-    let contour = trace_outer(&tile.mask());
+    let contour = trace_outer(&bridge_pieces(&tile.mask()));
     if contour.len() < 3 {
         return Err(PartFitError::Empty(frame));
     }
@@ -173,43 +178,30 @@ pub fn fit_frame(
         }
         c
     };
-    // Cyclic-order hint: where each vertex went last frame, carried along the contour.
+    // Candidate windows: the `window` target vertices nearest in space to where the vertex is
+    // expected, plus a run along the target contour around the index it is expected at
+    // (the cyclic-order hint: where it went last frame, carried along the contour).
     let m = target.len() as i64;
-    let (hint_radius, window) = (HINT_RADIUS, options.window);
-    let mut cands = candidates(pred, target, window);
-    if let Some(hint) = index_hint {
-        for (i, c) in cands.iter_mut().enumerate() {
-            let j = hint[i] as i64;
-            for d in -hint_radius..=hint_radius {
-                let k = (j + d).rem_euclid(m) as usize;
-                if !c.contains(&k) {
-                    c.push(k);
-                }
+    let near: Vec<i64> = (-HINT_RADIUS..=HINT_RADIUS).collect();
+    let windows = |at: &[[f32; 2]], centre: Option<&[usize]>, offsets: &[i64], window: usize| {
+        let mut cands = candidates(at, target, window);
+        if let Some(centre) = centre {
+            for (c, &j) in cands.iter_mut().zip(centre) {
+                c.extend(offsets.iter().map(|&d| (j as i64 + d).rem_euclid(m) as usize));
+                c.sort_unstable();
+                c.dedup();
             }
-            c.sort_unstable();
         }
-    }
-    pin(&mut cands);
-    let mut best = plan.solve_bounded(&cands, &cost)?;
+        pin(&mut cands);
+        cands
+    };
+    let mut best = plan.solve_bounded(&windows(pred, index_hint, &near, options.window), &cost)?;
     // Refine: re-centre the windows on the current solution (near it in space and along
     // the target contour) and solve again; the old solution stays feasible, so the cost
     // never rises.
-    let half = hint_radius;
     for _ in 0..REFINE_PASSES {
         let at: Vec<[f32; 2]> = best.mapping.iter().map(|&j| target[j]).collect();
-        let mut cands = candidates(&at, target, window);
-        for (i, c) in cands.iter_mut().enumerate() {
-            let j = best.mapping[i] as i64;
-            for d in -half..=half {
-                let k = (j + d).rem_euclid(m) as usize;
-                if !c.contains(&k) {
-                    c.push(k);
-                }
-            }
-            c.sort_unstable();
-        }
-        pin(&mut cands);
-        let next = plan.solve_bounded(&cands, &cost)?;
+        let next = plan.solve_bounded(&windows(&at, Some(&best.mapping), &near, options.window), &cost)?;
         if next.cost < best.cost - 1e-12 {
             best = next;
         } else {
@@ -274,6 +266,14 @@ pub fn fit_frame(
         if !improved {
             break;
         }
+    }
+    // With folds forbidden, the windows may hold no fold-free choice for some triangle (rare:
+    // a part that turns over between frames). The full candidate set always has one (a
+    // degenerate triangle), so fall back to the exact DP for this frame.
+    if best.cost >= FOLD_COST {
+        let mut cands = vec![(0..target.len()).collect(); pred.len()];
+        pin(&mut cands);
+        return plan.solve_bounded(&cands, &cost);
     }
     Ok(best)
 }
@@ -357,25 +357,36 @@ pub fn fit_part(
     let key_polygon = polygon_of(&tiles[key], options.key_vertices, key)?;
     let key_triangles = triangulate(&key_polygon)?;
     let plan = Plan::new(key_polygon.len(), &key_triangles)?;
-    let samples = SourceSamples::new(&tiles[key], &key_polygon, &key_triangles);
+    let samples = SourceSamples::new(&tiles[key], &key_polygon, &key_triangles, options.fold_free);
     let targets: Vec<Vec<[f32; 2]>> = (0..frames)
         .map(|f| polygon_of(&tiles[f], options.frame_vertices, f))
         .collect::<Result<_, _>>()?;
     let mut mappings = vec![Vec::new(); frames];
     let mut costs = vec![0.0; frames];
-    // Walk the loop from the key frame so each frame is predicted from its predecessor:
+    // Walk the loop out from the key frame both ways (clips loop), so each frame is
+    // predicted from a neighbour already fitted and no chain is longer than half the loop:
     // positions (nearest target vertices) and contour indices (carried over by the cyclic
     // shift between consecutive target polygons).
-    let mut pred = key_polygon.clone();
-    let mut prev: Option<usize> = None;
-    for step in 0..frames {
-        let f = (key + step) % frames;
+    let forward = frames / 2;
+    let order = (1..frames).map(|s| {
+        if s <= forward {
+            ((key + s) % frames, (key + s - 1) % frames)
+        } else {
+            let back = s - forward;
+            ((key + frames - back) % frames, (key + frames - back + 1) % frames)
+        }
+    });
+    for (f, from) in std::iter::once((key, None)).chain(order.map(|(f, p)| (f, Some(p)))) {
         let none = Vec::new();
-        let hint: Option<Vec<usize>> = prev.and_then(|pf| {
+        let hint: Option<Vec<usize>> = from.and_then(|pf| {
             let shift = cyclic_shift(&targets[pf], &targets[f])?;
             let m = targets[f].len();
             Some(mappings[pf].iter().map(|&j| (j + shift) % m).collect())
         });
+        let pred: Vec<[f32; 2]> = match from {
+            Some(pf) => mappings[pf].iter().map(|&j| targets[pf][j]).collect(),
+            None => key_polygon.clone(),
+        };
         let pins_f = pins.get(f).unwrap_or(&none);
         let fit = fit_frame(
             &plan,
@@ -387,10 +398,8 @@ pub fn fit_part(
             options,
             pins_f,
         )?;
-        pred = fit.mapping.iter().map(|&j| targets[f][j]).collect();
         mappings[f] = fit.mapping;
         costs[f] = fit.cost;
-        prev = Some(f);
     }
     let positions: Vec<Vec<[f32; 2]>> = (0..frames)
         .map(|f| mappings[f].iter().map(|&j| targets[f][j]).collect())
@@ -491,6 +500,56 @@ mod tests {
             fast.total_cost(),
             exact.total_cost()
         );
+    }
+
+    /// Signed area of the target triangle of `t` under `mapping`, times the source's sign.
+    fn oriented_areas(fit: &PartFit, f: usize) -> Vec<f32> {
+        let area = |p: [[f32; 2]; 3]| {
+            0.5 * ((p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]))
+        };
+        fit.key_triangles
+            .iter()
+            .map(|t| {
+                let s = area(t.map(|i| fit.key_polygon[i])).signum();
+                s * area(t.map(|i| fit.targets[f][fit.mappings[f][i]]))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn fold_free_fits_never_turn_a_triangle_inside_out_and_cost_what_they_report() {
+        let t = tiles(4);
+        for exhaustive in [false, true] {
+            let options = PartFitOptions {
+                exhaustive,
+                ..Default::default()
+            };
+            let fit = fit_part(&t, 0, &options, &[]).unwrap();
+            let samples = SourceSamples::new(&t[0], &fit.key_polygon, &fit.key_triangles, true);
+            for f in 0..4 {
+                let areas = oriented_areas(&fit, f);
+                assert!(
+                    areas.iter().all(|&a| a >= -crate::bake::image_cost::FOLD_TOLERANCE),
+                    "frame {f}: {areas:?}"
+                );
+                // The reported cost is the sum of the triangle costs of the mapping.
+                let grid = TargetGrid::new(&t[f]);
+                let sum: f64 = (0..fit.key_triangles.len())
+                    .map(|k| {
+                        samples.cost(
+                            k,
+                            &grid,
+                            fit.key_triangles[k].map(|i| fit.targets[f][fit.mappings[f][i]]),
+                        )
+                    })
+                    .sum();
+                assert!(
+                    (sum - fit.costs[f]).abs() <= 1e-6 * sum.max(1.0),
+                    "{sum} vs {}",
+                    fit.costs[f]
+                );
+            }
+        }
     }
 
     #[test]

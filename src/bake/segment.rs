@@ -274,35 +274,90 @@ pub fn auto_segment(c: &Character) -> Segmentation {
             }
             out
         };
-        let ground = tree.pos.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
-        let top = tree.pos.iter().map(|p| p.y).fold(f32::NEG_INFINITY, f32::max);
         let limbs: Vec<(usize, Vec<usize>)> = limb_roots.iter().map(|&r| (r, subtree(r))).collect();
-        // A single-joint "limb" (an IK foot, a prop) joins the nearest real limb, else the trunk.
+        // Rest-pose mesh: which vertices each joint carries (by its largest weight).
+        let rest = crate::animation::skin_vertices(c, &crate::animation::Pose::rest(c)).0;
+        let bone_joint: Vec<Option<usize>> = c.bones.iter().map(|b| joint_of_node(c, &tree.node, b.node)).collect();
+        let mut carried: Vec<Vec<Vec3>> = vec![Vec::new(); count];
+        for (v, p) in c.vertices.iter().zip(&rest) {
+            let k = (0..4)
+                .max_by(|&a, &b| v.weights[a].total_cmp(&v.weights[b]))
+                .unwrap_or(0);
+            if let Some(Some(j)) = bone_joint.get(v.bones[k] as usize) {
+                carried[*j].push(*p);
+            }
+        }
+        let (ground, top) = rest.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.y), hi.max(p.y))
+        });
+        let (ground, top) = if ground <= top {
+            (ground, top)
+        } else {
+            let ys = tree.pos.iter().map(|p| p.y);
+            (
+                ys.clone().fold(f32::INFINITY, f32::min),
+                ys.fold(f32::NEG_INFINITY, f32::max),
+            )
+        };
+        let span = (top - ground).max(1e-3);
+        // Points of a set of joints: their mesh where they carry any, else the joints.
+        let points = |joints: &[usize]| -> Vec<Vec3> {
+            let mesh: Vec<Vec3> = joints.iter().flat_map(|&j| carried[j].iter().copied()).collect();
+            if mesh.is_empty() {
+                joints.iter().map(|&j| tree.pos[j]).collect()
+            } else {
+                mesh
+            }
+        };
+        // Closest distance between two point sets (subsampled to keep it cheap).
+        let gap = |a: &[Vec3], b: &[Vec3]| {
+            let (sa, sb) = ((a.len() / 300).max(1), (b.len() / 300).max(1));
+            a.iter()
+                .step_by(sa)
+                .flat_map(|p| b.iter().step_by(sb).map(move |q| p.distance(*q)))
+                .fold(f32::INFINITY, f32::min)
+        };
+        // A single-joint "limb" (an IK foot, a prop) joins the real limb its mesh touches
+        // (an IK foot sits under its leg), else the trunk.
         let mut target: Vec<Option<usize>> = vec![None; limbs.len()];
         for (i, (_, joints)) in limbs.iter().enumerate() {
             if joints.len() > 1 {
                 target[i] = Some(i);
                 continue;
             }
-            let p = tree.pos[joints[0]];
+            let own = points(joints);
             target[i] = limbs
                 .iter()
                 .enumerate()
                 .filter(|(k, l)| *k != i && l.1.len() > 1)
-                .map(|(k, l)| {
-                    (
-                        k,
-                        l.1.iter()
-                            .map(|&j| tree.pos[j].distance(p))
-                            .fold(f32::INFINITY, f32::min),
-                    )
-                })
-                .filter(|(_, d)| *d < 0.25 * (top - ground).max(1e-3))
+                .map(|(k, l)| (k, gap(&own, &points(&l.1))))
+                .filter(|(_, d)| *d < 0.1 * span)
                 .min_by(|a, b| a.1.total_cmp(&b.1))
                 .map(|(k, _)| k);
         }
+        // What each real limb covers, its joined single joints included.
+        let reach: Vec<(f32, bool)> = (0..limbs.len())
+            .map(|i| {
+                let joints: Vec<usize> = (0..limbs.len())
+                    .filter(|&k| target[k] == Some(i))
+                    .flat_map(|k| limbs[k].1.iter().copied())
+                    .collect();
+                let lowest = points(&joints).iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+                let paired = side_free_name(&tree.name[limbs[i].0]).1.is_some();
+                (tree.pos[limbs[i].0].y, paired && lowest < ground + 0.25 * span)
+            })
+            .collect();
+        // Paired limbs that reach the ground are legs, unless they hang from much higher up
+        // than the lowest-hung pair that does (long arms that reach down, as on a robot or
+        // an ape); the others are arms. Four legs on a quadruped hang from similar heights.
+        let lowest_hip = reach
+            .iter()
+            .enumerate()
+            .filter(|(i, r)| target[*i] == Some(*i) && r.1)
+            .map(|(_, r)| r.0)
+            .fold(f32::INFINITY, f32::min);
         let mut part_of_limb = vec![0usize; limbs.len()];
-        for (i, (r, joints)) in limbs.iter().enumerate() {
+        for (i, (r, _)) in limbs.iter().enumerate() {
             if target[i] != Some(i) {
                 continue;
             }
@@ -312,11 +367,10 @@ pub fn auto_segment(c: &Character) -> Segmentation {
                 Some('r') => "Right ",
                 _ => "",
             };
-            // Paired limbs that reach the ground are legs, the others arms.
-            let lowest = joints.iter().map(|&j| tree.pos[j].y).fold(f32::INFINITY, f32::min);
+            let (hip, grounded) = reach[i];
             let kind = if side.is_none() {
                 pretty(&base)
-            } else if lowest < ground + 0.25 * (top - ground) {
+            } else if grounded && hip <= lowest_hip + 0.15 * span {
                 "Leg".to_string()
             } else {
                 "Arm".to_string()
