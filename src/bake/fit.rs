@@ -158,6 +158,21 @@ impl Plan {
         candidates: &[Vec<usize>],
         cost: impl Fn(usize, [usize; 3], f64) -> f64,
     ) -> Result<Fit, FitError> {
+        Ok(self
+            .solve_below(candidates, cost, f64::INFINITY)?
+            .expect("a finite optimum is below infinity"))
+    }
+
+    /// [`Plan::solve_bounded`] looking only for mappings that cost less than `upper` (a
+    /// known solution's cost): every partial table entry at or above `upper` is dropped
+    /// unevaluated, since costs are non-negative and the rest of the polygon can only add.
+    /// The optimum when it is below `upper` (exactly as `solve_bounded` finds it), else `None`.
+    pub fn solve_below(
+        &self,
+        candidates: &[Vec<usize>],
+        cost: impl Fn(usize, [usize; 3], f64) -> f64,
+        upper: f64,
+    ) -> Result<Option<Fit>, FitError> {
         if candidates.len() < self.n || candidates.iter().take(self.n).any(|c| c.is_empty()) {
             return Err(FitError::EmptyTarget);
         }
@@ -221,7 +236,7 @@ impl Plan {
                         };
                         // Start from the previous pair's answer: neighbouring pairs usually
                         // share it, and a good first bound prunes the rest.
-                        let mut bc = eval(warm, f64::INFINITY);
+                        let mut bc = eval(warm, upper).min(upper);
                         let mut bi = warm;
                         for kc in 0..cc.len() {
                             if kc == warm {
@@ -234,7 +249,7 @@ impl Plan {
                             }
                         }
                         warm = bi;
-                        best[ka * cb.len() + kb] = bc;
+                        best[ka * cb.len() + kb] = if bc < upper { bc } else { f64::INFINITY };
                         arg[ka * cb.len() + kb] = bi as u32;
                     }
                 }
@@ -250,7 +265,7 @@ impl Plan {
             view(&best_of, &by_edge, candidates, b, c),
             view(&best_of, &by_edge, candidates, c, a),
         );
-        let mut best = (f64::INFINITY, 0, 0, 0);
+        let mut best = (upper, 0, 0, 0);
         for (ka, &pa) in candidates[a].iter().enumerate() {
             for (kb, &pb) in candidates[b].iter().enumerate() {
                 let lab = at(vab, ka, kb);
@@ -270,6 +285,9 @@ impl Plan {
                 }
             }
         }
+        if !(best.0 < upper) {
+            return Ok(None);
+        }
         // Backtrack in candidate indices, then translate.
         let mut k = vec![usize::MAX; self.n];
         k[a] = best.1;
@@ -284,7 +302,7 @@ impl Plan {
             .enumerate()
             .map(|(i, &ki)| candidates[i][if ki == usize::MAX { 0 } else { ki }])
             .collect();
-        Ok(Fit { mapping, cost: best.0 })
+        Ok(Some(Fit { mapping, cost: best.0 }))
     }
 }
 
@@ -474,6 +492,33 @@ mod tests {
             );
             assert_eq!(dp.mapping[0], 3);
             assert!(dp.mapping.iter().enumerate().all(|(i, p)| cands[i].contains(p)));
+        }
+    }
+
+    #[test]
+    fn searching_below_a_bound_finds_the_optimum_only_when_it_is_below() {
+        for seed in 0..6u64 {
+            let (n, m) = (7, 4);
+            let tris = triangulate(&polygon(n, seed as u32)).unwrap();
+            let cost = hash_cost(seed * 7 + 1);
+            let bf = brute_force(n, &tris, m, &cost);
+            let plan = Plan::new(n, &tris).unwrap();
+            let all = vec![(0..m).collect::<Vec<_>>(); n];
+            // A cost that gives up above its limit, as the image cost does.
+            let bounded = |t: usize, p: [usize; 3], limit: f64| {
+                let c = cost(t, p);
+                if c < limit { c } else { limit + 1.0 }
+            };
+            let above = plan.solve_below(&all, bounded, bf.cost * 1.5 + 1.0).unwrap().unwrap();
+            assert!((above.cost - bf.cost).abs() < 1e-9, "seed {seed}");
+            assert!((mapping_cost(&tris, &above.mapping, &cost) - bf.cost).abs() < 1e-9);
+            // Just below the optimum nothing is cheaper (the DP and the brute force sum in
+            // different orders, so not exactly at it).
+            assert!(
+                plan.solve_below(&all, bounded, bf.cost - 1e-9).unwrap().is_none(),
+                "seed {seed}"
+            );
+            assert!(plan.solve_below(&all, bounded, bf.cost * 0.5).unwrap().is_none());
         }
     }
 

@@ -199,6 +199,11 @@ impl SourceSamples {
         }
     }
 
+    /// Area of the source polygon in pixels (the sum of the triangle weights).
+    pub fn area(&self) -> f64 {
+        self.weights.iter().sum()
+    }
+
     /// Error of mapping source triangle `t` onto the target triangle with corners `p`.
     pub fn cost(&self, t: usize, target: &TargetGrid, p: [[f32; 2]; 3]) -> f64 {
         self.cost_bounded(t, target, p, f64::INFINITY)

@@ -28,6 +28,10 @@ pub struct PartFitOptions {
     /// Fast mode: candidate target vertices per source vertex, nearest to where the vertex
     /// was in the previous frame. Default value: [`DEFAULT_WINDOW`].
     pub window: usize,
+    /// Fast mode: a frame whose error per source pixel stays above this is searched again
+    /// over every target vertex (for anything cheaper than the fast answer). Infinity turns
+    /// it off. Default value: [`ESCALATE_ERROR`].
+    pub escalate_error: f64,
 }
 
 /// Candidates per source vertex in the fast mode.
@@ -42,6 +46,7 @@ impl Default for PartFitOptions {
             exhaustive: false,
             fold_free: true,
             window: DEFAULT_WINDOW,
+            escalate_error: ESCALATE_ERROR,
         }
     }
 }
@@ -143,7 +148,9 @@ pub fn fit_frame(
     options: &PartFitOptions,
     pins: &[(usize, usize)],
 ) -> Result<Fit, FitError> {
-    let cost = |t: usize, p: [usize; 3], limit: f64| samples.cost_bounded(t, target_tile, p.map(|j| target[j]), limit);
+    let raw_cost =
+        |t: usize, p: [usize; 3], limit: f64| samples.cost_bounded(t, target_tile, p.map(|j| target[j]), limit);
+    let cost = raw_cost;
     let pin = |cands: &mut Vec<Vec<usize>>| {
         for &(i, j) in pins {
             if i < cands.len() && j < target.len() {
@@ -267,16 +274,24 @@ pub fn fit_frame(
             break;
         }
     }
-    // With folds forbidden, the windows may hold no fold-free choice for some triangle (rare:
-    // a part that turns over between frames). The full candidate set always has one (a
-    // degenerate triangle), so fall back to the exact DP for this frame.
-    if best.cost >= FOLD_COST {
+    // Hard frames: where the error is still high for the part's size (a limb seen end-on
+    // collapses to a blob the windows cannot follow), or no fold-free choice was in the
+    // windows, search every target vertex for anything cheaper than what the fast mode
+    // found; that bound prunes most of the exact DP.
+    if best.cost >= FOLD_COST || best.cost > options.escalate_error * samples.area() {
         let mut cands = vec![(0..target.len()).collect(); pred.len()];
         pin(&mut cands);
-        return plan.solve_bounded(&cands, &cost);
+        // (Without the memo: over every triple, hashing costs more than it saves.)
+        if let Some(better) = plan.solve_below(&cands, raw_cost, best.cost)? {
+            best = better;
+        }
     }
     Ok(best)
 }
+
+/// Fast mode: mean error per source pixel above which a frame is refitted exactly (below the
+/// fast answer's cost, which prunes most of the search).
+pub const ESCALATE_ERROR: f64 = 0.05;
 
 /// Fast mode: how far along the target contour around the carried-over index to look.
 pub const HINT_RADIUS: i64 = 5;
