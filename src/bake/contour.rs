@@ -223,6 +223,48 @@ pub fn trace_outer(mask: &Mask) -> Vec<[f32; 2]> {
     out.into_iter().map(|(x, y)| [x as f32 + 0.5, y as f32 + 0.5]).collect()
 }
 
+/// The outer contour with no point visited twice: where the plain trace passes a pixel twice
+/// (a one-pixel-wide spur or neck, two pieces touching only at a corner), the mask is traced
+/// at twice the resolution with its corner-only contacts filled in, so every feature is at
+/// least two pixels wide and the outline is a simple polygon; coordinates stay in the
+/// original pixel units.
+pub fn trace_simple(mask: &Mask) -> Vec<[f32; 2]> {
+    let contour = trace_outer(mask);
+    let mut seen = std::collections::HashSet::with_capacity(contour.len());
+    if contour.iter().all(|p| seen.insert((p[0].to_bits(), p[1].to_bits()))) {
+        return contour;
+    }
+    let comp = largest_component(mask);
+    let (w, h) = (2 * mask.width, 2 * mask.height);
+    let mut fine = Mask::from_fn(w, h, |x, y| comp.data[(y / 2) * mask.width + x / 2]);
+    // Fill corner-only contacts until none is left (each fill only adds pixels).
+    let mut changed = true;
+    while changed {
+        changed = false;
+        for y in 0..h - 1 {
+            for x in 0..w - 1 {
+                let (a, b, c, d) = (
+                    fine.data[y * w + x],
+                    fine.data[y * w + x + 1],
+                    fine.data[(y + 1) * w + x],
+                    fine.data[(y + 1) * w + x + 1],
+                );
+                if a && d && !b && !c {
+                    fine.data[y * w + x + 1] = true;
+                    changed = true;
+                } else if b && c && !a && !d {
+                    fine.data[y * w + x] = true;
+                    changed = true;
+                }
+            }
+        }
+    }
+    trace_outer(&fine)
+        .into_iter()
+        .map(|p| [(p[0] - 0.5) / 2.0 + 0.25, (p[1] - 0.5) / 2.0 + 0.25])
+        .collect()
+}
+
 /// Twice the signed area (shoelace); positive for clockwise-on-screen (y down) order.
 pub fn signed_area2(poly: &[[f32; 2]]) -> f64 {
     let n = poly.len();
@@ -378,6 +420,51 @@ mod tests {
         let one = largest_component(&m);
         assert_eq!(bridge_pieces(&one), one);
         assert_eq!(bridge_pieces(&Mask::new(5, 5)), Mask::new(5, 5));
+    }
+
+    #[test]
+    fn spurs_necks_and_corner_contacts_still_trace_a_simple_outline() {
+        // A blob with a one-pixel spur, a one-pixel neck to a second blob, and a pixel that
+        // touches the blob only at a corner.
+        let m = Mask::from_fn(30, 20, |x, y| {
+            ((2..10).contains(&x) && (2..10).contains(&y))
+                || ((10..16).contains(&x) && y == 5)
+                || ((16..24).contains(&x) && (2..10).contains(&y))
+                || (x == 5 && (10..16).contains(&y))
+                || (x == 10 && y == 10)
+        });
+        let plain = trace_outer(&m);
+        let unique: HashSet<_> = plain.iter().map(|p| (p[0].to_bits(), p[1].to_bits())).collect();
+        assert!(unique.len() < plain.len(), "the plain trace revisits pixels here");
+        let c = trace_simple(&m);
+        let unique: HashSet<_> = c.iter().map(|p| (p[0].to_bits(), p[1].to_bits())).collect();
+        assert_eq!(unique.len(), c.len());
+        assert!(crate::bake::simplify::is_simple(&c));
+        // Within a pixel of every mask pixel, inside the mask's bounds.
+        for y in 0..20 {
+            for x in 0..30 {
+                if m.get(x, y) {
+                    let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+                    let near = c.iter().any(|p| (p[0] - px).abs() <= 1.0 && (p[1] - py).abs() <= 1.0);
+                    assert!(near || inside(&c, [px, py]), "({x}, {y}) lost");
+                }
+            }
+        }
+        assert!(c.iter().all(|p| p[0] > 1.0 && p[0] < 25.0 && p[1] > 1.0 && p[1] < 17.0));
+        // A clean mask traces exactly as before.
+        let clean = Mask::from_fn(10, 8, |x, y| (2..7).contains(&x) && (1..5).contains(&y));
+        assert_eq!(trace_simple(&clean), trace_outer(&clean));
+    }
+
+    fn inside(poly: &[[f32; 2]], p: [f32; 2]) -> bool {
+        let mut c = false;
+        for i in 0..poly.len() {
+            let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+            if (a[1] > p[1]) != (b[1] > p[1]) && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0] {
+                c = !c;
+            }
+        }
+        c
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //! `T` (exact DP, or the fast candidate-window mode), then simplify `S` with the deformation
 //! in mind to the final polygon (20 vertices, 18 triangles).
 
-use super::contour::{bridge_pieces, trace_outer};
+use super::contour::{bridge_pieces, trace_simple};
 use super::fit::{Fit, FitError, Plan};
 use super::image_cost::{FOLD_COST, PartTile, SourceSamples, TargetGrid};
 use super::simplify::{SimplifyOptions, is_simple, simplify};
@@ -100,7 +100,7 @@ impl PartFit {
 }
 
 fn polygon_of(tile: &PartTile, vertices: usize, frame: usize) -> Result<Vec<[f32; 2]>, PartFitError> {
-    let contour = trace_outer(&bridge_pieces(&tile.mask()));
+    let contour = trace_simple(&bridge_pieces(&tile.mask()));
     if contour.len() < 3 {
         return Err(PartFitError::Empty(frame));
     }
