@@ -123,6 +123,11 @@ impl Plan {
         })
     }
 
+    /// Vertices of the source polygon.
+    pub fn vertex_count(&self) -> usize {
+        self.n
+    }
+
     pub fn triangles(&self) -> &[[usize; 3]] {
         &self.triangles
     }

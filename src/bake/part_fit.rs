@@ -28,10 +28,6 @@ pub struct PartFitOptions {
     /// Fast mode: candidate target vertices per source vertex, nearest to where the vertex
     /// was in the previous frame. Default value: [`DEFAULT_WINDOW`].
     pub window: usize,
-    /// Fast mode: a frame whose error per source pixel stays above this is searched again
-    /// over every target vertex (for anything cheaper than the fast answer). Infinity turns
-    /// it off. Default value: [`ESCALATE_ERROR`].
-    pub escalate_error: f64,
 }
 
 /// Candidates per source vertex in the fast mode.
@@ -46,7 +42,6 @@ impl Default for PartFitOptions {
             exhaustive: false,
             fold_free: true,
             window: DEFAULT_WINDOW,
-            escalate_error: ESCALATE_ERROR,
         }
     }
 }
@@ -148,9 +143,7 @@ pub fn fit_frame(
     options: &PartFitOptions,
     pins: &[(usize, usize)],
 ) -> Result<Fit, FitError> {
-    let raw_cost =
-        |t: usize, p: [usize; 3], limit: f64| samples.cost_bounded(t, target_tile, p.map(|j| target[j]), limit);
-    let cost = raw_cost;
+    let cost = |t: usize, p: [usize; 3], limit: f64| samples.cost_bounded(t, target_tile, p.map(|j| target[j]), limit);
     let pin = |cands: &mut Vec<Vec<usize>>| {
         for &(i, j) in pins {
             if i < cands.len() && j < target.len() {
@@ -274,24 +267,36 @@ pub fn fit_frame(
             break;
         }
     }
-    // Hard frames: where the error is still high for the part's size (a limb seen end-on
-    // collapses to a blob the windows cannot follow), or no fold-free choice was in the
-    // windows, search every target vertex for anything cheaper than what the fast mode
-    // found; that bound prunes most of the exact DP.
-    if best.cost >= FOLD_COST || best.cost > options.escalate_error * samples.area() {
-        let mut cands = vec![(0..target.len()).collect(); pred.len()];
-        pin(&mut cands);
-        // (Without the memo: over every triple, hashing costs more than it saves.)
-        if let Some(better) = plan.solve_below(&cands, raw_cost, best.cost)? {
+    // With folds forbidden, the windows may hold no fold-free choice for some triangle (rare:
+    // a part that turns over between frames). The full candidate set always has one (a
+    // degenerate triangle).
+    if best.cost >= FOLD_COST {
+        if let Some(better) = exact_below(plan, samples, target_tile, target, pins, best.cost)? {
             best = better;
         }
     }
     Ok(best)
 }
 
-/// Fast mode: mean error per source pixel above which a frame is refitted exactly (below the
-/// fast answer's cost, which prunes most of the search).
-pub const ESCALATE_ERROR: f64 = 0.05;
+/// The exact DP over every target vertex (pins kept), looking only for mappings cheaper than
+/// `upper`; that bound prunes part of the search.
+fn exact_below(
+    plan: &Plan,
+    samples: &SourceSamples,
+    target_tile: &TargetGrid,
+    target: &[[f32; 2]],
+    pins: &[(usize, usize)],
+    upper: f64,
+) -> Result<Option<Fit>, FitError> {
+    let mut cands = vec![(0..target.len()).collect::<Vec<_>>(); plan.vertex_count()];
+    for &(i, j) in pins {
+        if i < cands.len() && j < target.len() {
+            cands[i] = vec![j];
+        }
+    }
+    let cost = |t: usize, p: [usize; 3], limit: f64| samples.cost_bounded(t, target_tile, p.map(|j| target[j]), limit);
+    plan.solve_below(&cands, cost, upper)
+}
 
 /// Fast mode: how far along the target contour around the carried-over index to look.
 pub const HINT_RADIUS: i64 = 5;

@@ -356,17 +356,12 @@ pub fn bake(
                     total: probes.len(),
                 });
                 let data = extract(batch.render_view(&renderer, &ctx.device, &ctx.queue, &cameras[v])?);
-                // Ranking candidate key frames needs no exact refits of hard frames.
-                let probe_options = PartFitOptions {
-                    escalate_error: f64::INFINITY,
-                    ..options.fit
-                };
                 let per_key: Vec<f64> = candidates
                     .par_iter()
                     .map(|&k| {
                         data.tiles
                             .iter()
-                            .map(|tiles| fit_part(tiles, k, &probe_options, &[]).map_or(0.0, |f| f.total_cost()))
+                            .map(|tiles| fit_part(tiles, k, &options.fit, &[]).map_or(0.0, |f| f.total_cost()))
                             .sum()
                     })
                     .collect();
