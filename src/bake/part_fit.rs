@@ -144,17 +144,10 @@ pub fn fit_frame(
     pins: &[(usize, usize)],
 ) -> Result<Fit, FitError> {
     let cost = |t: usize, p: [usize; 3], limit: f64| samples.cost_bounded(t, target_tile, p.map(|j| target[j]), limit);
-    let pin = |cands: &mut Vec<Vec<usize>>| {
-        for &(i, j) in pins {
-            if i < cands.len() && j < target.len() {
-                cands[i] = vec![j];
-            }
-        }
-    };
+    let pin = |cands: &mut Vec<Vec<usize>>| apply_pins(cands, pins, target.len());
     if options.exhaustive {
-        let mut cands = vec![(0..target.len()).collect(); pred.len()];
-        pin(&mut cands);
-        return plan.solve_bounded(&cands, cost);
+        let exact = exact_below(plan, samples, target_tile, target, pins, f64::INFINITY)?;
+        return Ok(exact.expect("a finite optimum is below infinity"));
     }
     // The fast mode solves several overlapping candidate sets: remember every triangle cost
     // (exact, or a lower bound where the evaluation gave up) so no triple is sampled twice.
@@ -278,6 +271,16 @@ pub fn fit_frame(
     Ok(best)
 }
 
+/// Pinned correspondences `(S vertex, T vertex)` leave that vertex one candidate; pins out of
+/// range are ignored.
+fn apply_pins(cands: &mut [Vec<usize>], pins: &[(usize, usize)], m: usize) {
+    for &(i, j) in pins {
+        if i < cands.len() && j < m {
+            cands[i] = vec![j];
+        }
+    }
+}
+
 /// The exact DP over every target vertex (pins kept), looking only for mappings cheaper than
 /// `upper`; that bound prunes part of the search.
 fn exact_below(
@@ -289,11 +292,7 @@ fn exact_below(
     upper: f64,
 ) -> Result<Option<Fit>, FitError> {
     let mut cands = vec![(0..target.len()).collect::<Vec<_>>(); plan.vertex_count()];
-    for &(i, j) in pins {
-        if i < cands.len() && j < target.len() {
-            cands[i] = vec![j];
-        }
-    }
+    apply_pins(&mut cands, pins, target.len());
     let cost = |t: usize, p: [usize; 3], limit: f64| samples.cost_bounded(t, target_tile, p.map(|j| target[j]), limit);
     plan.solve_below(&cands, cost, upper)
 }
