@@ -243,6 +243,10 @@ struct BakeArgs {
     /// a triangle may degenerate but not fold over.
     #[arg(long)]
     allow_folds: bool,
+    /// Fast mode without restarts from a coarse global solution: about twice as fast on
+    /// characters with thin limbs, about 3 % further from the exact optimum.
+    #[arg(long, conflicts_with = "exhaustive")]
+    no_restarts: bool,
     /// Views on the whole sphere instead of the upper hemisphere.
     #[arg(long)]
     full_sphere: bool,
@@ -329,6 +333,11 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         fit: polypostor::bake::part_fit::PartFitOptions {
             exhaustive: a.exhaustive,
             fold_free: !a.allow_folds,
+            restart_threshold: if a.no_restarts {
+                f64::INFINITY
+            } else {
+                polypostor::bake::part_fit::DEFAULT_RESTART_THRESHOLD
+            },
             ..Default::default()
         },
         keep_frame_images: a.debug_images,

@@ -30,6 +30,8 @@ pub enum FitError {
     BadVertex(usize),
     #[error("the triangles do not form a tree through shared edges (triangle {0})")]
     NotATree(usize),
+    #[error("the fast mode was given no seed to start from")]
+    NoSeed,
 }
 
 /// The peeling order and base edges of a triangulation, independent of the target.

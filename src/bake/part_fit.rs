@@ -28,7 +28,20 @@ pub struct PartFitOptions {
     /// Fast mode: candidate target vertices per source vertex, nearest to where the vertex
     /// was in the previous frame. Default value: [`DEFAULT_WINDOW`].
     pub window: usize,
+    /// Fast mode: a frame whose fit still costs more than this per source pixel (mean
+    /// weighted colour + normal SSD) is searched again from a global coarse solution.
+    /// `f64::INFINITY` turns restarts off. Default value: [`DEFAULT_RESTART_THRESHOLD`].
+    pub restart_threshold: f64,
+    /// Fast mode: the coarse solution of a restart is exact over every `restart_step`-th
+    /// target vertex. Default value: [`DEFAULT_RESTART_STEP`].
+    pub restart_step: usize,
 }
+
+/// Error per source pixel above which the fast mode restarts from a coarse global solution.
+pub const DEFAULT_RESTART_THRESHOLD: f64 = 0.04;
+
+/// Target-vertex stride of a restart's coarse exact solve.
+pub const DEFAULT_RESTART_STEP: usize = 2;
 
 /// Candidates per source vertex in the fast mode.
 pub const DEFAULT_WINDOW: usize = 6;
@@ -42,6 +55,8 @@ impl Default for PartFitOptions {
             exhaustive: false,
             fold_free: true,
             window: DEFAULT_WINDOW,
+            restart_threshold: DEFAULT_RESTART_THRESHOLD,
+            restart_step: DEFAULT_RESTART_STEP,
         }
     }
 }
@@ -132,14 +147,22 @@ fn candidates(pred: &[[f32; 2]], target: &[[f32; 2]], window: usize) -> Vec<Vec<
         .collect()
 }
 
-/// Fits S onto one target; `pred` gives the fast mode's predicted positions.
+/// Where the fast mode expects S's vertices on a target: positions, and optionally the target
+/// contour index of each (carried over from a fitted neighbouring frame).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Seed {
+    pub positions: Vec<[f32; 2]>,
+    pub indices: Option<Vec<usize>>,
+}
+
+/// Fits S onto one target. The fast mode starts from each seed (at least one) and keeps the
+/// best; the exhaustive mode ignores them.
 pub fn fit_frame(
     plan: &Plan,
     samples: &SourceSamples,
     target_tile: &TargetGrid,
     target: &[[f32; 2]],
-    pred: &[[f32; 2]],
-    index_hint: Option<&[usize]>,
+    seeds: &[Seed],
     options: &PartFitOptions,
     pins: &[(usize, usize)],
 ) -> Result<Fit, FitError> {
@@ -188,26 +211,15 @@ pub fn fit_frame(
         pin(&mut cands);
         cands
     };
-    let mut best = plan.solve_bounded(&windows(pred, index_hint, &near, options.window), &cost)?;
-    // Refine: re-centre the windows on the current solution (near it in space and along
-    // the target contour) and solve again; the old solution stays feasible, so the cost
-    // never rises.
-    for _ in 0..REFINE_PASSES {
-        let at: Vec<[f32; 2]> = best.mapping.iter().map(|&j| target[j]).collect();
-        let next = plan.solve_bounded(&windows(&at, Some(&best.mapping), &near, options.window), &cost)?;
-        if next.cost < best.cost - 1e-12 {
-            best = next;
-        } else {
-            break;
+    let win = options.window;
+    let mut best: Option<Fit> = None;
+    for seed in seeds {
+        let fit = plan.solve_bounded(&windows(&seed.positions, seed.indices.as_deref(), &near, win), &cost)?;
+        if best.as_ref().is_none_or(|b| fit.cost < b.cost) {
+            best = Some(fit);
         }
     }
-    // Sweeps: free a set of vertices that share no triangle (each may jump to any of the
-    // SWEEP_FREE target vertices nearest to it) while the rest stay within one contour step
-    // of where they are; catches the far jumps (folds across a thin limb, where the other
-    // side of the contour is near in space but far along it) that the windows miss. Every
-    // vertex is freed once per round; the current mapping stays feasible, so the cost never
-    // rises.
-    let n = pred.len();
+    let n = plan.vertex_count();
     let mut touching = vec![Vec::new(); n];
     for t in plan.triangles() {
         for &a in t {
@@ -218,46 +230,87 @@ pub fn fit_frame(
             }
         }
     }
-    for round in 0..SWEEPS {
-        let mut covered = vec![false; n];
-        let mut improved = false;
-        let mut start = round * 7;
-        while covered.iter().any(|c| !c) {
-            let mut free = vec![false; n];
-            let mut blocked = vec![false; n];
-            for s in 0..n {
-                let i = (start + s) % n;
-                if !covered[i] && !blocked[i] {
-                    free[i] = true;
-                    covered[i] = true;
-                    for &j in &touching[i] {
-                        blocked[j] = true;
-                    }
-                }
-            }
-            start += 1;
-            let mut cands: Vec<Vec<usize>> = (0..n)
-                .map(|i| {
-                    if free[i] {
-                        candidates(&[target[best.mapping[i]]], target, SWEEP_FREE).remove(0)
-                    } else {
-                        let j = best.mapping[i] as i64;
-                        let mut c: Vec<usize> = (-1..=1).map(|d| (j + d).rem_euclid(m) as usize).collect();
-                        c.sort_unstable();
-                        c.dedup();
-                        c
-                    }
-                })
-                .collect();
-            pin(&mut cands);
-            let next = plan.solve_bounded(&cands, &cost)?;
+    let local_search = |mut best: Fit| -> Result<Fit, FitError> {
+        // Refine: re-centre the windows on the current solution (near it in space and along
+        // the target contour) and solve again; the old solution stays feasible, so the cost
+        // never rises.
+        for _ in 0..REFINE_PASSES {
+            let at: Vec<[f32; 2]> = best.mapping.iter().map(|&j| target[j]).collect();
+            let next = plan.solve_bounded(&windows(&at, Some(&best.mapping), &near, win), &cost)?;
             if next.cost < best.cost - 1e-12 {
                 best = next;
-                improved = true;
+            } else {
+                break;
             }
         }
-        if !improved {
-            break;
+        // Sweeps: free a set of vertices that share no triangle (each may jump to any of the
+        // SWEEP_FREE target vertices nearest to it) while the rest stay within one contour
+        // step of where they are; catches the far jumps (folds across a thin limb, where the
+        // other side of the contour is near in space but far along it) that the windows
+        // miss. Every vertex is freed once per round; the current mapping stays feasible, so
+        // the cost never rises.
+        for round in 0..SWEEPS {
+            let mut covered = vec![false; n];
+            let mut improved = false;
+            let mut start = round * 7;
+            while covered.iter().any(|c| !c) {
+                let mut free = vec![false; n];
+                let mut blocked = vec![false; n];
+                for s in 0..n {
+                    let i = (start + s) % n;
+                    if !covered[i] && !blocked[i] {
+                        free[i] = true;
+                        covered[i] = true;
+                        for &j in &touching[i] {
+                            blocked[j] = true;
+                        }
+                    }
+                }
+                start += 1;
+                let mut cands: Vec<Vec<usize>> = (0..n)
+                    .map(|i| {
+                        if free[i] {
+                            candidates(&[target[best.mapping[i]]], target, SWEEP_FREE).remove(0)
+                        } else {
+                            let j = best.mapping[i] as i64;
+                            let mut c: Vec<usize> = (-1..=1).map(|d| (j + d).rem_euclid(m) as usize).collect();
+                            c.sort_unstable();
+                            c.dedup();
+                            c
+                        }
+                    })
+                    .collect();
+                pin(&mut cands);
+                let next = plan.solve_bounded(&cands, &cost)?;
+                if next.cost < best.cost - 1e-12 {
+                    best = next;
+                    improved = true;
+                }
+            }
+            if !improved {
+                break;
+            }
+        }
+        Ok(best)
+    };
+    let mut best = local_search(best.ok_or(FitError::NoSeed)?)?;
+    // Restart: where the fit stays poor (mean error per source pixel above the threshold),
+    // the local search may sit in a local minimum far from the optimum (thin limbs, where a
+    // better mapping slides whole runs of vertices along the contour). Solve exactly over
+    // every `restart_step`-th target vertex (global, ~1/8 of the exact DP's work at step 2),
+    // then search locally from there; keep whichever is cheaper.
+    if best.cost > options.restart_threshold * samples.area() {
+        let every: Vec<usize> = (0..target.len()).step_by(options.restart_step.max(1)).collect();
+        let mut cands = vec![every; n];
+        pin(&mut cands);
+        // Most of these triples are never seen again: no memo.
+        let raw = |t: usize, p: [usize; 3], limit: f64| samples.cost_bounded(t, target_tile, p.map(|j| target[j]), limit);
+        let coarse = plan.solve_bounded(&cands, raw)?;
+        let at: Vec<[f32; 2]> = coarse.mapping.iter().map(|&j| target[j]).collect();
+        let start = plan.solve_bounded(&windows(&at, Some(&coarse.mapping), &near, win), &cost)?;
+        let restarted = local_search(start)?;
+        if restarted.cost < best.cost {
+            best = restarted;
         }
     }
     // With folds forbidden, the windows may hold no fold-free choice for some triangle (rare:
@@ -364,6 +417,30 @@ pub fn deformation_aware_simplify(fit_positions: &[Vec<[f32; 2]>], key: &[[f32; 
     kept
 }
 
+/// The order in which the fast mode fits the frames of a looping clip, each with the
+/// neighbouring frames already fitted (its seeds): the key frame first, then out from it both
+/// ways, alternately, so no chain is longer than half the loop and the last frame, opposite
+/// the key, starts from both its neighbours.
+pub fn walk_order(frames: usize, key: usize) -> Vec<(usize, Vec<usize>)> {
+    let mut fitted = vec![false; frames];
+    let mut out = Vec::with_capacity(frames);
+    for s in 0..frames {
+        let f = if s % 2 == 1 {
+            (key + s.div_ceil(2)) % frames
+        } else {
+            (key + frames - s / 2) % frames
+        };
+        let mut neighbours: Vec<usize> = [(f + frames - 1) % frames, (f + 1) % frames]
+            .into_iter()
+            .filter(|&g| fitted[g])
+            .collect();
+        neighbours.dedup();
+        fitted[f] = true;
+        out.push((f, neighbours));
+    }
+    out
+}
+
 /// Fits one part over all frames of one view. `tiles[f]` is the part at frame `f`; `key` is
 /// the key frame. `pins[f]` are pinned correspondences `(S vertex, T vertex)` at frame `f`.
 pub fn fit_part(
@@ -382,38 +459,34 @@ pub fn fit_part(
         .collect::<Result<_, _>>()?;
     let mut mappings = vec![Vec::new(); frames];
     let mut costs = vec![0.0; frames];
-    // Walk the loop out from the key frame both ways (clips loop), so each frame is
-    // predicted from a neighbour already fitted and no chain is longer than half the loop:
-    // positions (nearest target vertices) and contour indices (carried over by the cyclic
-    // shift between consecutive target polygons).
-    let forward = frames / 2;
-    let order = (1..frames).map(|s| {
-        if s <= forward {
-            ((key + s) % frames, (key + s - 1) % frames)
-        } else {
-            let back = s - forward;
-            ((key + frames - back) % frames, (key + frames - back + 1) % frames)
+    // A seed holds a fitted neighbour's positions and its contour indices carried over by
+    // the cyclic shift between the two target polygons.
+    for (f, neighbours) in walk_order(frames, key) {
+        let mut seeds: Vec<Seed> = neighbours
+            .into_iter()
+            .map(|pf| Seed {
+                positions: mappings[pf].iter().map(|&j| targets[pf][j]).collect(),
+                indices: cyclic_shift(&targets[pf], &targets[f]).map(|shift| {
+                    let m = targets[f].len();
+                    mappings[pf].iter().map(|&j| (j + shift) % m).collect()
+                }),
+            })
+            .collect();
+        seeds.dedup();
+        if seeds.is_empty() {
+            seeds.push(Seed {
+                positions: key_polygon.clone(),
+                indices: None,
+            });
         }
-    });
-    for (f, from) in std::iter::once((key, None)).chain(order.map(|(f, p)| (f, Some(p)))) {
         let none = Vec::new();
-        let hint: Option<Vec<usize>> = from.and_then(|pf| {
-            let shift = cyclic_shift(&targets[pf], &targets[f])?;
-            let m = targets[f].len();
-            Some(mappings[pf].iter().map(|&j| (j + shift) % m).collect())
-        });
-        let pred: Vec<[f32; 2]> = match from {
-            Some(pf) => mappings[pf].iter().map(|&j| targets[pf][j]).collect(),
-            None => key_polygon.clone(),
-        };
         let pins_f = pins.get(f).unwrap_or(&none);
         let fit = fit_frame(
             &plan,
             &samples,
             &TargetGrid::new(&tiles[f]),
             &targets[f],
-            &pred,
-            hint.as_deref(),
+            &seeds,
             options,
             pins_f,
         )?;
@@ -567,6 +640,60 @@ mod tests {
                     "{sum} vs {}",
                     fit.costs[f]
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn restarts_never_raise_a_frame_cost_nor_beat_the_exact_dp() {
+        let t = tiles(6);
+        let fit = fit_part(&t, 0, &PartFitOptions::default(), &[]).unwrap();
+        let plan = Plan::new(fit.key_polygon.len(), &fit.key_triangles).unwrap();
+        let samples = SourceSamples::new(&t[0], &fit.key_polygon, &fit.key_triangles, true);
+        let seed = [Seed {
+            positions: fit.key_polygon.clone(),
+            indices: None,
+        }];
+        for f in 1..t.len() {
+            let grid = TargetGrid::new(&t[f]);
+            let solve = |restart_threshold: f64, exhaustive: bool| {
+                let o = PartFitOptions {
+                    restart_threshold,
+                    exhaustive,
+                    ..Default::default()
+                };
+                fit_frame(&plan, &samples, &grid, &fit.targets[f], &seed, &o, &[]).unwrap()
+            };
+            let (plain, always, exact) = (solve(f64::INFINITY, false), solve(0.0, false), solve(0.0, true));
+            assert!(always.cost <= plain.cost + 1e-9, "frame {f}");
+            assert!(exact.cost <= always.cost + 1e-9, "frame {f}");
+        }
+    }
+
+    #[test]
+    fn the_walk_visits_every_frame_once_from_fitted_neighbours() {
+        for frames in 1..12 {
+            for key in 0..frames {
+                let order = walk_order(frames, key);
+                let mut seen = vec![false; frames];
+                for (s, (f, neighbours)) in order.iter().enumerate() {
+                    assert!(!seen[*f], "{frames} frames, key {key}: {f} twice");
+                    // Every frame but the key starts from a fitted neighbour...
+                    assert_eq!(neighbours.is_empty(), s == 0);
+                    for &g in neighbours {
+                        assert!(seen[g] && ((g + 1) % frames == *f || (f + 1) % frames == g));
+                    }
+                    // ... at most half the loop away from the key.
+                    let d = (f + frames - key) % frames;
+                    assert!(d.min(frames - d) <= frames / 2);
+                    seen[*f] = true;
+                }
+                assert!(seen.iter().all(|&x| x));
+                assert_eq!(order[0].0, key);
+                // The last frame, opposite the key, starts from both sides.
+                if frames >= 3 {
+                    assert_eq!(order[frames - 1].1.len(), 2, "{frames} frames, key {key}");
+                }
             }
         }
     }

@@ -46,6 +46,9 @@ pub struct Settings {
     pub clip: Option<String>,
     pub exhaustive: bool,
     pub fold_free: bool,
+    /// Fast mode: error per source pixel above which a frame is searched again from a
+    /// coarse global solution (`null`: restarts off).
+    pub restart_threshold: Option<f64>,
     pub key_vertices: usize,
     pub frame_vertices: usize,
     pub final_vertices: usize,
@@ -138,6 +141,7 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
             clip: clip.map(String::from),
             exhaustive: bake.options.fit.exhaustive,
             fold_free: bake.options.fit.fold_free,
+            restart_threshold: Some(bake.options.fit.restart_threshold).filter(|t| t.is_finite()),
             key_vertices: bake.options.fit.key_vertices,
             frame_vertices: bake.options.fit.frame_vertices,
             final_vertices: bake.options.fit.final_vertices,
