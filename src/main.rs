@@ -63,11 +63,33 @@ enum Command {
     },
     /// Bake a character into a Polypostor pack (with report.json).
     Bake(BakeArgs),
+    /// Benchmarks (figures for the README).
+    Bench {
+        #[command(subcommand)]
+        what: BenchWhat,
+    },
     /// Regenerate the built-in default character (.glb).
     GenerateDefault {
         /// Output path (default: assets/characters/default_humanoid.glb).
         #[arg(long, short)]
         out: Option<PathBuf>,
+    },
+}
+
+#[derive(clap::Subcommand)]
+enum BenchWhat {
+    /// CPU work per crowd frame on one thread: simulation, then culling, level of detail,
+    /// view and frame choice and instance records.
+    Sim {
+        /// Agents.
+        #[arg(long, default_value_t = 20_000)]
+        agents: usize,
+        /// Frames to time (after 30 warm-up frames).
+        #[arg(long, default_value_t = 300)]
+        frames: usize,
+        /// Print one JSON object instead of a table.
+        #[arg(long)]
+        json: bool,
     },
 }
 
@@ -99,6 +121,9 @@ fn main() -> ExitCode {
         }) => render(&file, &out, clip.as_deref(), time, size, yaw, pitch, normals, unlit),
         Some(Command::GenerateDefault { out }) => generate_default(out),
         Some(Command::Bake(args)) => bake_cmd(args),
+        Some(Command::Bench {
+            what: BenchWhat::Sim { agents, frames, json },
+        }) => bench_sim(agents, frames, json),
         None => {
             let path = cli
                 .path
@@ -392,6 +417,8 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     };
     let write_started = std::time::Instant::now();
     let stats = polypostor::pack::write_pack_with(&b, &c.name, clip_name.as_deref(), &out, &|dir, stats| {
+        // Read the pack back through the validating loader before it replaces anything.
+        polypostor::pack::load_pack(dir).map_err(|e| format!("the written pack does not load back: {e}"))?;
         let mut report = polypostor::bake::report::build_report(
             &b,
             &c.name,
@@ -429,5 +456,94 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         report["memory_ratio"].as_f64().unwrap_or(0.0),
         stats.triangles_per_view
     );
+    Ok(())
+}
+
+/// `bench sim`: a 1600×900 camera at the edge of the crowd looking across it from 10 m up,
+/// 137 hemisphere views, a 10-frame clip, the default three-level mix; one thread.
+fn bench_sim(agents: usize, frames: usize, json: bool) -> anyhow::Result<()> {
+    use polypostor::bake::viewpoints::{Coverage, ViewLookup, directions};
+    use polypostor::crowd::lod::{Level, LodDistances, LodPolicy};
+    use polypostor::crowd::{ClipTiming, Crowd, CrowdCamera, CrowdParams};
+    let mut crowd = Crowd::new(CrowdParams {
+        count: agents,
+        ..Default::default()
+    });
+    let (w, h, fov) = (1600.0f32, 900.0f32, 50f32.to_radians());
+    let eye = glam::Vec3::new(0.0, 10.0, -crowd.half_extent - 5.0);
+    let cam = polypostor::gpu::Camera {
+        eye,
+        target: glam::Vec3::new(0.0, 0.0, 0.0),
+        up: glam::Vec3::Y,
+        projection: polypostor::gpu::Projection::Perspective { fov_y_rad: fov },
+        near: 0.1,
+        far: 4.0 * crowd.half_extent + 100.0,
+    };
+    let camera = CrowdCamera {
+        eye,
+        clip_from_world: cam.clip_from_world(w / h),
+        focal_px: h / (2.0 * (fov / 2.0).tan()),
+    };
+    let views = ViewLookup::new(&directions(137, Coverage::UpperHemisphere));
+    let policy = LodPolicy::Mixed(LodDistances::default());
+    let clip = ClipTiming { frames: 10, fps: 10.0 };
+    let mut sim = Vec::with_capacity(frames);
+    let mut sel = Vec::with_capacity(frames);
+    let mut last = Default::default();
+    for k in 0..frames + 30 {
+        let s = crowd.frame(1.0 / 60.0, &camera, &policy, &views, clip);
+        if k >= 30 {
+            sim.push(s.simulate_secs * 1e3);
+            sel.push(s.select_secs * 1e3);
+            last = s;
+        }
+    }
+    let total: Vec<f64> = sim.iter().zip(&sel).map(|(a, b)| a + b).collect();
+    let stat = |v: &[f64]| {
+        let mut s = v.to_vec();
+        s.sort_by(f64::total_cmp);
+        let mean = s.iter().sum::<f64>() / s.len().max(1) as f64;
+        let p95 = s.get((s.len() * 95 / 100).min(s.len().saturating_sub(1))).copied().unwrap_or(0.0);
+        (mean, p95)
+    };
+    let (sm, sp) = stat(&sim);
+    let (lm, lp) = stat(&sel);
+    let (tm, tp) = stat(&total);
+    let levels: serde_json::Map<String, serde_json::Value> = Level::ALL
+        .iter()
+        .map(|l| (l.name().to_string(), serde_json::json!(last.per_level[*l as usize])))
+        .collect();
+    if json {
+        println!(
+            "{}",
+            serde_json::json!({
+                "agents": crowd.len(),
+                "frames": frames,
+                "simulate_ms": {"mean": sm, "p95": sp},
+                "select_ms": {"mean": lm, "p95": lp},
+                "cpu_ms": {"mean": tm, "p95": tp},
+                "visible": last.visible,
+                "per_level": levels,
+                "view_candidates_per_query": views.mean_candidates(),
+            })
+        );
+    } else {
+        println!("crowd CPU work per frame, one thread, {} agents, {frames} frames", crowd.len());
+        println!("  {:<34} {:>8} {:>8}", "pass", "mean ms", "p95 ms");
+        println!("  {:<34} {sm:>8.3} {sp:>8.3}", "simulate (wander, occupancy grid)");
+        println!("  {:<34} {lm:>8.3} {lp:>8.3}", "cull, LOD, view, frame, instances");
+        println!("  {:<34} {tm:>8.3} {tp:>8.3}", "total (target <= 2 ms at 20,000)");
+        println!(
+            "  visible {} of {}: {}",
+            last.visible,
+            crowd.len(),
+            Level::ALL
+                .iter()
+                .filter(|l| last.per_level[**l as usize] > 0)
+                .map(|l| format!("{} {}", l.name(), last.per_level[*l as usize]))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
     Ok(())
 }

@@ -48,9 +48,152 @@ pub fn nearest(views: &[Vec3], dir: Vec3) -> Option<usize> {
         .map(|(i, _)| i)
 }
 
+/// [`nearest`] for many queries per frame (a crowd picks a view per character): a cube map
+/// over the sphere (six faces of N×N cells, no trigonometry per query) lists, per cell, the
+/// only views that can be nearest to a direction in that cell, so a query checks a few views
+/// instead of all. Exact: a view `v` can beat the view `v*` nearest to the cell's centre `c`
+/// somewhere in a cell of angular radius `r` only if `angle(v, c) <= angle(v*, c) + 2r`.
+#[derive(Clone, Debug)]
+pub struct ViewLookup {
+    views: Vec<Vec3>,
+    n: usize,
+    /// Per cell, a range of `candidates`.
+    cells: Vec<(u32, u32)>,
+    candidates: Vec<u32>,
+}
+
+/// The direction through face `face` (0..6: +X, -X, +Y, -Y, +Z, -Z) at face coordinates
+/// `(u, v)` in [-1, 1]², normalised.
+fn cube_dir(face: usize, u: f32, v: f32) -> Vec3 {
+    let d = match face {
+        0 => Vec3::new(1.0, v, u),
+        1 => Vec3::new(-1.0, v, u),
+        2 => Vec3::new(u, 1.0, v),
+        3 => Vec3::new(u, -1.0, v),
+        4 => Vec3::new(u, v, 1.0),
+        _ => Vec3::new(u, v, -1.0),
+    };
+    d.normalize()
+}
+
+impl ViewLookup {
+    pub fn new(views: &[Vec3]) -> Self {
+        let views: Vec<Vec3> = views.iter().map(|v| v.normalize_or_zero()).collect();
+        // About fourteen cells per view (a few candidates each), at least a coarse grid.
+        let n = ((views.len() as f32 * 14.0 / 6.0).sqrt().ceil() as usize).clamp(4, 256);
+        let mut cells = Vec::with_capacity(6 * n * n);
+        let mut candidates = Vec::new();
+        let at = |k: f32| -1.0 + 2.0 * k / n as f32;
+        for face in 0..6 {
+            for j in 0..n {
+                for i in 0..n {
+                    let (u0, u1, v0, v1) = (at(i as f32), at(i as f32 + 1.0), at(j as f32), at(j as f32 + 1.0));
+                    let c = cube_dir(face, 0.5 * (u0 + u1), 0.5 * (v0 + v1));
+                    // Angular radius: the farthest corner (cells are convex on the sphere;
+                    // edge midpoints too, for safety), with a margin.
+                    let mut r = 0.0f32;
+                    for (u, v) in [(u0, v0), (u0, v1), (u1, v0), (u1, v1), (u0, 0.5 * (v0 + v1)), (u1, 0.5 * (v0 + v1)), (0.5 * (u0 + u1), v0), (0.5 * (u0 + u1), v1)] {
+                        r = r.max(angle(c, cube_dir(face, u, v)));
+                    }
+                    let r = r * 1.1 + 1e-4;
+                    let best = views.iter().map(|&v| angle(v, c)).fold(f32::INFINITY, f32::min);
+                    let start = candidates.len() as u32;
+                    candidates.extend(
+                        views
+                            .iter()
+                            .enumerate()
+                            .filter(|(_, v)| angle(**v, c) <= best + 2.0 * r)
+                            .map(|(i, _)| i as u32),
+                    );
+                    cells.push((start, candidates.len() as u32));
+                }
+            }
+        }
+        Self {
+            views,
+            n,
+            cells,
+            candidates,
+        }
+    }
+
+    /// The index of the view nearest to `dir` (as [`nearest`]); `None` only without views.
+    pub fn nearest(&self, dir: Vec3) -> Option<usize> {
+        if self.views.is_empty() {
+            return None;
+        }
+        let (ax, ay, az) = (dir.x.abs(), dir.y.abs(), dir.z.abs());
+        let (face, m, u, v) = if ax >= ay && ax >= az {
+            (if dir.x >= 0.0 { 0 } else { 1 }, ax, dir.z, dir.y)
+        } else if ay >= az {
+            (if dir.y >= 0.0 { 2 } else { 3 }, ay, dir.x, dir.z)
+        } else {
+            (if dir.z >= 0.0 { 4 } else { 5 }, az, dir.x, dir.y)
+        };
+        if !(m > 0.0) {
+            return Some(0);
+        }
+        let n = self.n as f32;
+        let cell = |x: f32| (((x / m + 1.0) * 0.5 * n) as usize).min(self.n - 1);
+        let (lo, hi) = self.cells[(face * self.n + cell(v)) * self.n + cell(u)];
+        let mut best = (f32::NEG_INFINITY, 0usize);
+        for &k in &self.candidates[lo as usize..hi as usize] {
+            let d = self.views[k as usize].dot(dir);
+            if d > best.0 {
+                best = (d, k as usize);
+            }
+        }
+        Some(best.1)
+    }
+
+    /// Mean number of views a query checks (for the benchmark's notes).
+    pub fn mean_candidates(&self) -> f32 {
+        self.candidates.len() as f32 / self.cells.len().max(1) as f32
+    }
+}
+
+fn angle(a: Vec3, b: Vec3) -> f32 {
+    a.dot(b).clamp(-1.0, 1.0).acos()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_lookup_table_agrees_with_the_linear_search() {
+        for (count, coverage) in [
+            (137, Coverage::UpperHemisphere),
+            (24, Coverage::UpperHemisphere),
+            (300, Coverage::FullSphere),
+            (1, Coverage::FullSphere),
+        ] {
+            let views = directions(count, coverage);
+            let table = ViewLookup::new(&views);
+            let mut rng = crate::crowd::rng::Rng::new(count as u64);
+            for _ in 0..20_000 {
+                let d = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+                let (a, b) = (nearest(&views, d).unwrap(), table.nearest(d).unwrap());
+                // Equal up to ties: the same dot product.
+                let dn = d.normalize_or_zero();
+                assert!(
+                    (views[a].dot(dn) - views[b].dot(dn)).abs() < 1e-6,
+                    "{count} views, {d}: {a} vs {b}"
+                );
+            }
+            // The views themselves and the poles.
+            for (i, v) in views.iter().enumerate() {
+                assert_eq!(table.nearest(*v), Some(i));
+            }
+            for d in [Vec3::Y, -Vec3::Y, Vec3::X, -Vec3::Z] {
+                let (a, b) = (nearest(&views, d).unwrap(), table.nearest(d).unwrap());
+                assert!((views[a].dot(d) - views[b].dot(d)).abs() < 1e-6);
+            }
+            eprintln!("{count} views: {} candidates per cell", table.mean_candidates());
+            assert!(table.mean_candidates() < 6.0, "{}", table.mean_candidates());
+        }
+        assert_eq!(ViewLookup::new(&[]).nearest(Vec3::X), None);
+    }
 
     #[test]
     fn hemisphere_points_are_unit_above_horizon_and_deterministic() {

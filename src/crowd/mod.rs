@@ -1,0 +1,322 @@
+//! The crowd at run time, on the CPU: agents wandering on a ground plane without collisions
+//! (an occupancy grid, as in the NP3D paper), frustum culling, the level of detail of each
+//! visible character from its pixel-to-texel ratio (with hysteresis so it does not pop), the
+//! view it is seen from and its animation frame, written as compact per-instance records for
+//! the GPU renderers. Everything here is deterministic from a seed and allocation-free per
+//! frame once warm.
+
+pub mod frustum;
+pub mod grid;
+pub mod lod;
+pub mod rng;
+
+use std::time::Instant;
+
+use glam::{Mat4, Vec2, Vec3};
+
+use crate::bake::viewpoints::ViewLookup;
+use frustum::Frustum;
+use grid::OccupancyGrid;
+use lod::{Level, LodPolicy};
+use rng::Rng;
+
+/// How a crowd is laid out and moves.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CrowdParams {
+    pub count: usize,
+    /// Agents per square metre of ground. Default value: 0.25.
+    pub density: f32,
+    /// Closest two agents may come (metres; also the occupancy cell size). Default value: 0.8.
+    pub min_distance: f32,
+    /// Walking speed range (m/s). Default value: 0.9..1.5.
+    pub speed: (f32, f32),
+    /// Random heading change (rad/s, the spread of a random walk). Default value: 1.0.
+    pub wander: f32,
+    /// Character height (metres) for culling and level of detail. Default value: 1.8.
+    pub height: f32,
+    pub seed: u64,
+}
+
+impl Default for CrowdParams {
+    fn default() -> Self {
+        Self {
+            count: 1000,
+            density: 0.25,
+            min_distance: 0.8,
+            speed: (0.9, 1.5),
+            wander: 1.0,
+            height: 1.8,
+            seed: 1,
+        }
+    }
+}
+
+/// Agents, one entry per agent in each vector (structure of arrays: the per-frame passes
+/// touch only what they need).
+#[derive(Clone, Debug, Default)]
+pub struct Agents {
+    /// Position on the ground (x, z).
+    pub pos: Vec<Vec2>,
+    /// Facing as a unit vector `(sin h, cos h)` for the heading `h` about +Y (0 faces +Z).
+    pub facing: Vec<Vec2>,
+    pub speed: Vec<f32>,
+    /// Animation clock (seconds into the clip, before wrapping).
+    pub clock: Vec<f32>,
+    /// Animation rate (1 = the clip's own speed).
+    pub rate: Vec<f32>,
+    /// Appearance variation seed (the renderers derive per-part tints from it).
+    pub variant: Vec<u32>,
+    /// Level chosen last frame (for hysteresis).
+    pub level: Vec<Level>,
+}
+
+/// One visible character, as the GPU renderers read it (32 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Instance {
+    /// Position on the ground (x, z).
+    pub pos: [f32; 2],
+    /// `(sin h, cos h)` of the heading `h` about +Y.
+    pub facing: [f32; 2],
+    /// Viewpoint index (image-based representations).
+    pub view: u32,
+    /// Animation frame and the blend towards the next one.
+    pub frame: u32,
+    pub blend: f32,
+    pub variant: u32,
+}
+
+/// What the camera sees this frame: where, how big a pixel is.
+#[derive(Clone, Copy, Debug)]
+pub struct CrowdCamera {
+    pub eye: Vec3,
+    pub clip_from_world: Mat4,
+    /// Viewport height in pixels divided by `2·tan(fov_y / 2)`: a thing of height `h` at
+    /// distance `d` covers `h · focal_px / d` pixels.
+    pub focal_px: f32,
+}
+
+/// The animation the instances index into.
+#[derive(Clone, Copy, Debug)]
+pub struct ClipTiming {
+    pub frames: usize,
+    pub fps: f32,
+}
+
+/// CPU seconds of each per-frame pass, and what came out.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FrameStats {
+    pub simulate_secs: f64,
+    /// Culling, level of detail, view and frame choice, instance records.
+    pub select_secs: f64,
+    pub visible: usize,
+    pub per_level: [usize; Level::COUNT],
+}
+
+impl FrameStats {
+    pub fn cpu_secs(&self) -> f64 {
+        self.simulate_secs + self.select_secs
+    }
+}
+
+pub struct Crowd {
+    pub params: CrowdParams,
+    /// Half the side of the square ground the agents walk on (centred on the origin).
+    pub half_extent: f32,
+    pub agents: Agents,
+    grid: OccupancyGrid,
+    /// Each agent's grid cell.
+    cell_of: Vec<u32>,
+    rng: Rng,
+    paused: bool,
+    /// Instances per level, rebuilt by [`Crowd::select`].
+    pub instances: [Vec<Instance>; Level::COUNT],
+}
+
+impl Crowd {
+    pub fn new(params: CrowdParams) -> Self {
+        let c = params.min_distance.max(0.05);
+        // The ground holds `count / density` square metres, and at least twice as many cells
+        // as agents so everyone can move.
+        let area = (params.count as f32 / params.density.max(1e-3)).max(2.0 * params.count as f32 * c * c);
+        let dim = ((area.sqrt() / c).ceil() as usize).max(2);
+        let half_extent = 0.5 * dim as f32 * c;
+        let mut grid = OccupancyGrid::new(dim, c, half_extent);
+        let mut rng = Rng::new(params.seed);
+        // Distinct random cells (partial Fisher–Yates), agents at their centres: neighbours
+        // are exactly one cell apart, so the minimum distance holds from the start.
+        let mut cells: Vec<u32> = (0..(dim * dim) as u32).collect();
+        let count = params.count.min(cells.len());
+        for i in 0..count {
+            let j = i + rng.below(cells.len() - i);
+            cells.swap(i, j);
+        }
+        // Agents numbered row by row: neighbours on the ground are near in memory, which
+        // keeps the per-frame passes in cache.
+        cells.truncate(count);
+        cells.sort_unstable();
+        let mut agents = Agents::default();
+        let mut cell_of = Vec::with_capacity(count);
+        for (i, &k) in cells.iter().enumerate() {
+            let cell = grid.inner(k as usize);
+            cell_of.push(cell as u32);
+            let pos = grid.centre(cell);
+            grid.set(cell, i as u32);
+            agents.pos.push(pos);
+            let (s, c) = rng.range(0.0, std::f32::consts::TAU).sin_cos();
+            agents.facing.push(Vec2::new(s, c));
+            agents.speed.push(rng.range(params.speed.0, params.speed.1.max(params.speed.0)));
+            agents.clock.push(rng.range(0.0, 10.0));
+            agents.rate.push(rng.range(0.85, 1.15));
+            agents.variant.push(rng.next_u64() as u32);
+            agents.level.push(Level::Polypostor);
+        }
+        Self {
+            params,
+            half_extent,
+            agents,
+            grid,
+            cell_of,
+            rng,
+            paused: false,
+            instances: Default::default(),
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.agents.pos.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.agents.pos.is_empty()
+    }
+
+    pub fn set_paused(&mut self, paused: bool) {
+        self.paused = paused;
+    }
+
+    pub fn paused(&self) -> bool {
+        self.paused
+    }
+
+    /// Advances every agent by `dt` seconds: a random walk in heading; a step is taken only
+    /// if it stays on the ground, lands in a free cell (or the agent's own) and keeps
+    /// `min_distance` from everyone in the 3×3 cells around; otherwise the agent turns away
+    /// and waits. Paused crowds do not move.
+    pub fn simulate(&mut self, dt: f32) {
+        if self.paused || dt <= 0.0 {
+            return;
+        }
+        let dt = dt.min(0.25);
+        let min2 = self.grid.cell * self.grid.cell;
+        let limit = self.half_extent - 0.5 * self.grid.cell;
+        let spread = self.params.wander * dt.sqrt();
+        let a = &mut self.agents;
+        for i in 0..a.pos.len() {
+            // Turn by a small random angle (a rotation with the small-angle sine and cosine,
+            // then one Newton step back to unit length: no trigonometry per agent).
+            let t = spread * self.rng.range(-1.0, 1.0);
+            let (s, c) = (t - t * t * t / 6.0, 1.0 - 0.5 * t * t);
+            let d = a.facing[i];
+            let d = Vec2::new(d.x * c + d.y * s, d.y * c - d.x * s);
+            let d = d * (1.5 - 0.5 * d.length_squared());
+            let to = a.pos[i] + d * (a.speed[i] * dt);
+            let from_cell = self.cell_of[i] as usize;
+            let cell = self.grid.cell_of(to);
+            let ok = to.x.abs() < limit
+                && to.y.abs() < limit
+                && (cell == from_cell || self.grid.get(cell).is_none())
+                && !self.grid.crowded(cell, to, min2, i as u32, &a.pos);
+            if ok {
+                if cell != from_cell {
+                    self.grid.clear(from_cell);
+                    self.grid.set(cell, i as u32);
+                    self.cell_of[i] = cell as u32;
+                }
+                a.pos[i] = to;
+                a.facing[i] = d;
+                a.clock[i] += dt * a.rate[i] * a.speed[i] / 1.2;
+            } else {
+                // Turn away (a quarter to a half turn, either side) and try again next frame.
+                let turn = self.rng.range(0.5, 1.0) * std::f32::consts::PI;
+                let (s, c) = (if self.rng.unit() < 0.5 { turn } else { -turn }).sin_cos();
+                a.facing[i] = Vec2::new(d.x * c + d.y * s, d.y * c - d.x * s).normalize_or(Vec2::Y);
+            }
+        }
+    }
+
+    /// Culls, chooses each visible character's level, view and frame, and rebuilds
+    /// [`Crowd::instances`]. `views`: the baked viewpoints (directions from the character
+    /// towards the camera, in the character's frame).
+    pub fn select(&mut self, camera: &CrowdCamera, policy: &LodPolicy, views: &ViewLookup, clip: ClipTiming) -> FrameStats {
+        for list in &mut self.instances {
+            list.clear();
+        }
+        let frustum = Frustum::from_clip_from_world(&camera.clip_from_world);
+        let h = self.params.height;
+        let radius = 0.5 * h + 0.5 * self.params.min_distance;
+        let frames = clip.frames.max(1);
+        let mut stats = FrameStats::default();
+        let a = &mut self.agents;
+        for i in 0..a.pos.len() {
+            let p = a.pos[i];
+            let centre = Vec3::new(p.x, 0.5 * h, p.y);
+            if !frustum.sphere_visible(centre, radius) {
+                continue;
+            }
+            let to_eye = camera.eye - centre;
+            let distance = to_eye.length().max(1e-3);
+            let pixels = h * camera.focal_px / distance;
+            let level = policy.choose(pixels, a.level[i]);
+            a.level[i] = level;
+            // The camera direction in the character's own frame (undo its heading).
+            let Vec2 { x: s, y: c } = a.facing[i];
+            let local = Vec3::new(c * to_eye.x - s * to_eye.z, to_eye.y, s * to_eye.x + c * to_eye.z);
+            let view = views.nearest(local).unwrap_or(0) as u32;
+            // Clocks start non-negative and only grow; wrap them every 64 loops so the
+            // blend keeps its precision however long the crowd runs.
+            let mut t = a.clock[i] * clip.fps;
+            let wrap = 64.0 * frames as f32;
+            if t >= wrap && clip.fps > 0.0 {
+                a.clock[i] %= wrap / clip.fps;
+                t = a.clock[i] * clip.fps;
+            }
+            let whole = t as u32;
+            let frame = whole % frames as u32;
+            self.instances[level as usize].push(Instance {
+                pos: [p.x, p.y],
+                facing: [s, c],
+                view,
+                frame,
+                blend: t - whole as f32,
+                variant: a.variant[i],
+            });
+        }
+        stats.visible = self.instances.iter().map(Vec::len).sum();
+        for (n, list) in stats.per_level.iter_mut().zip(&self.instances) {
+            *n = list.len();
+        }
+        stats
+    }
+
+    /// One frame: simulate then select, timed.
+    pub fn frame(
+        &mut self,
+        dt: f32,
+        camera: &CrowdCamera,
+        policy: &LodPolicy,
+        views: &ViewLookup,
+        clip: ClipTiming,
+    ) -> FrameStats {
+        let t0 = Instant::now();
+        self.simulate(dt);
+        let t1 = Instant::now();
+        let mut stats = self.select(camera, policy, views, clip);
+        stats.simulate_secs = (t1 - t0).as_secs_f64();
+        stats.select_secs = t1.elapsed().as_secs_f64();
+        stats
+    }
+}
+
+#[cfg(test)]
+mod tests;

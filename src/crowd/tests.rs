@@ -1,0 +1,221 @@
+use super::*;
+use lod::LodDistances;
+use crate::bake::viewpoints::{Coverage, directions};
+use crate::gpu::{Camera, Projection};
+
+fn camera(eye: Vec3, target: Vec3, w: f32, h: f32) -> CrowdCamera {
+    let fov = 50f32.to_radians();
+    let cam = Camera {
+        eye,
+        target,
+        up: Vec3::Y,
+        projection: Projection::Perspective { fov_y_rad: fov },
+        near: 0.1,
+        far: 2000.0,
+    };
+    CrowdCamera {
+        eye,
+        clip_from_world: cam.clip_from_world(w / h),
+        focal_px: h / (2.0 * (fov / 2.0).tan()),
+    }
+}
+
+/// Brute force over all pairs.
+fn closest_pair(pos: &[Vec2]) -> f32 {
+    let mut best = f32::INFINITY;
+    for i in 0..pos.len() {
+        for j in i + 1..pos.len() {
+            best = best.min(pos[i].distance(pos[j]));
+        }
+    }
+    best
+}
+
+#[test]
+fn agents_never_come_closer_than_the_minimum_distance_and_stay_on_the_ground() {
+    let params = CrowdParams {
+        count: 600,
+        density: 1.0, // crowded, so they bump into each other often
+        seed: 11,
+        ..Default::default()
+    };
+    let mut crowd = Crowd::new(params.clone());
+    assert_eq!(crowd.len(), 600);
+    let start = crowd.agents.pos.clone();
+    for step in 0..300 {
+        crowd.simulate(1.0 / 30.0);
+        if step % 50 == 0 || step == 299 {
+            let d = closest_pair(&crowd.agents.pos);
+            assert!(d >= params.min_distance * (1.0 - 1e-5), "step {step}: {d}");
+        }
+    }
+    assert!(
+        crowd
+            .agents
+            .pos
+            .iter()
+            .all(|p| p.x.abs() < crowd.half_extent && p.y.abs() < crowd.half_extent)
+    );
+    // They do walk: most moved well away from where they started.
+    let moved = start
+        .iter()
+        .zip(&crowd.agents.pos)
+        .filter(|(a, b)| a.distance(**b) > 1.0)
+        .count();
+    assert!(moved > 400, "{moved} of 600 moved more than 1 m in 10 s");
+}
+
+#[test]
+fn the_same_seed_gives_the_same_crowd_and_pause_stops_it() {
+    let run = |seed| {
+        let mut c = Crowd::new(CrowdParams {
+            count: 300,
+            seed,
+            ..Default::default()
+        });
+        for _ in 0..50 {
+            c.simulate(0.05);
+        }
+        c
+    };
+    let (a, b, c) = (run(5), run(5), run(6));
+    assert_eq!(a.agents.pos, b.agents.pos);
+    assert_ne!(a.agents.pos, c.agents.pos);
+    let mut p = run(5);
+    p.set_paused(true);
+    let before = p.agents.pos.clone();
+    p.simulate(0.05);
+    assert_eq!(before, p.agents.pos);
+}
+
+#[test]
+fn culling_keeps_what_the_camera_sees_and_drops_what_is_behind_it() {
+    let mut crowd = Crowd::new(CrowdParams {
+        count: 2000,
+        seed: 3,
+        ..Default::default()
+    });
+    // Looking along +Z from the middle of one side.
+    let cam = camera(Vec3::new(0.0, 1.7, 0.0), Vec3::new(0.0, 1.7, 10.0), 1600.0, 900.0);
+    let views = ViewLookup::new(&directions(137, Coverage::UpperHemisphere));
+    let clip = ClipTiming { frames: 10, fps: 10.0 };
+    let stats = crowd.select(&cam, &LodPolicy::Only(Level::Polypostor), &views, clip);
+    assert!(stats.visible > 0);
+    let kept: Vec<Vec2> = crowd.instances[Level::Polypostor as usize]
+        .iter()
+        .map(|i| Vec2::new(i.pos[0], i.pos[1]))
+        .collect();
+    // Independent check: project every agent's feet and head; anything whose both project
+    // well inside the image must be kept, anything behind the camera must not be.
+    for p in &crowd.agents.pos {
+        let inside = |y: f32| {
+            let c = cam.clip_from_world * Vec3::new(p.x, y, p.y).extend(1.0);
+            c.w > 0.2 && (c.x / c.w).abs() < 0.9 && (c.y / c.w).abs() < 0.9 && c.z / c.w < 1.0
+        };
+        let is_kept = kept.contains(p);
+        if inside(0.0) && inside(1.8) {
+            assert!(is_kept, "{p} in view but culled");
+        }
+        if p.y < -1.5 {
+            assert!(!is_kept, "{p} behind the camera but kept");
+        }
+    }
+    assert_eq!(stats.per_level.iter().sum::<usize>(), stats.visible);
+}
+
+#[test]
+fn the_view_is_the_camera_direction_in_the_character_frame() {
+    let views = directions(137, Coverage::UpperHemisphere);
+    let lookup = ViewLookup::new(&views);
+    let mut crowd = Crowd::new(CrowdParams {
+        count: 1,
+        ..Default::default()
+    });
+    let p = crowd.agents.pos[0];
+    for heading in [0.0f32, 1.0, 2.5, -2.0] {
+        crowd.agents.facing[0] = Vec2::new(heading.sin(), heading.cos());
+        // A camera in front of the character (along its facing), a little above it: the
+        // view must be near the front view (+Z in the character's frame).
+        let facing = Vec3::new(heading.sin(), 0.0, heading.cos());
+        let centre = Vec3::new(p.x, 0.9, p.y);
+        let eye = centre + facing * 10.0 + Vec3::Y * 2.0;
+        let cam = camera(eye, centre, 800.0, 600.0);
+        crowd.select(&cam, &LodPolicy::Only(Level::Impostor), &lookup, ClipTiming { frames: 1, fps: 10.0 });
+        let inst = crowd.instances[Level::Impostor as usize][0];
+        let want = crate::bake::viewpoints::nearest(&views, Vec3::new(0.0, 2.0, 10.0)).unwrap();
+        assert_eq!(inst.view as usize, want, "heading {heading}");
+    }
+}
+
+#[test]
+fn levels_follow_the_distance_and_hysteresis_stops_popping() {
+    let d = LodDistances::default();
+    let policy = LodPolicy::Mixed(d);
+    // Far to near: impostor, polypostor, skinned — never back.
+    let mut prev = Level::Impostor;
+    let mut seen = Vec::new();
+    for k in 0..400 {
+        let pixels = 5.0 + k as f32; // 5 .. 405 px against 128 texels
+        prev = policy.choose(pixels, prev);
+        if seen.last() != Some(&prev) {
+            seen.push(prev);
+        }
+    }
+    assert_eq!(seen, vec![Level::Impostor, Level::Polypostor, Level::Skinned]);
+    // Jitter around the mesh switch point (128 px) inside the band: no change.
+    let mut level = policy.choose(150.0, Level::Polypostor);
+    assert_eq!(level, Level::Skinned);
+    for k in 0..100 {
+        let pixels = 128.0 + if k % 2 == 0 { 6.0 } else { -6.0 };
+        level = policy.choose(pixels, level);
+        assert_eq!(level, Level::Skinned);
+    }
+    // Beyond the band it switches.
+    assert_eq!(policy.choose(100.0, Level::Skinned), Level::Polypostor);
+    // The switch distance matches the ratio.
+    let dist = d.distance_for_ratio(1.0, 1.8, 1000.0);
+    assert!((1.8f32 * 1000.0 / dist - 128.0).abs() < 1e-3);
+    assert_eq!(LodPolicy::Only(Level::Rigid).choose(1e6, Level::Impostor), Level::Rigid);
+}
+
+#[test]
+fn instances_carry_the_animation_frame_and_blend() {
+    let mut crowd = Crowd::new(CrowdParams {
+        count: 50,
+        seed: 9,
+        ..Default::default()
+    });
+    let cam = camera(Vec3::new(0.0, 60.0, -60.0), Vec3::ZERO, 800.0, 600.0);
+    let lookup = ViewLookup::new(&directions(24, Coverage::UpperHemisphere));
+    let clip = ClipTiming { frames: 10, fps: 10.0 };
+    crowd.select(&cam, &LodPolicy::Only(Level::Polypostor), &lookup, clip);
+    let list = &crowd.instances[Level::Polypostor as usize];
+    assert_eq!(list.len(), 50, "all in view from above");
+    for inst in list {
+        assert!(inst.frame < 10 && (0.0..1.0).contains(&inst.blend));
+        let i = crowd.agents.variant.iter().position(|&v| v == inst.variant).unwrap();
+        let t = crowd.agents.clock[i] * 10.0;
+        assert_eq!(inst.frame, (t.floor() as i64).rem_euclid(10) as u32);
+    }
+    assert_eq!(std::mem::size_of::<Instance>(), 32);
+}
+
+#[test]
+fn long_runs_keep_the_frame_in_range_and_the_blend_precise() {
+    let mut crowd = Crowd::new(CrowdParams {
+        count: 10,
+        ..Default::default()
+    });
+    for c in &mut crowd.agents.clock {
+        *c += 1.0e5; // a day of walking
+    }
+    let cam = camera(Vec3::new(0.0, 60.0, -60.0), Vec3::ZERO, 800.0, 600.0);
+    let lookup = ViewLookup::new(&directions(24, Coverage::UpperHemisphere));
+    let clip = ClipTiming { frames: 10, fps: 10.0 };
+    crowd.select(&cam, &LodPolicy::Only(Level::Impostor), &lookup, clip);
+    // Wrapped to within 64 loops of the 1 s clip.
+    assert!(crowd.agents.clock.iter().all(|&c| (0.0..64.0).contains(&c)), "{:?}", crowd.agents.clock);
+    for inst in &crowd.instances[Level::Impostor as usize] {
+        assert!(inst.frame < 10 && (0.0..1.0).contains(&inst.blend));
+    }
+}
