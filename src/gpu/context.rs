@@ -33,6 +33,8 @@ pub enum GpuError {
     Device { adapter: String, message: String },
     #[error("GPU readback failed: {0}")]
     Readback(String),
+    #[error("cannot draw this: {0}")]
+    Unsupported(String),
 }
 
 /// Lower is better: hardware before software, then Vulkan, Metal, DX12, GL.

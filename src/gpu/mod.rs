@@ -13,6 +13,7 @@ mod character_renderer;
 mod context;
 pub mod gpu_data;
 mod part_renderer;
+mod polypostor_renderer;
 mod readback;
 pub mod shaders;
 
@@ -23,4 +24,5 @@ pub use character_renderer::{
 };
 pub use context::{AdapterPreference, GpuContext, GpuError, rank_adapter};
 pub use part_renderer::{PartImages, PartRenderer};
+pub use polypostor_renderer::{GpuPolypostors, PolypostorStyle};
 pub use readback::{DepthImage, read_depth, read_rgba8};

@@ -1,0 +1,144 @@
+// Polypostor crowd: every character of every view in one instanced draw. Vertices are pulled
+// from storage buffers: instance -> view -> its parts in drawing order (one slot of
+// `slot_verts` vertices each, padded with degenerate triangles) -> the part's triangle
+// indices -> positions at two frames, interpolated. Parts later in the view's order are
+// moved slightly towards the camera, so the depth test draws them in front.
+// Keep the structs in sync with `src/gpu/polypostor_renderer.rs`.
+
+struct Frame {
+    clip_from_world: mat4x4<f32>,
+    // xyz: unit direction towards the light (world).
+    light_dir: vec4<f32>,
+    // x: slot_verts, y: parts per view, z: frames, w: depth offset per slot (world units).
+    counts: vec4<f32>,
+    // x: shading (0 unlit, 1 lit), y: ambient, z: tint strength.
+    params: vec4<f32>,
+    // x: first u32 of the index data in `geometry`.
+    bases: vec4<u32>,
+};
+
+struct View {
+    right: vec4<f32>,
+    up: vec4<f32>,
+    // Towards the camera.
+    forward: vec4<f32>,
+    // xyz: centre, w: half size.
+    center: vec4<f32>,
+    // xy: atlas size / largest atlas size (UV scale into the array layer).
+    uv_scale: vec4<f32>,
+};
+
+struct Part {
+    // First u32 of the part's block (each u32 holds one x, y pair of unorm16 values).
+    vertex_word: u32,
+    vertex_count: u32,
+    // First u16 index, and how many.
+    index_offset: u32,
+    index_count: u32,
+};
+
+struct Instance {
+    pos: vec2<f32>,
+    facing: vec2<f32>,
+    view: u32,
+    frame: u32,
+    blend: f32,
+    variant: u32,
+};
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+@group(0) @binding(1) var<storage, read> views: array<View>;
+@group(0) @binding(2) var<storage, read> parts: array<Part>;
+// Vertex data (u32 words, each an x, y pair of unorm16 values), then index data (u32 words,
+// each two u16 indices) from `frame.bases.x` on.
+@group(0) @binding(3) var<storage, read> geometry: array<u32>;
+@group(0) @binding(4) var<storage, read> instances: array<Instance>;
+@group(0) @binding(5) var atlas: texture_2d_array<f32>;
+@group(0) @binding(6) var normals: texture_2d_array<f32>;
+@group(0) @binding(7) var atlas_sampler: sampler;
+
+struct VertexOut {
+    @builtin(position) clip_position: vec4<f32>,
+    @location(0) uv: vec2<f32>,
+    @location(1) @interpolate(flat) layer: u32,
+    @location(2) light_view: vec3<f32>,
+    @location(3) tint: vec3<f32>,
+};
+
+fn index_at(i: u32) -> u32 {
+    let w = geometry[frame.bases.x + i / 2u];
+    return select(w & 0xffffu, w >> 16u, (i & 1u) == 1u);
+}
+
+fn hash(x: u32) -> u32 {
+    var h = x * 747796405u + 2891336453u;
+    h = ((h >> ((h >> 28u) + 4u)) ^ h) * 277803737u;
+    return (h >> 22u) ^ h;
+}
+
+// Rotation about +Y by the heading h, given (sin h, cos h).
+fn turn(p: vec3<f32>, f: vec2<f32>) -> vec3<f32> {
+    return vec3<f32>(f.y * p.x + f.x * p.z, p.y, -f.x * p.x + f.y * p.z);
+}
+
+@vertex
+fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> VertexOut {
+    var out: VertexOut;
+    let inst = instances[ii];
+    let slot_verts = u32(frame.counts.x);
+    let per_view = u32(frame.counts.y);
+    let frames = max(u32(frame.counts.z), 1u);
+    let slot = vi / slot_verts;
+    let k = vi % slot_verts;
+    let part = parts[inst.view * per_view + slot];
+    if (k >= part.index_count) {
+        // Padding: a degenerate triangle, clipped away.
+        out.clip_position = vec4<f32>(0.0, 0.0, 0.0, 0.0);
+        return out;
+    }
+    let local = min(index_at(part.index_offset + k), part.vertex_count - 1u);
+    let vc = part.vertex_count;
+    let f0 = inst.frame % frames;
+    let f1 = (f0 + 1u) % frames;
+    let a = unpack2x16unorm(geometry[part.vertex_word + vc * (1u + f0) + local]) * 2.0 - 1.0;
+    let b = unpack2x16unorm(geometry[part.vertex_word + vc * (1u + f1) + local]) * 2.0 - 1.0;
+    let xy = mix(a, b, clamp(inst.blend, 0.0, 1.0));
+    let view = views[inst.view];
+    let model = view.center.xyz
+        + (xy.x * view.right.xyz + xy.y * view.up.xyz) * view.center.w
+        + view.forward.xyz * (f32(slot) * frame.counts.w);
+    let world = turn(model, inst.facing) + vec3<f32>(inst.pos.x, 0.0, inst.pos.y);
+    out.clip_position = frame.clip_from_world * vec4<f32>(world, 1.0);
+    out.uv = unpack2x16unorm(geometry[part.vertex_word + local]) * view.uv_scale.xy;
+    out.layer = inst.view;
+    // The light in the view's camera frame (the normal atlas is in that frame).
+    let l = turn(frame.light_dir.xyz, vec2<f32>(-inst.facing.x, inst.facing.y));
+    out.light_view = vec3<f32>(dot(l, view.right.xyz), dot(l, view.up.xyz), dot(l, view.forward.xyz));
+    // Per-part tint from the instance's variant.
+    let h = hash(inst.variant ^ (slot * 0x9e3779b9u));
+    let t = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0;
+    out.tint = mix(vec3<f32>(1.0), 0.6 + 0.8 * t, frame.params.z);
+    return out;
+}
+
+struct FragmentOut {
+    @location(0) color: vec4<f32>,
+    @location(1) normal: vec4<f32>,
+};
+
+@fragment
+fn fs_main(in: VertexOut) -> FragmentOut {
+    let albedo = textureSample(atlas, atlas_sampler, in.uv, in.layer);
+    if (albedo.a < 0.5) {
+        discard;
+    }
+    let n = normalize(textureSample(normals, atlas_sampler, in.uv, in.layer).xyz * 2.0 - vec3<f32>(1.0));
+    let ambient = frame.params.y;
+    let diffuse = max(dot(n, normalize(in.light_view)), 0.0);
+    let base = albedo.rgb * in.tint;
+    let lit = base * (ambient + (1.0 - ambient) * diffuse);
+    var out: FragmentOut;
+    out.color = vec4<f32>(mix(base, lit, frame.params.x), 1.0);
+    out.normal = vec4<f32>(n * 0.5 + vec3<f32>(0.5), 1.0);
+    return out;
+}

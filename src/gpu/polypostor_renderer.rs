@@ -1,0 +1,508 @@
+//! The Polypostor crowd renderer: every character drawn from a pack in one instanced draw
+//! (`shaders/polypostor.wgsl`). Per instance: position, facing, view, frame and blend, variant
+//! ([`crate::crowd::Instance`]). The pack's geometry stays in its 16-bit form on the GPU; the
+//! views' atlases are layers of one texture array.
+
+use wgpu::util::DeviceExt;
+
+use super::{COLOR_FORMAT, DEPTH_FORMAT, GpuError, NORMAL_FORMAT, RenderTarget, shaders};
+use crate::crowd::Instance;
+use crate::pack::LoadedPack;
+
+/// Per-frame settings of the draw (keep in sync with `Frame` in the shader).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct FrameUniform {
+    clip_from_world: [[f32; 4]; 4],
+    light_dir: [f32; 4],
+    counts: [f32; 4],
+    params: [f32; 4],
+    bases: [u32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct ViewGpu {
+    right: [f32; 4],
+    up: [f32; 4],
+    forward: [f32; 4],
+    center: [f32; 4],
+    uv_scale: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct PartGpu {
+    vertex_word: u32,
+    vertex_count: u32,
+    index_offset: u32,
+    index_count: u32,
+}
+
+/// How a frame of polypostors is drawn.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PolypostorStyle {
+    /// Lit with the normal atlas (false: the atlas colour as it is).
+    pub lit: bool,
+    pub ambient: f32,
+    /// Per-part colour variation per instance, 0 (none) to 1.
+    pub tint: f32,
+    /// Unit direction towards the light, world space.
+    pub light_dir: glam::Vec3,
+}
+
+impl Default for PolypostorStyle {
+    fn default() -> Self {
+        Self {
+            lit: true,
+            ambient: 0.35,
+            tint: 0.5,
+            light_dir: glam::Vec3::new(0.4, 0.8, 0.45).normalize(),
+        }
+    }
+}
+
+/// A pack on the GPU, ready to draw any number of instances.
+pub struct GpuPolypostors {
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    frame: wgpu::Buffer,
+    views: wgpu::Buffer,
+    parts: wgpu::Buffer,
+    geometry: wgpu::Buffer,
+    instances: wgpu::Buffer,
+    instance_capacity: usize,
+    atlas_view: wgpu::TextureView,
+    normal_view: wgpu::TextureView,
+    sampler: wgpu::Sampler,
+    bind_group: wgpu::BindGroup,
+    slot_verts: u32,
+    parts_per_view: u32,
+    frames: u32,
+    index_base: u32,
+    view_count: u32,
+    /// Bytes of GPU memory this pack holds (buffers and textures, instances excluded).
+    pub gpu_bytes: u64,
+    /// Depth offset between consecutive parts (world units).
+    pub depth_step: f32,
+}
+
+impl GpuPolypostors {
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, pack: &LoadedPack) -> Result<Self, GpuError> {
+        let m = &pack.manifest;
+        let parts_per_view = m.parts.len().max(1) as u32;
+        let view_count = m.views.len() as u32;
+        if view_count == 0 {
+            return Err(GpuError::Unsupported("the pack has no views".into()));
+        }
+        let limits = device.limits();
+        if view_count > limits.max_texture_array_layers {
+            return Err(GpuError::Unsupported(format!(
+                "the pack has {view_count} views; this GPU holds at most {} atlas layers",
+                limits.max_texture_array_layers
+            )));
+        }
+        // Geometry: vertex values as they are (pairs of u16 = one u32), then the indices.
+        let quantised: Vec<u16> = pack.vertices.iter().map(|&x| (x * 65535.0).round() as u16).collect();
+        let mut geometry: Vec<u32> = quantised
+            .chunks(2)
+            .map(|c| c[0] as u32 | (c.get(1).copied().unwrap_or(0) as u32) << 16)
+            .collect();
+        let index_base = geometry.len() as u32;
+        geometry.extend(
+            pack.indices
+                .chunks(2)
+                .map(|c| c[0] as u32 | (c.get(1).copied().unwrap_or(0) as u32) << 16),
+        );
+        geometry.push(0);
+        let mut max_w = 1u32;
+        let mut max_h = 1u32;
+        for v in &m.views {
+            max_w = max_w.max(v.atlas_size[0]);
+            max_h = max_h.max(v.atlas_size[1]);
+        }
+        if let Some(v) = m.views.iter().position(|v| v.parts.iter().flatten().any(|p| p.vertex_offset % 2 != 0)) {
+            return Err(GpuError::Unsupported(format!(
+                "view {v} has a part whose vertex block starts at an odd value (packs written by this tool never do)"
+            )));
+        }
+        let mut views = Vec::with_capacity(m.views.len());
+        let mut parts = Vec::with_capacity(m.views.len() * parts_per_view as usize);
+        let mut slot_verts = 3u32;
+        for v in &m.views {
+            let c = &v.camera;
+            let four = |a: [f32; 3], w: f32| [a[0], a[1], a[2], w];
+            views.push(ViewGpu {
+                right: four(c.right, 0.0),
+                up: four(c.up, 0.0),
+                forward: four(c.forward, 0.0),
+                center: four(c.center, c.half_size),
+                uv_scale: [
+                    v.atlas_size[0] as f32 / max_w as f32,
+                    v.atlas_size[1] as f32 / max_h as f32,
+                    0.0,
+                    0.0,
+                ],
+            });
+            for s in 0..parts_per_view as usize {
+                let record = v
+                    .order
+                    .get(s)
+                    .and_then(|&p| v.parts.get(p as usize))
+                    .and_then(|p| p.as_ref())
+                    .map_or(PartGpu::zeroed(), |p| PartGpu {
+                        vertex_word: (p.vertex_offset / 2) as u32,
+                        vertex_count: p.vertex_count.max(1),
+                        index_offset: p.index_offset as u32,
+                        index_count: p.index_count,
+                    });
+                slot_verts = slot_verts.max(record.index_count.div_ceil(3) * 3);
+                parts.push(record);
+            }
+        }
+        let storage = |label, bytes: &[u8]| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytes,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        let views_buf = storage("polypostor views", bytemuck::cast_slice(&views));
+        let parts_buf = storage("polypostor parts", bytemuck::cast_slice(&parts));
+        let geometry_buf = storage("polypostor geometry", bytemuck::cast_slice(&geometry));
+        let array = |label, w: u32, h: u32, format| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width: w,
+                    height: h,
+                    depth_or_array_layers: view_count,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            })
+        };
+        let (nw, nh) = ((max_w / 2).max(1), (max_h / 2).max(1));
+        let atlas = array("polypostor atlases", max_w, max_h, wgpu::TextureFormat::Rgba8UnormSrgb);
+        let normals = array("polypostor normal atlases", nw, nh, wgpu::TextureFormat::Rgba8Unorm);
+        for (layer, view) in pack.views.iter().enumerate() {
+            for (texture, img) in [(&atlas, &view.atlas), (&normals, &view.normals)] {
+                if img.width() == 0 || img.height() == 0 {
+                    continue;
+                }
+                queue.write_texture(
+                    wgpu::TexelCopyTextureInfo {
+                        texture,
+                        mip_level: 0,
+                        origin: wgpu::Origin3d {
+                            x: 0,
+                            y: 0,
+                            z: layer as u32,
+                        },
+                        aspect: wgpu::TextureAspect::All,
+                    },
+                    img.as_raw(),
+                    wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(4 * img.width()),
+                        rows_per_image: Some(img.height()),
+                    },
+                    wgpu::Extent3d {
+                        width: img.width(),
+                        height: img.height(),
+                        depth_or_array_layers: 1,
+                    },
+                );
+            }
+        }
+        let gpu_bytes = (views.len() * std::mem::size_of::<ViewGpu>()
+            + parts.len() * std::mem::size_of::<PartGpu>()
+            + geometry.len() * 4) as u64
+            + 4 * view_count as u64 * (max_w as u64 * max_h as u64 + nw as u64 * nh as u64);
+        let frame = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("polypostor frame"),
+            size: std::mem::size_of::<FrameUniform>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let storage_entry = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::VERTEX,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: true },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let texture_entry = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                view_dimension: wgpu::TextureViewDimension::D2Array,
+                multisampled: false,
+            },
+            count: None,
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("polypostor"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                storage_entry(1),
+                storage_entry(2),
+                storage_entry(3),
+                storage_entry(4),
+                texture_entry(5),
+                texture_entry(6),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 7,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("polypostor"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("polypostor.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(shaders::POLYPOSTOR.into()),
+        });
+        let targets = [
+            Some(wgpu::ColorTargetState {
+                format: COLOR_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+            Some(wgpu::ColorTargetState {
+                format: NORMAL_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+        ];
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("polypostor"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                buffers: &[],
+                compilation_options: Default::default(),
+            },
+            primitive: wgpu::PrimitiveState {
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                targets: &targets,
+                compilation_options: Default::default(),
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("polypostor atlas"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let atlas_view = atlas.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let normal_view = normals.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let instance_capacity = 1024;
+        let instances = Self::instance_buffer(device, instance_capacity);
+        let bind_group = Self::bind(
+            device,
+            &layout,
+            [&frame, &views_buf, &parts_buf, &geometry_buf, &instances],
+            &atlas_view,
+            &normal_view,
+            &sampler,
+        );
+        // A thousandth of the character's framing per part: far below what the eye sees,
+        // far above depth precision at crowd distances.
+        let depth_step = m.views.iter().map(|v| v.camera.half_size).fold(0.0f32, f32::max) * 2e-3;
+        Ok(Self {
+            pipeline,
+            layout,
+            frame,
+            views: views_buf,
+            parts: parts_buf,
+            geometry: geometry_buf,
+            instances,
+            instance_capacity,
+            atlas_view,
+            normal_view,
+            sampler,
+            bind_group,
+            slot_verts,
+            parts_per_view,
+            frames: m.frames.max(1),
+            index_base,
+            view_count,
+            gpu_bytes,
+            depth_step,
+        })
+    }
+
+    fn instance_buffer(device: &wgpu::Device, capacity: usize) -> wgpu::Buffer {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("polypostor instances"),
+            size: (capacity.max(1) * std::mem::size_of::<Instance>()) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    fn bind(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        buffers: [&wgpu::Buffer; 5],
+        atlas: &wgpu::TextureView,
+        normals: &wgpu::TextureView,
+        sampler: &wgpu::Sampler,
+    ) -> wgpu::BindGroup {
+        let mut entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        entries.push(wgpu::BindGroupEntry {
+            binding: 5,
+            resource: wgpu::BindingResource::TextureView(atlas),
+        });
+        entries.push(wgpu::BindGroupEntry {
+            binding: 6,
+            resource: wgpu::BindingResource::TextureView(normals),
+        });
+        entries.push(wgpu::BindGroupEntry {
+            binding: 7,
+            resource: wgpu::BindingResource::Sampler(sampler),
+        });
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("polypostor"),
+            layout,
+            entries: &entries,
+        })
+    }
+
+    /// Views in the pack.
+    pub fn view_count(&self) -> usize {
+        self.view_count as usize
+    }
+
+    /// Uploads this frame's instances (views out of range are clamped by the caller's
+    /// [`crate::crowd::Crowd::select`], which only produces pack views) and settings.
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        clip_from_world: glam::Mat4,
+        style: &PolypostorStyle,
+        instances: &[Instance],
+    ) {
+        if instances.len() > self.instance_capacity {
+            self.instance_capacity = instances.len().next_power_of_two();
+            self.instances = Self::instance_buffer(device, self.instance_capacity);
+            self.bind_group = Self::bind(
+                device,
+                &self.layout,
+                [&self.frame, &self.views, &self.parts, &self.geometry, &self.instances],
+                &self.atlas_view,
+                &self.normal_view,
+                &self.sampler,
+            );
+        }
+        // Never let an instance index past the pack: clamp views and wrap frames here too.
+        let safe: Vec<Instance> = instances
+            .iter()
+            .map(|i| Instance {
+                view: i.view.min(self.view_count - 1),
+                frame: i.frame % self.frames,
+                ..*i
+            })
+            .collect();
+        queue.write_buffer(&self.instances, 0, bytemuck::cast_slice(&safe));
+        let l = style.light_dir.normalize_or(glam::Vec3::Y);
+        let uniform = FrameUniform {
+            clip_from_world: clip_from_world.to_cols_array_2d(),
+            light_dir: [l.x, l.y, l.z, 0.0],
+            counts: [
+                self.slot_verts as f32,
+                self.parts_per_view as f32,
+                self.frames as f32,
+                self.depth_step,
+            ],
+            params: [if style.lit { 1.0 } else { 0.0 }, style.ambient, style.tint, 0.0],
+            bases: [self.index_base, 0, 0, 0],
+        };
+        queue.write_buffer(&self.frame, 0, bytemuck::bytes_of(&uniform));
+    }
+
+    /// Draws `count` instances (uploaded by [`GpuPolypostors::prepare`]): one draw call.
+    pub fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, count: usize) {
+        if count == 0 {
+            return;
+        }
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.draw(0..self.slot_verts * self.parts_per_view, 0..count as u32);
+    }
+
+    /// Renders instances into `target` (cleared first), for tests and offscreen benchmarks.
+    pub fn render(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        target: &RenderTarget,
+        clip_from_world: glam::Mat4,
+        style: &PolypostorStyle,
+        instances: &[Instance],
+    ) -> Result<(), GpuError> {
+        self.prepare(device, queue, clip_from_world, style, instances);
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = target.begin_pass(&mut encoder, "polypostors", wgpu::Color::TRANSPARENT);
+            self.draw(&mut pass, instances.len());
+        }
+        queue.submit([encoder.finish()]);
+        Ok(())
+    }
+}
+
+use bytemuck::Zeroable;
