@@ -78,7 +78,7 @@ pub struct Instance {
     pub pos: [f32; 2],
     /// `(sin h, cos h)` of the heading `h` about +Y.
     pub facing: [f32; 2],
-    /// Viewpoint index (image-based representations).
+    /// Viewpoint index (image-based representations; 0 for meshes).
     pub view: u32,
     /// Animation frame and the blend towards the next one.
     pub frame: u32,
@@ -272,7 +272,11 @@ impl Crowd {
             // The camera direction in the character's own frame (undo its heading).
             let Vec2 { x: s, y: c } = a.facing[i];
             let local = Vec3::new(c * to_eye.x - s * to_eye.z, to_eye.y, s * to_eye.x + c * to_eye.z);
-            let view = views.nearest(local).unwrap_or(0) as u32;
+            // Meshes need no view.
+            let view = match level {
+                Level::Skinned | Level::Rigid => 0,
+                _ => views.nearest(local).unwrap_or(0) as u32,
+            };
             // Clocks start non-negative and only grow; wrap them every 64 loops so the
             // blend keeps its precision however long the crowd runs.
             let mut t = a.clock[i] * clip.fps;

@@ -457,7 +457,9 @@ impl GpuPolypostors {
                 ..*i
             })
             .collect();
-        queue.write_buffer(&self.instances, 0, bytemuck::cast_slice(&safe));
+        if !safe.is_empty() {
+            queue.write_buffer(&self.instances, 0, bytemuck::cast_slice(&safe));
+        }
         let l = style.light_dir.normalize_or(glam::Vec3::Y);
         let uniform = FrameUniform {
             clip_from_world: clip_from_world.to_cols_array_2d(),
