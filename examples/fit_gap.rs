@@ -25,7 +25,11 @@ fn main() {
     } else {
         polypostor::import_path(std::path::Path::new(&input)).unwrap()
     };
-    let label = std::path::Path::new(&input).file_stem().unwrap().to_string_lossy().to_string();
+    let label = std::path::Path::new(&input)
+        .file_stem()
+        .unwrap()
+        .to_string_lossy()
+        .to_string();
     let cache = format!("/tmp/fitgap_{label}_{views_n}_{stride}_{key}.json");
     let mut exact: BTreeMap<String, Vec<f64>> = std::fs::read_to_string(&cache)
         .ok()
@@ -44,7 +48,9 @@ fn main() {
     let frames = times.len();
     let mut jobs = Vec::new();
     for v in (0..views_n).step_by(stride) {
-        let img = batch.render_view(&renderer, &ctx.device, &ctx.queue, &cameras[v]).unwrap();
+        let img = batch
+            .render_view(&renderer, &ctx.device, &ctx.queue, &cameras[v])
+            .unwrap();
         for p in 0..seg.parts.len() {
             let tiles: Vec<PartTile> = (0..frames)
                 .map(|f| PartTile::from_images(&img.tile(&img.color, p, f), &img.tile(&img.normal, p, f)))
@@ -59,7 +65,16 @@ fn main() {
         };
         let (_, _, tiles) = jobs.iter().find(|j| j.0 == v && j.1 == p).expect("focus job");
         let fast = fit_part(tiles, key, &PartFitOptions::default(), &[]).unwrap();
-        let ex = fit_part(tiles, key, &PartFitOptions { exhaustive: true, ..Default::default() }, &[]).unwrap();
+        let ex = fit_part(
+            tiles,
+            key,
+            &PartFitOptions {
+                exhaustive: true,
+                ..Default::default()
+            },
+            &[],
+        )
+        .unwrap();
         println!("S = {:?}", fast.key_polygon);
         println!("tris = {:?}", fast.key_triangles);
         for f in 0..frames {
@@ -70,14 +85,20 @@ fn main() {
         }
         return;
     }
-    let missing: Vec<_> = jobs.iter().filter(|j| !exact.contains_key(&format!("{}/{}", j.0, j.1))).collect();
+    let missing: Vec<_> = jobs
+        .iter()
+        .filter(|j| !exact.contains_key(&format!("{}/{}", j.0, j.1)))
+        .collect();
     if !missing.is_empty() {
         eprintln!("exact for {} part-views ...", missing.len());
         let t = std::time::Instant::now();
         let got: Vec<(String, Vec<f64>)> = missing
             .par_iter()
             .map(|(v, p, tiles)| {
-                let o = PartFitOptions { exhaustive: true, ..Default::default() };
+                let o = PartFitOptions {
+                    exhaustive: true,
+                    ..Default::default()
+                };
                 let costs = fit_part(tiles, key.min(frames - 1), &o, &[]).map_or(vec![], |f| f.costs);
                 (format!("{v}/{p}"), costs)
             })
@@ -118,10 +139,18 @@ fn main() {
             let e = by_dist.entry(d).or_default();
             e.0 += fc[f];
             e.1 += ec[f];
-            worst.push((fc[f] - ec[f], format!("v{v} p{p} f{f} fast {:.1} exact {:.1}", fc[f], ec[f])));
+            worst.push((
+                fc[f] - ec[f],
+                format!("v{v} p{p} f{f} fast {:.1} exact {:.1}", fc[f], ec[f]),
+            ));
         }
     }
-    println!("{label}: fast/exact = {:.4}  (fast {:.1}s, {} part-views, {frames} frames)", ft / et, fast_secs, fast.len());
+    println!(
+        "{label}: fast/exact = {:.4}  (fast {:.1}s, {} part-views, {frames} frames)",
+        ft / et,
+        fast_secs,
+        fast.len()
+    );
     for (d, (f, e)) in by_dist {
         println!("  distance {d}: {:.4}", f / e);
     }

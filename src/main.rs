@@ -503,7 +503,10 @@ fn bench_sim(agents: usize, frames: usize, json: bool) -> anyhow::Result<()> {
         let mut s = v.to_vec();
         s.sort_by(f64::total_cmp);
         let mean = s.iter().sum::<f64>() / s.len().max(1) as f64;
-        let p95 = s.get((s.len() * 95 / 100).min(s.len().saturating_sub(1))).copied().unwrap_or(0.0);
+        let p95 = s
+            .get((s.len() * 95 / 100).min(s.len().saturating_sub(1)))
+            .copied()
+            .unwrap_or(0.0);
         (mean, p95)
     };
     let (sm, sp) = stat(&sim);
@@ -528,7 +531,10 @@ fn bench_sim(agents: usize, frames: usize, json: bool) -> anyhow::Result<()> {
             })
         );
     } else {
-        println!("crowd CPU work per frame, one thread, {} agents, {frames} frames", crowd.len());
+        println!(
+            "crowd CPU work per frame, one thread, {} agents, {frames} frames",
+            crowd.len()
+        );
         println!("  {:<34} {:>8} {:>8}", "pass", "mean ms", "p95 ms");
         println!("  {:<34} {sm:>8.3} {sp:>8.3}", "simulate (wander, occupancy grid)");
         println!("  {:<34} {lm:>8.3} {lp:>8.3}", "cull, LOD, view, frame, instances");

@@ -33,7 +33,16 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
         key_frame: KeyFrame::Frame(0),
         ..Default::default()
     };
-    let b = bake(&ctx, &c, &seg, &CapOverrides::default(), &options, &|_| {}, &AtomicBool::new(false)).unwrap();
+    let b = bake(
+        &ctx,
+        &c,
+        &seg,
+        &CapOverrides::default(),
+        &options,
+        &|_| {},
+        &AtomicBool::new(false),
+    )
+    .unwrap();
     let dir = common::temp_dir("polypostor-gpu");
     let out = dir.join("walk.pack");
     write_pack(&b, &c.name, Some("Walk"), &out).unwrap();
@@ -137,8 +146,15 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
         })
         .collect();
     let camera = Camera::orbit(Vec3::new(0.0, 0.9, 8.0), 0.0, 0.6, 30.0, 50f32.to_radians());
-    gpu.render(device, queue, &target, camera.clip_from_world(1.0), &PolypostorStyle::default(), &instances)
-        .unwrap();
+    gpu.render(
+        device,
+        queue,
+        &target,
+        camera.clip_from_world(1.0),
+        &PolypostorStyle::default(),
+        &instances,
+    )
+    .unwrap();
     let crowd = mask(&target.read_normal(device, queue).unwrap());
     let covered = crowd.iter().filter(|&&x| x).count();
     assert!(covered > (size * size / 20) as usize, "{covered} pixels");

@@ -304,7 +304,8 @@ pub fn fit_frame(
         let mut cands = vec![every; n];
         pin(&mut cands);
         // Most of these triples are never seen again: no memo.
-        let raw = |t: usize, p: [usize; 3], limit: f64| samples.cost_bounded(t, target_tile, p.map(|j| target[j]), limit);
+        let raw =
+            |t: usize, p: [usize; 3], limit: f64| samples.cost_bounded(t, target_tile, p.map(|j| target[j]), limit);
         let coarse = plan.solve_bounded(&cands, raw)?;
         let at: Vec<[f32; 2]> = coarse.mapping.iter().map(|&j| target[j]).collect();
         let start = plan.solve_bounded(&windows(&at, Some(&coarse.mapping), &near, win), &cost)?;

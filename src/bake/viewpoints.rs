@@ -92,7 +92,16 @@ impl ViewLookup {
                     // Angular radius: the farthest corner (cells are convex on the sphere;
                     // edge midpoints too, for safety), with a margin.
                     let mut r = 0.0f32;
-                    for (u, v) in [(u0, v0), (u0, v1), (u1, v0), (u1, v1), (u0, 0.5 * (v0 + v1)), (u1, 0.5 * (v0 + v1)), (0.5 * (u0 + u1), v0), (0.5 * (u0 + u1), v1)] {
+                    for (u, v) in [
+                        (u0, v0),
+                        (u0, v1),
+                        (u1, v0),
+                        (u1, v1),
+                        (u0, 0.5 * (v0 + v1)),
+                        (u1, 0.5 * (v0 + v1)),
+                        (0.5 * (u0 + u1), v0),
+                        (0.5 * (u0 + u1), v1),
+                    ] {
                         r = r.max(angle(c, cube_dir(face, u, v)));
                     }
                     let r = r * 1.1 + 1e-4;

@@ -165,7 +165,9 @@ impl Crowd {
             agents.pos.push(pos);
             let (s, c) = rng.range(0.0, std::f32::consts::TAU).sin_cos();
             agents.facing.push(Vec2::new(s, c));
-            agents.speed.push(rng.range(params.speed.0, params.speed.1.max(params.speed.0)));
+            agents
+                .speed
+                .push(rng.range(params.speed.0, params.speed.1.max(params.speed.0)));
             agents.clock.push(rng.range(0.0, 10.0));
             agents.rate.push(rng.range(0.85, 1.15));
             agents.variant.push(rng.next_u64() as u32);
@@ -248,7 +250,13 @@ impl Crowd {
     /// Culls, chooses each visible character's level, view and frame, and rebuilds
     /// [`Crowd::instances`]. `views`: the baked viewpoints (directions from the character
     /// towards the camera, in the character's frame).
-    pub fn select(&mut self, camera: &CrowdCamera, policy: &LodPolicy, views: &ViewLookup, clip: ClipTiming) -> FrameStats {
+    pub fn select(
+        &mut self,
+        camera: &CrowdCamera,
+        policy: &LodPolicy,
+        views: &ViewLookup,
+        clip: ClipTiming,
+    ) -> FrameStats {
         for list in &mut self.instances {
             list.clear();
         }

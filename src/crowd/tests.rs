@@ -1,7 +1,7 @@
 use super::*;
-use lod::LodDistances;
 use crate::bake::viewpoints::{Coverage, directions};
 use crate::gpu::{Camera, Projection};
+use lod::LodDistances;
 
 fn camera(eye: Vec3, target: Vec3, w: f32, h: f32) -> CrowdCamera {
     let fov = 50f32.to_radians();
@@ -140,7 +140,12 @@ fn the_view_is_the_camera_direction_in_the_character_frame() {
         let centre = Vec3::new(p.x, 0.9, p.y);
         let eye = centre + facing * 10.0 + Vec3::Y * 2.0;
         let cam = camera(eye, centre, 800.0, 600.0);
-        crowd.select(&cam, &LodPolicy::Only(Level::Impostor), &lookup, ClipTiming { frames: 1, fps: 10.0 });
+        crowd.select(
+            &cam,
+            &LodPolicy::Only(Level::Impostor),
+            &lookup,
+            ClipTiming { frames: 1, fps: 10.0 },
+        );
         let inst = crowd.instances[Level::Impostor as usize][0];
         let want = crate::bake::viewpoints::nearest(&views, Vec3::new(0.0, 2.0, 10.0)).unwrap();
         assert_eq!(inst.view as usize, want, "heading {heading}");
@@ -214,7 +219,11 @@ fn long_runs_keep_the_frame_in_range_and_the_blend_precise() {
     let clip = ClipTiming { frames: 10, fps: 10.0 };
     crowd.select(&cam, &LodPolicy::Only(Level::Impostor), &lookup, clip);
     // Wrapped to within 64 loops of the 1 s clip.
-    assert!(crowd.agents.clock.iter().all(|&c| (0.0..64.0).contains(&c)), "{:?}", crowd.agents.clock);
+    assert!(
+        crowd.agents.clock.iter().all(|&c| (0.0..64.0).contains(&c)),
+        "{:?}",
+        crowd.agents.clock
+    );
     for inst in &crowd.instances[Level::Impostor as usize] {
         assert!(inst.frame < 10 && (0.0..1.0).contains(&inst.blend));
     }

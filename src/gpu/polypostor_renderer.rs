@@ -121,7 +121,11 @@ impl GpuPolypostors {
             max_w = max_w.max(v.atlas_size[0]);
             max_h = max_h.max(v.atlas_size[1]);
         }
-        if let Some(v) = m.views.iter().position(|v| v.parts.iter().flatten().any(|p| p.vertex_offset % 2 != 0)) {
+        if let Some(v) = m
+            .views
+            .iter()
+            .position(|v| v.parts.iter().flatten().any(|p| p.vertex_offset % 2 != 0))
+        {
             return Err(GpuError::Unsupported(format!(
                 "view {v} has a part whose vertex block starts at an odd value (packs written by this tool never do)"
             )));

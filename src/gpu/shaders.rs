@@ -6,6 +6,9 @@ pub const BLIT: &str = include_str!("../../shaders/blit.wgsl");
 pub const POLYPOSTOR: &str = include_str!("../../shaders/polypostor.wgsl");
 
 /// Every shader with its file name (a test validates each one with naga).
-pub const ALL: &[(&str, &str)] = &[("character.wgsl", CHARACTER), ("grid.wgsl", GRID), ("blit.wgsl", BLIT),
+pub const ALL: &[(&str, &str)] = &[
+    ("character.wgsl", CHARACTER),
+    ("grid.wgsl", GRID),
+    ("blit.wgsl", BLIT),
     ("polypostor.wgsl", POLYPOSTOR),
 ];
