@@ -151,6 +151,28 @@ impl RenderTarget {
     }
 }
 
+/// The colour and normal targets of a [`RenderTarget`], written without blending.
+pub(crate) fn opaque_targets() -> [Option<wgpu::ColorTargetState>; 2] {
+    [COLOR_FORMAT, NORMAL_FORMAT].map(|format| {
+        Some(wgpu::ColorTargetState {
+            format,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        })
+    })
+}
+
+/// Depth test and write against a [`RenderTarget`]'s depth (nearer wins).
+pub(crate) fn depth_less() -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format: DEPTH_FORMAT,
+        depth_write_enabled: Some(true),
+        depth_compare: Some(wgpu::CompareFunction::Less),
+        stencil: Default::default(),
+        bias: Default::default(),
+    }
+}
+
 /// Pipelines and layouts shared by every character.
 pub struct CharacterRenderer {
     frame_layout: wgpu::BindGroupLayout,
@@ -213,18 +235,7 @@ impl CharacterRenderer {
             label: Some("character.wgsl"),
             source: wgpu::ShaderSource::Wgsl(shaders::CHARACTER.into()),
         });
-        let targets = [
-            Some(wgpu::ColorTargetState {
-                format: COLOR_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            }),
-            Some(wgpu::ColorTargetState {
-                format: NORMAL_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            }),
-        ];
+        let targets = opaque_targets();
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("character"),
             layout: Some(&layout),
@@ -246,13 +257,7 @@ impl CharacterRenderer {
                 compilation_options: Default::default(),
             },
             primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
+            depth_stencil: Some(depth_less()),
             multisample: Default::default(),
             fragment: Some(wgpu::FragmentState {
                 module: &module,

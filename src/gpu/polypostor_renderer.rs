@@ -5,7 +5,7 @@
 
 use wgpu::util::DeviceExt;
 
-use super::{COLOR_FORMAT, DEPTH_FORMAT, GpuError, NORMAL_FORMAT, RenderTarget, shaders};
+use super::{GpuError, RenderTarget, shaders};
 use crate::crowd::Instance;
 use crate::pack::LoadedPack;
 
@@ -289,18 +289,7 @@ impl GpuPolypostors {
             label: Some("polypostor.wgsl"),
             source: wgpu::ShaderSource::Wgsl(shaders::POLYPOSTOR.into()),
         });
-        let targets = [
-            Some(wgpu::ColorTargetState {
-                format: COLOR_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            }),
-            Some(wgpu::ColorTargetState {
-                format: NORMAL_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            }),
-        ];
+        let targets = super::character_renderer::opaque_targets();
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("polypostor"),
             layout: Some(&pipeline_layout),
@@ -314,13 +303,7 @@ impl GpuPolypostors {
                 cull_mode: None,
                 ..Default::default()
             },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
+            depth_stencil: Some(super::character_renderer::depth_less()),
             multisample: Default::default(),
             fragment: Some(wgpu::FragmentState {
                 module: &module,
