@@ -31,6 +31,7 @@ struct View {
 struct Part {
     // First u32 of the part's block (each u32 holds one x, y pair of unorm16 values).
     vertex_word: u32,
+    // Low 16 bits: vertices; high 16 bits: the body part (for the per-part tint).
     vertex_count: u32,
     // First u16 index, and how many.
     index_offset: u32,
@@ -96,8 +97,8 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> 
         out.clip_position = vec4<f32>(0.0, 0.0, 0.0, 0.0);
         return out;
     }
-    let local = min(index_at(part.index_offset + k), part.vertex_count - 1u);
-    let vc = part.vertex_count;
+    let vc = max(part.vertex_count & 0xffffu, 1u);
+    let local = min(index_at(part.index_offset + k), vc - 1u);
     let f0 = inst.frame % frames;
     let f1 = (f0 + 1u) % frames;
     let a = unpack2x16unorm(geometry[part.vertex_word + vc * (1u + f0) + local]) * 2.0 - 1.0;
@@ -114,8 +115,8 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> 
     // The light in the view's camera frame (the normal atlas is in that frame).
     let l = turn(frame.light_dir.xyz, vec2<f32>(-inst.facing.x, inst.facing.y));
     out.light_view = vec3<f32>(dot(l, view.right.xyz), dot(l, view.up.xyz), dot(l, view.forward.xyz));
-    // Per-part tint from the instance's variant.
-    let h = hash(inst.variant ^ (slot * 0x9e3779b9u));
+    // Per-part tint from the instance's variant (the same hash as the other representations).
+    let h = hash(inst.variant ^ ((part.vertex_count >> 16u) * 0x9e3779b9u));
     let t = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0;
     out.tint = mix(vec3<f32>(1.0), 0.6 + 0.8 * t, frame.params.z);
     return out;

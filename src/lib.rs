@@ -17,6 +17,7 @@
 //! - [`gltf_write`]: a small glTF 2.0 binary writer used by the generator and by tests.
 //! - [`gpu`]: adapter selection, cameras, offscreen colour / normal / depth renders with GPU skinning.
 //! - [`pack`]: the pack format (manifest, vertex and index data, atlases), writer and validating loader.
+//! - [`plot`]: PNG charts for reports (grouped bars, optionally log-scaled; lines per series).
 //! - [`project`]: the serde project file (atomic save, versioned load).
 
 pub mod animation;
@@ -28,7 +29,9 @@ pub mod gltf_write;
 pub mod gpu;
 pub mod import;
 pub mod pack;
+pub mod plot;
 pub mod project;
+pub mod reps;
 
 pub use character::Character;
 pub use import::{ImportError, import_path};

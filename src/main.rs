@@ -278,6 +278,10 @@ struct BakeArgs {
     /// Write per-view PNGs of the traced and fitted polygons into <out>/debug/.
     #[arg(long)]
     debug_images: bool,
+    /// What to bake: polypostor, impostor, np3d, rigid or all, comma-separated (same views,
+    /// resolution and frame rate for every one, so comparisons are fair).
+    #[arg(long, default_value = "polypostor")]
+    representation: String,
 }
 
 static CANCEL: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
@@ -405,20 +409,80 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         bar.set_length(p.total as u64);
         bar.set_position(p.done as u64);
     };
-    let result = bake(&ctx, &c, &seg, &caps, &options, &progress, &CANCEL);
-    bar.finish_and_clear();
-    let b = match result {
-        Ok(b) => b,
-        Err(polypostor::bake::pipeline::BakeError::Cancelled) => {
-            eprintln!("cancelled: nothing was written");
-            std::process::exit(130);
+    let set = polypostor::reps::RepSet::parse(&a.representation).map_err(|e| anyhow::anyhow!("--representation: {e}"))?;
+    let cancelled = || -> ! {
+        eprintln!("cancelled: nothing was written");
+        std::process::exit(130);
+    };
+    let b = if set.polypostor {
+        let result = bake(&ctx, &c, &seg, &caps, &options, &progress, &CANCEL);
+        match result {
+            Ok(b) => Some(b),
+            Err(polypostor::bake::pipeline::BakeError::Cancelled) => cancelled(),
+            Err(e) => return Err(e.into()),
         }
-        Err(e) => return Err(e.into()),
+    } else {
+        None
+    };
+    let reps = if set.any_other() {
+        let key = match (&b, options.key_frame) {
+            (Some(b), _) => b.key_frame,
+            (None, KeyFrame::Frame(k)) => k,
+            (None, KeyFrame::Auto) => 0,
+        };
+        let reps_options = polypostor::reps::bake::RepsOptions {
+            views: options.views,
+            coverage: options.coverage,
+            resolution: options.resolution,
+            fps: options.fps,
+            clip,
+            key_frame: key,
+            set,
+            np3d_triangles: polypostor::reps::bake::NP3D_TRIANGLES,
+        };
+        let path = std::fs::canonicalize(&character_path).unwrap_or_else(|_| character_path.clone());
+        let result = polypostor::reps::bake::bake_representations(
+            &ctx,
+            &c,
+            Some(&path.display().to_string()),
+            clip_name.as_deref(),
+            &reps_options,
+            &progress,
+            &CANCEL,
+        );
+        match result {
+            Ok(r) => Some(r),
+            Err(polypostor::bake::pipeline::BakeError::Cancelled) => cancelled(),
+            Err(e) => return Err(e.into()),
+        }
+    } else {
+        None
+    };
+    bar.finish_and_clear();
+    let write_reps = |dir: &Path| -> Result<(), String> {
+        if let Some(r) = &reps {
+            polypostor::reps::write_representations(r, dir)?;
+            polypostor::reps::load_representations(dir)
+                .map_err(|e| format!("the written representations do not load back: {e}"))?;
+        }
+        Ok(())
+    };
+    let Some(b) = b else {
+        polypostor::pack::write_folder_atomic(&out, &|dir| write_reps(dir))
+            .map_err(|e| anyhow::anyhow!("writing {}: {e}", out.display()))?;
+        eprintln!(
+            "wrote {} ({}) in {:.1} s",
+            out.display(),
+            a.representation,
+            started.elapsed().as_secs_f64()
+        );
+        return Ok(());
     };
     let write_started = std::time::Instant::now();
     let stats = polypostor::pack::write_pack_with(&b, &c.name, clip_name.as_deref(), &out, &|dir, stats| {
         // Read the pack back through the validating loader before it replaces anything.
         polypostor::pack::load_pack(dir).map_err(|e| format!("the written pack does not load back: {e}"))?;
+        write_reps(dir)?;
         let mut report = polypostor::bake::report::build_report(
             &b,
             &c.name,
@@ -445,7 +509,7 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     .map_err(|e| anyhow::anyhow!("writing the pack: {e}"))?;
     let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json"))?)?;
     eprintln!(
-        "wrote {} in {:.1} s: key frame {}, mean PSNR {:.2} dB (worst {:.2}), {} KiB vs {} KiB for impostors ({:.1}×), {:.0} triangles per view",
+        "wrote {} in {:.1} s: key frame {}, mean PSNR {:.2} dB (worst {:.2}), {} KiB vs {} KiB for impostors ({:.1}×), {:.0} triangles per view{}",
         out.display(),
         started.elapsed().as_secs_f64(),
         b.key_frame,
@@ -454,7 +518,8 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         stats.pack_bytes / 1024,
         report["impostor_bytes"].as_u64().unwrap_or(0) / 1024,
         report["memory_ratio"].as_f64().unwrap_or(0.0),
-        stats.triangles_per_view
+        stats.triangles_per_view,
+        if set.any_other() { format!(", plus {}", a.representation) } else { String::new() }
     );
     Ok(())
 }

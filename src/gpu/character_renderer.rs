@@ -338,6 +338,10 @@ impl CharacterRenderer {
         }
     }
 
+    pub(crate) fn material_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.material_layout
+    }
+
     pub(crate) fn pipeline(&self) -> &wgpu::RenderPipeline {
         &self.pipeline
     }
@@ -530,6 +534,27 @@ impl GpuCharacter {
         pass.set_vertex_buffer(0, self.stream0.slice(..));
         pass.set_vertex_buffer(1, self.stream1.slice(..));
         pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+    }
+
+    /// Binds only the static attributes (UV, colour, joints, weights) at slot 0, and the
+    /// indices: for pipelines that pull positions from elsewhere.
+    pub(crate) fn bind_attributes<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>) {
+        pass.set_vertex_buffer(0, self.stream1.slice(..));
+        pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+    }
+
+    /// Draws every submesh with its material, `instances` times (one draw call per
+    /// submesh; geometry must be bound). Returns the draw calls made.
+    pub(crate) fn draw_instanced<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, instances: u32) -> usize {
+        let mut calls = 0;
+        for s in &self.submeshes {
+            if let Some((_, group)) = self.materials.get(s.material) {
+                pass.set_bind_group(1, group, &[]);
+                pass.draw_indexed(s.first_index..s.first_index + s.index_count, 0, 0..instances);
+                calls += 1;
+            }
+        }
+        calls
     }
 
     /// Draws index ranges with their materials (geometry must be bound).

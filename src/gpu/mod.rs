@@ -11,6 +11,7 @@
 mod camera;
 mod character_renderer;
 mod context;
+mod crowd_renderers;
 pub mod gpu_data;
 mod part_renderer;
 mod polypostor_renderer;
@@ -21,6 +22,9 @@ pub use camera::{Camera, Projection};
 pub use character_renderer::{
     COLOR_FORMAT, CharacterRenderer, DEPTH_FORMAT, DrawOptions, GpuCharacter, NORMAL_FORMAT, RenderTarget, Shading,
     SkinningMode,
+};
+pub use crowd_renderers::{
+    CrowdRenderers, GpuImpostors, GpuMeshCrowd, GpuNp3d, JOINT_SAMPLES_PER_FRAME, joint_samples, vertex_parts,
 };
 pub use context::{AdapterPreference, GpuContext, GpuError, rank_adapter};
 pub use part_renderer::{PartImages, PartRenderer};

@@ -149,14 +149,14 @@ impl GpuPolypostors {
                 ],
             });
             for s in 0..parts_per_view as usize {
+                let id = v.order.get(s).copied().unwrap_or(0);
                 let record = v
-                    .order
-                    .get(s)
-                    .and_then(|&p| v.parts.get(p as usize))
+                    .parts
+                    .get(id as usize)
                     .and_then(|p| p.as_ref())
                     .map_or(PartGpu::zeroed(), |p| PartGpu {
                         vertex_word: (p.vertex_offset / 2) as u32,
-                        vertex_count: p.vertex_count.max(1),
+                        vertex_count: p.vertex_count.clamp(1, 0xffff) | (id.min(0xffff) << 16),
                         index_offset: p.index_offset as u32,
                         index_count: p.index_count,
                     });

@@ -4,6 +4,9 @@ pub const CHARACTER: &str = include_str!("../../shaders/character.wgsl");
 pub const GRID: &str = include_str!("../../shaders/grid.wgsl");
 pub const BLIT: &str = include_str!("../../shaders/blit.wgsl");
 pub const POLYPOSTOR: &str = include_str!("../../shaders/polypostor.wgsl");
+pub const CROWD_MESH: &str = include_str!("../../shaders/crowd_mesh.wgsl");
+pub const IMPOSTOR: &str = include_str!("../../shaders/impostor.wgsl");
+pub const NP3D: &str = include_str!("../../shaders/np3d.wgsl");
 
 /// Every shader with its file name (a test validates each one with naga).
 pub const ALL: &[(&str, &str)] = &[
@@ -11,4 +14,7 @@ pub const ALL: &[(&str, &str)] = &[
     ("grid.wgsl", GRID),
     ("blit.wgsl", BLIT),
     ("polypostor.wgsl", POLYPOSTOR),
+    ("crowd_mesh.wgsl", CROWD_MESH),
+    ("impostor.wgsl", IMPOSTOR),
+    ("np3d.wgsl", NP3D),
 ];

@@ -17,6 +17,41 @@ pub struct PackCamera {
     pub half_size: f32,
 }
 
+impl PackCamera {
+    /// The pack form of an orthographic bake camera (a perspective one gets half size 1).
+    pub fn from_camera(cam: &crate::gpu::Camera) -> Self {
+        let view_m = cam.view_from_world();
+        let row = |i: usize| [view_m.row(i).x, view_m.row(i).y, view_m.row(i).z];
+        let half_size = match cam.projection {
+            crate::gpu::Projection::Orthographic { half_height } => half_height,
+            crate::gpu::Projection::Perspective { .. } => 1.0,
+        };
+        Self {
+            center: cam.target.to_array(),
+            right: row(0),
+            up: row(1),
+            forward: row(2),
+            half_size,
+        }
+    }
+
+    /// Back to an orthographic camera looking at `center` from `distance` along `forward`,
+    /// seeing depths `near..far` from the eye.
+    pub fn to_camera(&self, distance: f32, near: f32, far: f32) -> crate::gpu::Camera {
+        let c = glam::Vec3::from(self.center);
+        crate::gpu::Camera {
+            eye: c + glam::Vec3::from(self.forward) * distance,
+            target: c,
+            up: glam::Vec3::from(self.up),
+            projection: crate::gpu::Projection::Orthographic {
+                half_height: self.half_size,
+            },
+            near,
+            far,
+        }
+    }
+}
+
 /// One part in one view.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ManifestPart {

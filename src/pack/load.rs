@@ -41,7 +41,7 @@ pub struct LoadedPack {
 /// Largest file the loader reads.
 const MAX_FILE: u64 = 1 << 32;
 
-fn read(path: &Path, limit: u64) -> Result<Vec<u8>, PackError> {
+pub(crate) fn read(path: &Path, limit: u64) -> Result<Vec<u8>, PackError> {
     let io = |e: std::io::Error| PackError::Io {
         path: path.to_owned(),
         message: e.to_string(),
@@ -57,7 +57,7 @@ fn read(path: &Path, limit: u64) -> Result<Vec<u8>, PackError> {
 }
 
 /// A file name inside the pack folder (no paths, no parent references).
-fn member(dir: &Path, name: &str) -> Result<PathBuf, PackError> {
+pub(crate) fn member(dir: &Path, name: &str) -> Result<PathBuf, PackError> {
     if name.is_empty() || name.contains('/') || name.contains('\\') || name == ".." || name == "." {
         return Err(PackError::Damaged(format!(
             "file name '{name}' is not a plain name in the pack folder"
@@ -218,7 +218,7 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
 }
 
 /// Decodes the PNG `name` of the pack folder and checks its size.
-fn png(dir: &Path, name: &str, size: [u32; 2]) -> Result<image::RgbaImage, PackError> {
+pub(crate) fn png(dir: &Path, name: &str, size: [u32; 2]) -> Result<image::RgbaImage, PackError> {
     let path = member(dir, name)?;
     let bytes = read(&path, 256 << 20)?;
     let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), image::ImageFormat::Png);

@@ -10,7 +10,8 @@ mod format;
 mod load;
 mod write;
 
-pub use atlas::{Atlas, AtlasRect, pack_atlas};
+pub use atlas::{Atlas, AtlasRect, dilate, pack_atlas};
 pub use format::{FORMAT_NAME, FORMAT_VERSION, Manifest, ManifestPart, ManifestView, PackCamera};
 pub use load::{LoadedPack, LoadedView, PackError, load_pack};
-pub use write::{PackStats, write_pack, write_pack_with};
+pub(crate) use load::{member, png, read};
+pub use write::{PackStats, write_folder_atomic, write_pack, write_pack_with};

@@ -6,7 +6,6 @@ use std::path::{Path, PathBuf};
 use super::atlas::pack_atlas;
 use super::format::{FORMAT_NAME, FORMAT_VERSION, Manifest, ManifestPart, ManifestView, PackCamera};
 use crate::bake::pipeline::Bake;
-use crate::gpu::Projection;
 
 /// Sizes of a written pack.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
@@ -42,6 +41,16 @@ pub fn write_pack_with(
     out: &Path,
     extra: &dyn Fn(&Path, &PackStats) -> Result<(), String>,
 ) -> Result<PackStats, String> {
+    write_folder_atomic(out, &|tmp| {
+        let stats = write_into(bake, character, clip, tmp)?;
+        extra(tmp, &stats)?;
+        Ok(stats)
+    })
+}
+
+/// Writes a folder with `fill(temporary folder)` beside `out`, then moves it into place,
+/// replacing `out` only once `fill` succeeded (on failure nothing the user had is touched).
+pub fn write_folder_atomic<T>(out: &Path, fill: &dyn Fn(&Path) -> Result<T, String>) -> Result<T, String> {
     let parent = out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -55,9 +64,8 @@ pub fn write_pack_with(
     let tmp = parent.join(format!(".{name}.writing-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
     std::fs::create_dir_all(&tmp).map_err(|e| io(&tmp, e))?;
-    let result = write_into(bake, character, clip, &tmp).and_then(|stats| extra(&tmp, &stats).map(|_| stats));
-    match result {
-        Ok(stats) => {
+    match fill(&tmp) {
+        Ok(value) => {
             let old = parent.join(format!(".{name}.old-{}", std::process::id()));
             if out.exists() {
                 std::fs::rename(out, &old).map_err(|e| io(out, e))?;
@@ -67,7 +75,7 @@ pub fn write_pack_with(
                 return Err(io(out, e));
             }
             let _ = std::fs::remove_dir_all(&old);
-            Ok(stats)
+            Ok(value)
         }
         Err(e) => {
             let _ = std::fs::remove_dir_all(&tmp);
@@ -145,22 +153,9 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                 transposed: rect.transposed,
             }));
         }
-        let cam = &view.camera;
-        let view_m = cam.view_from_world();
-        let row = |i: usize| [view_m.row(i).x, view_m.row(i).y, view_m.row(i).z];
-        let half = match cam.projection {
-            Projection::Orthographic { half_height } => half_height,
-            Projection::Perspective { .. } => 1.0,
-        };
         views.push(ManifestView {
             direction: view.direction.to_array(),
-            camera: PackCamera {
-                center: cam.target.to_array(),
-                right: row(0),
-                up: row(1),
-                forward: row(2),
-                half_size: half,
-            },
+            camera: PackCamera::from_camera(&view.camera),
             atlas: atlas_name,
             normal_atlas: normal_name,
             atlas_size: [atlas.width, atlas.height],

@@ -1,0 +1,172 @@
+// Crowd meshes: every skinned or rigid character of a crowd in one instanced draw per
+// material. Skinned: the clip's joints are sampled ahead (quaternion + translation + uniform
+// scale per joint per sample) and interpolated per vertex between the two samples around the
+// instance's time, then blended by the vertex's four weights. Rigid: the mesh pre-skinned at
+// every frame, interpolated between two frames.
+// Keep the structs in sync with `src/gpu/crowd_renderers.rs`.
+
+struct Frame {
+    clip_from_world: mat4x4<f32>,
+    // xyz: unit direction towards the light (world).
+    light_dir: vec4<f32>,
+    // x: joint samples per frame, y: frames, z: joints, w: vertices.
+    counts: vec4<f32>,
+    // x: shading (0 unlit, 1 lit), y: ambient, z: tint strength.
+    params: vec4<f32>,
+    bases: vec4<u32>,
+};
+
+struct Joint {
+    rotation: vec4<f32>,
+    // xyz: translation, w: uniform scale.
+    translation: vec4<f32>,
+};
+
+struct Instance {
+    pos: vec2<f32>,
+    facing: vec2<f32>,
+    view: u32,
+    frame: u32,
+    blend: f32,
+    variant: u32,
+};
+
+struct Material {
+    base_color_factor: vec4<f32>,
+};
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+@group(0) @binding(1) var<storage, read> joints: array<Joint>;
+@group(0) @binding(2) var<storage, read> instances: array<Instance>;
+// Rigid: per frame, per vertex: position xyz (f32 bits) and the normal packed as snorm8x4
+// in w.
+@group(0) @binding(3) var<storage, read> rigid: array<vec4<u32>>;
+// Body part of each vertex (for the per-part tint).
+@group(0) @binding(4) var<storage, read> vertex_parts: array<u32>;
+@group(1) @binding(0) var<uniform> material: Material;
+@group(1) @binding(1) var base_texture: texture_2d<f32>;
+@group(1) @binding(2) var base_sampler: sampler;
+
+struct VertexOut {
+    @builtin(position) clip_position: vec4<f32>,
+    @location(0) normal: vec3<f32>,
+    @location(1) uv: vec2<f32>,
+    @location(2) color: vec4<f32>,
+    @location(3) tint: vec3<f32>,
+};
+
+fn hash(x: u32) -> u32 {
+    var h = x * 747796405u + 2891336453u;
+    h = ((h >> ((h >> 28u) + 4u)) ^ h) * 277803737u;
+    return (h >> 22u) ^ h;
+}
+
+// Rotation about +Y by the heading h, given (sin h, cos h).
+fn turn(p: vec3<f32>, f: vec2<f32>) -> vec3<f32> {
+    return vec3<f32>(f.y * p.x + f.x * p.z, p.y, -f.x * p.x + f.y * p.z);
+}
+
+fn rotate(q: vec4<f32>, v: vec3<f32>) -> vec3<f32> {
+    let t = 2.0 * cross(q.xyz, v);
+    return v + q.w * t + cross(q.xyz, t);
+}
+
+fn part_tint(variant: u32, part: u32) -> vec3<f32> {
+    let h = hash(variant ^ (part * 0x9e3779b9u));
+    let t = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0;
+    return mix(vec3<f32>(1.0), 0.6 + 0.8 * t, frame.params.z);
+}
+
+fn place(inst: Instance, model: vec3<f32>, normal: vec3<f32>, vi: u32, uv: vec2<f32>, color: vec4<f32>) -> VertexOut {
+    var out: VertexOut;
+    let world = turn(model, inst.facing) + vec3<f32>(inst.pos.x, 0.0, inst.pos.y);
+    out.clip_position = frame.clip_from_world * vec4<f32>(world, 1.0);
+    out.normal = turn(normal, inst.facing);
+    out.uv = uv;
+    out.color = color;
+    out.tint = part_tint(inst.variant, vertex_parts[vi]);
+    return out;
+}
+
+struct SkinnedIn {
+    @builtin(vertex_index) vi: u32,
+    @builtin(instance_index) ii: u32,
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(3) color: vec4<f32>,
+    @location(4) bone_ids: vec4<u32>,
+    @location(5) weights: vec4<f32>,
+};
+
+@vertex
+fn vs_skinned(v: SkinnedIn) -> VertexOut {
+    let inst = instances[v.ii];
+    let per_frame = max(frame.counts.x, 1.0);
+    let frames = max(u32(frame.counts.y), 1u);
+    let bones = max(u32(frame.counts.z), 1u);
+    let samples = frames * u32(per_frame);
+    let t = (f32(inst.frame % frames) + clamp(inst.blend, 0.0, 1.0)) * per_frame;
+    let s0 = u32(floor(t)) % samples;
+    let s1 = (s0 + 1u) % samples;
+    let a = fract(t);
+    var p = vec3<f32>(0.0);
+    var n = vec3<f32>(0.0);
+    for (var k = 0u; k < 4u; k++) {
+        let w = v.weights[k];
+        if (w > 0.0) {
+            let b = min(v.bone_ids[k], bones - 1u);
+            let j0 = joints[s0 * bones + b];
+            let j1 = joints[s1 * bones + b];
+            // Shortest-arc normalised lerp of the rotations.
+            let q1 = select(j1.rotation, -j1.rotation, dot(j0.rotation, j1.rotation) < 0.0);
+            let q = normalize(mix(j0.rotation, q1, a));
+            let tr = mix(j0.translation, j1.translation, a);
+            p += w * (rotate(q, v.position * tr.w) + tr.xyz);
+            n += w * rotate(q, v.normal);
+        }
+    }
+    return place(inst, p, n, v.vi, v.uv, v.color);
+}
+
+struct RigidIn {
+    @builtin(vertex_index) vi: u32,
+    @builtin(instance_index) ii: u32,
+    @location(2) uv: vec2<f32>,
+    @location(3) color: vec4<f32>,
+};
+
+@vertex
+fn vs_rigid(v: RigidIn) -> VertexOut {
+    let inst = instances[v.ii];
+    let frames = max(u32(frame.counts.y), 1u);
+    let count = u32(frame.counts.w);
+    let f0 = inst.frame % frames;
+    let f1 = (f0 + 1u) % frames;
+    let a = rigid[f0 * count + v.vi];
+    let b = rigid[f1 * count + v.vi];
+    let blend = clamp(inst.blend, 0.0, 1.0);
+    let na = unpack4x8snorm(a.w).xyz;
+    let nb = unpack4x8snorm(b.w).xyz;
+    let p = mix(bitcast<vec3<f32>>(a.xyz), bitcast<vec3<f32>>(b.xyz), blend);
+    return place(inst, p, mix(na, nb, blend), v.vi, v.uv, v.color);
+}
+
+struct FragmentOut {
+    @location(0) color: vec4<f32>,
+    @location(1) normal: vec4<f32>,
+};
+
+@fragment
+fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> FragmentOut {
+    var n = normalize(in.normal);
+    let albedo = textureSample(base_texture, base_sampler, in.uv) * material.base_color_factor * in.color;
+    let base = albedo.rgb * in.tint;
+    let ambient = frame.params.y;
+    let diffuse = max(dot(n, normalize(frame.light_dir.xyz)), 0.0);
+    let lit = base * (ambient + (1.0 - ambient) * diffuse);
+    var out: FragmentOut;
+    out.color = vec4<f32>(mix(base, lit, frame.params.x), 1.0);
+    out.normal = vec4<f32>(n * 0.5 + vec3<f32>(0.5), 1.0);
+    return out;
+}

@@ -1,0 +1,1037 @@
+//! The comparison representations at crowd scale, each drawn with per-instance data in GPU
+//! buffers and one instanced draw (per material for meshes):
+//!
+//! - [`GpuMeshCrowd`]: GPU-skinned meshes (the clip's joints sampled ahead as quaternion +
+//!   translation + scale, interpolated per vertex) and rigid meshes (pre-skinned frames,
+//!   interpolated) — `shaders/crowd_mesh.wgsl`;
+//! - [`GpuImpostors`]: classic animated impostors — `shaders/impostor.wgsl`;
+//! - [`GpuNp3d`]: NP3D impostors — `shaders/np3d.wgsl`;
+//! - [`CrowdRenderers`]: all of them with the Polypostor renderer, drawing each level's
+//!   instances of a [`crate::crowd::Crowd`] in one pass.
+//!
+//! Every representation reads the same 32-byte [`Instance`] records and the same per-part
+//! tint hash, so switching level does not change a character's colours.
+
+use glam::{Mat4, Vec3};
+use wgpu::util::DeviceExt;
+
+use super::character_renderer::{depth_less, opaque_targets};
+use super::gpu_data::{Attributes, PositionNormal};
+use super::{CharacterRenderer, GpuCharacter, GpuError, GpuPolypostors, PolypostorStyle, RenderTarget, shaders};
+use crate::animation::Pose;
+use crate::character::Character;
+use crate::crowd::Instance;
+use crate::crowd::lod::Level;
+use crate::reps::{FrameVertices, Representations};
+
+/// Per-frame settings (the same layout in every crowd shader: `Frame`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct CrowdUniform {
+    clip_from_world: [[f32; 4]; 4],
+    light_dir: [f32; 4],
+    counts: [f32; 4],
+    params: [f32; 4],
+    bases: [u32; 4],
+}
+
+fn crowd_uniform(clip_from_world: Mat4, style: &PolypostorStyle, counts: [f32; 4], bases: [u32; 4]) -> CrowdUniform {
+    let l = style.light_dir.normalize_or(Vec3::Y);
+    CrowdUniform {
+        clip_from_world: clip_from_world.to_cols_array_2d(),
+        light_dir: [l.x, l.y, l.z, 0.0],
+        counts,
+        params: [if style.lit { 1.0 } else { 0.0 }, style.ambient, style.tint, 0.0],
+        bases,
+    }
+}
+
+/// A view's camera for the image-based shaders (`View` in WGSL; the Polypostor renderer's
+/// layout).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct ViewGpu {
+    right: [f32; 4],
+    up: [f32; 4],
+    forward: [f32; 4],
+    center: [f32; 4],
+    uv_scale: [f32; 4],
+}
+
+fn views_gpu(reps: &Representations) -> Vec<ViewGpu> {
+    reps.manifest
+        .views
+        .iter()
+        .map(|v| {
+            let c = &v.camera;
+            let four = |a: [f32; 3], w: f32| [a[0], a[1], a[2], w];
+            ViewGpu {
+                right: four(c.right, 0.0),
+                up: four(c.up, 0.0),
+                forward: four(c.forward, 0.0),
+                center: four(c.center, c.half_size),
+                uv_scale: [1.0, 1.0, 0.0, 0.0],
+            }
+        })
+        .collect()
+}
+
+/// Snorm8×4 packing of a unit normal (as WGSL's `pack4x8snorm`).
+fn pack_normal(n: [f32; 3]) -> u32 {
+    let b = |x: f32| ((x.clamp(-1.0, 1.0) * 127.0).round() as i8) as u8 as u32;
+    b(n[0]) | b(n[1]) << 8 | b(n[2]) << 16
+}
+
+/// Per frame per vertex: position bits and packed normal (`vec4<u32>` in WGSL).
+fn packed_frames(v: &FrameVertices) -> Vec<[u32; 4]> {
+    v.positions
+        .iter()
+        .zip(&v.normals)
+        .map(|(p, n)| [p[0].to_bits(), p[1].to_bits(), p[2].to_bits(), pack_normal(*n)])
+        .collect()
+}
+
+fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+    // Never bind an empty buffer.
+    let pad = [0u8; 16];
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: if bytes.is_empty() { &pad } else { bytes },
+        usage: wgpu::BufferUsages::STORAGE,
+    })
+}
+
+fn uniform_buffer(device: &wgpu::Device, label: &str) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: std::mem::size_of::<CrowdUniform>() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+enum Entry {
+    Uniform,
+    Storage,
+    TextureArray,
+    Sampler,
+}
+
+fn layout(device: &wgpu::Device, label: &str, entries: &[Entry]) -> wgpu::BindGroupLayout {
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = entries
+        .iter()
+        .enumerate()
+        .map(|(i, e)| wgpu::BindGroupLayoutEntry {
+            binding: i as u32,
+            visibility: match e {
+                Entry::Uniform => wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
+                Entry::Storage => wgpu::ShaderStages::VERTEX,
+                Entry::TextureArray | Entry::Sampler => wgpu::ShaderStages::FRAGMENT,
+            },
+            ty: match e {
+                Entry::Uniform => wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                Entry::Storage => wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { read_only: true },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                Entry::TextureArray => wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                    view_dimension: wgpu::TextureViewDimension::D2Array,
+                    multisampled: false,
+                },
+                Entry::Sampler => wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+            },
+            count: None,
+        })
+        .collect();
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries: &entries,
+    })
+}
+
+enum Resource<'a> {
+    Buffer(&'a wgpu::Buffer),
+    View(&'a wgpu::TextureView),
+    Sampler(&'a wgpu::Sampler),
+}
+
+fn bind(device: &wgpu::Device, label: &str, layout: &wgpu::BindGroupLayout, resources: &[Resource]) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = resources
+        .iter()
+        .enumerate()
+        .map(|(i, r)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: match r {
+                Resource::Buffer(b) => b.as_entire_binding(),
+                Resource::View(v) => wgpu::BindingResource::TextureView(v),
+                Resource::Sampler(s) => wgpu::BindingResource::Sampler(s),
+            },
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
+}
+
+fn pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+    source: &str,
+    vertex_entry: &str,
+    buffers: &[Option<wgpu::VertexBufferLayout>],
+) -> wgpu::RenderPipeline {
+    let layouts: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().map(|l| Some(*l)).collect();
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: &layouts,
+        immediate_size: 0,
+    });
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let targets = opaque_targets();
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(&pipeline_layout),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some(vertex_entry),
+            buffers,
+            compilation_options: Default::default(),
+        },
+        primitive: wgpu::PrimitiveState {
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth_stencil: Some(depth_less()),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs_main"),
+            targets: &targets,
+            compilation_options: Default::default(),
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// A linear-filtered, clamped sampler.
+fn clamp_sampler(device: &wgpu::Device, label: &str) -> wgpu::Sampler {
+    device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some(label),
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        ..Default::default()
+    })
+}
+
+/// One layer per image (all the same size), uploaded. Returns the view and the bytes held.
+fn texture_array(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    label: &str,
+    images: &[image::RgbaImage],
+    format: wgpu::TextureFormat,
+) -> Result<(wgpu::TextureView, u64), GpuError> {
+    let (w, h) = images.first().map_or((1, 1), |i| i.dimensions());
+    let limits = device.limits();
+    if images.len() as u32 > limits.max_texture_array_layers || w.max(h) > limits.max_texture_dimension_2d {
+        return Err(GpuError::Unsupported(format!(
+            "{label}: {} layers of {w}×{h} exceed this GPU's texture limits ({} layers, {} pixels)",
+            images.len(),
+            limits.max_texture_array_layers,
+            limits.max_texture_dimension_2d
+        )));
+    }
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width: w.max(1),
+            height: h.max(1),
+            depth_or_array_layers: images.len().max(1) as u32,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    for (layer, img) in images.iter().enumerate() {
+        if img.dimensions() != (w, h) {
+            return Err(GpuError::Unsupported(format!("{label}: layer {layer} has another size")));
+        }
+        queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d {
+                    x: 0,
+                    y: 0,
+                    z: layer as u32,
+                },
+                aspect: wgpu::TextureAspect::All,
+            },
+            img.as_raw(),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(4 * w),
+                rows_per_image: Some(h),
+            },
+            wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+        );
+    }
+    let view = texture.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(wgpu::TextureViewDimension::D2Array),
+        ..Default::default()
+    });
+    Ok((view, 4 * w as u64 * h as u64 * images.len() as u64))
+}
+
+/// A growable storage buffer of instances.
+struct InstanceBuffer {
+    buffer: wgpu::Buffer,
+    capacity: usize,
+}
+
+impl InstanceBuffer {
+    fn new(device: &wgpu::Device, capacity: usize) -> Self {
+        let capacity = capacity.max(1);
+        Self {
+            buffer: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("crowd instances"),
+                size: (capacity * std::mem::size_of::<Instance>()) as u64,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            capacity,
+        }
+    }
+
+    /// Uploads `data`; true when the buffer had to grow (bind groups must be rebuilt).
+    fn upload(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, data: &[Instance]) -> bool {
+        let grew = data.len() > self.capacity;
+        if grew {
+            *self = Self::new(device, data.len().next_power_of_two());
+        }
+        if !data.is_empty() {
+            queue.write_buffer(&self.buffer, 0, bytemuck::cast_slice(data));
+        }
+        grew
+    }
+}
+
+/// Joint samples per baked frame for the skinned mesh (its animation is sampled 4× finer than
+/// the image-based representations, then interpolated).
+pub const JOINT_SAMPLES_PER_FRAME: usize = 4;
+
+/// The clip's joints at `frames × per_frame` evenly spaced times over `frames / fps`
+/// seconds: per sample, per bone, rotation (xyzw) then translation xyz + uniform scale.
+pub fn joint_samples(
+    character: &Character,
+    clip: Option<usize>,
+    frames: usize,
+    fps: f32,
+    per_frame: usize,
+) -> Vec<[[f32; 4]; 2]> {
+    let n = frames.max(1) * per_frame.max(1);
+    let mut out = Vec::with_capacity(n * character.bones.len().max(1));
+    for k in 0..n {
+        let t = k as f32 / (fps.max(1e-3) * per_frame.max(1) as f32);
+        let pose = Pose::sample_index(character, clip, t);
+        if character.bones.is_empty() {
+            out.push([[0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]]);
+        }
+        for m in &pose.skin_from_bind {
+            let (s, r, tr) = m.to_scale_rotation_translation();
+            let scale = (s.x + s.y + s.z) / 3.0;
+            out.push([r.to_array(), [tr.x, tr.y, tr.z, scale]]);
+        }
+    }
+    out
+}
+
+/// The body part of each character vertex from per-triangle labels (a vertex takes the
+/// label of the first triangle that uses it; 0 where none does).
+pub fn vertex_parts(character: &Character, triangle_labels: &[u32]) -> Vec<u32> {
+    let mut parts = vec![u32::MAX; character.vertices.len()];
+    for (t, tri) in character.indices.chunks_exact(3).enumerate() {
+        let label = triangle_labels.get(t).copied().unwrap_or(0);
+        for &i in tri {
+            if let Some(p) = parts.get_mut(i as usize).filter(|p| **p == u32::MAX) {
+                *p = label;
+            }
+        }
+    }
+    parts.iter().map(|&p| if p == u32::MAX { 0 } else { p }).collect()
+}
+
+fn mesh_groups(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    frames: [&wgpu::Buffer; 2],
+    joints: &wgpu::Buffer,
+    instances: [&wgpu::Buffer; 2],
+    rigid: &wgpu::Buffer,
+    parts: &wgpu::Buffer,
+) -> [wgpu::BindGroup; 2] {
+    [0, 1].map(|k| {
+        bind(
+            device,
+            "crowd meshes",
+            layout,
+            &[
+                Resource::Buffer(frames[k]),
+                Resource::Buffer(joints),
+                Resource::Buffer(instances[k]),
+                Resource::Buffer(rigid),
+                Resource::Buffer(parts),
+            ],
+        )
+    })
+}
+
+/// Skinned and rigid meshes of one character.
+pub struct GpuMeshCrowd {
+    character: GpuCharacter,
+    skinned: wgpu::RenderPipeline,
+    rigid: Option<wgpu::RenderPipeline>,
+    layout: wgpu::BindGroupLayout,
+    frame_skinned: wgpu::Buffer,
+    frame_rigid: wgpu::Buffer,
+    joints: wgpu::Buffer,
+    rigid_frames: wgpu::Buffer,
+    parts: wgpu::Buffer,
+    instances: [InstanceBuffer; 2],
+    groups: [wgpu::BindGroup; 2],
+    counts: [f32; 4],
+    /// Bytes on the GPU of the skinned mesh (static mesh + textures + joint samples) and of
+    /// the rigid mesh (static mesh + textures + frames).
+    pub skinned_bytes: u64,
+    pub rigid_bytes: u64,
+}
+
+impl GpuMeshCrowd {
+    /// `frames` and `fps`: the baked animation the instances' frame numbers count
+    /// (`rigid`, when given, has that many frames). `triangle_labels`: the body part of each
+    /// triangle (for the per-part tint).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        character: &Character,
+        clip: Option<usize>,
+        frames: usize,
+        fps: f32,
+        rigid: Option<&FrameVertices>,
+        triangle_labels: &[u32],
+    ) -> Result<Self, GpuError> {
+        if let Some(r) = rigid
+            && (r.vertex_count != character.vertices.len() || r.frames() != frames.max(1))
+        {
+            return Err(GpuError::Unsupported(format!(
+                "the rigid frames ({} vertices × {} frames) do not match the character ({} vertices, {} frames)",
+                r.vertex_count,
+                r.frames(),
+                character.vertices.len(),
+                frames
+            )));
+        }
+        let renderer = CharacterRenderer::new(device);
+        let gpu = GpuCharacter::new(&renderer, device, queue, character);
+        let layout = layout(
+            device,
+            "crowd meshes",
+            &[Entry::Uniform, Entry::Storage, Entry::Storage, Entry::Storage, Entry::Storage],
+        );
+        let stream0 = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<PositionNormal>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3],
+        };
+        let stream1 = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<Attributes>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![2 => Float32x2, 3 => Float32x4, 4 => Uint16x4, 5 => Float32x4],
+        };
+        let layouts = [&layout, renderer.material_layout()];
+        let skinned = pipeline(
+            device,
+            "crowd skinned",
+            &layouts,
+            shaders::CROWD_MESH,
+            "vs_skinned",
+            &[Some(stream0), Some(stream1.clone())],
+        );
+        let rigid_pipeline = rigid.map(|_| {
+            pipeline(
+                device,
+                "crowd rigid",
+                &layouts,
+                shaders::CROWD_MESH,
+                "vs_rigid",
+                &[Some(stream1)],
+            )
+        });
+        let samples = joint_samples(character, clip, frames, fps, JOINT_SAMPLES_PER_FRAME);
+        let joints = storage(device, "crowd joints", bytemuck::cast_slice(&samples));
+        let rigid_data = rigid.map(packed_frames).unwrap_or_default();
+        let rigid_frames = storage(device, "crowd rigid frames", bytemuck::cast_slice(&rigid_data));
+        let parts_data = vertex_parts(character, triangle_labels);
+        let parts = storage(device, "crowd vertex parts", bytemuck::cast_slice(&parts_data));
+        let frame_skinned = uniform_buffer(device, "crowd skinned frame");
+        let frame_rigid = uniform_buffer(device, "crowd rigid frame");
+        let instances = [InstanceBuffer::new(device, 1024), InstanceBuffer::new(device, 1024)];
+        let static_bytes = crate::reps::character_static_bytes(character).total + parts_data.len() as u64 * 4;
+        let skinned_bytes =
+            static_bytes + character.vertices.len() as u64 * 24 + std::mem::size_of_val(samples.as_slice()) as u64;
+        let rigid_bytes = static_bytes + rigid_data.len() as u64 * 16;
+        let groups = mesh_groups(
+            device,
+            &layout,
+            [&frame_skinned, &frame_rigid],
+            &joints,
+            [&instances[0].buffer, &instances[1].buffer],
+            &rigid_frames,
+            &parts,
+        );
+        Ok(Self {
+            character: gpu,
+            skinned,
+            rigid: rigid_pipeline,
+            groups,
+            layout,
+            frame_skinned,
+            frame_rigid,
+            joints,
+            rigid_frames,
+            parts,
+            instances,
+            counts: [
+                JOINT_SAMPLES_PER_FRAME as f32,
+                frames.max(1) as f32,
+                character.bones.len().max(1) as f32,
+                character.vertices.len() as f32,
+            ],
+            skinned_bytes,
+            rigid_bytes,
+        })
+    }
+
+    /// True when rigid frames were given.
+    pub fn has_rigid(&self) -> bool {
+        self.rigid.is_some()
+    }
+
+    /// Uploads this frame's skinned and rigid instances.
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        clip_from_world: Mat4,
+        style: &PolypostorStyle,
+        skinned: &[Instance],
+        rigid: &[Instance],
+    ) {
+        let a = self.instances[0].upload(device, queue, skinned);
+        let b = self.instances[1].upload(device, queue, rigid);
+        if a || b {
+            self.groups = mesh_groups(
+                device,
+                &self.layout,
+                [&self.frame_skinned, &self.frame_rigid],
+                &self.joints,
+                [&self.instances[0].buffer, &self.instances[1].buffer],
+                &self.rigid_frames,
+                &self.parts,
+            );
+        }
+        let u = crowd_uniform(clip_from_world, style, self.counts, [0; 4]);
+        queue.write_buffer(&self.frame_skinned, 0, bytemuck::bytes_of(&u));
+        queue.write_buffer(&self.frame_rigid, 0, bytemuck::bytes_of(&u));
+    }
+
+    /// Draws the prepared instances; returns the draw calls made.
+    pub fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, skinned: usize, rigid: usize) -> usize {
+        let mut calls = 0;
+        if skinned > 0 {
+            pass.set_pipeline(&self.skinned);
+            pass.set_bind_group(0, &self.groups[0], &[]);
+            self.character.bind_geometry(pass);
+            calls += self.character.draw_instanced(pass, skinned as u32);
+        }
+        if let (Some(p), true) = (&self.rigid, rigid > 0) {
+            pass.set_pipeline(p);
+            pass.set_bind_group(0, &self.groups[1], &[]);
+            self.character.bind_attributes(pass);
+            calls += self.character.draw_instanced(pass, rigid as u32);
+        }
+        calls
+    }
+}
+
+/// Classic animated impostors: one quad per character.
+pub struct GpuImpostors {
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    frame: wgpu::Buffer,
+    views: wgpu::Buffer,
+    instances: InstanceBuffer,
+    color: wgpu::TextureView,
+    normal: wgpu::TextureView,
+    sampler: wgpu::Sampler,
+    group: wgpu::BindGroup,
+    counts: [f32; 4],
+    view_count: u32,
+    /// Bytes on the GPU (sheets and views).
+    pub gpu_bytes: u64,
+}
+
+impl GpuImpostors {
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, reps: &Representations) -> Result<Self, GpuError> {
+        let data = reps
+            .impostor
+            .as_ref()
+            .ok_or_else(|| GpuError::Unsupported("no impostors were baked (bake with --representation impostor)".into()))?;
+        let layout = layout(
+            device,
+            "impostors",
+            &[
+                Entry::Uniform,
+                Entry::Storage,
+                Entry::Storage,
+                Entry::TextureArray,
+                Entry::TextureArray,
+                Entry::Sampler,
+            ],
+        );
+        let pipeline = pipeline(device, "impostors", &[&layout], shaders::IMPOSTOR, "vs_main", &[]);
+        let views_data = views_gpu(reps);
+        let views = storage(device, "impostor views", bytemuck::cast_slice(&views_data));
+        let (color, cb) = texture_array(
+            device,
+            queue,
+            "impostor colour sheets",
+            &data.color,
+            wgpu::TextureFormat::Rgba8UnormSrgb,
+        )?;
+        let (normal, nb) = texture_array(
+            device,
+            queue,
+            "impostor normal sheets",
+            &data.normal,
+            wgpu::TextureFormat::Rgba8Unorm,
+        )?;
+        let sampler = clamp_sampler(device, "impostor sheets");
+        let frame = uniform_buffer(device, "impostor frame");
+        let instances = InstanceBuffer::new(device, 1024);
+        let group = Self::group(device, &layout, &frame, &views, &instances.buffer, &color, &normal, &sampler);
+        Ok(Self {
+            pipeline,
+            layout,
+            frame,
+            views,
+            instances,
+            color,
+            normal,
+            sampler,
+            group,
+            counts: [data.columns as f32, data.rows as f32, reps.manifest.frames as f32, 0.0],
+            view_count: reps.manifest.views.len() as u32,
+            gpu_bytes: cb + nb + std::mem::size_of_val(views_data.as_slice()) as u64,
+        })
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn group(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        frame: &wgpu::Buffer,
+        views: &wgpu::Buffer,
+        instances: &wgpu::Buffer,
+        color: &wgpu::TextureView,
+        normal: &wgpu::TextureView,
+        sampler: &wgpu::Sampler,
+    ) -> wgpu::BindGroup {
+        bind(
+            device,
+            "impostors",
+            layout,
+            &[
+                Resource::Buffer(frame),
+                Resource::Buffer(views),
+                Resource::Buffer(instances),
+                Resource::View(color),
+                Resource::View(normal),
+                Resource::Sampler(sampler),
+            ],
+        )
+    }
+
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        clip_from_world: Mat4,
+        style: &PolypostorStyle,
+        instances: &[Instance],
+    ) {
+        let safe = clamp_instances(instances, self.view_count, self.counts[2] as u32);
+        if self.instances.upload(device, queue, &safe) {
+            self.group = Self::group(
+                device,
+                &self.layout,
+                &self.frame,
+                &self.views,
+                &self.instances.buffer,
+                &self.color,
+                &self.normal,
+                &self.sampler,
+            );
+        }
+        let u = crowd_uniform(clip_from_world, style, self.counts, [0; 4]);
+        queue.write_buffer(&self.frame, 0, bytemuck::bytes_of(&u));
+    }
+
+    /// One draw call of `count` quads.
+    pub fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, count: usize) -> usize {
+        if count == 0 {
+            return 0;
+        }
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.group, &[]);
+        pass.draw(0..6, 0..count as u32);
+        1
+    }
+}
+
+/// Views clamped into the representation's views and frames wrapped (no instance may index
+/// past the data).
+fn clamp_instances(instances: &[Instance], views: u32, frames: u32) -> Vec<Instance> {
+    instances
+        .iter()
+        .map(|i| Instance {
+            view: i.view.min(views.saturating_sub(1)),
+            frame: i.frame % frames.max(1),
+            ..*i
+        })
+        .collect()
+}
+
+/// NP3D impostors: the simplified mesh per frame with projected view images.
+pub struct GpuNp3d {
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    frame: wgpu::Buffer,
+    views: wgpu::Buffer,
+    instances: InstanceBuffer,
+    vertices: wgpu::Buffer,
+    topology: wgpu::Buffer,
+    images: wgpu::TextureView,
+    sampler: wgpu::Sampler,
+    group: wgpu::BindGroup,
+    counts: [f32; 4],
+    index_count: u32,
+    part_base: u32,
+    view_count: u32,
+    /// Bytes on the GPU (images, meshes, views).
+    pub gpu_bytes: u64,
+}
+
+impl GpuNp3d {
+    /// `vertex_parts`: the body part of each character vertex ([`vertex_parts`]).
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        reps: &Representations,
+        vertex_parts: &[u32],
+    ) -> Result<Self, GpuError> {
+        let data = reps
+            .np3d
+            .as_ref()
+            .ok_or_else(|| GpuError::Unsupported("no NP3D impostors were baked (bake with --representation np3d)".into()))?;
+        let layout = layout(
+            device,
+            "np3d",
+            &[
+                Entry::Uniform,
+                Entry::Storage,
+                Entry::Storage,
+                Entry::Storage,
+                Entry::Storage,
+                Entry::TextureArray,
+                Entry::Sampler,
+            ],
+        );
+        let pipeline = pipeline(device, "np3d", &[&layout], shaders::NP3D, "vs_main", &[]);
+        let views_data = views_gpu(reps);
+        let views = storage(device, "np3d views", bytemuck::cast_slice(&views_data));
+        let packed = packed_frames(&data.frames);
+        let vertices = storage(device, "np3d vertices", bytemuck::cast_slice(&packed));
+        let mut topo: Vec<u32> = data.indices.iter().map(|&i| i as u32).collect();
+        let part_base = topo.len() as u32;
+        topo.extend(
+            data.source
+                .iter()
+                .map(|&s| vertex_parts.get(s as usize).copied().unwrap_or(0)),
+        );
+        let topology = storage(device, "np3d topology", bytemuck::cast_slice(&topo));
+        let (images, ib) = texture_array(device, queue, "np3d images", &data.images, wgpu::TextureFormat::Rgba8UnormSrgb)?;
+        let sampler = clamp_sampler(device, "np3d images");
+        let frame = uniform_buffer(device, "np3d frame");
+        let instances = InstanceBuffer::new(device, 1024);
+        let group = Self::group(
+            device,
+            &layout,
+            [&frame, &views, &instances.buffer, &vertices, &topology],
+            &images,
+            &sampler,
+        );
+        Ok(Self {
+            pipeline,
+            layout,
+            frame,
+            views,
+            instances,
+            vertices,
+            topology,
+            images,
+            sampler,
+            group,
+            counts: [
+                data.frames.vertex_count as f32,
+                reps.manifest.frames as f32,
+                reps.manifest.key_frame as f32,
+                0.0,
+            ],
+            index_count: data.indices.len() as u32,
+            part_base,
+            view_count: reps.manifest.views.len() as u32,
+            gpu_bytes: ib + (packed.len() * 16 + topo.len() * 4) as u64 + std::mem::size_of_val(views_data.as_slice()) as u64,
+        })
+    }
+
+    fn group(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        buffers: [&wgpu::Buffer; 5],
+        images: &wgpu::TextureView,
+        sampler: &wgpu::Sampler,
+    ) -> wgpu::BindGroup {
+        let mut r: Vec<Resource> = buffers.iter().map(|b| Resource::Buffer(b)).collect();
+        r.push(Resource::View(images));
+        r.push(Resource::Sampler(sampler));
+        bind(device, "np3d", layout, &r)
+    }
+
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        clip_from_world: Mat4,
+        style: &PolypostorStyle,
+        instances: &[Instance],
+    ) {
+        let safe = clamp_instances(instances, self.view_count, self.counts[1] as u32);
+        if self.instances.upload(device, queue, &safe) {
+            self.group = Self::group(
+                device,
+                &self.layout,
+                [&self.frame, &self.views, &self.instances.buffer, &self.vertices, &self.topology],
+                &self.images,
+                &self.sampler,
+            );
+        }
+        let u = crowd_uniform(clip_from_world, style, self.counts, [self.part_base, 0, 0, 0]);
+        queue.write_buffer(&self.frame, 0, bytemuck::bytes_of(&u));
+    }
+
+    /// One draw call of `count` meshes.
+    pub fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, count: usize) -> usize {
+        if count == 0 {
+            return 0;
+        }
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.group, &[]);
+        pass.draw(0..self.index_count, 0..count as u32);
+        1
+    }
+}
+
+/// Every representation of one character, ready to draw a crowd's per-level instances.
+pub struct CrowdRenderers {
+    pub meshes: GpuMeshCrowd,
+    pub polypostor: Option<GpuPolypostors>,
+    pub impostor: Option<GpuImpostors>,
+    pub np3d: Option<GpuNp3d>,
+    counts: [usize; Level::COUNT],
+}
+
+impl CrowdRenderers {
+    /// Builds what the inputs allow: meshes always (skinned; rigid when `reps` has rigid
+    /// frames), the Polypostor from `pack`, impostors and NP3D from `reps`. Frames and rate
+    /// come from the pack, else from `reps`, else `fallback`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        character: &Character,
+        clip: Option<usize>,
+        triangle_labels: &[u32],
+        pack: Option<&crate::pack::LoadedPack>,
+        reps: Option<&Representations>,
+        fallback: crate::crowd::ClipTiming,
+    ) -> Result<Self, GpuError> {
+        let timing = pack
+            .map(|p| crate::crowd::ClipTiming {
+                frames: p.manifest.frames as usize,
+                fps: p.manifest.fps,
+            })
+            .or_else(|| {
+                reps.map(|r| crate::crowd::ClipTiming {
+                    frames: r.manifest.frames as usize,
+                    fps: r.manifest.fps,
+                })
+            })
+            .unwrap_or(fallback);
+        let rigid = reps
+            .and_then(|r| r.rigid.as_ref())
+            .filter(|r| r.frames() == timing.frames && r.vertex_count == character.vertices.len());
+        let meshes = GpuMeshCrowd::new(
+            device,
+            queue,
+            character,
+            clip,
+            timing.frames,
+            timing.fps,
+            rigid,
+            triangle_labels,
+        )?;
+        let parts = vertex_parts(character, triangle_labels);
+        Ok(Self {
+            meshes,
+            polypostor: pack.map(|p| GpuPolypostors::new(device, queue, p)).transpose()?,
+            impostor: reps
+                .filter(|r| r.impostor.is_some())
+                .map(|r| GpuImpostors::new(device, queue, r))
+                .transpose()?,
+            np3d: reps
+                .filter(|r| r.np3d.is_some())
+                .map(|r| GpuNp3d::new(device, queue, r, &parts))
+                .transpose()?,
+            counts: [0; Level::COUNT],
+        })
+    }
+
+    /// True when this level can be drawn.
+    pub fn has(&self, level: Level) -> bool {
+        match level {
+            Level::Skinned => true,
+            Level::Rigid => self.meshes.has_rigid(),
+            Level::Polypostor => self.polypostor.is_some(),
+            Level::Impostor => self.impostor.is_some(),
+            Level::Np3d => self.np3d.is_some(),
+        }
+    }
+
+    /// Bytes on the GPU per level (0 where it is not loaded).
+    pub fn gpu_bytes(&self, level: Level) -> u64 {
+        match level {
+            Level::Skinned => self.meshes.skinned_bytes,
+            Level::Rigid if self.meshes.has_rigid() => self.meshes.rigid_bytes,
+            Level::Rigid => 0,
+            Level::Polypostor => self.polypostor.as_ref().map_or(0, |p| p.gpu_bytes),
+            Level::Impostor => self.impostor.as_ref().map_or(0, |p| p.gpu_bytes),
+            Level::Np3d => self.np3d.as_ref().map_or(0, |p| p.gpu_bytes),
+        }
+    }
+
+    /// Uploads each level's instances (a level that is not loaded draws nothing).
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        clip_from_world: Mat4,
+        style: &PolypostorStyle,
+        instances: &[Vec<Instance>; Level::COUNT],
+    ) {
+        let n = |l: Level| instances[l as usize].as_slice();
+        self.meshes.prepare(
+            device,
+            queue,
+            clip_from_world,
+            style,
+            n(Level::Skinned),
+            n(Level::Rigid),
+        );
+        if let Some(p) = &mut self.polypostor {
+            p.prepare(device, queue, clip_from_world, style, n(Level::Polypostor));
+        }
+        if let Some(p) = &mut self.impostor {
+            p.prepare(device, queue, clip_from_world, style, n(Level::Impostor));
+        }
+        if let Some(p) = &mut self.np3d {
+            p.prepare(device, queue, clip_from_world, style, n(Level::Np3d));
+        }
+        for l in Level::ALL {
+            self.counts[l as usize] = if self.has(l) { instances[l as usize].len() } else { 0 };
+        }
+    }
+
+    /// Draws what [`CrowdRenderers::prepare`] uploaded; returns the draw calls made.
+    pub fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>) -> usize {
+        let c = |l: Level| self.counts[l as usize];
+        let mut calls = self.meshes.draw(pass, c(Level::Skinned), c(Level::Rigid));
+        if let Some(p) = &self.polypostor
+            && c(Level::Polypostor) > 0
+        {
+            p.draw(pass, c(Level::Polypostor));
+            calls += 1;
+        }
+        if let Some(p) = &self.impostor {
+            calls += p.draw(pass, c(Level::Impostor));
+        }
+        if let Some(p) = &self.np3d {
+            calls += p.draw(pass, c(Level::Np3d));
+        }
+        calls
+    }
+
+    /// Prepares, draws into `target` (cleared to `clear`) and submits; returns the draw
+    /// calls. For tests, benchmarks and the editor's offscreen preview.
+    #[allow(clippy::too_many_arguments)]
+    pub fn render(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        target: &RenderTarget,
+        clip_from_world: Mat4,
+        style: &PolypostorStyle,
+        instances: &[Vec<Instance>; Level::COUNT],
+        clear: wgpu::Color,
+    ) -> usize {
+        self.prepare(device, queue, clip_from_world, style, instances);
+        let mut encoder = device.create_command_encoder(&Default::default());
+        let calls = {
+            let mut pass = target.begin_pass(&mut encoder, "crowd", clear);
+            self.draw(&mut pass)
+        };
+        queue.submit([encoder.finish()]);
+        calls
+    }
+}

@@ -1,0 +1,458 @@
+//! The representations the Polypostor is measured against, baked with the same views,
+//! resolution and frame rate so every comparison is fair (Polypostor paper section 4; the
+//! NP3D paper; `../shared/DESIGN.md` "Run time"):
+//!
+//! - **classic animated impostors**: per view, one colour and one normal image per frame,
+//!   tiled into one sheet per view;
+//! - **NP3D impostors**: the mesh simplified once (about 400 triangles, meshoptimizer) and
+//!   skinned to every frame (so consecutive frames share their topology and can be
+//!   interpolated), textured by projecting per-view key-frame images onto it;
+//! - **rigid meshes**: the full mesh pre-skinned at every frame (positions + normals).
+//!
+//! GPU-skinned meshes need nothing baked: they read the character itself.
+//!
+//! On disk, beside a pack or alone: `representations.json` ([`RepsManifest`]) plus
+//! `impostor_color_NNN.png` / `impostor_normal_NNN.png` per view, `np3d.bin` and
+//! `np3d_color.png`, and `rigid.bin` (little-endian throughout).
+
+pub mod bake;
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::pack::{PackCamera, PackError};
+
+pub const REPS_FILE: &str = "representations.json";
+pub const REPS_FORMAT: &str = "polypostor-representations";
+pub const REPS_VERSION: u32 = 1;
+
+/// Which representations a bake produces.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RepSet {
+    pub polypostor: bool,
+    pub impostor: bool,
+    pub np3d: bool,
+    pub rigid: bool,
+}
+
+impl RepSet {
+    pub const ALL: RepSet = RepSet {
+        polypostor: true,
+        impostor: true,
+        np3d: true,
+        rigid: true,
+    };
+
+    /// Parses `polypostor|impostor|np3d|rigid|all`, comma-separated.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let mut set = RepSet::default();
+        for word in text.split(',').map(str::trim).filter(|w| !w.is_empty()) {
+            match word.to_ascii_lowercase().as_str() {
+                "polypostor" => set.polypostor = true,
+                "impostor" => set.impostor = true,
+                "np3d" => set.np3d = true,
+                "rigid" => set.rigid = true,
+                "all" => set = RepSet::ALL,
+                other => {
+                    return Err(format!(
+                        "unknown representation '{other}' (choose from polypostor, impostor, np3d, rigid, all)"
+                    ));
+                }
+            }
+        }
+        if set == RepSet::default() {
+            return Err("no representation given (choose from polypostor, impostor, np3d, rigid, all)".into());
+        }
+        Ok(set)
+    }
+
+    /// Anything besides the Polypostor pack.
+    pub fn any_other(&self) -> bool {
+        self.impostor || self.np3d || self.rigid
+    }
+}
+
+/// One view, as in the pack (same direction, same orthographic camera).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RepView {
+    /// Unit direction from the character towards the camera.
+    pub direction: [f32; 3],
+    pub camera: PackCamera,
+}
+
+/// Classic animated impostors: per view a colour and a normal sheet of `columns × rows`
+/// tiles of `resolution²` pixels, frame `f` at column `f % columns`, row `f / columns`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ImpostorInfo {
+    pub columns: u32,
+    pub rows: u32,
+}
+
+/// NP3D impostors: `np3d.bin` holds `index_count` u16 indices, then `vertex_count` u32
+/// source vertex numbers (which character vertex each one is), then per frame
+/// `vertex_count` × (position xyz f32, normal xyz f32); `np3d_color.png` tiles one
+/// key-frame colour image per view (`columns` per row, `resolution²` each).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Np3dInfo {
+    pub vertex_count: u32,
+    pub index_count: u32,
+    pub columns: u32,
+}
+
+/// Rigid meshes: `rigid.bin` holds per frame `vertex_count` × (position xyz f32, normal xyz
+/// f32) of the character's full mesh, pre-skinned.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RigidInfo {
+    pub vertex_count: u32,
+}
+
+/// `representations.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RepsManifest {
+    pub format: String,
+    pub version: u32,
+    pub character: String,
+    /// The glTF the representations were baked from (meshes draw from it).
+    pub character_path: Option<String>,
+    pub clip: Option<String>,
+    pub fps: f32,
+    pub frames: u32,
+    /// The texture key-frame (NP3D images; the pack's key frame when one was baked).
+    pub key_frame: u32,
+    pub resolution: u32,
+    pub views: Vec<RepView>,
+    pub impostor: Option<ImpostorInfo>,
+    pub np3d: Option<Np3dInfo>,
+    pub rigid: Option<RigidInfo>,
+}
+
+/// Per-frame vertex data of a mesh (frame-major: frame `f`, vertex `v` at `f·count + v`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FrameVertices {
+    pub vertex_count: usize,
+    pub positions: Vec<[f32; 3]>,
+    pub normals: Vec<[f32; 3]>,
+}
+
+impl FrameVertices {
+    pub fn frames(&self) -> usize {
+        self.positions.len() / self.vertex_count.max(1)
+    }
+}
+
+/// Classic impostor sheets, one colour and one normal image per view.
+#[derive(Clone, Debug)]
+pub struct ImpostorData {
+    pub columns: u32,
+    pub rows: u32,
+    pub color: Vec<image::RgbaImage>,
+    pub normal: Vec<image::RgbaImage>,
+}
+
+/// The simplified mesh at every frame and the per-view key-frame images.
+#[derive(Clone, Debug)]
+pub struct Np3dData {
+    pub indices: Vec<u16>,
+    /// The character vertex each simplified vertex is.
+    pub source: Vec<u32>,
+    pub frames: FrameVertices,
+    /// One `resolution²` colour image per view (the key frame).
+    pub images: Vec<image::RgbaImage>,
+}
+
+/// Representations in memory.
+#[derive(Clone, Debug)]
+pub struct Representations {
+    pub manifest: RepsManifest,
+    pub impostor: Option<ImpostorData>,
+    pub np3d: Option<Np3dData>,
+    pub rigid: Option<FrameVertices>,
+}
+
+/// Bytes of each representation, uncompressed and with block-compressed textures (BC1 for
+/// colour without alpha is not enough for cut-outs: BC3/DXT5 at one byte per texel, as the
+/// pack's own figure).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct RepBytes {
+    pub texture: u64,
+    pub geometry: u64,
+    pub total: u64,
+    pub total_bc: u64,
+}
+
+impl RepBytes {
+    fn new(texture: u64, geometry: u64) -> Self {
+        Self {
+            texture,
+            geometry,
+            total: texture + geometry,
+            total_bc: texture / 4 + geometry,
+        }
+    }
+}
+
+impl Representations {
+    /// Memory of the impostors as stored (colour + normal RGBA8 per view per frame).
+    pub fn impostor_bytes(&self) -> Option<RepBytes> {
+        self.impostor.as_ref()?;
+        let r = self.manifest.resolution as u64;
+        let tiles = self.manifest.views.len() as u64 * self.manifest.frames as u64;
+        Some(RepBytes::new(tiles * r * r * 4 * 2, 0))
+    }
+
+    /// NP3D: per-view key-frame colour images + the simplified mesh at every frame.
+    pub fn np3d_bytes(&self) -> Option<RepBytes> {
+        let n = self.np3d.as_ref()?;
+        let r = self.manifest.resolution as u64;
+        let texture = self.manifest.views.len() as u64 * r * r * 4;
+        // On the GPU: u32 indices, a part per vertex, 16 bytes per vertex per frame.
+        let geometry = n.indices.len() as u64 * 4 + n.source.len() as u64 * 4 + n.frames.positions.len() as u64 * 16;
+        Some(RepBytes::new(texture, geometry))
+    }
+
+    /// Rigid: the full mesh at every frame (positions + normals as stored), plus the
+    /// character's own textures and static attributes, given by the caller.
+    pub fn rigid_bytes(&self, character_static: RepBytes) -> Option<RepBytes> {
+        let r = self.rigid.as_ref()?;
+        Some(RepBytes::new(
+            character_static.texture,
+            // On the GPU: 16 bytes per vertex per frame (position + packed normal).
+            character_static.geometry + r.positions.len() as u64 * 16,
+        ))
+    }
+}
+
+/// Static bytes of a character mesh on the GPU: base-colour textures (RGBA8 with mips, ×4/3)
+/// and the vertex attributes (UV, colour, joints, weights: 40 bytes) and u32 indices. The
+/// skinned mesh adds its bind-pose positions + normals; see [`skinned_bytes`].
+pub fn character_static_bytes(c: &crate::Character) -> RepBytes {
+    let texture: u64 = c
+        .textures
+        .iter()
+        .map(|t| t.width as u64 * t.height as u64 * 4 * 4 / 3)
+        .sum();
+    let geometry = c.vertices.len() as u64 * 40 + c.indices.len() as u64 * 4;
+    RepBytes::new(texture, geometry)
+}
+
+/// The GPU-skinned mesh: static data + bind-pose positions and normals + the clip's joint
+/// transforms (quaternion + translation + scale, 32 bytes per joint per sample).
+pub fn skinned_bytes(c: &crate::Character, joint_samples: usize) -> RepBytes {
+    let s = character_static_bytes(c);
+    RepBytes::new(
+        s.texture,
+        s.geometry + c.vertices.len() as u64 * 24 + (joint_samples * c.bones.len()) as u64 * 32,
+    )
+}
+
+fn damaged(m: String) -> PackError {
+    PackError::Damaged(m)
+}
+
+fn frame_vertices(bytes: &[u8], vertex_count: usize, frames: usize, what: &str) -> Result<FrameVertices, PackError> {
+    let want = vertex_count * frames * 24;
+    if bytes.len() != want {
+        return Err(damaged(format!(
+            "{what} has {} bytes of vertex data, {vertex_count} vertices × {frames} frames need {want}",
+            bytes.len()
+        )));
+    }
+    let f: Vec<f32> = bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    if let Some(bad) = f.iter().position(|x| !x.is_finite()) {
+        return Err(damaged(format!("{what}: value {bad} is not a finite number")));
+    }
+    let mut out = FrameVertices {
+        vertex_count,
+        positions: Vec::with_capacity(vertex_count * frames),
+        normals: Vec::with_capacity(vertex_count * frames),
+    };
+    for v in f.chunks_exact(6) {
+        out.positions.push([v[0], v[1], v[2]]);
+        out.normals.push([v[3], v[4], v[5]]);
+    }
+    Ok(out)
+}
+
+fn frame_vertex_bytes(v: &FrameVertices) -> Vec<u8> {
+    let mut out = Vec::with_capacity(v.positions.len() * 24);
+    for (p, n) in v.positions.iter().zip(&v.normals) {
+        for x in p.iter().chain(n) {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// A tile of a sheet (`columns` per row, `size²` each).
+pub fn sheet_tile(sheet: &image::RgbaImage, index: u32, columns: u32, size: u32) -> image::RgbaImage {
+    let (x, y) = ((index % columns) * size, (index / columns) * size);
+    image::imageops::crop_imm(sheet, x, y, size, size).to_image()
+}
+
+/// Loads `representations.json` and every file it names, validating counts, sizes and
+/// indices (a damaged file gives a clear error, never a panic later).
+pub fn load_representations(dir: &Path) -> Result<Representations, PackError> {
+    use crate::pack::{member, png, read};
+    let text = read(&dir.join(REPS_FILE), 16 << 20)?;
+    let manifest: RepsManifest = serde_json::from_slice(&text).map_err(|e| PackError::Manifest(e.to_string()))?;
+    if manifest.format != REPS_FORMAT {
+        return Err(PackError::NotAPack(manifest.format.clone()));
+    }
+    if manifest.version != REPS_VERSION {
+        return Err(PackError::Version(manifest.version));
+    }
+    let (frames, r, views) = (
+        manifest.frames as usize,
+        manifest.resolution,
+        manifest.views.len() as u32,
+    );
+    if frames == 0 || frames > 10_000 || manifest.key_frame >= manifest.frames {
+        return Err(damaged(format!(
+            "frame count {} / key frame {} out of range",
+            manifest.frames, manifest.key_frame
+        )));
+    }
+    if !(16..=2048).contains(&r) || views == 0 || views > 4096 {
+        return Err(damaged(format!("resolution {r} or view count {views} out of range")));
+    }
+    let impostor = match &manifest.impostor {
+        None => None,
+        Some(info) => {
+            if info.columns == 0 || info.rows == 0 || (info.columns * info.rows) < manifest.frames {
+                return Err(damaged(format!(
+                    "impostor sheets of {}×{} tiles cannot hold {} frames",
+                    info.columns, info.rows, manifest.frames
+                )));
+            }
+            let size = [info.columns * r, info.rows * r];
+            let mut color = Vec::new();
+            let mut normal = Vec::new();
+            for v in 0..views {
+                color.push(png(dir, &impostor_file("color", v), size)?);
+                normal.push(png(dir, &impostor_file("normal", v), size)?);
+            }
+            Some(ImpostorData {
+                columns: info.columns,
+                rows: info.rows,
+                color,
+                normal,
+            })
+        }
+    };
+    let np3d = match &manifest.np3d {
+        None => None,
+        Some(info) => {
+            let bytes = read(&member(dir, "np3d.bin")?, 1 << 30)?;
+            let (vc, ic) = (info.vertex_count as usize, info.index_count as usize);
+            if vc == 0 || vc > u16::MAX as usize || ic == 0 || ic % 3 != 0 || bytes.len() < ic * 2 {
+                return Err(damaged(format!("np3d.bin: {vc} vertices / {ic} indices out of range")));
+            }
+            let indices: Vec<u16> = bytes[..ic * 2]
+                .chunks_exact(2)
+                .map(|c| u16::from_le_bytes([c[0], c[1]]))
+                .collect();
+            if let Some(i) = indices.iter().find(|&&i| i as usize >= vc) {
+                return Err(damaged(format!("np3d.bin: index {i} is past the {vc} vertices")));
+            }
+            let rest = &bytes[ic * 2..];
+            if rest.len() < vc * 4 {
+                return Err(damaged("np3d.bin is cut short".into()));
+            }
+            let source: Vec<u32> = rest[..vc * 4]
+                .chunks_exact(4)
+                .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                .collect();
+            let frames = frame_vertices(&rest[vc * 4..], vc, frames, "np3d.bin")?;
+            let columns = info.columns.max(1);
+            let rows = views.div_ceil(columns);
+            let sheet = png(dir, "np3d_color.png", [columns * r, rows * r])?;
+            let images = (0..views).map(|v| sheet_tile(&sheet, v, columns, r)).collect();
+            Some(Np3dData {
+                indices,
+                source,
+                frames,
+                images,
+            })
+        }
+    };
+    let rigid = match &manifest.rigid {
+        None => None,
+        Some(info) => {
+            let bytes = read(&member(dir, "rigid.bin")?, 1 << 32)?;
+            Some(frame_vertices(&bytes, info.vertex_count as usize, frames, "rigid.bin")?)
+        }
+    };
+    Ok(Representations {
+        manifest,
+        impostor,
+        np3d,
+        rigid,
+    })
+}
+
+fn impostor_file(kind: &str, view: u32) -> String {
+    format!("impostor_{kind}_{view:03}.png")
+}
+
+/// Writes the representations into `dir` (an existing folder, e.g. the pack's temporary
+/// folder before it is moved into place). Returns the bytes written.
+pub fn write_representations(reps: &Representations, dir: &Path) -> Result<u64, String> {
+    let io = |p: &Path, e: &dyn std::fmt::Display| format!("{}: {e}", p.display());
+    let mut written = 0u64;
+    let mut put = |name: &str, bytes: &[u8]| -> Result<(), String> {
+        let p = dir.join(name);
+        std::fs::write(&p, bytes).map_err(|e| io(&p, &e))?;
+        written += bytes.len() as u64;
+        Ok(())
+    };
+    let png_bytes = |img: &image::RgbaImage| -> Result<Vec<u8>, String> {
+        let mut out = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut out, image::ImageFormat::Png).map_err(|e| e.to_string())?;
+        Ok(out.into_inner())
+    };
+    if let Some(i) = &reps.impostor {
+        for (v, (c, n)) in i.color.iter().zip(&i.normal).enumerate() {
+            put(&impostor_file("color", v as u32), &png_bytes(c)?)?;
+            put(&impostor_file("normal", v as u32), &png_bytes(n)?)?;
+        }
+    }
+    if let Some(n) = &reps.np3d {
+        let mut bytes: Vec<u8> = n.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+        bytes.extend(n.source.iter().flat_map(|i| i.to_le_bytes()));
+        bytes.extend(frame_vertex_bytes(&n.frames));
+        put("np3d.bin", &bytes)?;
+        let columns = reps.manifest.np3d.as_ref().map_or(1, |i| i.columns.max(1));
+        let r = reps.manifest.resolution;
+        let rows = (n.images.len() as u32).div_ceil(columns);
+        let mut sheet = image::RgbaImage::new(columns * r, rows.max(1) * r);
+        for (v, img) in n.images.iter().enumerate() {
+            let v = v as u32;
+            image::imageops::replace(&mut sheet, img, ((v % columns) * r) as i64, ((v / columns) * r) as i64);
+        }
+        put("np3d_color.png", &png_bytes(&sheet)?)?;
+    }
+    if let Some(r) = &reps.rigid {
+        put("rigid.bin", &frame_vertex_bytes(r))?;
+    }
+    let text = serde_json::to_string_pretty(&reps.manifest).map_err(|e| e.to_string())?;
+    put(REPS_FILE, text.as_bytes())?;
+    Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rep_set_parses_lists_and_rejects_unknown_words() {
+        assert_eq!(RepSet::parse("all").unwrap(), RepSet::ALL);
+        let s = RepSet::parse("polypostor, np3d").unwrap();
+        assert!(s.polypostor && s.np3d && !s.impostor && !s.rigid);
+        assert!(RepSet::parse("impostors").unwrap_err().contains("impostors"));
+        assert!(RepSet::parse("").is_err());
+    }
+}

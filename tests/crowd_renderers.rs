@@ -1,0 +1,218 @@
+//! The comparison representations (GPU-skinned and rigid meshes, classic and NP3D impostors)
+//! against the ground truth: one character drawn by each crowd renderer from one of the
+//! baked views must cover nearly the same pixels as the real mesh rendered with the same
+//! camera and pose, with nearly the same colours (documented tolerances in the README). And
+//! the representations survive a write / load round trip, while damaged files give clear
+//! errors.
+
+mod common;
+
+use std::sync::atomic::AtomicBool;
+
+use glam::Vec3;
+use polypostor::animation::Pose;
+use polypostor::bake::segment::auto_segment;
+use polypostor::bake::viewpoints::Coverage;
+use polypostor::crowd::lod::Level;
+use polypostor::crowd::{ClipTiming, Instance};
+use polypostor::gpu::*;
+use polypostor::reps::bake::{RepsOptions, bake_representations};
+use polypostor::reps::{RepSet, load_representations, write_representations};
+
+fn mask(img: &image::RgbaImage) -> Vec<bool> {
+    img.pixels().map(|p| p[3] > 127).collect()
+}
+
+/// Intersection over union of two masks, and the mean colour difference (0..255) where
+/// both cover.
+fn compare(truth: &image::RgbaImage, truth_mask: &[bool], img: &image::RgbaImage, m: &[bool]) -> (f64, f64) {
+    let both = truth_mask.iter().zip(m).filter(|(a, b)| **a && **b).count();
+    let either = truth_mask.iter().zip(m).filter(|(a, b)| **a || **b).count();
+    let mut diff = 0.0;
+    for (i, (a, b)) in truth.pixels().zip(img.pixels()).enumerate() {
+        if truth_mask[i] && m[i] {
+            diff += (0..3).map(|k| (a[k] as f64 - b[k] as f64).abs()).sum::<f64>() / 3.0;
+        }
+    }
+    (both as f64 / either.max(1) as f64, diff / both.max(1) as f64)
+}
+
+#[test]
+fn every_representation_draws_close_to_the_mesh() {
+    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let c = polypostor::default_character::generate();
+    let seg = auto_segment(&c);
+    let options = RepsOptions {
+        views: 6,
+        coverage: Coverage::UpperHemisphere,
+        resolution: 128,
+        fps: 10.0,
+        clip: Some(0),
+        key_frame: 0,
+        set: RepSet::ALL,
+        np3d_triangles: 400,
+    };
+    let reps = bake_representations(&ctx, &c, None, Some("Walk"), &options, &|_| {}, &AtomicBool::new(false)).unwrap();
+    assert_eq!(reps.manifest.views.len(), 6);
+    let frames = reps.manifest.frames as usize;
+    assert_eq!(frames, 10);
+    let np3d = reps.np3d.as_ref().unwrap();
+    let triangles = np3d.indices.len() / 3;
+    assert!((300..=440).contains(&triangles), "NP3D mesh of {triangles} triangles");
+
+    // Round trip through the files.
+    let dir = common::temp_dir("crowd-renderers");
+    let out = dir.join("reps");
+    std::fs::create_dir_all(&out).unwrap();
+    write_representations(&reps, &out).unwrap();
+    let loaded = load_representations(&out).unwrap();
+    assert_eq!(loaded.manifest, reps.manifest);
+    assert_eq!(loaded.rigid, reps.rigid);
+    let (a, b) = (loaded.np3d.as_ref().unwrap(), np3d);
+    assert_eq!((&a.indices, &a.source, &a.frames), (&b.indices, &b.source, &b.frames));
+    assert_eq!(a.images, b.images);
+    let (a, b) = (loaded.impostor.as_ref().unwrap(), reps.impostor.as_ref().unwrap());
+    assert_eq!((&a.color, &a.normal), (&b.color, &b.normal));
+
+    let labels: Vec<u32> = seg.labels.iter().map(|&l| l as u32).collect();
+    let timing = ClipTiming { frames, fps: 10.0 };
+    let mut crowd = CrowdRenderers::new(device, queue, &c, Some(0), &labels, None, Some(&loaded), timing).unwrap();
+    for level in [Level::Skinned, Level::Rigid, Level::Impostor, Level::Np3d] {
+        assert!(crowd.has(level), "{level:?}");
+        assert!(crowd.gpu_bytes(level) > 0, "{level:?}");
+    }
+    assert!(!crowd.has(Level::Polypostor));
+
+    let renderer = CharacterRenderer::new(device);
+    let mut mesh = GpuCharacter::new(&renderer, device, queue, &c);
+    let size = 256u32;
+    let target = RenderTarget::new(device, size, size);
+    let style = PolypostorStyle {
+        lit: false,
+        tint: 0.0,
+        ..Default::default()
+    };
+    // (level, blend, IoU bound, colour bound): meshes are exact up to rasterisation (rigid
+    // frames interpolate linearly between the baked frames, so in-between they are close, not
+    // exact); impostors are the same image at a different pixel size, and cannot interpolate;
+    // NP3D is a 400-triangle mesh with the key frame's image projected onto it.
+    let cases = [
+        (Level::Skinned, 0.0, 0.99, 3.0),
+        (Level::Skinned, 0.5, 0.99, 3.0),
+        (Level::Rigid, 0.0, 0.99, 3.0),
+        (Level::Rigid, 0.5, 0.9, 10.0),
+        (Level::Impostor, 0.0, 0.92, 20.0),
+        (Level::Np3d, 0.0, 0.88, 30.0),
+    ];
+    let frame = 3usize;
+    for (v, view) in loaded.manifest.views.iter().enumerate().step_by(2) {
+        let cam = &view.camera;
+        let (center, forward, up) = (Vec3::from(cam.center), Vec3::from(cam.forward), Vec3::from(cam.up));
+        let camera = Camera {
+            eye: center + forward * cam.half_size * 4.0,
+            target: center,
+            up,
+            projection: Projection::Orthographic {
+                half_height: cam.half_size,
+            },
+            near: cam.half_size,
+            far: cam.half_size * 8.0,
+        };
+        for &(level, blend, min_iou, max_diff) in &cases {
+            let time = (frame as f32 + blend) / 10.0;
+            renderer.render(
+                device,
+                queue,
+                &target,
+                &mut mesh,
+                &c,
+                &Pose::sample_index(&c, Some(0), time),
+                SkinningMode::Gpu,
+                &camera,
+                &DrawOptions {
+                    shading: Shading::Unlit,
+                    ..Default::default()
+                },
+            );
+            let truth_color = target.read_color(device, queue).unwrap();
+            let truth = mask(&target.read_normal(device, queue).unwrap());
+            let mut instances: [Vec<Instance>; Level::COUNT] = Default::default();
+            instances[level as usize].push(Instance {
+                pos: [0.0, 0.0],
+                facing: [0.0, 1.0],
+                view: v as u32,
+                frame: frame as u32,
+                blend,
+                variant: 7,
+            });
+            let calls = crowd.render(
+                device,
+                queue,
+                &target,
+                camera.clip_from_world(1.0),
+                &style,
+                &instances,
+                wgpu::Color::TRANSPARENT,
+            );
+            assert!(calls >= 1, "{level:?}: no draw call");
+            let color = target.read_color(device, queue).unwrap();
+            let drawn = mask(&target.read_normal(device, queue).unwrap());
+            let (iou, diff) = compare(&truth_color, &truth, &color, &drawn);
+            eprintln!("view {v}, {level:?} blend {blend}: IoU {iou:.3}, colour difference {diff:.1}/255");
+            if std::env::var_os("POLYPOSTOR_TEST_IMAGES").is_some() {
+                truth_color.save(dir.join(format!("truth_{v}_{blend}.png"))).unwrap();
+                color
+                    .save(dir.join(format!("{}_{v}_{blend}.png", level.name())))
+                    .unwrap();
+            }
+            assert!(iou > min_iou, "view {v}, {level:?}, blend {blend}: IoU {iou}");
+            assert!(diff < max_diff, "view {v}, {level:?}, blend {blend}: colour difference {diff}");
+        }
+    }
+
+    // A crowd of every level at once, out-of-range views and frames clamped: draws, covers
+    // the screen, and takes one draw call per image-based level.
+    let mut instances: [Vec<Instance>; Level::COUNT] = Default::default();
+    for i in 0..400u32 {
+        let level = [Level::Skinned, Level::Rigid, Level::Impostor, Level::Np3d][(i % 4) as usize];
+        instances[level as usize].push(Instance {
+            pos: [(i % 20) as f32 * 0.8 - 8.0, (i / 20) as f32 * 0.8],
+            facing: [0.0, 1.0],
+            view: i * 7,
+            frame: i * 3,
+            blend: 0.5,
+            variant: i,
+        });
+    }
+    let camera = Camera::orbit(Vec3::new(0.0, 0.9, 8.0), 0.0, 0.6, 30.0, 50f32.to_radians());
+    let calls = crowd.render(
+        device,
+        queue,
+        &target,
+        camera.clip_from_world(1.0),
+        &PolypostorStyle::default(),
+        &instances,
+        wgpu::Color::TRANSPARENT,
+    );
+    assert!((4..=8).contains(&calls), "{calls} draw calls");
+    let covered = mask(&target.read_normal(device, queue).unwrap()).iter().filter(|&&x| x).count();
+    assert!(covered > (size * size / 20) as usize, "{covered} pixels");
+
+    // Damaged files: clear errors naming the file, never a panic.
+    let np3d_path = out.join("np3d.bin");
+    let bytes = std::fs::read(&np3d_path).unwrap();
+    std::fs::write(&np3d_path, &bytes[..bytes.len() - 7]).unwrap();
+    let e = load_representations(&out).unwrap_err().to_string();
+    assert!(e.contains("np3d.bin"), "{e}");
+    let mut forged = bytes.clone();
+    forged[0] = 0xff;
+    forged[1] = 0xff;
+    std::fs::write(&np3d_path, &forged).unwrap();
+    let e = load_representations(&out).unwrap_err().to_string();
+    assert!(e.contains("index 65535"), "{e}");
+    std::fs::write(&np3d_path, &bytes).unwrap();
+    std::fs::write(out.join("impostor_color_003.png"), b"not a png").unwrap();
+    let e = load_representations(&out).unwrap_err().to_string();
+    assert!(e.contains("impostor_color_003.png"), "{e}");
+}
