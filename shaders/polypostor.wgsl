@@ -1,19 +1,19 @@
-// Polypostor crowd: every character of every view in one instanced draw. Vertices are pulled
-// from storage buffers: instance -> view -> its parts in drawing order (one slot of
-// `slot_verts` vertices each, padded with degenerate triangles) -> the part's triangle
-// indices -> positions at two frames, interpolated. Parts later in the view's order are
-// moved slightly towards the camera, so the depth test draws them in front.
+// Polypostor crowd: instances sorted by view, one indexed instanced draw per view in use.
+// Each index names a part record (high 16 bits: view × parts + drawing slot) and a vertex of
+// that part (low 16 bits); the vertex is pulled from the pack's 16-bit data at two frames
+// and interpolated. Indexed draws let the GPU reuse each vertex across its triangles. Parts
+// later in the view's order are moved slightly towards the camera, so the depth test draws
+// them in front.
 // Keep the structs in sync with `src/gpu/polypostor_renderer.rs`.
 
 struct Frame {
     clip_from_world: mat4x4<f32>,
     // xyz: unit direction towards the light (world).
     light_dir: vec4<f32>,
-    // x: slot_verts, y: parts per view, z: frames, w: depth offset per slot (world units).
+    // x: unused, y: parts per view, z: frames, w: depth offset per slot (world units).
     counts: vec4<f32>,
     // x: shading (0 unlit, 1 lit), y: ambient, z: tint strength.
     params: vec4<f32>,
-    // x: first u32 of the index data in `geometry`.
     bases: vec4<u32>,
 };
 
@@ -50,8 +50,7 @@ struct Instance {
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<storage, read> views: array<View>;
 @group(0) @binding(2) var<storage, read> parts: array<Part>;
-// Vertex data (u32 words, each an x, y pair of unorm16 values), then index data (u32 words,
-// each two u16 indices) from `frame.bases.x` on.
+// Vertex data (u32 words, each an x, y pair of unorm16 values).
 @group(0) @binding(3) var<storage, read> geometry: array<u32>;
 @group(0) @binding(4) var<storage, read> instances: array<Instance>;
 @group(0) @binding(5) var atlas: texture_2d_array<f32>;
@@ -65,11 +64,6 @@ struct VertexOut {
     @location(2) light_view: vec3<f32>,
     @location(3) tint: vec3<f32>,
 };
-
-fn index_at(i: u32) -> u32 {
-    let w = geometry[frame.bases.x + i / 2u];
-    return select(w & 0xffffu, w >> 16u, (i & 1u) == 1u);
-}
 
 fn hash(x: u32) -> u32 {
     var h = x * 747796405u + 2891336453u;
@@ -86,32 +80,27 @@ fn turn(p: vec3<f32>, f: vec2<f32>) -> vec3<f32> {
 fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> VertexOut {
     var out: VertexOut;
     let inst = instances[ii];
-    let slot_verts = u32(frame.counts.x);
     let per_view = u32(frame.counts.y);
     let frames = max(u32(frame.counts.z), 1u);
-    let slot = vi / slot_verts;
-    let k = vi % slot_verts;
-    let part = parts[inst.view * per_view + slot];
-    if (k >= part.index_count) {
-        // Padding: a degenerate triangle, clipped away.
-        out.clip_position = vec4<f32>(0.0, 0.0, 0.0, 0.0);
-        return out;
-    }
+    let record = vi >> 16u;
+    let slot = record % max(per_view, 1u);
+    let part = parts[record];
     let vc = max(part.vertex_count & 0xffffu, 1u);
-    let local = min(index_at(part.index_offset + k), vc - 1u);
+    let local = min(vi & 0xffffu, vc - 1u);
     let f0 = inst.frame % frames;
     let f1 = (f0 + 1u) % frames;
     let a = unpack2x16unorm(geometry[part.vertex_word + vc * (1u + f0) + local]) * 2.0 - 1.0;
     let b = unpack2x16unorm(geometry[part.vertex_word + vc * (1u + f1) + local]) * 2.0 - 1.0;
     let xy = mix(a, b, clamp(inst.blend, 0.0, 1.0));
-    let view = views[inst.view];
+    let view_index = record / max(per_view, 1u);
+    let view = views[view_index];
     let model = view.center.xyz
         + (xy.x * view.right.xyz + xy.y * view.up.xyz) * view.center.w
         + view.forward.xyz * (f32(slot) * frame.counts.w);
     let world = turn(model, inst.facing) + vec3<f32>(inst.pos.x, 0.0, inst.pos.y);
     out.clip_position = frame.clip_from_world * vec4<f32>(world, 1.0);
     out.uv = unpack2x16unorm(geometry[part.vertex_word + local]) * view.uv_scale.xy;
-    out.layer = inst.view;
+    out.layer = view_index;
     // The light in the view's camera frame (the normal atlas is in that frame).
     let l = turn(frame.light_dir.xyz, vec2<f32>(-inst.facing.x, inst.facing.y));
     out.light_view = vec3<f32>(dot(l, view.right.xyz), dot(l, view.up.xyz), dot(l, view.forward.xyz));

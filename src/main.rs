@@ -78,6 +78,31 @@ enum Command {
 
 #[derive(clap::Subcommand)]
 enum BenchWhat {
+    /// Frames per second of every representation at every crowd size, rendered offscreen in
+    /// one run (the Polypostor paper's Figure 7 experiment).
+    Crowd {
+        /// Crowd sizes, comma-separated.
+        #[arg(long, default_value = "2000,5000,10000,20000", value_delimiter = ',')]
+        counts: Vec<usize>,
+        /// Frames to time per representation and size (after 3 warm-up frames).
+        #[arg(long, default_value_t = 10)]
+        frames: usize,
+        /// A folder baked with --representation all (default: bake the default character
+        /// into a temporary folder first, about a minute).
+        #[arg(long)]
+        pack: Option<PathBuf>,
+        /// The character the pack was baked from (default: the path the pack names).
+        #[arg(long)]
+        character: Option<PathBuf>,
+        /// Offscreen image size.
+        #[arg(long, default_value_t = 1280)]
+        width: u32,
+        #[arg(long, default_value_t = 720)]
+        height: u32,
+        /// Print a JSON list instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
     /// CPU work per crowd frame on one thread: simulation, then culling, level of detail,
     /// view and frame choice and instance records.
     Sim {
@@ -124,6 +149,18 @@ fn main() -> ExitCode {
         Some(Command::Bench {
             what: BenchWhat::Sim { agents, frames, json },
         }) => bench_sim(agents, frames, json),
+        Some(Command::Bench {
+            what:
+                BenchWhat::Crowd {
+                    counts,
+                    frames,
+                    pack,
+                    character,
+                    width,
+                    height,
+                    json,
+                },
+        }) => bench_crowd(&counts, frames, pack, character, width, height, json),
         None => {
             let path = cli
                 .path
@@ -521,6 +558,157 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         stats.triangles_per_view,
         if set.any_other() { format!(", plus {}", a.representation) } else { String::new() }
     );
+    Ok(())
+}
+
+/// The default character baked with every representation into a temporary folder.
+fn bake_default_all(out: &Path) -> anyhow::Result<()> {
+    eprintln!("baking the default character with every representation into {} (pass --pack to reuse a bake)", out.display());
+    bake_cmd(BakeArgs {
+        input: repo_root().join(polypostor::project::DEFAULT_PROJECT_DIR),
+        project: None,
+        clip: None,
+        out: Some(out.to_owned()),
+        views: polypostor::bake::viewpoints::DEFAULT_VIEW_COUNT,
+        resolution: polypostor::bake::renders::DEFAULT_RESOLUTION,
+        fps: polypostor::bake::renders::DEFAULT_FPS,
+        key_frame: "auto".into(),
+        exhaustive: false,
+        allow_folds: false,
+        no_restarts: false,
+        full_sphere: false,
+        debug_images: false,
+        representation: "all".into(),
+    })
+}
+
+/// `bench crowd`: every representation at every size, one after the other on the same
+/// crowd and camera, each frame simulated, selected, uploaded, drawn and waited for.
+fn bench_crowd(
+    counts: &[usize],
+    frames: usize,
+    pack: Option<PathBuf>,
+    character: Option<PathBuf>,
+    width: u32,
+    height: u32,
+    json: bool,
+) -> anyhow::Result<()> {
+    use polypostor::crowd::CrowdParams;
+    use polypostor::crowd::lod::{Level, LodDistances, LodPolicy};
+    use polypostor::crowd::scene::{CrowdAssets, CrowdScene, bench_camera};
+    if counts.is_empty() || counts.iter().any(|&c| c == 0 || c > 1_000_000) || frames == 0 {
+        anyhow::bail!("--counts must list crowd sizes from 1 to 1,000,000 and --frames must be at least 1");
+    }
+    let dir = match pack {
+        Some(p) => p,
+        None => {
+            let d = std::env::temp_dir().join(format!("polypostor-bench-{}", std::process::id()));
+            bake_default_all(&d.join("default.pack"))?;
+            d.join("default.pack")
+        }
+    };
+    let assets = CrowdAssets::load(&dir, character.as_deref(), None).map_err(|e| anyhow::anyhow!(e))?;
+    let ctx = polypostor::gpu::GpuContext::from_env()?;
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let target = polypostor::gpu::RenderTarget::new(device, width, height);
+    let mut scene = CrowdScene::new(device, queue, &assets, CrowdParams { count: counts[0], ..Default::default() })?;
+    let mut reps: Vec<(&str, LodPolicy)> = Level::ALL
+        .iter()
+        .filter(|l| scene.renderers.has(**l))
+        .map(|l| (l.name(), LodPolicy::Only(*l)))
+        .collect();
+    reps.push((
+        "mixed",
+        LodPolicy::Mixed(LodDistances {
+            texels: assets.resolution() as f32,
+            ..Default::default()
+        }),
+    ));
+    if !json {
+        eprintln!(
+            "crowd rendering, {width}×{height} offscreen on {}, {frames} frames per figure",
+            ctx.adapter_description()
+        );
+    }
+    let mut rows = Vec::new();
+    for &count in counts {
+        scene.respawn(CrowdParams { count, ..Default::default() });
+        let camera = bench_camera(&scene.crowd);
+        let mut per_rep = Vec::new();
+        for (name, policy) in &reps {
+            let mut run = |n: usize| {
+                let t = std::time::Instant::now();
+                let mut last = Default::default();
+                for _ in 0..n {
+                    last = scene.frame(device, queue, &target, &camera, policy, 1.0 / 60.0, wgpu::Color::BLACK);
+                    let _ = device.poll(wgpu::PollType::Wait {
+                        submission_index: None,
+                        timeout: Some(std::time::Duration::from_secs(120)),
+                    });
+                }
+                (t.elapsed().as_secs_f64(), last)
+            };
+            run(3);
+            let (secs, last) = run(frames);
+            let fps = frames as f64 / secs.max(1e-9);
+            if !json {
+                eprintln!("  {count:>7} {name:<11} {fps:>9.2} fps  ({} drawn, {} draw calls)", last.frame.visible, last.draw_calls);
+            }
+            per_rep.push((name.to_string(), fps, last));
+        }
+        let poly = per_rep.iter().find(|r| r.0 == "polypostor").map(|r| r.1);
+        for (name, fps, last) in per_rep {
+            let level = Level::ALL.iter().find(|l| l.name() == name);
+            rows.push(serde_json::json!({
+                "representation": name,
+                "count": count,
+                "fps": fps,
+                "ms_per_frame": 1e3 / fps,
+                "polypostor_over_this": poly.map(|p| p / fps),
+                "visible": last.frame.visible,
+                "draw_calls": last.draw_calls,
+                "gpu_bytes": level.map(|l| scene.renderers.gpu_bytes(*l)),
+            }));
+        }
+    }
+    if json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+        return Ok(());
+    }
+    let names: Vec<&str> = reps.iter().map(|r| r.0).collect();
+    println!("frames per second ({width}×{height}, {})", ctx.adapter_description());
+    print!("{:>8}", "count");
+    for n in &names {
+        print!(" {n:>11}");
+    }
+    println!();
+    for &count in counts {
+        print!("{count:>8}");
+        for n in &names {
+            let fps = rows
+                .iter()
+                .find(|r| r["count"] == count && r["representation"] == *n)
+                .and_then(|r| r["fps"].as_f64())
+                .unwrap_or(0.0);
+            print!(" {fps:>11.2}");
+        }
+        println!();
+    }
+    println!("polypostor fps ÷ each representation's fps (>1: polypostors are faster)");
+    for &count in counts {
+        print!("{count:>8}");
+        for n in &names {
+            let r = rows
+                .iter()
+                .find(|r| r["count"] == count && r["representation"] == *n)
+                .and_then(|r| r["polypostor_over_this"].as_f64());
+            match r {
+                Some(r) => print!(" {r:>10.2}×"),
+                None => print!(" {:>11}", "-"),
+            }
+        }
+        println!();
+    }
     Ok(())
 }
 

@@ -3,8 +3,9 @@
 //!
 //! Drawn with `plotters` into an in-memory RGB buffer and written with the `image` crate, so
 //! there is a single `image` version in the build. Text uses the Ubuntu-Light font bundled in
-//! `epaint_default_fonts`, registered once with plotters' `ab_glyph` text renderer: no system
-//! fonts are needed.
+//! `epaint_default_fonts`, registered once with plotters' `ab_glyph` feature; no system fonts
+//! are needed. The glyphs themselves are placed by this module's backend wrapper (`Canvas`),
+//! because plotters 0.3.7's own `ab_glyph` drawing spaces letters unevenly.
 //!
 //! Every chart is [`WIDTH`] × [`HEIGHT`] pixels on a white background; series take the colours
 //! of [`PALETTE`] in order (cycling after six). Odd input never panics:
@@ -12,7 +13,8 @@
 //! - on a log axis, zero and negative values have no bar (they cannot be shown);
 //! - input with nothing drawable (no labels, no series, no finite value, or on a log axis no
 //!   positive value) is an `Err` and no file is written;
-//! - a bar series whose length differs from the number of labels is an `Err`.
+//! - a bar series whose length differs from the number of labels is an `Err`, and so are
+//!   values an axis cannot span (a range overflowing `f64`, or below ~1e-300 on a log axis).
 //!
 //! The file is always written as PNG, whatever the extension of `path`; the parent folder must
 //! exist.
@@ -57,8 +59,8 @@ const GRID_BOLD: RGBColor = RGBColor(200, 200, 200);
 /// Grouped bar chart: one group per label, one bar per series in each group, a legend.
 ///
 /// `series` is `(name, values)` with `values[i]` belonging to `labels[i]`; each series must
-/// have exactly `labels.len()` values. Each drawn bar carries its value (3 significant
-/// digits) above it when there is room. With `log_y`, the y axis is logarithmic (powers of
+/// have exactly `labels.len()` values. Each bar carries its value (3 significant digits) at
+/// its end, if every such label fits the bar width (otherwise no bar has one). With `log_y`, the y axis is logarithmic (powers of
 /// ten), so values spanning several decades are all visible; zero and negative values then
 /// have no bar. Non-finite values have no bar.
 pub fn bar_chart(
@@ -104,7 +106,15 @@ pub fn bar_chart(
                 return Err(format!("bar chart \"{title}\": values out of range for a log axis"));
             }
             let y: LogCoord<f64> = (lo..hi).log_scale().into();
-            draw_bars(&area, y_label, labels, series, y, lo, &drawable)
+            // Light grid lines at 2..9 × 10^k: plotters spreads about `10 × light_lines` light
+            // points over the decades, so one per decade gives exactly those.
+            let decades = (hi / lo).log10().round().max(1.0) as usize;
+            let axis = YAxis {
+                coord: y,
+                base: lo,
+                light_lines: decades,
+            };
+            draw_bars(&area, y_label, labels, series, axis, &drawable)
         } else {
             let lo = min.min(0.0);
             let hi = max.max(0.0);
@@ -117,7 +127,12 @@ pub fn bar_chart(
                 return Err(format!("bar chart \"{title}\": values too large to plot"));
             }
             let y: RangedCoordf64 = (lo..hi).into();
-            draw_bars(&area, y_label, labels, series, y, 0.0, &drawable)
+            let axis = YAxis {
+                coord: y,
+                base: 0.0,
+                light_lines: 4,
+            };
+            draw_bars(&area, y_label, labels, series, axis, &drawable)
         }
     })
 }
@@ -146,7 +161,8 @@ pub fn line_chart(
         return Err(format!("line chart \"{title}\": no finite point to plot"));
     };
     let x_range = padded(x_min, x_max, 0.0);
-    let y_range = padded(y_min, y_max, 0.08);
+    // Non-negative data (errors, sizes) keeps 0 as the bottom of the axis.
+    let y_range = padded(y_min, y_max, 0.08).map(|r| if y_min >= 0.0 { r.start.max(0.0)..r.end } else { r });
     let (Some(x_range), Some(y_range)) = (x_range, y_range) else {
         return Err(format!("line chart \"{title}\": values too large to plot"));
     };
@@ -174,6 +190,7 @@ pub fn line_chart(
             .axis_desc_style(font(AXIS_DESC_SIZE))
             .x_labels(12)
             .y_labels(10)
+            .max_light_lines(4)
             .x_label_formatter(&fmt)
             .y_label_formatter(&fmt)
             .x_desc(x_label)
@@ -268,7 +285,7 @@ fn layout_line(font: &ab_glyph::FontRef<'static>, size: f64, text: &str) -> (Vec
         if let Some(p) = prev {
             x += scaled.kern(p, id);
         }
-        glyphs.push(id.with_scale_and_position(scaled.scale(), ab_glyph::point(x, scaled.ascent())));
+        glyphs.push(id.with_scale_and_position(scaled.scale(), ab_glyph::point(x, scaled.ascent().round())));
         x += scaled.h_advance(id);
         prev = Some(id);
     }
@@ -277,9 +294,10 @@ fn layout_line(font: &ab_glyph::FontRef<'static>, size: f64, text: &str) -> (Vec
 
 /// The bitmap backend with its own text rendering.
 ///
-/// plotters 0.3.7's `ab_glyph` text drawing drops each glyph's left side bearing and rounds
-/// the pen position (plotters issue #576), which makes the spacing visibly uneven ("a long"
-/// reads "along"), and it anchors text a little too high. Text is laid out here with
+/// plotters 0.3.7's `ab_glyph` text drawing (`FontDataInternal::draw`) drops each glyph's
+/// left side bearing and truncates the pen position to whole pixels, which makes the spacing
+/// visibly uneven ("a long" reads "along"; compare plotters issue #576), and its anchoring
+/// puts text a few pixels too high. Text is laid out here with
 /// sub-pixel glyph positions and kerning instead (same font, same sizes); everything else is
 /// `BitMapBackend`'s.
 struct Canvas<'a>(BitMapBackend<'a>);
@@ -440,32 +458,54 @@ fn header<'a>(
     let title_h = root.estimate_text_size("Mg", &title_style).map_err(draw_err)?.1 as i32;
     let area = root.split_vertically(10 + title_h + 6).1;
 
-    // Lay the legend entries out in rows.
+    // Lay the legend entries out in rows, at most `MAX_LEGEND_ROWS`; entries that do not fit
+    // are summed up as "+N more" (an entry without a mark, index `usize::MAX`).
+    const MAX_LEGEND_ROWS: usize = 4;
     let style = font(LEGEND_SIZE);
     let (mark_w, gap, row_h, side) = (28i32, 26i32, 26i32, 40i32);
     let max_row = WIDTH as i32 - 2 * side;
+    let text_w =
+        |t: &str| -> Result<i32, String> { Ok(root.estimate_text_size(t, &style).map_err(draw_err)?.0 as i32) };
+    let row_width = |row: &[(usize, String, i32)]| row.iter().map(|e| e.2 + gap).sum::<i32>() - gap;
     let mut rows: Vec<Vec<(usize, String, i32)>> = vec![vec![]];
-    let mut row_w = 0;
+    let mut hidden = 0;
     for (i, name) in names.iter().enumerate() {
         let text = fit_text(root, name, &style, (max_row - mark_w - 8) as u32)?;
-        let text_w = root.estimate_text_size(&text, &style).map_err(draw_err)?.0 as i32;
-        let w = mark_w + 8 + text_w;
+        let w = mark_w + 8 + text_w(&text)?;
         let row = rows.last_mut().expect("rows is never empty");
-        if !row.is_empty() && row_w + gap + w > max_row {
-            rows.push(vec![(i, text, w)]);
-            row_w = w;
-        } else {
-            row_w += if row.is_empty() { w } else { gap + w };
+        if row.is_empty() || row_width(row) + gap + w <= max_row {
             row.push((i, text, w));
+        } else if rows.len() < MAX_LEGEND_ROWS {
+            rows.push(vec![(i, text, w)]);
+        } else {
+            hidden = names.len() - i;
+            break;
+        }
+    }
+    if hidden > 0 {
+        let row = rows.last_mut().expect("rows is never empty");
+        loop {
+            let more = format!("+{hidden} more");
+            let w = text_w(&more)?;
+            if row.len() <= 1 || row_width(row) + gap + w <= max_row {
+                row.push((usize::MAX, more, w));
+                break;
+            }
+            row.pop();
+            hidden += 1;
         }
     }
     let strip_h = rows.len() as i32 * row_h + 8;
     let (strip, rest) = area.split_vertically(strip_h);
     for (r, row) in rows.iter().enumerate() {
-        let total: i32 = row.iter().map(|e| e.2).sum::<i32>() + gap * (row.len() as i32 - 1);
-        let mut x = (WIDTH as i32 - total) / 2;
+        let mut x = (WIDTH as i32 - row_width(row)) / 2;
         let cy = r as i32 * row_h + row_h / 2;
         for (i, text, w) in row {
+            if *i == usize::MAX {
+                let style = style.pos(Pos::new(HPos::Left, VPos::Center));
+                strip.draw_text(text, &style, (x, cy)).map_err(draw_err)?;
+                continue;
+            }
             let c = colour(*i);
             match mark {
                 LegendMark::Square => {
@@ -489,14 +529,21 @@ fn header<'a>(
     Ok(rest)
 }
 
+/// The y axis of [`bar_chart`]: linear or log coordinates, where bars start, and at most how
+/// many light grid lines go between two labelled ones.
+struct YAxis<Y> {
+    coord: Y,
+    base: f64,
+    light_lines: usize,
+}
+
 /// The bars, axes and value labels of [`bar_chart`], for a linear or a log y axis.
 fn draw_bars<Y>(
     area: &DrawingArea<Canvas<'_>, Shift>,
     y_label: &str,
     labels: &[String],
     series: &[(String, Vec<f64>)],
-    y: Y,
-    base: f64,
+    y: YAxis<Y>,
     drawable: &dyn Fn(f64) -> bool,
 ) -> Result<(), String>
 where
@@ -511,7 +558,7 @@ where
         .margin_bottom(5)
         .x_label_area_size(40)
         .y_label_area_size(95)
-        .build_cartesian_2d(x, y)
+        .build_cartesian_2d(x, y.coord)
         .map_err(draw_err)?;
 
     // Pixel width of one group, to fit the labels and decide on value labels.
@@ -539,6 +586,7 @@ where
         .label_style(label_style.clone())
         .axis_desc_style(font(AXIS_DESC_SIZE))
         .y_labels(10)
+        .y_max_light_lines(y.light_lines)
         .x_label_formatter(&x_fmt)
         .y_label_formatter(&y_fmt)
         .y_desc(y_label)
@@ -546,35 +594,46 @@ where
         .map_err(draw_err)?;
 
     // Bars take 80% of a group, side by side.
-    let n = series.len() as f64;
-    let bar_w = 0.8 / n;
+    let bar_w = 0.8 / series.len() as f64;
     let bar_px = group_px * bar_w;
-    let value_style = font(VALUE_SIZE);
-    for (s, (_, values)) in series.iter().enumerate() {
-        let c = colour(s);
-        for (g, &v) in values.iter().enumerate() {
-            if !drawable(v) {
-                continue;
-            }
-            let x0 = g as f64 + 0.1 + s as f64 * bar_w;
-            let x1 = x0 + bar_w;
-            let inset = (bar_w * 0.06).min(0.01);
-            chart
-                .draw_series(std::iter::once(Rectangle::new(
-                    [(x0 + inset, base), (x1 - inset, v)],
-                    c.filled(),
-                )))
-                .map_err(draw_err)?;
+    let bars = || {
+        series.iter().enumerate().flat_map(move |(s, (_, values))| {
+            values
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| drawable(**v))
+                .map(move |(g, &v)| {
+                    let x0 = g as f64 + 0.1 + s as f64 * bar_w;
+                    (s, x0, x0 + bar_w, v)
+                })
+        })
+    };
+    let inset = (bar_w * 0.06).min(0.01);
+    for (s, x0, x1, v) in bars() {
+        let rect = Rectangle::new([(x0 + inset, y.base), (x1 - inset, v)], colour(s).filled());
+        chart.draw_series(std::iter::once(rect)).map_err(draw_err)?;
+    }
 
-            let text = format_value(v);
-            let text_w = area.estimate_text_size(&text, &value_style).map_err(draw_err)?.0;
-            if f64::from(text_w) <= bar_px + 4.0 {
-                let (anchor, dy) = if v >= base { (VPos::Bottom, -3) } else { (VPos::Top, 3) };
-                let style = value_style.pos(Pos::new(HPos::Center, anchor));
-                let label = EmptyElement::at(((x0 + x1) / 2.0, v)) + Text::new(text, (0, dy), style);
-                chart.draw_series(std::iter::once(label)).map_err(draw_err)?;
-            }
+    // Value labels, on every bar or on none (when one would be wider than its bar).
+    let value_style = font(VALUE_SIZE);
+    let mut value_labels = Vec::new();
+    for (_, x0, x1, v) in bars() {
+        let text = format_value(v);
+        let text_w = area.estimate_text_size(&text, &value_style).map_err(draw_err)?.0;
+        if f64::from(text_w) > bar_px + 4.0 {
+            return Ok(());
         }
+        value_labels.push(((x0 + x1) / 2.0, v, text));
+    }
+    for (x, v, text) in value_labels {
+        let (anchor, dy) = if v >= y.base {
+            (VPos::Bottom, -3)
+        } else {
+            (VPos::Top, 3)
+        };
+        let style = value_style.pos(Pos::new(HPos::Center, anchor));
+        let label = EmptyElement::at((x, v)) + Text::new(text, (0, dy), style);
+        chart.draw_series(std::iter::once(label)).map_err(draw_err)?;
     }
     Ok(())
 }
@@ -650,7 +709,8 @@ fn padded(min: f64, max: f64, frac: f64) -> Option<Range<f64>> {
     (lo.is_finite() && hi.is_finite() && hi > lo).then_some(lo..hi)
 }
 
-/// A number with at most 3 significant digits: `12.3`, `0.00456`, `1.23e7`, `0`.
+/// A number with at most 3 significant digits: `12.3`, `0.00456`, `1230`, `1.23e7`, `0`
+/// (scientific from 10 000 up and below 0.001).
 fn format_value(v: f64) -> String {
     if !v.is_finite() {
         return format!("{v}");
@@ -665,7 +725,7 @@ fn format_value(v: f64) -> String {
     } else {
         exp
     };
-    if !(-3..6).contains(&exp) {
+    if !(-3..4).contains(&exp) {
         let mantissa = v / 10f64.powi(exp);
         let m = trim_zeros(format!("{mantissa:.2}"));
         return format!("{m}e{exp}");
@@ -701,7 +761,9 @@ mod tests {
         assert_eq!(format_value(0.5), "0.5");
         assert_eq!(format_value(0.004567), "0.00457");
         assert_eq!(format_value(123.4), "123");
-        assert_eq!(format_value(12345.0), "12300");
+        assert_eq!(format_value(1234.5), "1230");
+        assert_eq!(format_value(9999.0), "1e4");
+        assert_eq!(format_value(12345.0), "1.23e4");
         assert_eq!(format_value(999.7), "1000");
         assert_eq!(format_value(-2.5), "-2.5");
         assert_eq!(format_value(1.0e6), "1e6");

@@ -71,6 +71,11 @@ fn check_basic(img: &image::RgbImage) {
     assert!(dark > 500, "expected text and axes, {dark} dark pixels");
 }
 
+/// Bar series: (name, one value per label).
+type Bars = Vec<(String, Vec<f64>)>;
+/// Line series: (name, points).
+type Lines = Vec<(String, Vec<(f64, f64)>)>;
+
 fn s(v: &str) -> String {
     v.to_string()
 }
@@ -187,6 +192,15 @@ fn long_and_many_series_wrap_and_cycle_the_palette() {
     let path = dir.path("many-lines.png");
     line_chart(&path, "Long series", "frame", "value", &lines).unwrap();
     check_basic(&load(&path));
+
+    // Far more series than the legend can list: it is cut to a few rows ("+N more") and the
+    // chart keeps its room.
+    let crowd: Lines = (0..40)
+        .map(|k| (format!("variant {k}"), vec![(0.0, k as f64), (1.0, k as f64 + 1.0)]))
+        .collect();
+    let path = dir.path("crowd-lines.png");
+    line_chart(&path, "Forty series", "x", "y", &crowd).unwrap();
+    check_basic(&load(&path));
 }
 
 #[test]
@@ -233,7 +247,7 @@ fn nothing_to_draw_is_an_error_and_writes_no_file() {
 fn odd_but_drawable_input_gives_a_valid_chart() {
     let dir = TempDir::new("odd");
     let labels = vec![s("a"), s("b"), s("c")];
-    let cases: Vec<(&str, Vec<(String, Vec<f64>)>, bool)> = vec![
+    let cases: Vec<(&str, Bars, bool)> = vec![
         ("all zero", vec![(s("x"), vec![0.0, 0.0, 0.0])], false),
         ("negative", vec![(s("x"), vec![-1.0, -5.0, 2.0])], false),
         ("one value", vec![(s("x"), vec![f64::NAN, 7.0, f64::NAN])], true),
@@ -255,7 +269,7 @@ fn odd_but_drawable_input_gives_a_valid_chart() {
         }
     }
 
-    let line_cases: Vec<(&str, Vec<(String, Vec<(f64, f64)>)>)> = vec![
+    let line_cases: Vec<(&str, Lines)> = vec![
         ("single point", vec![(s("p"), vec![(3.0, 4.0)])]),
         ("flat", vec![(s("p"), vec![(0.0, 2.0), (1.0, 2.0), (2.0, 2.0)])]),
         ("vertical", vec![(s("p"), vec![(1.0, 0.0), (1.0, 5.0)])]),

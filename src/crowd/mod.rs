@@ -9,6 +9,7 @@ pub mod frustum;
 pub mod grid;
 pub mod lod;
 pub mod rng;
+pub mod scene;
 
 use std::time::Instant;
 

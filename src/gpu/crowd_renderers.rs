@@ -997,11 +997,8 @@ impl CrowdRenderers {
     pub fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>) -> usize {
         let c = |l: Level| self.counts[l as usize];
         let mut calls = self.meshes.draw(pass, c(Level::Skinned), c(Level::Rigid));
-        if let Some(p) = &self.polypostor
-            && c(Level::Polypostor) > 0
-        {
-            p.draw(pass, c(Level::Polypostor));
-            calls += 1;
+        if let Some(p) = &self.polypostor {
+            calls += p.draw(pass, c(Level::Polypostor));
         }
         if let Some(p) = &self.impostor {
             calls += p.draw(pass, c(Level::Impostor));

@@ -76,11 +76,15 @@ pub struct GpuPolypostors {
     normal_view: wgpu::TextureView,
     sampler: wgpu::Sampler,
     bind_group: wgpu::BindGroup,
-    slot_verts: u32,
     parts_per_view: u32,
     frames: u32,
-    index_base: u32,
     view_count: u32,
+    index_buffer: wgpu::Buffer,
+    /// Each view's range of `index_buffer`.
+    view_ranges: Vec<std::ops::Range<u32>>,
+    /// Instances of each view after [`GpuPolypostors::prepare`] sorted them.
+    view_instances: Vec<std::ops::Range<u32>>,
+    sorted: Vec<Instance>,
     /// Bytes of GPU memory this pack holds (buffers and textures, instances excluded).
     pub gpu_bytes: u64,
     /// Depth offset between consecutive parts (world units).
@@ -108,12 +112,6 @@ impl GpuPolypostors {
             .chunks(2)
             .map(|c| c[0] as u32 | (c.get(1).copied().unwrap_or(0) as u32) << 16)
             .collect();
-        let index_base = geometry.len() as u32;
-        geometry.extend(
-            pack.indices
-                .chunks(2)
-                .map(|c| c[0] as u32 | (c.get(1).copied().unwrap_or(0) as u32) << 16),
-        );
         geometry.push(0);
         let mut max_w = 1u32;
         let mut max_h = 1u32;
@@ -132,7 +130,10 @@ impl GpuPolypostors {
         }
         let mut views = Vec::with_capacity(m.views.len());
         let mut parts = Vec::with_capacity(m.views.len() * parts_per_view as usize);
-        let mut slot_verts = 3u32;
+        // Per view, its parts' triangles in drawing order; each index is the part record
+        // (high 16 bits) and the vertex in the part (low 16 bits).
+        let mut index_words: Vec<u32> = Vec::new();
+        let mut view_ranges: Vec<std::ops::Range<u32>> = Vec::with_capacity(m.views.len());
         for v in &m.views {
             let c = &v.camera;
             let four = |a: [f32; 3], w: f32| [a[0], a[1], a[2], w];
@@ -148,6 +149,7 @@ impl GpuPolypostors {
                     0.0,
                 ],
             });
+            let view_start = index_words.len() as u32;
             for s in 0..parts_per_view as usize {
                 let id = v.order.get(s).copied().unwrap_or(0);
                 let record = v
@@ -160,10 +162,28 @@ impl GpuPolypostors {
                         index_offset: p.index_offset as u32,
                         index_count: p.index_count,
                     });
-                slot_verts = slot_verts.max(record.index_count.div_ceil(3) * 3);
+                let id_record = parts.len() as u32;
+                if record.index_count > 0 {
+                    let start = record.index_offset as usize;
+                    let list = pack.indices.get(start..start + record.index_count as usize).unwrap_or(&[]);
+                    index_words.extend(list.iter().map(|&i| id_record << 16 | i as u32));
+                }
                 parts.push(record);
             }
+            view_ranges.push(view_start..index_words.len() as u32);
         }
+        if parts.len() > 0xffff {
+            return Err(GpuError::Unsupported(format!(
+                "the pack has {} part records; this renderer addresses at most 65535",
+                parts.len()
+            )));
+        }
+        index_words.push(0);
+        let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("polypostor indices"),
+            contents: bytemuck::cast_slice(&index_words),
+            usage: wgpu::BufferUsages::INDEX,
+        });
         let storage = |label, bytes: &[u8]| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -225,7 +245,8 @@ impl GpuPolypostors {
         }
         let gpu_bytes = (views.len() * std::mem::size_of::<ViewGpu>()
             + parts.len() * std::mem::size_of::<PartGpu>()
-            + geometry.len() * 4) as u64
+            + geometry.len() * 4
+            + index_words.len() * 4) as u64
             + 4 * view_count as u64 * (max_w as u64 * max_h as u64 + nw as u64 * nh as u64);
         let frame = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("polypostor frame"),
@@ -354,11 +375,13 @@ impl GpuPolypostors {
             normal_view,
             sampler,
             bind_group,
-            slot_verts,
             parts_per_view,
             frames: m.frames.max(1),
-            index_base,
             view_count,
+            index_buffer,
+            view_instances: vec![0..0; view_ranges.len()],
+            view_ranges,
+            sorted: Vec::new(),
             gpu_bytes,
             depth_step,
         })
@@ -435,42 +458,67 @@ impl GpuPolypostors {
                 &self.sampler,
             );
         }
-        // Never let an instance index past the pack: clamp views and wrap frames here too.
-        let safe: Vec<Instance> = instances
-            .iter()
-            .map(|i| Instance {
-                view: i.view.min(self.view_count - 1),
+        // Sort by view (counting sort) so each view is one indexed draw; never let an
+        // instance index past the pack: clamp views and wrap frames here too.
+        let views = self.view_count as usize;
+        let mut starts = vec![0u32; views + 1];
+        for i in instances {
+            starts[(i.view as usize).min(views - 1) + 1] += 1;
+        }
+        for v in 0..views {
+            starts[v + 1] += starts[v];
+        }
+        for (v, r) in self.view_instances.iter_mut().enumerate() {
+            *r = starts[v]..starts[v + 1];
+        }
+        self.sorted.clear();
+        self.sorted.resize(instances.len(), Instance::default());
+        for i in instances {
+            let v = (i.view as usize).min(views - 1);
+            self.sorted[starts[v] as usize] = Instance {
+                view: v as u32,
                 frame: i.frame % self.frames,
                 ..*i
-            })
-            .collect();
-        if !safe.is_empty() {
-            queue.write_buffer(&self.instances, 0, bytemuck::cast_slice(&safe));
+            };
+            starts[v] += 1;
+        }
+        if !self.sorted.is_empty() {
+            queue.write_buffer(&self.instances, 0, bytemuck::cast_slice(&self.sorted));
         }
         let l = style.light_dir.normalize_or(glam::Vec3::Y);
         let uniform = FrameUniform {
             clip_from_world: clip_from_world.to_cols_array_2d(),
             light_dir: [l.x, l.y, l.z, 0.0],
             counts: [
-                self.slot_verts as f32,
+                0.0,
                 self.parts_per_view as f32,
                 self.frames as f32,
                 self.depth_step,
             ],
             params: [if style.lit { 1.0 } else { 0.0 }, style.ambient, style.tint, 0.0],
-            bases: [self.index_base, 0, 0, 0],
+            bases: [0; 4],
         };
         queue.write_buffer(&self.frame, 0, bytemuck::bytes_of(&uniform));
     }
 
-    /// Draws `count` instances (uploaded by [`GpuPolypostors::prepare`]): one draw call.
-    pub fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, count: usize) {
+    /// Draws the instances uploaded by [`GpuPolypostors::prepare`] (`count` of them): one
+    /// indexed instanced draw per view in use. Returns the draw calls made.
+    pub fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, count: usize) -> usize {
         if count == 0 {
-            return;
+            return 0;
         }
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
-        pass.draw(0..self.slot_verts * self.parts_per_view, 0..count as u32);
+        pass.set_index_buffer(self.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
+        let mut calls = 0;
+        for (indices, instances) in self.view_ranges.iter().zip(&self.view_instances) {
+            if instances.is_empty() || indices.is_empty() || instances.end as usize > count {
+                continue;
+            }
+            pass.draw_indexed(indices.clone(), 0, instances.clone());
+            calls += 1;
+        }
+        calls
     }
 
     /// Renders instances into `target` (cleared first), for tests and offscreen benchmarks.

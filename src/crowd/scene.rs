@@ -1,0 +1,260 @@
+//! A crowd ready to run and draw: the character, its baked representations on the GPU, the
+//! agents and the per-frame loop (simulate, select, upload, draw). The editor's crowd
+//! preview and `polypostor bench crowd` both drive this.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use glam::Vec3;
+
+use super::lod::{Level, LodPolicy};
+use super::{ClipTiming, Crowd, CrowdCamera, CrowdParams, FrameStats};
+use crate::bake::viewpoints::ViewLookup;
+use crate::character::Character;
+use crate::gpu::{Camera, CrowdRenderers, GpuError, PolypostorStyle, RenderTarget};
+use crate::pack::LoadedPack;
+use crate::reps::Representations;
+
+/// Everything a crowd is drawn from.
+pub struct CrowdAssets {
+    pub character: Character,
+    pub character_path: PathBuf,
+    pub clip: Option<usize>,
+    /// Body part of each triangle (per-part tint of the meshes).
+    pub labels: Vec<u32>,
+    pub pack: Option<LoadedPack>,
+    pub reps: Option<Representations>,
+}
+
+impl CrowdAssets {
+    /// Loads the pack and/or representations in `dir` and the character they were baked
+    /// from (`character`, else the path the representations name). `labels`: the body part
+    /// of each triangle (None: the automatic segmentation).
+    pub fn load(dir: &Path, character: Option<&Path>, labels: Option<Vec<u32>>) -> Result<Self, String> {
+        let has = |name: &str| dir.join(name).is_file();
+        if !has("manifest.json") && !has(crate::reps::REPS_FILE) {
+            return Err(format!(
+                "{} holds neither a pack (manifest.json) nor representations ({})",
+                dir.display(),
+                crate::reps::REPS_FILE
+            ));
+        }
+        let pack = if has("manifest.json") {
+            Some(crate::pack::load_pack(dir).map_err(|e| format!("{}: {e}", dir.display()))?)
+        } else {
+            None
+        };
+        let reps = if has(crate::reps::REPS_FILE) {
+            Some(crate::reps::load_representations(dir).map_err(|e| format!("{}: {e}", dir.display()))?)
+        } else {
+            None
+        };
+        let path = match character {
+            Some(p) => p.to_owned(),
+            None => reps
+                .as_ref()
+                .and_then(|r| r.manifest.character_path.clone())
+                .map(PathBuf::from)
+                .ok_or_else(|| {
+                    "the pack does not say which character it was baked from: give the character (--character)"
+                        .to_string()
+                })?,
+        };
+        let c = crate::import_path(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let clip_name = pack
+            .as_ref()
+            .and_then(|p| p.manifest.clip.clone())
+            .or_else(|| reps.as_ref().and_then(|r| r.manifest.clip.clone()));
+        let clip = match &clip_name {
+            Some(n) => Some(
+                c.find_clip(n)
+                    .ok_or_else(|| format!("{} has no clip named '{n}' (the pack's clip)", path.display()))?,
+            ),
+            None => None,
+        };
+        let labels = labels.unwrap_or_else(|| {
+            crate::bake::segment::auto_segment(&c)
+                .labels
+                .iter()
+                .map(|&l| l as u32)
+                .collect()
+        });
+        Ok(Self {
+            character: c,
+            character_path: path,
+            clip,
+            labels,
+            pack,
+            reps,
+        })
+    }
+
+    /// The baked animation: frames and rate (pack first, then representations).
+    pub fn timing(&self) -> ClipTiming {
+        if let Some(p) = &self.pack {
+            return ClipTiming {
+                frames: p.manifest.frames as usize,
+                fps: p.manifest.fps,
+            };
+        }
+        if let Some(r) = &self.reps {
+            return ClipTiming {
+                frames: r.manifest.frames as usize,
+                fps: r.manifest.fps,
+            };
+        }
+        ClipTiming { frames: 1, fps: 10.0 }
+    }
+
+    /// The baked view directions.
+    pub fn view_directions(&self) -> Vec<Vec3> {
+        if let Some(p) = &self.pack {
+            return p.manifest.views.iter().map(|v| Vec3::from(v.direction)).collect();
+        }
+        self.reps
+            .as_ref()
+            .map(|r| r.manifest.views.iter().map(|v| Vec3::from(v.direction)).collect())
+            .unwrap_or_default()
+    }
+
+    /// Texels of the baked images along the character's height (the LOD switch unit).
+    pub fn resolution(&self) -> u32 {
+        self.pack
+            .as_ref()
+            .map(|p| p.manifest.resolution)
+            .or_else(|| self.reps.as_ref().map(|r| r.manifest.resolution))
+            .unwrap_or(128)
+    }
+}
+
+/// What one frame of a crowd scene cost and drew.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SceneStats {
+    pub frame: FrameStats,
+    /// Instance upload and command recording (CPU).
+    pub upload_secs: f64,
+    pub draw_calls: usize,
+}
+
+/// A crowd with its renderers.
+pub struct CrowdScene {
+    pub crowd: Crowd,
+    pub renderers: CrowdRenderers,
+    pub views: ViewLookup,
+    pub timing: ClipTiming,
+    pub style: PolypostorStyle,
+}
+
+impl CrowdScene {
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        assets: &CrowdAssets,
+        params: CrowdParams,
+    ) -> Result<Self, GpuError> {
+        let timing = assets.timing();
+        let renderers = CrowdRenderers::new(
+            device,
+            queue,
+            &assets.character,
+            assets.clip,
+            &assets.labels,
+            assets.pack.as_ref(),
+            assets.reps.as_ref(),
+            timing,
+        )?;
+        Ok(Self {
+            crowd: Crowd::new(params),
+            renderers,
+            views: ViewLookup::new(&assets.view_directions()),
+            timing,
+            style: PolypostorStyle::default(),
+        })
+    }
+
+    /// A new crowd of `params` (same renderers).
+    pub fn respawn(&mut self, params: CrowdParams) {
+        let paused = self.crowd.paused();
+        self.crowd = Crowd::new(params);
+        self.crowd.set_paused(paused);
+    }
+
+    /// Simulates `dt`, selects for `camera` (a `width × height` viewport) and draws into
+    /// `target`, cleared to `clear`; levels that are not loaded fall back to the nearest one
+    /// that is (so a preview without impostors still shows everyone).
+    #[allow(clippy::too_many_arguments)]
+    pub fn frame(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        target: &RenderTarget,
+        camera: &Camera,
+        policy: &LodPolicy,
+        dt: f32,
+        clear: wgpu::Color,
+    ) -> SceneStats {
+        let aspect = target.width as f32 / target.height.max(1) as f32;
+        let clip_from_world = camera.clip_from_world(aspect);
+        let fov = match camera.projection {
+            crate::gpu::Projection::Perspective { fov_y_rad } => fov_y_rad,
+            crate::gpu::Projection::Orthographic { .. } => 50f32.to_radians(),
+        };
+        let view = CrowdCamera {
+            eye: camera.eye,
+            clip_from_world,
+            focal_px: target.height as f32 / (2.0 * (fov / 2.0).tan()),
+        };
+        let mut frame = self.crowd.frame(dt, &view, policy, &self.views, self.timing);
+        let t = Instant::now();
+        self.fall_back();
+        for (n, list) in frame.per_level.iter_mut().zip(&self.crowd.instances) {
+            *n = list.len();
+        }
+        let draw_calls = self.renderers.render(
+            device,
+            queue,
+            target,
+            clip_from_world,
+            &self.style,
+            &self.crowd.instances,
+            clear,
+        );
+        SceneStats {
+            frame,
+            upload_secs: t.elapsed().as_secs_f64(),
+            draw_calls,
+        }
+    }
+
+    /// Moves instances of levels that are not loaded to a loaded one (impostor → polypostor
+    /// → skinned; rigid → skinned; NP3D → polypostor → skinned).
+    fn fall_back(&mut self) {
+        for level in [Level::Impostor, Level::Np3d, Level::Polypostor, Level::Rigid] {
+            if self.renderers.has(level) || self.crowd.instances[level as usize].is_empty() {
+                continue;
+            }
+            let to = match level {
+                Level::Impostor | Level::Np3d if self.renderers.has(Level::Polypostor) => Level::Polypostor,
+                _ => Level::Skinned,
+            };
+            let moved = std::mem::take(&mut self.crowd.instances[level as usize]);
+            self.crowd.instances[to as usize].extend(moved);
+        }
+    }
+}
+
+/// The camera of `bench sim` and `bench crowd`: at the edge of the crowd, 10 m up, looking
+/// across it.
+pub fn bench_camera(crowd: &Crowd) -> Camera {
+    let eye = Vec3::new(0.0, 10.0, -crowd.half_extent - 5.0);
+    Camera {
+        eye,
+        target: Vec3::ZERO,
+        up: Vec3::Y,
+        projection: crate::gpu::Projection::Perspective {
+            fov_y_rad: 50f32.to_radians(),
+        },
+        near: 0.1,
+        far: 4.0 * crowd.half_extent + 100.0,
+    }
+}
