@@ -68,6 +68,25 @@ enum Command {
         #[command(subcommand)]
         what: BenchWhat,
     },
+    /// Compare every representation in a folder baked with --representation all: memory
+    /// (uncompressed and block-compressed) and error against the real mesh at the baked
+    /// frames and between them, as tables and PNG plots.
+    Compare {
+        /// A folder holding a pack and/or representations.json.
+        pack_dir: PathBuf,
+        /// The character it was baked from (default: the path the folder names).
+        #[arg(long)]
+        character: Option<PathBuf>,
+        /// Views to measure the error from, spread evenly (0: every view).
+        #[arg(long, default_value_t = 24)]
+        views: usize,
+        /// Folder for the PNG plots and compare.json (default: <PACK_DIR>/compare).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print one JSON object instead of tables.
+        #[arg(long)]
+        json: bool,
+    },
     /// Regenerate the built-in default character (.glb).
     GenerateDefault {
         /// Output path (default: assets/characters/default_humanoid.glb).
@@ -145,6 +164,13 @@ fn main() -> ExitCode {
             unlit,
         }) => render(&file, &out, clip.as_deref(), time, size, yaw, pitch, normals, unlit),
         Some(Command::GenerateDefault { out }) => generate_default(out),
+        Some(Command::Compare {
+            pack_dir,
+            character,
+            views,
+            out,
+            json,
+        }) => compare_cmd(&pack_dir, character.as_deref(), views, out, json),
         Some(Command::Bake(args)) => bake_cmd(args),
         Some(Command::Bench {
             what: BenchWhat::Sim { agents, frames, json },
@@ -558,6 +584,103 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         stats.triangles_per_view,
         if set.any_other() { format!(", plus {}", a.representation) } else { String::new() }
     );
+    Ok(())
+}
+
+fn human_bytes(b: u64) -> String {
+    let b = b as f64;
+    if b >= 1e6 {
+        format!("{:.1} MB", b / 1e6)
+    } else {
+        format!("{:.0} KB", b / 1e3)
+    }
+}
+
+fn compare_cmd(dir: &Path, character: Option<&Path>, views: usize, out: Option<PathBuf>, json: bool) -> anyhow::Result<()> {
+    use polypostor::reps::compare;
+    let assets = polypostor::crowd::scene::CrowdAssets::load(dir, character, None).map_err(|e| anyhow::anyhow!(e))?;
+    let memory = compare::memory(&assets);
+    let ctx = polypostor::gpu::GpuContext::from_env()?;
+    let total_views = assets.view_directions().len();
+    let chosen = compare::chosen_views(total_views, views);
+    let bar = indicatif::ProgressBar::new(chosen.len() as u64);
+    if json {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    let errors = compare::errors(&ctx, &assets, &chosen, &|d, _| bar.set_position(d as u64))?;
+    bar.finish_and_clear();
+    let out = out.unwrap_or_else(|| dir.join("compare"));
+    std::fs::create_dir_all(&out)?;
+    let names: Vec<String> = memory.iter().map(|m| m.representation.clone()).collect();
+    let mb = |f: &dyn Fn(&compare::MemoryRow) -> u64| memory.iter().map(|m| f(m) as f64 / 1e6).collect::<Vec<f64>>();
+    polypostor::plot::bar_chart(
+        &out.join("memory.png"),
+        "Memory per character, one clip, all views",
+        "MB (log scale)",
+        &names,
+        &[
+            ("uncompressed".into(), mb(&|m| m.bytes.total)),
+            ("block-compressed (BC3)".into(), mb(&|m| m.bytes.total_bc)),
+        ],
+        true,
+    )
+    .map_err(|e| anyhow::anyhow!(e))?;
+    let series: Vec<(String, Vec<(f64, f64)>)> = errors
+        .iter()
+        .map(|e| {
+            (
+                e.representation.clone(),
+                e.samples.iter().map(|s| (s.time_frames as f64, s.psnr.min(60.0))).collect(),
+            )
+        })
+        .collect();
+    polypostor::plot::line_chart(
+        &out.join("error.png"),
+        &format!("Error against the real mesh ({} views; x.5 = between baked frames)", chosen.len()),
+        "time (frames)",
+        "PSNR (dB, capped at 60)",
+        &series,
+    )
+    .map_err(|e| anyhow::anyhow!(e))?;
+    let report = serde_json::json!({
+        "folder": dir.display().to_string(),
+        "character": assets.character.name,
+        "views_compared": chosen.len(),
+        "views_baked": total_views,
+        "memory": memory,
+        "error": errors,
+        "plots": [out.join("memory.png").display().to_string(), out.join("error.png").display().to_string()],
+    });
+    std::fs::write(out.join("compare.json"), serde_json::to_string_pretty(&report)?)?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        return Ok(());
+    }
+    println!("memory (one character, one clip, all {total_views} views)");
+    println!(
+        "  {:<11} {:>10} {:>10} {:>12} {:>14}",
+        "", "textures", "geometry", "total", "block-compr."
+    );
+    for m in &memory {
+        println!(
+            "  {:<11} {:>10} {:>10} {:>12} {:>14}   {}",
+            m.representation,
+            human_bytes(m.bytes.texture),
+            human_bytes(m.bytes.geometry),
+            human_bytes(m.bytes.total),
+            human_bytes(m.bytes.total_bc),
+            m.vs_polypostor.map_or(String::new(), |r| format!("{r:.1}× the polypostor"))
+        );
+    }
+    println!("error against the real mesh, mean PSNR over {} views (higher is better)", chosen.len());
+    println!("  {:<11} {:>10} {:>12} {:>10}", "", "all", "on frames", "between");
+    for e in &errors {
+        println!(
+            "  {:<11} {:>8.2} dB {:>9.2} dB {:>7.2} dB",
+            e.representation, e.mean_psnr, e.mean_psnr_on_frames, e.mean_psnr_between_frames
+        );
+    }
+    println!("wrote {}, {} and compare.json in {}", "memory.png", "error.png", out.display());
     Ok(())
 }
 

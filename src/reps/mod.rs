@@ -16,6 +16,7 @@
 //! `np3d_color.png`, and `rigid.bin` (little-endian throughout).
 
 pub mod bake;
+pub mod compare;
 
 use std::path::Path;
 

@@ -1,0 +1,277 @@
+//! The comparison report: memory of every representation at the same settings, and each
+//! one's error against the ground truth (the real mesh rendered with the same orthographic
+//! view camera, pose and resolution), at the baked frames and half-way between them (where
+//! impostors cannot interpolate). The error measure is the bake's: masked RMSE over pixels
+//! either image covers (colour × coverage, sRGB 0..1), as PSNR.
+
+use glam::Vec3;
+use serde::Serialize;
+
+use super::RepBytes;
+use crate::animation::Pose;
+use crate::bake::raster::psnr;
+use crate::crowd::Instance;
+use crate::crowd::lod::Level;
+use crate::crowd::scene::CrowdAssets;
+use crate::gpu::{
+    Camera, CharacterRenderer, CrowdRenderers, DrawOptions, GpuCharacter, GpuContext, GpuError, PolypostorStyle,
+    Projection, RenderTarget, Shading, SkinningMode,
+};
+
+/// Memory of one representation.
+#[derive(Clone, Debug, Serialize)]
+pub struct MemoryRow {
+    pub representation: String,
+    #[serde(flatten)]
+    pub bytes: RepBytes,
+    /// This representation's bytes ÷ the Polypostor pack's (uncompressed).
+    pub vs_polypostor: Option<f64>,
+}
+
+/// One sample of the error curve.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct ErrorSample {
+    /// In frames (x.5: half-way between two baked frames).
+    pub time_frames: f32,
+    /// Mean RMSE over the compared views (0..1), and its PSNR.
+    pub rmse: f64,
+    pub psnr: f64,
+}
+
+/// Error of one representation. Means are of the RMSE (then shown as PSNR), so a few
+/// pixel-exact samples do not dominate them.
+#[derive(Clone, Debug, Serialize)]
+pub struct ErrorRow {
+    pub representation: String,
+    pub mean_psnr: f64,
+    pub mean_psnr_on_frames: f64,
+    pub mean_psnr_between_frames: f64,
+    pub samples: Vec<ErrorSample>,
+}
+
+/// Memory of every representation the folder holds (and the skinned mesh, always).
+pub fn memory(assets: &CrowdAssets) -> Vec<MemoryRow> {
+    let mut rows: Vec<(String, RepBytes)> = Vec::new();
+    let c = &assets.character;
+    let timing = assets.timing();
+    rows.push((
+        "skinned".into(),
+        super::skinned_bytes(c, timing.frames * crate::gpu::JOINT_SAMPLES_PER_FRAME),
+    ));
+    if let Some(r) = &assets.reps
+        && let Some(b) = r.rigid_bytes(super::character_static_bytes(c))
+    {
+        rows.push(("rigid".into(), b));
+    }
+    if let Some(p) = &assets.pack {
+        let texture: u64 = p
+            .manifest
+            .views
+            .iter()
+            .map(|v| {
+                let [w, h] = v.atlas_size;
+                4 * (w as u64 * h as u64 + (w / 2) as u64 * (h / 2) as u64)
+            })
+            .sum();
+        rows.push((
+            "polypostor".into(),
+            RepBytes {
+                texture,
+                geometry: p.manifest.vertex_bytes + p.manifest.index_bytes,
+                total: texture + p.manifest.vertex_bytes + p.manifest.index_bytes,
+                total_bc: texture / 4 + p.manifest.vertex_bytes + p.manifest.index_bytes,
+            },
+        ));
+    }
+    if let Some(r) = &assets.reps {
+        if let Some(b) = r.impostor_bytes() {
+            rows.push(("impostor".into(), b));
+        }
+        if let Some(b) = r.np3d_bytes() {
+            rows.push(("np3d".into(), b));
+        }
+    }
+    let poly = rows.iter().find(|r| r.0 == "polypostor").map(|r| r.1.total);
+    rows.into_iter()
+        .map(|(representation, bytes)| MemoryRow {
+            vs_polypostor: poly.map(|p| bytes.total as f64 / p.max(1) as f64),
+            representation,
+            bytes,
+        })
+        .collect()
+}
+
+/// The views compared: `count` spread evenly over the baked ones (0: all).
+pub fn chosen_views(total: usize, count: usize) -> Vec<usize> {
+    if count == 0 || count >= total {
+        return (0..total).collect();
+    }
+    (0..count).map(|i| i * total / count).collect()
+}
+
+/// Renders every representation and the ground truth from `views` at every baked frame and
+/// half-way between, and measures the error. `progress(done, total)` per view.
+pub fn errors(
+    ctx: &GpuContext,
+    assets: &CrowdAssets,
+    views: &[usize],
+    progress: &dyn Fn(usize, usize),
+) -> Result<Vec<ErrorRow>, GpuError> {
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let timing = assets.timing();
+    let mut crowd = CrowdRenderers::new(
+        device,
+        queue,
+        &assets.character,
+        assets.clip,
+        &assets.labels,
+        assets.pack.as_ref(),
+        assets.reps.as_ref(),
+        timing,
+    )?;
+    let levels: Vec<Level> = Level::ALL.iter().copied().filter(|l| crowd.has(*l)).collect();
+    let cameras: Vec<crate::pack::PackCamera> = match (&assets.pack, &assets.reps) {
+        (Some(p), _) => p.manifest.views.iter().map(|v| v.camera.clone()).collect(),
+        (None, Some(r)) => r.manifest.views.iter().map(|v| v.camera.clone()).collect(),
+        _ => Vec::new(),
+    };
+    let r = assets.resolution();
+    let target = RenderTarget::new(device, r, r);
+    let renderer = CharacterRenderer::new(device);
+    let mut mesh = GpuCharacter::new(&renderer, device, queue, &assets.character);
+    let style = PolypostorStyle {
+        lit: false,
+        tint: 0.0,
+        ..Default::default()
+    };
+    let frames = timing.frames.max(1);
+    let times: Vec<f32> = (0..frames * 2).map(|k| k as f32 * 0.5).collect();
+    // sums[level][time]: RMSE summed over views.
+    let mut sums = vec![vec![0.0f64; times.len()]; levels.len()];
+    let mut counted = 0usize;
+    for (n, &v) in views.iter().enumerate() {
+        progress(n, views.len());
+        let Some(cam) = cameras.get(v) else { continue };
+        let (center, forward, up) = (Vec3::from(cam.center), Vec3::from(cam.forward), Vec3::from(cam.up));
+        let camera = Camera {
+            eye: center + forward * cam.half_size * 4.0,
+            target: center,
+            up,
+            projection: Projection::Orthographic {
+                half_height: cam.half_size,
+            },
+            near: cam.half_size * 0.5,
+            far: cam.half_size * 8.0,
+        };
+        for (k, &t) in times.iter().enumerate() {
+            let pose = Pose::sample_index(&assets.character, assets.clip, t / timing.fps.max(1e-3));
+            renderer.render(
+                device,
+                queue,
+                &target,
+                &mut mesh,
+                &assets.character,
+                &pose,
+                SkinningMode::Gpu,
+                &camera,
+                &DrawOptions {
+                    shading: Shading::Unlit,
+                    ..Default::default()
+                },
+            );
+            let truth = target.read_color(device, queue)?;
+            for (li, &level) in levels.iter().enumerate() {
+                let mut instances: [Vec<Instance>; Level::COUNT] = Default::default();
+                instances[level as usize].push(Instance {
+                    pos: [0.0, 0.0],
+                    facing: [0.0, 1.0],
+                    view: v as u32,
+                    frame: t.floor() as u32,
+                    blend: t.fract(),
+                    variant: 0,
+                });
+                crowd.render(
+                    device,
+                    queue,
+                    &target,
+                    camera.clip_from_world(1.0),
+                    &style,
+                    &instances,
+                    wgpu::Color::TRANSPARENT,
+                );
+                let img = target.read_color(device, queue)?;
+                sums[li][k] += masked_rmse(&truth, &img);
+            }
+        }
+        counted += 1;
+    }
+    progress(views.len(), views.len());
+    let n = counted.max(1) as f64;
+    Ok(levels
+        .iter()
+        .zip(&sums)
+        .map(|(level, s)| {
+            let samples: Vec<ErrorSample> = times
+                .iter()
+                .zip(s)
+                .map(|(&t, &sum)| ErrorSample {
+                    time_frames: t,
+                    rmse: sum / n,
+                    psnr: psnr(sum / n),
+                })
+                .collect();
+            let mean = |f: &dyn Fn(&ErrorSample) -> bool| {
+                let v: Vec<f64> = samples.iter().filter(|s| f(s)).map(|s| s.rmse).collect();
+                psnr(v.iter().sum::<f64>() / v.len().max(1) as f64)
+            };
+            ErrorRow {
+                representation: level.name().into(),
+                mean_psnr: mean(&|_| true),
+                mean_psnr_on_frames: mean(&|s| s.time_frames.fract() == 0.0),
+                mean_psnr_between_frames: mean(&|s| s.time_frames.fract() != 0.0),
+                samples,
+            }
+        })
+        .collect())
+}
+
+/// RMSE (0..1) of colour × coverage over the pixels either image covers.
+pub fn masked_rmse(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
+    let mut sum = 0.0f64;
+    let mut n = 0usize;
+    for (p, q) in a.pixels().zip(b.pixels()) {
+        let (ca, cb) = (p[3] > 127, q[3] > 127);
+        if !ca && !cb {
+            continue;
+        }
+        n += 1;
+        for k in 0..3 {
+            let x = if ca { p[k] as f64 / 255.0 } else { 0.0 };
+            let y = if cb { q[k] as f64 / 255.0 } else { 0.0 };
+            sum += (x - y).powi(2);
+        }
+    }
+    if n == 0 { 0.0 } else { (sum / (3 * n) as f64).sqrt() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn masked_rmse_counts_only_covered_pixels() {
+        let mut a = image::RgbaImage::new(4, 4);
+        let mut b = image::RgbaImage::new(4, 4);
+        assert_eq!(masked_rmse(&a, &b), 0.0);
+        a.put_pixel(0, 0, image::Rgba([255, 255, 255, 255]));
+        // One pixel covered by one image only: white against black, RMSE 1.
+        assert!((masked_rmse(&a, &b) - 1.0).abs() < 1e-9);
+        b.put_pixel(0, 0, image::Rgba([255, 255, 255, 255]));
+        assert_eq!(masked_rmse(&a, &b), 0.0);
+        b.put_pixel(1, 0, image::Rgba([0, 0, 0, 255]));
+        assert_eq!(masked_rmse(&a, &b), 0.0, "black on black background");
+        assert_eq!(chosen_views(10, 0).len(), 10);
+        assert_eq!(chosen_views(137, 24).len(), 24);
+        assert_eq!(chosen_views(5, 24), vec![0, 1, 2, 3, 4]);
+    }
+}
