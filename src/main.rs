@@ -350,7 +350,7 @@ struct BakeArgs {
 static CANCEL: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
 fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
-    use polypostor::bake::pipeline::{BakeOptions, KeyFrame, bake};
+    use polypostor::bake::pipeline::{BakeOptions, KeyFrame};
     use polypostor::project::Project;
     let started = std::time::Instant::now();
     let is_gltf = a
@@ -473,66 +473,39 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         bar.set_position(p.done as u64);
     };
     let set = polypostor::reps::RepSet::parse(&a.representation).map_err(|e| anyhow::anyhow!("--representation: {e}"))?;
-    let cancelled = || -> ! {
-        eprintln!("cancelled: nothing was written");
-        std::process::exit(130);
+    let job = polypostor::reps::bake::FolderBake {
+        character: &c,
+        character_path: &character_path,
+        clip_name: clip_name.as_deref(),
+        segmentation: &seg,
+        caps: &caps,
+        options: &options,
+        set,
+        out: &out,
     };
-    let b = if set.polypostor {
-        let result = bake(&ctx, &c, &seg, &caps, &options, &progress, &CANCEL);
-        match result {
-            Ok(b) => Some(b),
-            Err(polypostor::bake::pipeline::BakeError::Cancelled) => cancelled(),
-            Err(e) => return Err(e.into()),
-        }
-    } else {
-        None
-    };
-    let reps = if set.any_other() {
-        let key = match (&b, options.key_frame) {
-            (Some(b), _) => b.key_frame,
-            (None, KeyFrame::Frame(k)) => k,
-            (None, KeyFrame::Auto) => 0,
-        };
-        let reps_options = polypostor::reps::bake::RepsOptions {
-            views: options.views,
-            coverage: options.coverage,
-            resolution: options.resolution,
-            fps: options.fps,
-            clip,
-            key_frame: key,
-            set,
-            np3d_triangles: polypostor::reps::bake::NP3D_TRIANGLES,
-        };
-        let path = std::fs::canonicalize(&character_path).unwrap_or_else(|_| character_path.clone());
-        let result = polypostor::reps::bake::bake_representations(
-            &ctx,
-            &c,
-            Some(&path.display().to_string()),
-            clip_name.as_deref(),
-            &reps_options,
-            &progress,
-            &CANCEL,
-        );
-        match result {
-            Ok(r) => Some(r),
-            Err(polypostor::bake::pipeline::BakeError::Cancelled) => cancelled(),
-            Err(e) => return Err(e.into()),
-        }
-    } else {
-        None
-    };
-    bar.finish_and_clear();
-    let write_reps = |dir: &Path| -> Result<(), String> {
-        if let Some(r) = &reps {
-            polypostor::reps::write_representations(r, dir)?;
-            polypostor::reps::load_representations(dir)
-                .map_err(|e| format!("the written representations do not load back: {e}"))?;
+    let debug_images = |dir: &Path, b: Option<&polypostor::bake::pipeline::Bake>| -> Result<(), String> {
+        if let (true, Some(b)) = (a.debug_images, b) {
+            let d = dir.join("debug");
+            std::fs::create_dir_all(&d).map_err(|e| e.to_string())?;
+            for v in 0..b.views.len() {
+                let img = polypostor::bake::report::debug_image(b, v, &b.views[v].frame_colors);
+                img.save(d.join(format!("view_{v:03}.png")))
+                    .map_err(|e| e.to_string())?;
+            }
         }
         Ok(())
     };
-    let Some(b) = b else {
-        polypostor::pack::write_folder_atomic(&out, &|dir| write_reps(dir))
-            .map_err(|e| anyhow::anyhow!("writing {}: {e}", out.display()))?;
+    let result = polypostor::reps::bake::bake_folder(&ctx, &job, &progress, &CANCEL, &debug_images);
+    bar.finish_and_clear();
+    let written = match result {
+        Ok(r) => r,
+        Err(polypostor::reps::bake::FolderError::Bake(polypostor::bake::pipeline::BakeError::Cancelled)) => {
+            eprintln!("cancelled: nothing was written");
+            std::process::exit(130);
+        }
+        Err(e) => return Err(e.into()),
+    };
+    let (Some(b), Some(stats)) = (written.bake, written.stats) else {
         eprintln!(
             "wrote {} ({}) in {:.1} s",
             out.display(),
@@ -541,35 +514,6 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         );
         return Ok(());
     };
-    let write_started = std::time::Instant::now();
-    let stats = polypostor::pack::write_pack_with(&b, &c.name, clip_name.as_deref(), &out, &|dir, stats| {
-        // Read the pack back through the validating loader before it replaces anything.
-        polypostor::pack::load_pack(dir).map_err(|e| format!("the written pack does not load back: {e}"))?;
-        write_reps(dir)?;
-        let mut report = polypostor::bake::report::build_report(
-            &b,
-            &c.name,
-            clip_name.as_deref(),
-            stats,
-            started.elapsed().as_secs_f64(),
-        );
-        report
-            .stage_seconds
-            .insert("write".into(), write_started.elapsed().as_secs_f64());
-        let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
-        std::fs::write(dir.join("report.json"), text).map_err(|e| e.to_string())?;
-        if a.debug_images {
-            let d = dir.join("debug");
-            std::fs::create_dir_all(&d).map_err(|e| e.to_string())?;
-            for v in 0..b.views.len() {
-                let img = polypostor::bake::report::debug_image(&b, v, &b.views[v].frame_colors);
-                img.save(d.join(format!("view_{v:03}.png")))
-                    .map_err(|e| e.to_string())?;
-            }
-        }
-        Ok(())
-    })
-    .map_err(|e| anyhow::anyhow!("writing the pack: {e}"))?;
     let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json"))?)?;
     eprintln!(
         "wrote {} in {:.1} s: key frame {}, mean PSNR {:.2} dB (worst {:.2}), {} KiB vs {} KiB for impostors ({:.1}×), {:.0} triangles per view{}",

@@ -284,3 +284,131 @@ mod tests {
         }
     }
 }
+
+/// Where a whole bake goes and what it holds.
+pub struct FolderBake<'a> {
+    pub character: &'a Character,
+    /// Written into `representations.json` (meshes draw from it).
+    pub character_path: &'a std::path::Path,
+    pub clip_name: Option<&'a str>,
+    pub segmentation: &'a crate::bake::segment::Segmentation,
+    pub caps: &'a crate::bake::caps::CapOverrides,
+    pub options: &'a crate::bake::pipeline::BakeOptions,
+    pub set: RepSet,
+    pub out: &'a std::path::Path,
+}
+
+/// What [`bake_folder`] wrote.
+pub struct FolderResult {
+    pub bake: Option<crate::bake::pipeline::Bake>,
+    pub stats: Option<crate::pack::PackStats>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum FolderError {
+    #[error("{0}")]
+    Bake(#[from] BakeError),
+    #[error("writing {path}: {message}")]
+    Write { path: String, message: String },
+}
+
+/// Bakes every representation of `job.set` and writes them into one folder (the Polypostor
+/// pack with its `report.json`, and `representations.json` with its files), replacing
+/// `job.out` only once everything is written and reads back. `extra(folder, bake)` may add
+/// files (debug images) before the folder moves into place.
+pub fn bake_folder(
+    ctx: &GpuContext,
+    job: &FolderBake,
+    progress: &(dyn Fn(Progress) + Sync),
+    cancel: &AtomicBool,
+    extra: &dyn Fn(&std::path::Path, Option<&crate::bake::pipeline::Bake>) -> Result<(), String>,
+) -> Result<FolderResult, FolderError> {
+    use crate::bake::pipeline::KeyFrame;
+    let started = std::time::Instant::now();
+    let o = job.options;
+    let bake = if job.set.polypostor {
+        Some(crate::bake::pipeline::bake(
+            ctx,
+            job.character,
+            job.segmentation,
+            job.caps,
+            o,
+            progress,
+            cancel,
+        )?)
+    } else {
+        None
+    };
+    let reps = if job.set.any_other() {
+        let key = match (&bake, o.key_frame) {
+            (Some(b), _) => b.key_frame,
+            (None, KeyFrame::Frame(k)) => k,
+            (None, KeyFrame::Auto) => 0,
+        };
+        let reps_options = RepsOptions {
+            views: o.views,
+            coverage: o.coverage,
+            resolution: o.resolution,
+            fps: o.fps,
+            clip: o.clip,
+            key_frame: key,
+            set: job.set,
+            np3d_triangles: NP3D_TRIANGLES,
+        };
+        let path = std::fs::canonicalize(job.character_path).unwrap_or_else(|_| job.character_path.to_owned());
+        Some(bake_representations(
+            ctx,
+            job.character,
+            Some(&path.display().to_string()),
+            job.clip_name,
+            &reps_options,
+            progress,
+            cancel,
+        )?)
+    } else {
+        None
+    };
+    let write_reps = |dir: &std::path::Path| -> Result<(), String> {
+        if let Some(r) = &reps {
+            super::write_representations(r, dir)?;
+            super::load_representations(dir).map_err(|e| format!("the written representations do not load back: {e}"))?;
+        }
+        Ok(())
+    };
+    let write_error = |message: String| FolderError::Write {
+        path: job.out.display().to_string(),
+        message,
+    };
+    let Some(b) = bake else {
+        crate::pack::write_folder_atomic(job.out, &|dir| {
+            write_reps(dir)?;
+            extra(dir, None)
+        })
+        .map_err(write_error)?;
+        return Ok(FolderResult { bake: None, stats: None });
+    };
+    let write_started = std::time::Instant::now();
+    let stats = crate::pack::write_pack_with(&b, &job.character.name, job.clip_name, job.out, &|dir, stats| {
+        // Read the pack back through the validating loader before it replaces anything.
+        crate::pack::load_pack(dir).map_err(|e| format!("the written pack does not load back: {e}"))?;
+        write_reps(dir)?;
+        let mut report = crate::bake::report::build_report(
+            &b,
+            &job.character.name,
+            job.clip_name,
+            stats,
+            started.elapsed().as_secs_f64(),
+        );
+        report
+            .stage_seconds
+            .insert("write".into(), write_started.elapsed().as_secs_f64());
+        let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+        std::fs::write(dir.join("report.json"), text).map_err(|e| e.to_string())?;
+        extra(dir, Some(&b))
+    })
+    .map_err(write_error)?;
+    Ok(FolderResult {
+        bake: Some(b),
+        stats: Some(stats),
+    })
+}
