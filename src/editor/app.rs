@@ -52,6 +52,7 @@ pub enum PathPurpose {
     NewFromGltf,
     Open,
     SaveAs,
+    OpenCrowd,
 }
 
 impl PathPurpose {
@@ -60,6 +61,7 @@ impl PathPurpose {
             PathPurpose::NewFromGltf => "New project from glTF",
             PathPurpose::Open => "Open project",
             PathPurpose::SaveAs => "Save project as",
+            PathPurpose::OpenCrowd => "Open a baked folder in the crowd preview",
         }
     }
     fn hint(self) -> &'static str {
@@ -67,6 +69,7 @@ impl PathPurpose {
             PathPurpose::NewFromGltf => "path to a .glb or .gltf file",
             PathPurpose::Open => "project folder, project.json, or .glb/.gltf",
             PathPurpose::SaveAs => "project folder or .json file to write",
+            PathPurpose::OpenCrowd => "folder written by bake --representation all",
         }
     }
     fn command(self, path: PathBuf) -> Command {
@@ -74,6 +77,7 @@ impl PathPurpose {
             PathPurpose::NewFromGltf => Command::NewFromGltf(path),
             PathPurpose::Open => Command::Open(path),
             PathPurpose::SaveAs => Command::SaveAs(path),
+            PathPurpose::OpenCrowd => Command::OpenCrowd(path),
         }
     }
 }
@@ -152,6 +156,7 @@ pub struct EditorApp {
     texture_preview: Option<(u64, egui::TextureHandle)>,
     next_generation: u64,
     show_about: bool,
+    pub crowd: super::crowd::CrowdPanel,
 }
 
 impl EditorApp {
@@ -178,6 +183,7 @@ impl EditorApp {
             texture_preview: None,
             next_generation: 1,
             show_about: false,
+            crowd: Default::default(),
         };
         match &app.adapter {
             Some(a) => app.info(format!("GPU adapter: {a}")),
@@ -288,7 +294,61 @@ impl EditorApp {
                 }
             }
             Command::FrameCharacter => self.frame_character(),
+            Command::BakeCrowd => self.bake_crowd(),
+            Command::OpenCrowd(folder) => {
+                let character = self.doc.as_ref().map(|d| d.character_path.clone());
+                self.crowd.start_open(folder, character);
+            }
+            Command::ShowCrowd(show) => self.crowd.open = show,
         }
+    }
+
+    /// Bakes the open character with every representation beside the project (or in the
+    /// temporary folder for an unsaved project) and opens the crowd preview on it.
+    fn bake_crowd(&mut self) {
+        let Some(doc) = &self.doc else {
+            self.fail("open a character before baking it for the crowd".into());
+            return;
+        };
+        if self.crowd.busy() {
+            return;
+        }
+        let c = doc.character.clone();
+        let mut warning = None;
+        let segmentation = match doc.project.segmentation.as_ref() {
+            Some(s) => match s.to_segmentation(c.triangle_count()) {
+                Ok(seg) => seg,
+                Err(e) => {
+                    warning = Some(format!(
+                        "the project's segmentation does not fit ({e}); baking with the automatic one"
+                    ));
+                    polypostor::bake::segment::auto_segment(&c)
+                }
+            },
+            None => polypostor::bake::segment::auto_segment(&c),
+        };
+        let out = match &doc.project_file {
+            Some(f) => f.parent().map(Path::to_owned).unwrap_or_default().join("crowd.pack"),
+            None => std::env::temp_dir().join(format!("polypostor-crowd-{}.pack", std::process::id())),
+        };
+        let clip = self
+            .playback
+            .clip
+            .or_else(|| c.find_clip("Walk"))
+            .or((!c.clips.is_empty()).then_some(0));
+        let req = super::crowd::BakeRequest {
+            character_path: doc.character_path.clone(),
+            clip,
+            segmentation,
+            caps: doc.project.caps.clone(),
+            out: out.clone(),
+            character: c,
+        };
+        if let Some(w) = warning {
+            self.warn(w);
+        }
+        self.info(format!("baking every representation into {}", out.display()));
+        self.crowd.start_bake(req);
     }
 
     fn frame_character(&mut self) {
@@ -456,7 +516,7 @@ impl EditorApp {
                     .set_title(purpose.title())
                     .add_filter("Project or glTF", &["json", "glb", "gltf"])
                     .pick_file(),
-                PathPurpose::SaveAs => dialog.set_title(purpose.title()).pick_folder(),
+                PathPurpose::SaveAs | PathPurpose::OpenCrowd => dialog.set_title(purpose.title()).pick_folder(),
             };
             let _ = tx.send(picked);
         });
@@ -495,15 +555,19 @@ impl EditorApp {
     fn shortcuts(&mut self, ctx: &egui::Context) {
         use egui::{Key, KeyboardShortcut, Modifiers};
         let typing = ctx.egui_wants_keyboard_input();
-        let (open, new, save_as, save, quit) = ctx.input_mut(|i| {
+        let (open, new, save_as, save, quit, bake) = ctx.input_mut(|i| {
             let open = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::O));
             let new = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::N));
             // Ctrl+Shift+S first, or Ctrl+S would take it.
             let save_as = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND | Modifiers::SHIFT, Key::S));
             let save = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::S));
             let quit = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::Q));
-            (open, new, save_as, save, quit)
+            let bake = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::B));
+            (open, new, save_as, save, quit, bake)
         });
+        if bake && self.doc.is_some() {
+            self.send(Command::BakeCrowd);
+        }
         if open {
             self.ask_path(PathPurpose::Open);
         }
@@ -521,6 +585,13 @@ impl EditorApp {
         }
         if typing || self.prompt.is_some() {
             return;
+        }
+        let (tab, p) = ctx.input(|i| (i.key_pressed(Key::Tab), i.key_pressed(Key::P)));
+        if tab {
+            self.send(Command::ShowCrowd(!self.crowd.open));
+        }
+        if p && self.crowd.open {
+            self.crowd.paused = !self.crowd.paused;
         }
         let (space, left, right, home, f) = ctx.input(|i| {
             (
@@ -627,6 +698,28 @@ impl EditorApp {
                     self.send(Command::FrameCharacter);
                 }
             });
+            ui.menu_button("Crowd", |ui| {
+                let has_doc = self.doc.is_some();
+                let busy = self.crowd.busy();
+                if ui
+                    .add_enabled(has_doc && !busy, egui::Button::new("Bake for crowd preview").shortcut_text("Ctrl+B"))
+                    .on_hover_text("Polypostors, classic and NP3D impostors and rigid meshes, same views and resolution")
+                    .clicked()
+                {
+                    self.send(Command::BakeCrowd);
+                }
+                if ui.add_enabled(!busy, egui::Button::new("Open baked folder…")).clicked() {
+                    self.ask_path(PathPurpose::OpenCrowd);
+                }
+                if ui.add_enabled(!busy, egui::Button::new("Open baked folder path…")).clicked() {
+                    self.prompt = Some(PathPrompt::new(PathPurpose::OpenCrowd));
+                }
+                ui.separator();
+                let mut open = self.crowd.open;
+                if ui.checkbox(&mut open, "Show crowd preview (Tab)").changed() {
+                    self.send(Command::ShowCrowd(open));
+                }
+            });
             ui.menu_button("Help", |ui| {
                 if ui.button("Controls and about").clicked() {
                     self.show_about = true;
@@ -641,6 +734,7 @@ impl EditorApp {
     }
 
     fn status_bar(&mut self, ui: &mut egui::Ui) {
+        self.crowd.job_ui(ui);
         ui.horizontal(|ui| {
             if let Some(l) = &self.loading {
                 ui.spinner();
@@ -1099,6 +1193,13 @@ impl eframe::App for EditorApp {
         let dt = self.timer.tick();
         self.poll_loading();
         self.poll_dialog();
+        self.crowd.poll();
+        for m in std::mem::take(&mut self.crowd.messages) {
+            match m {
+                Ok(text) => self.info(text),
+                Err(text) => self.fail(text),
+            }
+        }
         self.dropped_files(&ctx);
         self.shortcuts(&ctx);
         self.apply_commands(&ctx);
@@ -1131,19 +1232,46 @@ impl eframe::App for EditorApp {
                 .min_size(60.0)
                 .show(ui, |ui| self.log_panel(ui));
         }
+        let fps = self.timer.fps();
         egui::Panel::left("character")
             .resizable(true)
-            .default_size(270.0)
+            .default_size(300.0)
             .show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| self.side_panel(ui));
+                ui.horizontal(|ui| {
+                    if ui.selectable_label(!self.crowd.open, "Character").clicked() {
+                        self.send(Command::ShowCrowd(false));
+                    }
+                    if ui.selectable_label(self.crowd.open, "Crowd preview").clicked() {
+                        self.send(Command::ShowCrowd(true));
+                    }
+                });
+                ui.separator();
+                egui::ScrollArea::vertical().show(ui, |ui| {
+                    if self.crowd.open {
+                        self.crowd.controls(ui, fps);
+                    } else {
+                        self.side_panel(ui);
+                    }
+                });
             });
         egui::CentralPanel::default()
             .frame(egui::Frame::NONE)
-            .show(ui, |ui| self.viewport(ui));
+            .show(ui, |ui| {
+                if self.crowd.open {
+                    self.crowd.viewport(ui, dt);
+                } else {
+                    self.viewport(ui);
+                }
+            });
         self.dialogs(&ctx);
 
         // Keep animating while playing or loading.
-        if (self.playback.playing && self.doc.is_some()) || self.loading.is_some() || self.dialog.is_some() {
+        if (self.playback.playing && self.doc.is_some())
+            || self.loading.is_some()
+            || self.dialog.is_some()
+            || self.crowd.busy()
+            || (self.crowd.open && self.crowd.assets.is_some())
+        {
             ctx.request_repaint();
         }
     }

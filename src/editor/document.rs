@@ -23,6 +23,12 @@ pub enum Command {
     StepFrames(i32),
     SetSpeed(f32),
     FrameCharacter,
+    /// Bake the open character with every representation and open the crowd preview.
+    BakeCrowd,
+    /// Open a baked folder in the crowd preview.
+    OpenCrowd(PathBuf),
+    /// Show the crowd preview (true) or the character (false).
+    ShowCrowd(bool),
 }
 
 /// The open project and its loaded character.

@@ -6,6 +6,7 @@
 //! open project untouched.
 
 mod app;
+pub mod crowd;
 mod document;
 mod settings;
 #[cfg(test)]

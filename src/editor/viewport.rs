@@ -82,7 +82,7 @@ impl OrbitCamera {
     }
 
     pub fn zoom(&mut self, wheel: f32) {
-        self.distance = (self.distance * (-wheel * 0.0015).exp()).clamp(0.05, 500.0);
+        self.distance = (self.distance * (-wheel * 0.0015).exp()).clamp(0.05, 3000.0);
     }
 
     /// Applies the pointer input of the viewport's response.
@@ -106,7 +106,7 @@ impl OrbitCamera {
                 self.zoom(scroll);
             }
             if zoom != 1.0 {
-                self.distance = (self.distance / zoom).clamp(0.05, 500.0);
+                self.distance = (self.distance / zoom).clamp(0.05, 3000.0);
             }
         }
     }
@@ -114,6 +114,8 @@ impl OrbitCamera {
 
 /// GPU state of the viewport, kept in egui_wgpu's callback resources.
 pub struct ViewportResources {
+    /// The crowd preview's scene (see `crowd.rs`).
+    pub crowd: Option<super::crowd::CrowdGpu>,
     renderer: CharacterRenderer,
     character: Option<(u64, GpuCharacter)>,
     target: Option<RenderTarget>,
@@ -215,6 +217,7 @@ impl ViewportResources {
             .write()
             .callback_resources
             .insert(ViewportResources {
+                crowd: None,
                 renderer,
                 character: None,
                 target: None,
@@ -226,6 +229,58 @@ impl ViewportResources {
                 target_is_srgb: render_state.target_format.is_srgb(),
             });
         adapter
+    }
+}
+
+impl ViewportResources {
+    /// A blit bind group showing `view` with the uniforms at `offset` (colour: 0, normals: 256).
+    fn blit_group_at(&self, device: &wgpu::Device, view: &wgpu::TextureView, offset: u64) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("blit"),
+            layout: &self.blit_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &self.blit_uniforms,
+                        offset,
+                        size: wgpu::BufferSize::new(std::mem::size_of::<gpu_data::BlitUniforms>() as u64),
+                    }),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::Sampler(&self.blit_sampler),
+                },
+            ],
+        })
+    }
+
+    /// A blit bind group for a colour image.
+    pub fn blit_group(&self, device: &wgpu::Device, view: &wgpu::TextureView) -> wgpu::BindGroup {
+        self.blit_group_at(device, view, 0)
+    }
+
+    /// The colour blit's uniforms (sRGB encoding when the window's format needs it).
+    pub fn write_blit_params(&self, queue: &wgpu::Queue) {
+        let encode_color = if self.target_is_srgb { 0.0 } else { 1.0 };
+        queue.write_buffer(
+            &self.blit_uniforms,
+            0,
+            bytemuck::bytes_of(&gpu_data::BlitUniforms {
+                params: [encode_color, 0.0, 0.0, 0.0],
+            }),
+        );
+    }
+
+    /// Draws a full-viewport blit of `group`'s image.
+    pub fn blit(&self, pass: &mut wgpu::RenderPass<'static>, group: &wgpu::BindGroup) {
+        pass.set_pipeline(&self.blit_pipeline);
+        pass.set_bind_group(0, group, &[]);
+        pass.draw(0..3, 0..1);
     }
 }
 
@@ -262,42 +317,14 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
         let [w, h] = [self.size_px[0].max(1), self.size_px[1].max(1)];
         if res.target.as_ref().is_none_or(|t| t.width != w || t.height != h) {
             let target = RenderTarget::new(device, w, h);
-            let group = |view: &wgpu::TextureView, offset: u64| {
-                device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("blit"),
-                    layout: &res.blit_layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                                buffer: &res.blit_uniforms,
-                                offset,
-                                size: wgpu::BufferSize::new(std::mem::size_of::<gpu_data::BlitUniforms>() as u64),
-                            }),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: wgpu::BindingResource::TextureView(view),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 2,
-                            resource: wgpu::BindingResource::Sampler(&res.blit_sampler),
-                        },
-                    ],
-                })
-            };
             // Uniform offsets must be 256-byte aligned: colour at 0, normals at 256.
-            res.blit_groups = Some((group(&target.color_view, 0), group(&target.normal_view, 256)));
+            res.blit_groups = Some((
+                res.blit_group_at(device, &target.color_view, 0),
+                res.blit_group_at(device, &target.normal_view, 256),
+            ));
             res.target = Some(target);
         }
-        let encode_color = if res.target_is_srgb { 0.0 } else { 1.0 };
-        queue.write_buffer(
-            &res.blit_uniforms,
-            0,
-            bytemuck::bytes_of(&gpu_data::BlitUniforms {
-                params: [encode_color, 0.0, 0.0, 0.0],
-            }),
-        );
+        res.write_blit_params(queue);
         queue.write_buffer(
             &res.blit_uniforms,
             256,

@@ -1,0 +1,553 @@
+//! The crowd preview: bakes (or opens) a folder with every representation, then runs a live
+//! crowd of up to 100,000 characters drawn with any one representation or the three-level
+//! mix, with the camera in orbit or fly mode and live statistics.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, channel};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use eframe::egui_wgpu::{self, wgpu};
+use glam::Vec3;
+
+use polypostor::crowd::CrowdParams;
+use polypostor::crowd::lod::{Level, LodDistances, LodPolicy};
+use polypostor::crowd::scene::{CrowdAssets, CrowdScene};
+use polypostor::gpu::{Camera, RenderTarget};
+
+use super::viewport::{OrbitCamera, ViewportResources};
+
+/// Largest crowd the slider offers.
+pub const MAX_CROWD: usize = 100_000;
+
+/// What the crowd is drawn with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PreviewMode {
+    Only(Level),
+    Mixed,
+}
+
+impl PreviewMode {
+    pub const ALL: [PreviewMode; 6] = [
+        PreviewMode::Mixed,
+        PreviewMode::Only(Level::Skinned),
+        PreviewMode::Only(Level::Rigid),
+        PreviewMode::Only(Level::Polypostor),
+        PreviewMode::Only(Level::Impostor),
+        PreviewMode::Only(Level::Np3d),
+    ];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            PreviewMode::Mixed => "Three-level mix",
+            PreviewMode::Only(Level::Skinned) => "Skinned meshes",
+            PreviewMode::Only(Level::Rigid) => "Rigid meshes",
+            PreviewMode::Only(Level::Polypostor) => "Polypostors",
+            PreviewMode::Only(Level::Impostor) => "Classic impostors",
+            PreviewMode::Only(Level::Np3d) => "NP3D impostors",
+        }
+    }
+}
+
+/// Figures the render thread reports back to the panel.
+#[derive(Clone, Debug, Default)]
+pub struct PreviewStats {
+    pub agents: usize,
+    pub visible: usize,
+    pub per_level: [usize; Level::COUNT],
+    pub gpu_bytes: [u64; Level::COUNT],
+    pub available: [bool; Level::COUNT],
+    pub simulate_ms: f64,
+    pub select_ms: f64,
+    pub upload_ms: f64,
+    pub draw_calls: usize,
+    pub error: Option<String>,
+}
+
+struct Job {
+    what: String,
+    started: Instant,
+    progress: Arc<Mutex<(String, usize, usize)>>,
+    cancel: Arc<AtomicBool>,
+    rx: Receiver<Result<(PathBuf, CrowdAssets), String>>,
+}
+
+/// The preview's state (UI side).
+pub struct CrowdPanel {
+    pub open: bool,
+    pub count: usize,
+    pub mode: PreviewMode,
+    pub lod: LodDistances,
+    pub paused: bool,
+    pub fly: bool,
+    pub camera: OrbitCamera,
+    pub stats: Arc<Mutex<PreviewStats>>,
+    pub assets: Option<(u64, Arc<CrowdAssets>)>,
+    pub folder: Option<PathBuf>,
+    next_generation: u64,
+    job: Option<Job>,
+    /// Messages for the editor's log (drained by the app).
+    pub messages: Vec<Result<String, String>>,
+}
+
+impl Default for CrowdPanel {
+    fn default() -> Self {
+        Self {
+            open: false,
+            count: 2000,
+            mode: PreviewMode::Mixed,
+            lod: LodDistances::default(),
+            paused: false,
+            fly: false,
+            camera: OrbitCamera {
+                target: Vec3::new(0.0, 0.0, 0.0),
+                yaw_rad: 0.6,
+                pitch_rad: 0.35,
+                distance: 40.0,
+                fov_y_rad: 50f32.to_radians(),
+            },
+            stats: Default::default(),
+            assets: None,
+            folder: None,
+            next_generation: 1,
+            job: None,
+            messages: Vec::new(),
+        }
+    }
+}
+
+/// What a bake for the preview needs from the open document.
+pub struct BakeRequest {
+    pub character: Arc<polypostor::Character>,
+    pub character_path: PathBuf,
+    pub clip: Option<usize>,
+    pub segmentation: polypostor::bake::segment::Segmentation,
+    pub caps: polypostor::bake::caps::CapOverrides,
+    pub out: PathBuf,
+}
+
+impl CrowdPanel {
+    pub fn busy(&self) -> bool {
+        self.job.is_some()
+    }
+
+    /// Bakes every representation into `req.out` on a background thread, then opens it.
+    pub fn start_bake(&mut self, req: BakeRequest) {
+        if self.job.is_some() {
+            return;
+        }
+        let (tx, rx) = channel();
+        let progress = Arc::new(Mutex::new(("starting".to_string(), 0usize, 1usize)));
+        let cancel = Arc::new(AtomicBool::new(false));
+        let (p, c) = (progress.clone(), cancel.clone());
+        self.job = Some(Job {
+            what: format!("Baking {} for the crowd", req.character.name),
+            started: Instant::now(),
+            progress,
+            cancel,
+            rx,
+        });
+        std::thread::spawn(move || {
+            let result = (|| -> Result<(PathBuf, CrowdAssets), String> {
+                let ctx = polypostor::gpu::GpuContext::from_env().map_err(|e| e.to_string())?;
+                let clip_name = req
+                    .clip
+                    .and_then(|i| req.character.clips.get(i))
+                    .map(|k| k.name.clone());
+                let options = polypostor::bake::pipeline::BakeOptions {
+                    clip: req.clip,
+                    ..Default::default()
+                };
+                let job = polypostor::reps::bake::FolderBake {
+                    character: &req.character,
+                    character_path: &req.character_path,
+                    clip_name: clip_name.as_deref(),
+                    segmentation: &req.segmentation,
+                    caps: &req.caps,
+                    options: &options,
+                    set: polypostor::reps::RepSet::ALL,
+                    out: &req.out,
+                };
+                let progress = |pr: polypostor::bake::pipeline::Progress| {
+                    if let Ok(mut g) = p.lock() {
+                        *g = (pr.stage.to_string(), pr.done, pr.total);
+                    }
+                };
+                polypostor::reps::bake::bake_folder(&ctx, &job, &progress, &c, &|_, _| Ok(()))
+                    .map_err(|e| e.to_string())?;
+                let labels = req.segmentation.labels.iter().map(|&l| l as u32).collect();
+                let assets = CrowdAssets::load(&req.out, Some(&req.character_path), Some(labels))?;
+                Ok((req.out.clone(), assets))
+            })();
+            let _ = tx.send(result);
+        });
+    }
+
+    /// Opens a baked folder on a background thread.
+    pub fn start_open(&mut self, folder: PathBuf, character: Option<PathBuf>) {
+        if self.job.is_some() {
+            return;
+        }
+        let (tx, rx) = channel();
+        self.job = Some(Job {
+            what: format!("Opening {}", folder.display()),
+            started: Instant::now(),
+            progress: Arc::new(Mutex::new(("loading".into(), 0, 1))),
+            cancel: Arc::new(AtomicBool::new(false)),
+            rx,
+        });
+        std::thread::spawn(move || {
+            let r = CrowdAssets::load(&folder, character.as_deref(), None).map(|a| (folder, a));
+            let _ = tx.send(r);
+        });
+    }
+
+    /// Picks up a finished job.
+    pub fn poll(&mut self) {
+        let Some(job) = &self.job else { return };
+        match job.rx.try_recv() {
+            Ok(Ok((folder, assets))) => {
+                self.messages.push(Ok(format!(
+                    "crowd preview: {} ({:.1} s)",
+                    folder.display(),
+                    job.started.elapsed().as_secs_f64()
+                )));
+                self.lod.texels = assets.resolution() as f32;
+                self.assets = Some((self.next_generation, Arc::new(assets)));
+                self.next_generation += 1;
+                self.folder = Some(folder);
+                self.open = true;
+                self.job = None;
+            }
+            Ok(Err(e)) => {
+                let cancelled = job.cancel.load(Ordering::Relaxed);
+                self.messages.push(Err(if cancelled {
+                    "crowd bake cancelled: nothing was written".into()
+                } else {
+                    format!("crowd preview: {e}")
+                }));
+                self.job = None;
+            }
+            Err(std::sync::mpsc::TryRecvError::Empty) => {}
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => {
+                self.messages.push(Err("crowd preview: the background job stopped".into()));
+                self.job = None;
+            }
+        }
+    }
+
+    /// Progress line and a cancel button, while a job runs.
+    pub fn job_ui(&mut self, ui: &mut egui::Ui) {
+        let Some(job) = &self.job else { return };
+        let (stage, done, total) = job.progress.lock().map(|g| g.clone()).unwrap_or_default();
+        ui.horizontal(|ui| {
+            ui.spinner();
+            ui.label(format!("{} — {stage}", job.what));
+            ui.add(
+                egui::ProgressBar::new(done as f32 / total.max(1) as f32)
+                    .desired_width(160.0)
+                    .text(format!("{done}/{total}")),
+            );
+            ui.label(format!("{:.0} s", job.started.elapsed().as_secs_f32()));
+            if ui.button("Cancel").clicked() {
+                job.cancel.store(true, Ordering::Relaxed);
+            }
+        });
+    }
+
+    fn policy(&self) -> LodPolicy {
+        match self.mode {
+            PreviewMode::Only(l) => LodPolicy::Only(l),
+            PreviewMode::Mixed => LodPolicy::Mixed(self.lod),
+        }
+    }
+
+    /// The controls and statistics (side panel).
+    pub fn controls(&mut self, ui: &mut egui::Ui, ui_fps: f32) {
+        ui.heading("Crowd preview");
+        let Some((_, assets)) = &self.assets else {
+            ui.label("Bake the open character for the crowd (Crowd ▸ Bake for crowd preview), or open a baked folder.");
+            return;
+        };
+        ui.label(
+            egui::RichText::new(format!(
+                "{} · {}",
+                assets.character.name,
+                self.folder.as_ref().map(|f| f.display().to_string()).unwrap_or_default()
+            ))
+            .small()
+            .weak(),
+        );
+        let stats = self.stats.lock().map(|s| s.clone()).unwrap_or_default();
+        ui.add(
+            egui::Slider::new(&mut self.count, 1..=MAX_CROWD)
+                .logarithmic(true)
+                .text("characters"),
+        );
+        ui.horizontal(|ui| {
+            for n in [2_000, 20_000, 100_000] {
+                if ui.button(format!("{}k", n / 1000)).clicked() {
+                    self.count = n;
+                }
+            }
+        });
+        egui::ComboBox::from_label("representation")
+            .selected_text(self.mode.label())
+            .show_ui(ui, |ui| {
+                for m in PreviewMode::ALL {
+                    let ok = match m {
+                        PreviewMode::Only(l) => stats.available[l as usize],
+                        PreviewMode::Mixed => true,
+                    };
+                    ui.add_enabled_ui(ok, |ui| ui.selectable_value(&mut self.mode, m, m.label()));
+                }
+            });
+        ui.add_enabled_ui(self.mode == PreviewMode::Mixed, |ui| {
+            ui.label("LOD switch points (screen pixels per baked texel):");
+            ui.add(egui::Slider::new(&mut self.lod.mesh_above, 0.25..=4.0).text("mesh above"));
+            ui.add(egui::Slider::new(&mut self.lod.impostor_below, 0.05..=1.0).text("impostor below"));
+            ui.add(egui::Slider::new(&mut self.lod.hysteresis, 0.0..=0.5).text("hysteresis"));
+            self.lod.impostor_below = self.lod.impostor_below.min(self.lod.mesh_above);
+        });
+        ui.checkbox(&mut self.paused, "Paused (P)");
+        ui.horizontal(|ui| {
+            ui.label("Camera:");
+            ui.radio_value(&mut self.fly, false, "orbit");
+            ui.radio_value(&mut self.fly, true, "fly (WASD, Q/E)");
+        });
+        ui.separator();
+        ui.strong("Statistics");
+        egui::Grid::new("crowd stats").num_columns(2).striped(true).show(ui, |ui| {
+            let row = |ui: &mut egui::Ui, k: &str, v: String| {
+                ui.label(k);
+                ui.label(v);
+                ui.end_row();
+            };
+            row(ui, "frame rate", format!("{ui_fps:.1} FPS"));
+            row(
+                ui,
+                "CPU per frame",
+                format!(
+                    "{:.2} ms (sim {:.2}, select {:.2}, upload {:.2})",
+                    stats.simulate_ms + stats.select_ms + stats.upload_ms,
+                    stats.simulate_ms,
+                    stats.select_ms,
+                    stats.upload_ms
+                ),
+            );
+            row(ui, "draw calls", stats.draw_calls.to_string());
+            row(ui, "agents / visible", format!("{} / {}", stats.agents, stats.visible));
+        });
+        ui.add_space(4.0);
+        egui::Grid::new("crowd levels").num_columns(3).striped(true).show(ui, |ui| {
+            ui.strong("representation");
+            ui.strong("drawn");
+            ui.strong("GPU memory");
+            ui.end_row();
+            for l in Level::ALL {
+                ui.label(l.name());
+                ui.label(stats.per_level[l as usize].to_string());
+                ui.label(if stats.available[l as usize] {
+                    format!("{:.1} MB", stats.gpu_bytes[l as usize] as f64 / 1e6)
+                } else {
+                    "not baked".into()
+                });
+                ui.end_row();
+            }
+        });
+        if let Some(e) = &stats.error {
+            ui.colored_label(ui.visuals().error_fg_color, e);
+        }
+    }
+
+    /// The crowd image (central area) with camera input.
+    pub fn viewport(&mut self, ui: &mut egui::Ui, dt: f32) {
+        let rect = ui.available_rect_before_wrap();
+        let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
+        self.camera.handle_input(ui, &response);
+        if self.fly && (response.hovered() || response.has_focus()) {
+            let (w, a, s, d, q, e) = ui.input(|i| {
+                (
+                    i.key_down(egui::Key::W),
+                    i.key_down(egui::Key::A),
+                    i.key_down(egui::Key::S),
+                    i.key_down(egui::Key::D),
+                    i.key_down(egui::Key::Q),
+                    i.key_down(egui::Key::E),
+                )
+            });
+            let forward = Vec3::new(-self.camera.yaw_rad.sin(), 0.0, -self.camera.yaw_rad.cos());
+            let right = forward.cross(Vec3::Y);
+            let speed = self.camera.distance.max(5.0) * dt;
+            let mut step = Vec3::ZERO;
+            step += forward * (w as i32 - s as i32) as f32;
+            step += right * (d as i32 - a as i32) as f32;
+            step += Vec3::Y * (e as i32 - q as i32) as f32;
+            self.camera.target += step * speed;
+        }
+        let Some((generation, assets)) = &self.assets else {
+            ui.painter().text(
+                rect.center(),
+                egui::Align2::CENTER_CENTER,
+                "No crowd yet: Crowd ▸ Bake for crowd preview",
+                egui::FontId::proportional(18.0),
+                ui.visuals().weak_text_color(),
+            );
+            return;
+        };
+        let ppp = ui.ctx().pixels_per_point();
+        let callback = CrowdCallback {
+            assets: assets.clone(),
+            generation: *generation,
+            count: self.count,
+            policy: self.policy(),
+            paused: self.paused,
+            camera: self.camera.camera(),
+            size_px: [
+                (rect.width() * ppp).round() as u32,
+                (rect.height() * ppp).round() as u32,
+            ],
+            dt,
+            stats: self.stats.clone(),
+        };
+        ui.painter()
+            .add(egui_wgpu::Callback::new_paint_callback(rect, callback));
+        ui.painter().text(
+            rect.left_bottom() + egui::vec2(8.0, -8.0),
+            egui::Align2::LEFT_BOTTOM,
+            if self.fly {
+                "Fly: WASD move · Q/E down/up · drag to look · wheel: speed"
+            } else {
+                "Orbit: left drag · Pan: right drag · Zoom: wheel"
+            },
+            egui::FontId::proportional(12.0),
+            egui::Color32::from_gray(170),
+        );
+    }
+}
+
+/// The crowd's GPU state, kept in the viewport resources.
+pub struct CrowdGpu {
+    generation: u64,
+    scene: CrowdScene,
+    target: RenderTarget,
+    blit: wgpu::BindGroup,
+}
+
+/// One frame's crowd draw request.
+pub struct CrowdCallback {
+    assets: Arc<CrowdAssets>,
+    generation: u64,
+    count: usize,
+    policy: LodPolicy,
+    paused: bool,
+    camera: Camera,
+    size_px: [u32; 2],
+    dt: f32,
+    stats: Arc<Mutex<PreviewStats>>,
+}
+
+impl egui_wgpu::CallbackTrait for CrowdCallback {
+    fn prepare(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        _screen: &egui_wgpu::ScreenDescriptor,
+        _encoder: &mut wgpu::CommandEncoder,
+        resources: &mut egui_wgpu::CallbackResources,
+    ) -> Vec<wgpu::CommandBuffer> {
+        let Some(res) = resources.get_mut::<ViewportResources>() else {
+            return Vec::new();
+        };
+        let [w, h] = [self.size_px[0].max(1), self.size_px[1].max(1)];
+        let params = CrowdParams {
+            count: self.count,
+            ..Default::default()
+        };
+        let stale = res.crowd.as_ref().is_none_or(|c| c.generation != self.generation);
+        if stale {
+            res.crowd = None;
+            match CrowdScene::new(device, queue, &self.assets, params.clone()) {
+                Ok(scene) => {
+                    let target = RenderTarget::new(device, w, h);
+                    let blit = res.blit_group(device, &target.color_view);
+                    res.crowd = Some(CrowdGpu {
+                        generation: self.generation,
+                        scene,
+                        target,
+                        blit,
+                    });
+                }
+                Err(e) => {
+                    if let Ok(mut s) = self.stats.lock() {
+                        s.error = Some(format!("cannot draw this crowd: {e}"));
+                    }
+                    return Vec::new();
+                }
+            }
+        }
+        res.write_blit_params(queue);
+        let resize = res
+            .crowd
+            .as_ref()
+            .is_some_and(|c| c.target.width != w || c.target.height != h);
+        if resize {
+            let target = RenderTarget::new(device, w, h);
+            let blit = res.blit_group(device, &target.color_view);
+            if let Some(c) = res.crowd.as_mut() {
+                c.target = target;
+                c.blit = blit;
+            }
+        }
+        let Some(crowd) = res.crowd.as_mut() else {
+            return Vec::new();
+        };
+        if crowd.scene.crowd.params.count != self.count {
+            crowd.scene.respawn(params);
+        }
+        crowd.scene.crowd.set_paused(self.paused);
+        let s = crowd.scene.frame(
+            device,
+            queue,
+            &crowd.target,
+            &self.camera,
+            &self.policy,
+            self.dt,
+            wgpu::Color {
+                r: 0.05,
+                g: 0.06,
+                b: 0.07,
+                a: 1.0,
+            },
+        );
+        if let Ok(mut out) = self.stats.lock() {
+            out.agents = crowd.scene.crowd.len();
+            out.visible = s.frame.visible;
+            out.per_level = s.frame.per_level;
+            out.simulate_ms = s.frame.simulate_secs * 1e3;
+            out.select_ms = s.frame.select_secs * 1e3;
+            out.upload_ms = s.upload_secs * 1e3;
+            out.draw_calls = s.draw_calls;
+            out.error = None;
+            for l in Level::ALL {
+                out.available[l as usize] = crowd.scene.renderers.has(l);
+                out.gpu_bytes[l as usize] = crowd.scene.renderers.gpu_bytes(l);
+            }
+        }
+        Vec::new()
+    }
+
+    fn paint(
+        &self,
+        _info: egui::PaintCallbackInfo,
+        pass: &mut wgpu::RenderPass<'static>,
+        resources: &egui_wgpu::CallbackResources,
+    ) {
+        let Some(res) = resources.get::<ViewportResources>() else {
+            return;
+        };
+        let Some(crowd) = &res.crowd else { return };
+        res.blit(pass, &crowd.blit);
+    }
+}
