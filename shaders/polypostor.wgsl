@@ -20,11 +20,12 @@ struct Frame {
 struct View {
     right: vec4<f32>,
     up: vec4<f32>,
-    // Towards the camera.
+    // Towards the camera; w: the atlas page (array layer).
     forward: vec4<f32>,
     // xyz: centre, w: half size.
     center: vec4<f32>,
-    // xy: atlas size / largest atlas size (UV scale into the array layer).
+    // xy: atlas size / page size, zw: the atlas's corner in the page (UV units). The page
+    // (array layer) is `forward.w`.
     uv_scale: vec4<f32>,
 };
 
@@ -99,8 +100,8 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> 
         + view.forward.xyz * (f32(slot) * frame.counts.w);
     let world = turn(model, inst.facing) + vec3<f32>(inst.pos.x, 0.0, inst.pos.y);
     out.clip_position = frame.clip_from_world * vec4<f32>(world, 1.0);
-    out.uv = unpack2x16unorm(geometry[part.vertex_word + local]) * view.uv_scale.xy;
-    out.layer = view_index;
+    out.uv = unpack2x16unorm(geometry[part.vertex_word + local]) * view.uv_scale.xy + view.uv_scale.zw;
+    out.layer = u32(view.forward.w);
     // The light in the view's camera frame (the normal atlas is in that frame).
     let l = turn(frame.light_dir.xyz, vec2<f32>(-inst.facing.x, inst.facing.y));
     out.light_view = vec3<f32>(dot(l, view.right.xyz), dot(l, view.up.xyz), dot(l, view.forward.xyz));

@@ -1,7 +1,7 @@
 //! The GPU Polypostor crowd renderer against the ground truth: one character drawn from a
 //! baked pack, seen from exactly one of the pack's views, must cover nearly the same pixels as
 //! the real mesh rendered with the same camera and pose, with nearly the same colours; and a
-//! crowd of instances is drawn in one draw call without reading outside the pack.
+//! crowd of instances is drawn (one draw call per view in use) without reading outside the pack.
 
 mod common;
 
@@ -133,7 +133,7 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
     let mean = ious.iter().sum::<f64>() / ious.len() as f64;
     assert!(mean > 0.8, "mean IoU {mean}");
 
-    // A crowd in one draw: many instances, views and frames out of range are clamped, and a
+    // A crowd: many instances, views and frames out of range are clamped, and a
     // character moved along +X lands to the right on screen.
     let instances: Vec<Instance> = (0..500)
         .map(|i| Instance {

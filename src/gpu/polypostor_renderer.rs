@@ -1,5 +1,5 @@
-//! The Polypostor crowd renderer: every character drawn from a pack in one instanced draw
-//! (`shaders/polypostor.wgsl`). Per instance: position, facing, view, frame and blend, variant
+//! The Polypostor crowd renderer: every character drawn from a pack, instances sorted by view
+//! and one indexed instanced draw per view in use (`shaders/polypostor.wgsl`). Per instance: position, facing, view, frame and blend, variant
 //! ([`crate::crowd::Instance`]). The pack's geometry stays in its 16-bit form on the GPU; the
 //! views' atlases are layers of one texture array.
 
@@ -100,10 +100,18 @@ impl GpuPolypostors {
             return Err(GpuError::Unsupported("the pack has no views".into()));
         }
         let limits = device.limits();
-        if view_count > limits.max_texture_array_layers {
+        // Every view's atlas shelf-packed into shared pages (layers of one texture array).
+        let sizes: Vec<[u32; 2]> = m.views.iter().map(|v| v.atlas_size).collect();
+        let pages = atlas_pages(&sizes, limits.max_texture_dimension_2d.min(8192)).ok_or_else(|| {
+            GpuError::Unsupported(format!(
+                "a view atlas is larger than this GPU's {}-pixel texture limit",
+                limits.max_texture_dimension_2d
+            ))
+        })?;
+        if pages.count > limits.max_texture_array_layers {
             return Err(GpuError::Unsupported(format!(
-                "the pack has {view_count} views; this GPU holds at most {} atlas layers",
-                limits.max_texture_array_layers
+                "the pack's atlases need {} pages; this GPU holds at most {} texture layers",
+                pages.count, limits.max_texture_array_layers
             )));
         }
         // Geometry: vertex values as they are (pairs of u16 = one u32), then the indices.
@@ -113,12 +121,6 @@ impl GpuPolypostors {
             .map(|c| c[0] as u32 | (c.get(1).copied().unwrap_or(0) as u32) << 16)
             .collect();
         geometry.push(0);
-        let mut max_w = 1u32;
-        let mut max_h = 1u32;
-        for v in &m.views {
-            max_w = max_w.max(v.atlas_size[0]);
-            max_h = max_h.max(v.atlas_size[1]);
-        }
         if let Some(v) = m
             .views
             .iter()
@@ -134,19 +136,21 @@ impl GpuPolypostors {
         // (high 16 bits) and the vertex in the part (low 16 bits).
         let mut index_words: Vec<u32> = Vec::new();
         let mut view_ranges: Vec<std::ops::Range<u32>> = Vec::with_capacity(m.views.len());
-        for v in &m.views {
+        let page = pages.size as f32;
+        for (vi, v) in m.views.iter().enumerate() {
             let c = &v.camera;
+            let [ox, oy, layer] = pages.place[vi];
             let four = |a: [f32; 3], w: f32| [a[0], a[1], a[2], w];
             views.push(ViewGpu {
                 right: four(c.right, 0.0),
                 up: four(c.up, 0.0),
-                forward: four(c.forward, 0.0),
+                forward: four(c.forward, layer as f32),
                 center: four(c.center, c.half_size),
                 uv_scale: [
-                    v.atlas_size[0] as f32 / max_w as f32,
-                    v.atlas_size[1] as f32 / max_h as f32,
-                    0.0,
-                    0.0,
+                    v.atlas_size[0] as f32 / page,
+                    v.atlas_size[1] as f32 / page,
+                    ox as f32 / page,
+                    oy as f32 / page,
                 ],
             });
             let view_start = index_words.len() as u32;
@@ -200,7 +204,7 @@ impl GpuPolypostors {
                 size: wgpu::Extent3d {
                     width: w,
                     height: h,
-                    depth_or_array_layers: view_count,
+                    depth_or_array_layers: pages.count,
                 },
                 mip_level_count: 1,
                 sample_count: 1,
@@ -210,11 +214,12 @@ impl GpuPolypostors {
                 view_formats: &[],
             })
         };
-        let (nw, nh) = ((max_w / 2).max(1), (max_h / 2).max(1));
-        let atlas = array("polypostor atlases", max_w, max_h, wgpu::TextureFormat::Rgba8UnormSrgb);
-        let normals = array("polypostor normal atlases", nw, nh, wgpu::TextureFormat::Rgba8Unorm);
-        for (layer, view) in pack.views.iter().enumerate() {
-            for (texture, img) in [(&atlas, &view.atlas), (&normals, &view.normals)] {
+        let (pw, nw) = (pages.size, (pages.size / 2).max(1));
+        let atlas = array("polypostor atlases", pw, pw, wgpu::TextureFormat::Rgba8UnormSrgb);
+        let normals = array("polypostor normal atlases", nw, nw, wgpu::TextureFormat::Rgba8Unorm);
+        for (vi, view) in pack.views.iter().enumerate() {
+            let [ox, oy, layer] = pages.place[vi];
+            for (texture, img, shift) in [(&atlas, &view.atlas, 0), (&normals, &view.normals, 1)] {
                 if img.width() == 0 || img.height() == 0 {
                     continue;
                 }
@@ -223,9 +228,9 @@ impl GpuPolypostors {
                         texture,
                         mip_level: 0,
                         origin: wgpu::Origin3d {
-                            x: 0,
-                            y: 0,
-                            z: layer as u32,
+                            x: ox >> shift,
+                            y: oy >> shift,
+                            z: layer,
                         },
                         aspect: wgpu::TextureAspect::All,
                     },
@@ -247,7 +252,7 @@ impl GpuPolypostors {
             + parts.len() * std::mem::size_of::<PartGpu>()
             + geometry.len() * 4
             + index_words.len() * 4) as u64
-            + 4 * view_count as u64 * (max_w as u64 * max_h as u64 + nw as u64 * nh as u64);
+            + 4 * pages.count as u64 * (pw as u64 * pw as u64 + nw as u64 * nw as u64);
         let frame = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("polypostor frame"),
             size: std::mem::size_of::<FrameUniform>() as u64,
@@ -543,3 +548,99 @@ impl GpuPolypostors {
 }
 
 use bytemuck::Zeroable;
+
+/// Where each view's atlas lies in the shared pages.
+#[derive(Debug)]
+struct AtlasPages {
+    /// Side of every (square) page, even.
+    size: u32,
+    count: u32,
+    /// Per view: x, y (even, so the half-size normal atlas lands on whole texels) and page.
+    place: Vec<[u32; 3]>,
+}
+
+/// Shelf-packs rectangles of `sizes` (even) into as few square pages as fit: one page just
+/// large enough when everything fits under `max_side`, else pages of `max_side`. A 2-texel
+/// gutter keeps filtering from reading a neighbour. `None` when one rectangle is larger than
+/// `max_side`.
+fn atlas_pages(sizes: &[[u32; 2]], max_side: u32) -> Option<AtlasPages> {
+    const GUTTER: u32 = 2;
+    let max_side = max_side & !1;
+    if sizes.iter().any(|s| s[0] + GUTTER > max_side || s[1] + GUTTER > max_side) {
+        return None;
+    }
+    let mut order: Vec<usize> = (0..sizes.len()).collect();
+    order.sort_by_key(|&i| std::cmp::Reverse((sizes[i][1], sizes[i][0])));
+    let pack = |side: u32| -> AtlasPages {
+        let mut place = vec![[0u32; 3]; sizes.len()];
+        let (mut x, mut y, mut shelf, mut page) = (0u32, 0u32, 0u32, 0u32);
+        for &i in &order {
+            let [w, h] = [(sizes[i][0] + 1) & !1, (sizes[i][1] + 1) & !1];
+            if x + w > side {
+                x = 0;
+                y += shelf;
+                shelf = 0;
+            }
+            if y + h > side {
+                page += 1;
+                x = 0;
+                y = 0;
+                shelf = 0;
+            }
+            place[i] = [x, y, page];
+            x += w + GUTTER;
+            shelf = shelf.max(h + GUTTER);
+        }
+        AtlasPages {
+            size: side,
+            count: page + 1,
+            place,
+        }
+    };
+    let area: u64 = sizes.iter().map(|s| (s[0] + GUTTER) as u64 * (s[1] + GUTTER) as u64).sum();
+    let mut side = (((area as f64).sqrt() * 1.05) as u32).max(2);
+    while side < max_side {
+        side = (side + 1) & !1;
+        let p = pack(side);
+        if p.count == 1 {
+            return Some(p);
+        }
+        side += side / 16 + 2;
+    }
+    Some(pack(max_side))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::atlas_pages;
+
+    #[test]
+    fn atlas_pages_never_overlap_and_stay_inside() {
+        let sizes: Vec<[u32; 2]> = (0..137).map(|i| [60 + (i * 37 % 90) * 2, 40 + (i * 53 % 70) * 2]).collect();
+        for max in [8192, 1024, 512] {
+            let p = atlas_pages(&sizes, max).unwrap();
+            assert!(p.size <= max && p.size % 2 == 0);
+            for (i, a) in p.place.iter().enumerate() {
+                assert!(a[0] % 2 == 0 && a[1] % 2 == 0);
+                assert!(a[0] + sizes[i][0] <= p.size && a[1] + sizes[i][1] <= p.size, "{a:?}");
+                assert!(a[2] < p.count);
+                for (j, b) in p.place.iter().enumerate().skip(i + 1) {
+                    let apart = a[2] != b[2]
+                        || a[0] + sizes[i][0] <= b[0]
+                        || b[0] + sizes[j][0] <= a[0]
+                        || a[1] + sizes[i][1] <= b[1]
+                        || b[1] + sizes[j][1] <= a[1];
+                    assert!(apart, "views {i} and {j} overlap");
+                }
+            }
+            if max == 8192 {
+                assert_eq!(p.count, 1);
+                let used: u64 = sizes.iter().map(|s| s[0] as u64 * s[1] as u64).sum();
+                assert!((p.size as u64).pow(2) < used * 2, "one page, at most twice the atlases' area");
+            } else {
+                assert!(p.count > 1);
+            }
+        }
+        assert!(atlas_pages(&[[600, 10]], 512).is_none());
+    }
+}
