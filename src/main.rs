@@ -472,7 +472,8 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         bar.set_length(p.total as u64);
         bar.set_position(p.done as u64);
     };
-    let set = polypostor::reps::RepSet::parse(&a.representation).map_err(|e| anyhow::anyhow!("--representation: {e}"))?;
+    let set =
+        polypostor::reps::RepSet::parse(&a.representation).map_err(|e| anyhow::anyhow!("--representation: {e}"))?;
     let job = polypostor::reps::bake::FolderBake {
         character: &c,
         character_path: &character_path,
@@ -526,7 +527,11 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         report["impostor_bytes"].as_u64().unwrap_or(0) / 1024,
         report["memory_ratio"].as_f64().unwrap_or(0.0),
         stats.triangles_per_view,
-        if set.any_other() { format!(", plus {}", a.representation) } else { String::new() }
+        if set.any_other() {
+            format!(", plus {}", a.representation)
+        } else {
+            String::new()
+        }
     );
     Ok(())
 }
@@ -540,7 +545,13 @@ fn human_bytes(b: u64) -> String {
     }
 }
 
-fn compare_cmd(dir: &Path, character: Option<&Path>, views: usize, out: Option<PathBuf>, json: bool) -> anyhow::Result<()> {
+fn compare_cmd(
+    dir: &Path,
+    character: Option<&Path>,
+    views: usize,
+    out: Option<PathBuf>,
+    json: bool,
+) -> anyhow::Result<()> {
     use polypostor::reps::compare;
     let assets = polypostor::crowd::scene::CrowdAssets::load(dir, character, None).map_err(|e| anyhow::anyhow!(e))?;
     let memory = compare::memory(&assets);
@@ -574,13 +585,19 @@ fn compare_cmd(dir: &Path, character: Option<&Path>, views: usize, out: Option<P
         .map(|e| {
             (
                 e.representation.clone(),
-                e.samples.iter().map(|s| (s.time_frames as f64, s.psnr.min(60.0))).collect(),
+                e.samples
+                    .iter()
+                    .map(|s| (s.time_frames as f64, s.psnr.min(60.0)))
+                    .collect(),
             )
         })
         .collect();
     polypostor::plot::line_chart(
         &out.join("error.png"),
-        &format!("Error against the real mesh ({} views; x.5 = between baked frames)", chosen.len()),
+        &format!(
+            "Error against the real mesh ({} views; x.5 = between baked frames)",
+            chosen.len()
+        ),
         "time (frames)",
         "PSNR (dB, capped at 60)",
         &series,
@@ -613,10 +630,14 @@ fn compare_cmd(dir: &Path, character: Option<&Path>, views: usize, out: Option<P
             human_bytes(m.bytes.geometry),
             human_bytes(m.bytes.total),
             human_bytes(m.bytes.total_bc),
-            m.vs_polypostor.map_or(String::new(), |r| format!("{r:.1}× the polypostor"))
+            m.vs_polypostor
+                .map_or(String::new(), |r| format!("{r:.1}× the polypostor"))
         );
     }
-    println!("error against the real mesh, mean PSNR over {} views (higher is better)", chosen.len());
+    println!(
+        "error against the real mesh, mean PSNR over {} views (higher is better)",
+        chosen.len()
+    );
     println!("  {:<11} {:>10} {:>12} {:>10}", "", "all", "on frames", "between");
     for e in &errors {
         println!(
@@ -624,13 +645,16 @@ fn compare_cmd(dir: &Path, character: Option<&Path>, views: usize, out: Option<P
             e.representation, e.mean_psnr, e.mean_psnr_on_frames, e.mean_psnr_between_frames
         );
     }
-    println!("wrote {}, {} and compare.json in {}", "memory.png", "error.png", out.display());
+    println!("wrote memory.png, error.png and compare.json in {}", out.display());
     Ok(())
 }
 
 /// The default character baked with every representation into a temporary folder.
 fn bake_default_all(out: &Path) -> anyhow::Result<()> {
-    eprintln!("baking the default character with every representation into {} (pass --pack to reuse a bake)", out.display());
+    eprintln!(
+        "baking the default character with every representation into {} (pass --pack to reuse a bake)",
+        out.display()
+    );
     bake_cmd(BakeArgs {
         input: repo_root().join(polypostor::project::DEFAULT_PROJECT_DIR),
         project: None,
@@ -678,7 +702,15 @@ fn bench_crowd(
     let ctx = polypostor::gpu::GpuContext::from_env()?;
     let (device, queue) = (&ctx.device, &ctx.queue);
     let target = polypostor::gpu::RenderTarget::new(device, width, height);
-    let mut scene = CrowdScene::new(device, queue, &assets, CrowdParams { count: counts[0], ..Default::default() })?;
+    let mut scene = CrowdScene::new(
+        device,
+        queue,
+        &assets,
+        CrowdParams {
+            count: counts[0],
+            ..Default::default()
+        },
+    )?;
     let mut reps: Vec<(&str, LodPolicy)> = Level::ALL
         .iter()
         .filter(|l| scene.renderers.has(**l))
@@ -699,7 +731,10 @@ fn bench_crowd(
     }
     let mut rows = Vec::new();
     for &count in counts {
-        scene.respawn(CrowdParams { count, ..Default::default() });
+        scene.respawn(CrowdParams {
+            count,
+            ..Default::default()
+        });
         let camera = bench_camera(&scene.crowd);
         let mut per_rep = Vec::new();
         for (name, policy) in &reps {
@@ -719,7 +754,10 @@ fn bench_crowd(
             let (secs, last) = run(frames);
             let fps = frames as f64 / secs.max(1e-9);
             if !json {
-                eprintln!("  {count:>7} {name:<11} {fps:>9.2} fps  ({} drawn, {} draw calls)", last.frame.visible, last.draw_calls);
+                eprintln!(
+                    "  {count:>7} {name:<11} {fps:>9.2} fps  ({} drawn, {} draw calls)",
+                    last.frame.visible, last.draw_calls
+                );
             }
             per_rep.push((name.to_string(), fps, last));
         }

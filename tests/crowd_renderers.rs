@@ -167,7 +167,10 @@ fn every_representation_draws_close_to_the_mesh() {
                     .unwrap();
             }
             assert!(iou > min_iou, "view {v}, {level:?}, blend {blend}: IoU {iou}");
-            assert!(diff < max_diff, "view {v}, {level:?}, blend {blend}: colour difference {diff}");
+            assert!(
+                diff < max_diff,
+                "view {v}, {level:?}, blend {blend}: colour difference {diff}"
+            );
         }
     }
 
@@ -196,7 +199,10 @@ fn every_representation_draws_close_to_the_mesh() {
         wgpu::Color::TRANSPARENT,
     );
     assert!((4..=8).contains(&calls), "{calls} draw calls");
-    let covered = mask(&target.read_normal(device, queue).unwrap()).iter().filter(|&&x| x).count();
+    let covered = mask(&target.read_normal(device, queue).unwrap())
+        .iter()
+        .filter(|&&x| x)
+        .count();
     assert!(covered > (size * size / 20) as usize, "{covered} pixels");
 
     // Damaged files: clear errors naming the file, never a panic.

@@ -702,8 +702,13 @@ impl EditorApp {
                 let has_doc = self.doc.is_some();
                 let busy = self.crowd.busy();
                 if ui
-                    .add_enabled(has_doc && !busy, egui::Button::new("Bake for crowd preview").shortcut_text("Ctrl+B"))
-                    .on_hover_text("Polypostors, classic and NP3D impostors and rigid meshes, same views and resolution")
+                    .add_enabled(
+                        has_doc && !busy,
+                        egui::Button::new("Bake for crowd preview").shortcut_text("Ctrl+B"),
+                    )
+                    .on_hover_text(
+                        "Polypostors, classic and NP3D impostors and rigid meshes, same views and resolution",
+                    )
                     .clicked()
                 {
                     self.send(Command::BakeCrowd);
@@ -711,7 +716,10 @@ impl EditorApp {
                 if ui.add_enabled(!busy, egui::Button::new("Open baked folder…")).clicked() {
                     self.ask_path(PathPurpose::OpenCrowd);
                 }
-                if ui.add_enabled(!busy, egui::Button::new("Open baked folder path…")).clicked() {
+                if ui
+                    .add_enabled(!busy, egui::Button::new("Open baked folder path…"))
+                    .clicked()
+                {
                     self.prompt = Some(PathPrompt::new(PathPurpose::OpenCrowd));
                 }
                 ui.separator();
@@ -1254,15 +1262,13 @@ impl eframe::App for EditorApp {
                     }
                 });
             });
-        egui::CentralPanel::default()
-            .frame(egui::Frame::NONE)
-            .show(ui, |ui| {
-                if self.crowd.open {
-                    self.crowd.viewport(ui, dt);
-                } else {
-                    self.viewport(ui);
-                }
-            });
+        egui::CentralPanel::default().frame(egui::Frame::NONE).show(ui, |ui| {
+            if self.crowd.open {
+                self.crowd.viewport(ui, dt);
+            } else {
+                self.viewport(ui);
+            }
+        });
         self.dialogs(&ctx);
 
         // Keep animating while playing or loading.

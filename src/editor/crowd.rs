@@ -231,7 +231,8 @@ impl CrowdPanel {
             }
             Err(std::sync::mpsc::TryRecvError::Empty) => {}
             Err(std::sync::mpsc::TryRecvError::Disconnected) => {
-                self.messages.push(Err("crowd preview: the background job stopped".into()));
+                self.messages
+                    .push(Err("crowd preview: the background job stopped".into()));
                 self.job = None;
             }
         }
@@ -274,7 +275,10 @@ impl CrowdPanel {
             egui::RichText::new(format!(
                 "{} · {}",
                 assets.character.name,
-                self.folder.as_ref().map(|f| f.display().to_string()).unwrap_or_default()
+                self.folder
+                    .as_ref()
+                    .map(|f| f.display().to_string())
+                    .unwrap_or_default()
             ))
             .small()
             .weak(),
@@ -318,44 +322,50 @@ impl CrowdPanel {
         });
         ui.separator();
         ui.strong("Statistics");
-        egui::Grid::new("crowd stats").num_columns(2).striped(true).show(ui, |ui| {
-            let row = |ui: &mut egui::Ui, k: &str, v: String| {
-                ui.label(k);
-                ui.label(v);
-                ui.end_row();
-            };
-            row(ui, "frame rate", format!("{ui_fps:.1} FPS"));
-            row(
-                ui,
-                "CPU per frame",
-                format!(
-                    "{:.2} ms (sim {:.2}, select {:.2}, upload {:.2})",
-                    stats.simulate_ms + stats.select_ms + stats.upload_ms,
-                    stats.simulate_ms,
-                    stats.select_ms,
-                    stats.upload_ms
-                ),
-            );
-            row(ui, "draw calls", stats.draw_calls.to_string());
-            row(ui, "agents / visible", format!("{} / {}", stats.agents, stats.visible));
-        });
+        egui::Grid::new("crowd stats")
+            .num_columns(2)
+            .striped(true)
+            .show(ui, |ui| {
+                let row = |ui: &mut egui::Ui, k: &str, v: String| {
+                    ui.label(k);
+                    ui.label(v);
+                    ui.end_row();
+                };
+                row(ui, "frame rate", format!("{ui_fps:.1} FPS"));
+                row(
+                    ui,
+                    "CPU per frame",
+                    format!(
+                        "{:.2} ms (sim {:.2}, select {:.2}, upload {:.2})",
+                        stats.simulate_ms + stats.select_ms + stats.upload_ms,
+                        stats.simulate_ms,
+                        stats.select_ms,
+                        stats.upload_ms
+                    ),
+                );
+                row(ui, "draw calls", stats.draw_calls.to_string());
+                row(ui, "agents / visible", format!("{} / {}", stats.agents, stats.visible));
+            });
         ui.add_space(4.0);
-        egui::Grid::new("crowd levels").num_columns(3).striped(true).show(ui, |ui| {
-            ui.strong("representation");
-            ui.strong("drawn");
-            ui.strong("GPU memory");
-            ui.end_row();
-            for l in Level::ALL {
-                ui.label(l.name());
-                ui.label(stats.per_level[l as usize].to_string());
-                ui.label(if stats.available[l as usize] {
-                    format!("{:.1} MB", stats.gpu_bytes[l as usize] as f64 / 1e6)
-                } else {
-                    "not baked".into()
-                });
+        egui::Grid::new("crowd levels")
+            .num_columns(3)
+            .striped(true)
+            .show(ui, |ui| {
+                ui.strong("representation");
+                ui.strong("drawn");
+                ui.strong("GPU memory");
                 ui.end_row();
-            }
-        });
+                for l in Level::ALL {
+                    ui.label(l.name());
+                    ui.label(stats.per_level[l as usize].to_string());
+                    ui.label(if stats.available[l as usize] {
+                        format!("{:.1} MB", stats.gpu_bytes[l as usize] as f64 / 1e6)
+                    } else {
+                        "not baked".into()
+                    });
+                    ui.end_row();
+                }
+            });
         if let Some(e) = &stats.error {
             ui.colored_label(ui.visuals().error_fg_color, e);
         }

@@ -270,7 +270,9 @@ fn texture_array(
     });
     for (layer, img) in images.iter().enumerate() {
         if img.dimensions() != (w, h) {
-            return Err(GpuError::Unsupported(format!("{label}: layer {layer} has another size")));
+            return Err(GpuError::Unsupported(format!(
+                "{label}: layer {layer} has another size"
+            )));
         }
         queue.write_texture(
             wgpu::TexelCopyTextureInfo {
@@ -457,7 +459,13 @@ impl GpuMeshCrowd {
         let layout = layout(
             device,
             "crowd meshes",
-            &[Entry::Uniform, Entry::Storage, Entry::Storage, Entry::Storage, Entry::Storage],
+            &[
+                Entry::Uniform,
+                Entry::Storage,
+                Entry::Storage,
+                Entry::Storage,
+                Entry::Storage,
+            ],
         );
         let stream0 = wgpu::VertexBufferLayout {
             array_stride: std::mem::size_of::<PositionNormal>() as u64,
@@ -604,10 +612,9 @@ pub struct GpuImpostors {
 
 impl GpuImpostors {
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, reps: &Representations) -> Result<Self, GpuError> {
-        let data = reps
-            .impostor
-            .as_ref()
-            .ok_or_else(|| GpuError::Unsupported("no impostors were baked (bake with --representation impostor)".into()))?;
+        let data = reps.impostor.as_ref().ok_or_else(|| {
+            GpuError::Unsupported("no impostors were baked (bake with --representation impostor)".into())
+        })?;
         let layout = layout(
             device,
             "impostors",
@@ -640,7 +647,16 @@ impl GpuImpostors {
         let sampler = clamp_sampler(device, "impostor sheets");
         let frame = uniform_buffer(device, "impostor frame");
         let instances = InstanceBuffer::new(device, 1024);
-        let group = Self::group(device, &layout, &frame, &views, &instances.buffer, &color, &normal, &sampler);
+        let group = Self::group(
+            device,
+            &layout,
+            &frame,
+            &views,
+            &instances.buffer,
+            &color,
+            &normal,
+            &sampler,
+        );
         Ok(Self {
             pipeline,
             layout,
@@ -761,10 +777,9 @@ impl GpuNp3d {
         reps: &Representations,
         vertex_parts: &[u32],
     ) -> Result<Self, GpuError> {
-        let data = reps
-            .np3d
-            .as_ref()
-            .ok_or_else(|| GpuError::Unsupported("no NP3D impostors were baked (bake with --representation np3d)".into()))?;
+        let data = reps.np3d.as_ref().ok_or_else(|| {
+            GpuError::Unsupported("no NP3D impostors were baked (bake with --representation np3d)".into())
+        })?;
         let layout = layout(
             device,
             "np3d",
@@ -791,7 +806,13 @@ impl GpuNp3d {
                 .map(|&s| vertex_parts.get(s as usize).copied().unwrap_or(0)),
         );
         let topology = storage(device, "np3d topology", bytemuck::cast_slice(&topo));
-        let (images, ib) = texture_array(device, queue, "np3d images", &data.images, wgpu::TextureFormat::Rgba8UnormSrgb)?;
+        let (images, ib) = texture_array(
+            device,
+            queue,
+            "np3d images",
+            &data.images,
+            wgpu::TextureFormat::Rgba8UnormSrgb,
+        )?;
         let sampler = clamp_sampler(device, "np3d images");
         let frame = uniform_buffer(device, "np3d frame");
         let instances = InstanceBuffer::new(device, 1024);
@@ -822,7 +843,9 @@ impl GpuNp3d {
             index_count: data.indices.len() as u32,
             part_base,
             view_count: reps.manifest.views.len() as u32,
-            gpu_bytes: ib + (packed.len() * 16 + topo.len() * 4) as u64 + std::mem::size_of_val(views_data.as_slice()) as u64,
+            gpu_bytes: ib
+                + (packed.len() * 16 + topo.len() * 4) as u64
+                + std::mem::size_of_val(views_data.as_slice()) as u64,
         })
     }
 
@@ -852,7 +875,13 @@ impl GpuNp3d {
             self.group = Self::group(
                 device,
                 &self.layout,
-                [&self.frame, &self.views, &self.instances.buffer, &self.vertices, &self.topology],
+                [
+                    &self.frame,
+                    &self.views,
+                    &self.instances.buffer,
+                    &self.vertices,
+                    &self.topology,
+                ],
                 &self.images,
                 &self.sampler,
             );

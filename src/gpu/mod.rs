@@ -23,10 +23,10 @@ pub use character_renderer::{
     COLOR_FORMAT, CharacterRenderer, DEPTH_FORMAT, DrawOptions, GpuCharacter, NORMAL_FORMAT, RenderTarget, Shading,
     SkinningMode,
 };
+pub use context::{AdapterPreference, GpuContext, GpuError, rank_adapter};
 pub use crowd_renderers::{
     CrowdRenderers, GpuImpostors, GpuMeshCrowd, GpuNp3d, JOINT_SAMPLES_PER_FRAME, joint_samples, vertex_parts,
 };
-pub use context::{AdapterPreference, GpuContext, GpuError, rank_adapter};
 pub use part_renderer::{PartImages, PartRenderer};
 pub use polypostor_renderer::{GpuPolypostors, PolypostorStyle};
 pub use readback::{DepthImage, read_depth, read_rgba8};

@@ -169,7 +169,10 @@ impl GpuPolypostors {
                 let id_record = parts.len() as u32;
                 if record.index_count > 0 {
                     let start = record.index_offset as usize;
-                    let list = pack.indices.get(start..start + record.index_count as usize).unwrap_or(&[]);
+                    let list = pack
+                        .indices
+                        .get(start..start + record.index_count as usize)
+                        .unwrap_or(&[]);
                     index_words.extend(list.iter().map(|&i| id_record << 16 | i as u32));
                 }
                 parts.push(record);
@@ -494,12 +497,7 @@ impl GpuPolypostors {
         let uniform = FrameUniform {
             clip_from_world: clip_from_world.to_cols_array_2d(),
             light_dir: [l.x, l.y, l.z, 0.0],
-            counts: [
-                0.0,
-                self.parts_per_view as f32,
-                self.frames as f32,
-                self.depth_step,
-            ],
+            counts: [0.0, self.parts_per_view as f32, self.frames as f32, self.depth_step],
             params: [if style.lit { 1.0 } else { 0.0 }, style.ambient, style.tint, 0.0],
             bases: [0; 4],
         };
@@ -566,7 +564,10 @@ struct AtlasPages {
 fn atlas_pages(sizes: &[[u32; 2]], max_side: u32) -> Option<AtlasPages> {
     const GUTTER: u32 = 2;
     let max_side = max_side & !1;
-    if sizes.iter().any(|s| s[0] + GUTTER > max_side || s[1] + GUTTER > max_side) {
+    if sizes
+        .iter()
+        .any(|s| s[0] + GUTTER > max_side || s[1] + GUTTER > max_side)
+    {
         return None;
     }
     let mut order: Vec<usize> = (0..sizes.len()).collect();
@@ -597,7 +598,10 @@ fn atlas_pages(sizes: &[[u32; 2]], max_side: u32) -> Option<AtlasPages> {
             place,
         }
     };
-    let area: u64 = sizes.iter().map(|s| (s[0] + GUTTER) as u64 * (s[1] + GUTTER) as u64).sum();
+    let area: u64 = sizes
+        .iter()
+        .map(|s| (s[0] + GUTTER) as u64 * (s[1] + GUTTER) as u64)
+        .sum();
     let mut side = (((area as f64).sqrt() * 1.05) as u32).max(2);
     while side < max_side {
         side = (side + 1) & !1;
@@ -616,12 +620,14 @@ mod tests {
 
     #[test]
     fn atlas_pages_never_overlap_and_stay_inside() {
-        let sizes: Vec<[u32; 2]> = (0..137).map(|i| [60 + (i * 37 % 90) * 2, 40 + (i * 53 % 70) * 2]).collect();
+        let sizes: Vec<[u32; 2]> = (0..137)
+            .map(|i| [60 + (i * 37 % 90) * 2, 40 + (i * 53 % 70) * 2])
+            .collect();
         for max in [8192, 1024, 512] {
             let p = atlas_pages(&sizes, max).unwrap();
-            assert!(p.size <= max && p.size % 2 == 0);
+            assert!(p.size <= max && p.size.is_multiple_of(2));
             for (i, a) in p.place.iter().enumerate() {
-                assert!(a[0] % 2 == 0 && a[1] % 2 == 0);
+                assert!(a[0].is_multiple_of(2) && a[1].is_multiple_of(2));
                 assert!(a[0] + sizes[i][0] <= p.size && a[1] + sizes[i][1] <= p.size, "{a:?}");
                 assert!(a[2] < p.count);
                 for (j, b) in p.place.iter().enumerate().skip(i + 1) {
@@ -636,7 +642,10 @@ mod tests {
             if max == 8192 {
                 assert_eq!(p.count, 1);
                 let used: u64 = sizes.iter().map(|s| s[0] as u64 * s[1] as u64).sum();
-                assert!((p.size as u64).pow(2) < used * 2, "one page, at most twice the atlases' area");
+                assert!(
+                    (p.size as u64).pow(2) < used * 2,
+                    "one page, at most twice the atlases' area"
+                );
             } else {
                 assert!(p.count > 1);
             }

@@ -78,7 +78,7 @@ pub fn bake_representations(
         } else {
             vec![options.key_frame]
         };
-        let columns = (frames as f64).sqrt().ceil().max(1.0) as u32;
+        let columns = sheet_columns(frames);
         let rows = (frames as u32).div_ceil(columns);
         let mut color = vec![image::RgbaImage::new(columns * r, rows * r); cameras.len()];
         let mut normal = color.clone();
@@ -186,6 +186,16 @@ pub fn bake_representations(
     })
 }
 
+/// Columns of a sheet of `n` tiles: near square, with as few empty tiles as possible (10
+/// frames: 5 × 2 rather than 4 × 3).
+pub fn sheet_columns(n: usize) -> u32 {
+    let n = n.max(1);
+    let lo = (n as f64).sqrt().ceil() as usize;
+    (lo..=(2 * lo).min(n))
+        .min_by_key(|&c| (c * n.div_ceil(c) - n, c))
+        .unwrap_or(lo) as u32
+}
+
 /// Skinned positions and normals at every pose, of every vertex or of `only` these.
 fn frame_vertices(character: &Character, poses: &[Pose], only: Option<&[u32]>) -> FrameVertices {
     let mut out = FrameVertices {
@@ -266,6 +276,19 @@ mod tests {
     use super::*;
 
     #[test]
+    fn sheets_are_near_square_with_few_empty_tiles() {
+        assert_eq!(sheet_columns(10), 5);
+        assert_eq!(sheet_columns(1), 1);
+        assert_eq!(sheet_columns(16), 4);
+        for n in 1..200usize {
+            let c = sheet_columns(n) as usize;
+            let rows = n.div_ceil(c);
+            assert!(c * rows >= n && c * rows - n < c, "{n}: {c} columns");
+            assert!(c >= rows, "{n}: wider than tall");
+        }
+    }
+
+    #[test]
     fn simplified_mesh_is_near_the_target_and_stays_on_the_surface() {
         let c = crate::default_character::generate();
         let pos: Vec<Vec3> = c.vertices.iter().map(|v| v.position).collect();
@@ -284,6 +307,9 @@ mod tests {
         }
     }
 }
+
+/// A hook that adds files to a bake folder before it moves into place.
+pub type ExtraFiles<'a> = dyn Fn(&std::path::Path, Option<&crate::bake::pipeline::Bake>) -> Result<(), String> + 'a;
 
 /// Where a whole bake goes and what it holds.
 pub struct FolderBake<'a> {
@@ -321,7 +347,7 @@ pub fn bake_folder(
     job: &FolderBake,
     progress: &(dyn Fn(Progress) + Sync),
     cancel: &AtomicBool,
-    extra: &dyn Fn(&std::path::Path, Option<&crate::bake::pipeline::Bake>) -> Result<(), String>,
+    extra: &ExtraFiles,
 ) -> Result<FolderResult, FolderError> {
     use crate::bake::pipeline::KeyFrame;
     let started = std::time::Instant::now();
@@ -371,7 +397,8 @@ pub fn bake_folder(
     let write_reps = |dir: &std::path::Path| -> Result<(), String> {
         if let Some(r) = &reps {
             super::write_representations(r, dir)?;
-            super::load_representations(dir).map_err(|e| format!("the written representations do not load back: {e}"))?;
+            super::load_representations(dir)
+                .map_err(|e| format!("the written representations do not load back: {e}"))?;
         }
         Ok(())
     };
@@ -385,7 +412,10 @@ pub fn bake_folder(
             extra(dir, None)
         })
         .map_err(write_error)?;
-        return Ok(FolderResult { bake: None, stats: None });
+        return Ok(FolderResult {
+            bake: None,
+            stats: None,
+        });
     };
     let write_started = std::time::Instant::now();
     let stats = crate::pack::write_pack_with(&b, &job.character.name, job.clip_name, job.out, &|dir, stats| {

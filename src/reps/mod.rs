@@ -412,7 +412,8 @@ pub fn write_representations(reps: &Representations, dir: &Path) -> Result<u64, 
     };
     let png_bytes = |img: &image::RgbaImage| -> Result<Vec<u8>, String> {
         let mut out = std::io::Cursor::new(Vec::new());
-        img.write_to(&mut out, image::ImageFormat::Png).map_err(|e| e.to_string())?;
+        img.write_to(&mut out, image::ImageFormat::Png)
+            .map_err(|e| e.to_string())?;
         Ok(out.into_inner())
     };
     if let Some(i) = &reps.impostor {
