@@ -3,32 +3,13 @@
 // scale per joint per sample) and interpolated per vertex between the two samples around the
 // instance's time, then blended by the vertex's four weights. Rigid: the mesh pre-skinned at
 // every frame, interpolated between two frames.
-// Keep the structs in sync with `src/gpu/crowd_renderers.rs`.
-
-struct Frame {
-    clip_from_world: mat4x4<f32>,
-    // xyz: unit direction towards the light (world).
-    light_dir: vec4<f32>,
-    // x: joint samples per frame, y: frames, z: joints, w: vertices.
-    counts: vec4<f32>,
-    // x: shading (0 unlit, 1 lit), y: ambient, z: tint strength.
-    params: vec4<f32>,
-    bases: vec4<u32>,
-};
+// Frame.counts: x joint samples per frame, y frames, z joints, w vertices. Shared structs and
+// functions: crowd_common.wgsl. Keep the structs in sync with `src/gpu/crowd_renderers.rs`.
 
 struct Joint {
     rotation: vec4<f32>,
     // xyz: translation, w: uniform scale.
     translation: vec4<f32>,
-};
-
-struct Instance {
-    pos: vec2<f32>,
-    facing: vec2<f32>,
-    view: u32,
-    frame: u32,
-    blend: f32,
-    variant: u32,
 };
 
 struct Material {
@@ -55,26 +36,9 @@ struct VertexOut {
     @location(3) tint: vec3<f32>,
 };
 
-fn hash(x: u32) -> u32 {
-    var h = x * 747796405u + 2891336453u;
-    h = ((h >> ((h >> 28u) + 4u)) ^ h) * 277803737u;
-    return (h >> 22u) ^ h;
-}
-
-// Rotation about +Y by the heading h, given (sin h, cos h).
-fn turn(p: vec3<f32>, f: vec2<f32>) -> vec3<f32> {
-    return vec3<f32>(f.y * p.x + f.x * p.z, p.y, -f.x * p.x + f.y * p.z);
-}
-
 fn rotate(q: vec4<f32>, v: vec3<f32>) -> vec3<f32> {
     let t = 2.0 * cross(q.xyz, v);
     return v + q.w * t + cross(q.xyz, t);
-}
-
-fn part_tint(variant: u32, part: u32) -> vec3<f32> {
-    let h = hash(variant ^ (part * 0x9e3779b9u));
-    let t = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0;
-    return mix(vec3<f32>(1.0), 0.6 + 0.8 * t, frame.params.z);
 }
 
 fn place(inst: Instance, model: vec3<f32>, normal: vec3<f32>, vi: u32, uv: vec2<f32>, color: vec4<f32>) -> VertexOut {
@@ -84,7 +48,7 @@ fn place(inst: Instance, model: vec3<f32>, normal: vec3<f32>, vi: u32, uv: vec2<
     out.normal = turn(normal, inst.facing);
     out.uv = uv;
     out.color = color;
-    out.tint = part_tint(inst.variant, vertex_parts[vi]);
+    out.tint = part_tint(inst.variant, vertex_parts[vi], frame.params.z);
     return out;
 }
 
@@ -152,21 +116,8 @@ fn vs_rigid(v: RigidIn) -> VertexOut {
     return place(inst, p, mix(na, nb, blend), v.vi, v.uv, v.color);
 }
 
-struct FragmentOut {
-    @location(0) color: vec4<f32>,
-    @location(1) normal: vec4<f32>,
-};
-
 @fragment
-fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> FragmentOut {
-    var n = normalize(in.normal);
+fn fs_main(in: VertexOut) -> FragmentOut {
     let albedo = textureSample(base_texture, base_sampler, in.uv) * material.base_color_factor * in.color;
-    let base = albedo.rgb * in.tint;
-    let ambient = frame.params.y;
-    let diffuse = max(dot(n, normalize(frame.light_dir.xyz)), 0.0);
-    let lit = base * (ambient + (1.0 - ambient) * diffuse);
-    var out: FragmentOut;
-    out.color = vec4<f32>(mix(base, lit, frame.params.x), 1.0);
-    out.normal = vec4<f32>(n * 0.5 + vec3<f32>(0.5), 1.0);
-    return out;
+    return shade(albedo.rgb, in.tint, normalize(in.normal), frame.light_dir.xyz, frame.params);
 }

@@ -1,35 +1,8 @@
 // Classic animated impostors: one quad per character in the plane of the nearest baked view
 // (turned with the character), textured with that view's image of the current frame (no
 // interpolation: the nearest frame) from a sheet of frames, shaded with its normal image.
-// Keep the structs in sync with `src/gpu/crowd_renderers.rs`.
-
-struct Frame {
-    clip_from_world: mat4x4<f32>,
-    light_dir: vec4<f32>,
-    // x: sheet columns, y: sheet rows, z: frames.
-    counts: vec4<f32>,
-    // x: shading (0 unlit, 1 lit), y: ambient, z: tint strength.
-    params: vec4<f32>,
-    bases: vec4<u32>,
-};
-
-struct View {
-    right: vec4<f32>,
-    up: vec4<f32>,
-    forward: vec4<f32>,
-    // xyz: centre, w: half size.
-    center: vec4<f32>,
-    uv_scale: vec4<f32>,
-};
-
-struct Instance {
-    pos: vec2<f32>,
-    facing: vec2<f32>,
-    view: u32,
-    frame: u32,
-    blend: f32,
-    variant: u32,
-};
+// Frame.counts: x sheet columns, y sheet rows, z frames. Shared structs and functions:
+// crowd_common.wgsl. Keep the structs in sync with `src/gpu/crowd_renderers.rs`.
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<storage, read> views: array<View>;
@@ -45,16 +18,6 @@ struct VertexOut {
     @location(2) light_view: vec3<f32>,
     @location(3) tint: vec3<f32>,
 };
-
-fn hash(x: u32) -> u32 {
-    var h = x * 747796405u + 2891336453u;
-    h = ((h >> ((h >> 28u) + 4u)) ^ h) * 277803737u;
-    return (h >> 22u) ^ h;
-}
-
-fn turn(p: vec3<f32>, f: vec2<f32>) -> vec3<f32> {
-    return vec3<f32>(f.y * p.x + f.x * p.z, p.y, -f.x * p.x + f.y * p.z);
-}
 
 @vertex
 fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> VertexOut {
@@ -76,18 +39,11 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> 
     let tile = vec2<f32>(f32(f % columns), f32(f / columns));
     out.uv = (tile + vec2<f32>(0.5 + 0.5 * xy.x, 0.5 - 0.5 * xy.y)) / frame.counts.xy;
     out.layer = inst.view;
-    let l = turn(frame.light_dir.xyz, vec2<f32>(-inst.facing.x, inst.facing.y));
-    out.light_view = vec3<f32>(dot(l, view.right.xyz), dot(l, view.up.xyz), dot(l, view.forward.xyz));
-    let h = hash(inst.variant);
-    let t = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0;
-    out.tint = mix(vec3<f32>(1.0), 0.6 + 0.8 * t, frame.params.z);
+    out.light_view = light_in_view(frame.light_dir.xyz, inst.facing, view);
+    // No part labels in the images: the whole character takes part 0's tint.
+    out.tint = part_tint(inst.variant, 0u, frame.params.z);
     return out;
 }
-
-struct FragmentOut {
-    @location(0) color: vec4<f32>,
-    @location(1) normal: vec4<f32>,
-};
 
 @fragment
 fn fs_main(in: VertexOut) -> FragmentOut {
@@ -96,12 +52,5 @@ fn fs_main(in: VertexOut) -> FragmentOut {
         discard;
     }
     let n = normalize(textureSample(normal_sheets, sheet_sampler, in.uv, in.layer).xyz * 2.0 - vec3<f32>(1.0));
-    let ambient = frame.params.y;
-    let diffuse = max(dot(n, normalize(in.light_view)), 0.0);
-    let base = albedo.rgb * in.tint;
-    let lit = base * (ambient + (1.0 - ambient) * diffuse);
-    var out: FragmentOut;
-    out.color = vec4<f32>(mix(base, lit, frame.params.x), 1.0);
-    out.normal = vec4<f32>(n * 0.5 + vec3<f32>(0.5), 1.0);
-    return out;
+    return shade(albedo.rgb, in.tint, n, in.light_view, frame.params);
 }

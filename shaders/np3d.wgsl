@@ -2,35 +2,9 @@
 // meshes share one topology), textured by projecting the nearest view's key-frame image
 // onto it through that view's orthographic camera, at the vertices' key-frame positions.
 // Shaded with the mesh normals.
-// Keep the structs in sync with `src/gpu/crowd_renderers.rs`.
-
-struct Frame {
-    clip_from_world: mat4x4<f32>,
-    light_dir: vec4<f32>,
-    // x: vertices, y: frames, z: key frame.
-    counts: vec4<f32>,
-    // x: shading (0 unlit, 1 lit), y: ambient, z: tint strength.
-    params: vec4<f32>,
-    // x: first word of the per-vertex parts in `topology`.
-    bases: vec4<u32>,
-};
-
-struct View {
-    right: vec4<f32>,
-    up: vec4<f32>,
-    forward: vec4<f32>,
-    center: vec4<f32>,
-    uv_scale: vec4<f32>,
-};
-
-struct Instance {
-    pos: vec2<f32>,
-    facing: vec2<f32>,
-    view: u32,
-    frame: u32,
-    blend: f32,
-    variant: u32,
-};
+// Frame.counts: x vertices, y frames, z key frame; bases.x: first word of the per-vertex
+// parts in `topology`. Shared structs and functions: crowd_common.wgsl. Keep the structs in
+// sync with `src/gpu/crowd_renderers.rs`.
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<storage, read> views: array<View>;
@@ -49,16 +23,6 @@ struct VertexOut {
     @location(2) normal: vec3<f32>,
     @location(3) tint: vec3<f32>,
 };
-
-fn hash(x: u32) -> u32 {
-    var h = x * 747796405u + 2891336453u;
-    h = ((h >> ((h >> 28u) + 4u)) ^ h) * 277803737u;
-    return (h >> 22u) ^ h;
-}
-
-fn turn(p: vec3<f32>, f: vec2<f32>) -> vec3<f32> {
-    return vec3<f32>(f.y * p.x + f.x * p.z, p.y, -f.x * p.x + f.y * p.z);
-}
 
 @vertex
 fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> VertexOut {
@@ -82,28 +46,12 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> 
     let world = turn(model, inst.facing) + vec3<f32>(inst.pos.x, 0.0, inst.pos.y);
     out.clip_position = frame.clip_from_world * vec4<f32>(world, 1.0);
     out.normal = turn(n, inst.facing);
-    let part = topology[frame.bases.x + local];
-    let h = hash(inst.variant ^ (part * 0x9e3779b9u));
-    let t = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0;
-    out.tint = mix(vec3<f32>(1.0), 0.6 + 0.8 * t, frame.params.z);
+    out.tint = part_tint(inst.variant, topology[frame.bases.x + local], frame.params.z);
     return out;
 }
-
-struct FragmentOut {
-    @location(0) color: vec4<f32>,
-    @location(1) normal: vec4<f32>,
-};
 
 @fragment
 fn fs_main(in: VertexOut) -> FragmentOut {
     let albedo = textureSample(images, image_sampler, in.uv, in.layer);
-    let n = normalize(in.normal);
-    let ambient = frame.params.y;
-    let diffuse = max(dot(n, normalize(frame.light_dir.xyz)), 0.0);
-    let base = albedo.rgb * in.tint;
-    let lit = base * (ambient + (1.0 - ambient) * diffuse);
-    var out: FragmentOut;
-    out.color = vec4<f32>(mix(base, lit, frame.params.x), 1.0);
-    out.normal = vec4<f32>(n * 0.5 + vec3<f32>(0.5), 1.0);
-    return out;
+    return shade(albedo.rgb, in.tint, normalize(in.normal), frame.light_dir.xyz, frame.params);
 }

@@ -4,30 +4,9 @@
 // and interpolated. Indexed draws let the GPU reuse each vertex across its triangles. Parts
 // later in the view's order are moved slightly towards the camera, so the depth test draws
 // them in front.
-// Keep the structs in sync with `src/gpu/polypostor_renderer.rs`.
-
-struct Frame {
-    clip_from_world: mat4x4<f32>,
-    // xyz: unit direction towards the light (world).
-    light_dir: vec4<f32>,
-    // x: unused, y: parts per view, z: frames, w: depth offset per slot (world units).
-    counts: vec4<f32>,
-    // x: shading (0 unlit, 1 lit), y: ambient, z: tint strength.
-    params: vec4<f32>,
-    bases: vec4<u32>,
-};
-
-struct View {
-    right: vec4<f32>,
-    up: vec4<f32>,
-    // Towards the camera; w: the atlas page (array layer).
-    forward: vec4<f32>,
-    // xyz: centre, w: half size.
-    center: vec4<f32>,
-    // xy: atlas size / page size, zw: the atlas's corner in the page (UV units). The page
-    // (array layer) is `forward.w`.
-    uv_scale: vec4<f32>,
-};
+// Frame.counts: y parts per view, z frames, w depth offset per slot (world units). Shared
+// structs and functions: crowd_common.wgsl. Keep the structs in sync with
+// `src/gpu/polypostor_renderer.rs`.
 
 struct Part {
     // First u32 of the part's block (each u32 holds one x, y pair of unorm16 values).
@@ -37,15 +16,6 @@ struct Part {
     // First u16 index, and how many.
     index_offset: u32,
     index_count: u32,
-};
-
-struct Instance {
-    pos: vec2<f32>,
-    facing: vec2<f32>,
-    view: u32,
-    frame: u32,
-    blend: f32,
-    variant: u32,
 };
 
 @group(0) @binding(0) var<uniform> frame: Frame;
@@ -65,17 +35,6 @@ struct VertexOut {
     @location(2) light_view: vec3<f32>,
     @location(3) tint: vec3<f32>,
 };
-
-fn hash(x: u32) -> u32 {
-    var h = x * 747796405u + 2891336453u;
-    h = ((h >> ((h >> 28u) + 4u)) ^ h) * 277803737u;
-    return (h >> 22u) ^ h;
-}
-
-// Rotation about +Y by the heading h, given (sin h, cos h).
-fn turn(p: vec3<f32>, f: vec2<f32>) -> vec3<f32> {
-    return vec3<f32>(f.y * p.x + f.x * p.z, p.y, -f.x * p.x + f.y * p.z);
-}
 
 @vertex
 fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> VertexOut {
@@ -103,19 +62,10 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> 
     out.uv = unpack2x16unorm(geometry[part.vertex_word + local]) * view.uv_scale.xy + view.uv_scale.zw;
     out.layer = u32(view.forward.w);
     // The light in the view's camera frame (the normal atlas is in that frame).
-    let l = turn(frame.light_dir.xyz, vec2<f32>(-inst.facing.x, inst.facing.y));
-    out.light_view = vec3<f32>(dot(l, view.right.xyz), dot(l, view.up.xyz), dot(l, view.forward.xyz));
-    // Per-part tint from the instance's variant (the same hash as the other representations).
-    let h = hash(inst.variant ^ ((part.vertex_count >> 16u) * 0x9e3779b9u));
-    let t = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0;
-    out.tint = mix(vec3<f32>(1.0), 0.6 + 0.8 * t, frame.params.z);
+    out.light_view = light_in_view(frame.light_dir.xyz, inst.facing, view);
+    out.tint = part_tint(inst.variant, part.vertex_count >> 16u, frame.params.z);
     return out;
 }
-
-struct FragmentOut {
-    @location(0) color: vec4<f32>,
-    @location(1) normal: vec4<f32>,
-};
 
 @fragment
 fn fs_main(in: VertexOut) -> FragmentOut {
@@ -124,12 +74,5 @@ fn fs_main(in: VertexOut) -> FragmentOut {
         discard;
     }
     let n = normalize(textureSample(normals, atlas_sampler, in.uv, in.layer).xyz * 2.0 - vec3<f32>(1.0));
-    let ambient = frame.params.y;
-    let diffuse = max(dot(n, normalize(in.light_view)), 0.0);
-    let base = albedo.rgb * in.tint;
-    let lit = base * (ambient + (1.0 - ambient) * diffuse);
-    var out: FragmentOut;
-    out.color = vec4<f32>(mix(base, lit, frame.params.x), 1.0);
-    out.normal = vec4<f32>(n * 0.5 + vec3<f32>(0.5), 1.0);
-    return out;
+    return shade(albedo.rgb, in.tint, n, in.light_view, frame.params);
 }

@@ -108,17 +108,7 @@ fn every_representation_draws_close_to_the_mesh() {
     let frame = 3usize;
     for (v, view) in loaded.manifest.views.iter().enumerate().step_by(2) {
         let cam = &view.camera;
-        let (center, forward, up) = (Vec3::from(cam.center), Vec3::from(cam.forward), Vec3::from(cam.up));
-        let camera = Camera {
-            eye: center + forward * cam.half_size * 4.0,
-            target: center,
-            up,
-            projection: Projection::Orthographic {
-                half_height: cam.half_size,
-            },
-            near: cam.half_size,
-            far: cam.half_size * 8.0,
-        };
+        let camera = cam.to_camera(cam.half_size * 4.0, cam.half_size, cam.half_size * 8.0);
         for &(level, blend, min_iou, max_diff) in &cases {
             let time = (frame as f32 + blend) / 10.0;
             renderer.render(

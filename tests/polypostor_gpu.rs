@@ -68,17 +68,7 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
     let mut ious = Vec::new();
     for (v, view) in pack.manifest.views.iter().enumerate() {
         let cam = &view.camera;
-        let (center, forward, up) = (Vec3::from(cam.center), Vec3::from(cam.forward), Vec3::from(cam.up));
-        let camera = Camera {
-            eye: center + forward * cam.half_size * 4.0,
-            target: center,
-            up,
-            projection: Projection::Orthographic {
-                half_height: cam.half_size,
-            },
-            near: cam.half_size,
-            far: cam.half_size * 8.0,
-        };
+        let camera = cam.to_camera(cam.half_size * 4.0, cam.half_size, cam.half_size * 8.0);
         renderer.render(
             device,
             queue,

@@ -593,19 +593,143 @@ impl GpuMeshCrowd {
     }
 }
 
-/// Classic animated impostors: one quad per character.
-pub struct GpuImpostors {
+/// An image-based crowd renderer: per-frame uniforms, the baked views, instances, then its
+/// own storage buffers, texture arrays and a sampler, bound in that order (the impostor and
+/// NP3D shaders declare them so); one instanced draw.
+struct ImageCrowd {
     pipeline: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
     frame: wgpu::Buffer,
     views: wgpu::Buffer,
     instances: InstanceBuffer,
-    color: wgpu::TextureView,
-    normal: wgpu::TextureView,
+    buffers: Vec<wgpu::Buffer>,
+    textures: Vec<wgpu::TextureView>,
     sampler: wgpu::Sampler,
     group: wgpu::BindGroup,
     counts: [f32; 4],
+    bases: [u32; 4],
     view_count: u32,
+    frames: u32,
+    vertices_per_instance: u32,
+    /// Bytes of the views buffer.
+    views_bytes: u64,
+}
+
+impl ImageCrowd {
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        device: &wgpu::Device,
+        label: &str,
+        shader: &str,
+        reps: &Representations,
+        buffers: Vec<wgpu::Buffer>,
+        textures: Vec<wgpu::TextureView>,
+        counts: [f32; 4],
+        bases: [u32; 4],
+        vertices_per_instance: u32,
+    ) -> Self {
+        let mut entries = vec![Entry::Uniform, Entry::Storage, Entry::Storage];
+        entries.extend(buffers.iter().map(|_| Entry::Storage));
+        entries.extend(textures.iter().map(|_| Entry::TextureArray));
+        entries.push(Entry::Sampler);
+        let layout = layout(device, label, &entries);
+        let pipeline = pipeline(device, label, &[&layout], shader, "vs_main", &[]);
+        let views_data = views_gpu(reps);
+        let views = storage(device, label, bytemuck::cast_slice(&views_data));
+        let sampler = clamp_sampler(device, label);
+        let frame = uniform_buffer(device, label);
+        let instances = InstanceBuffer::new(device, 1024);
+        let group = Self::group(
+            device,
+            label,
+            &layout,
+            [&frame, &views, &instances.buffer],
+            &buffers,
+            &textures,
+            &sampler,
+        );
+        Self {
+            pipeline,
+            layout,
+            frame,
+            views,
+            instances,
+            buffers,
+            textures,
+            sampler,
+            group,
+            counts,
+            bases,
+            view_count: reps.manifest.views.len() as u32,
+            frames: reps.manifest.frames,
+            vertices_per_instance,
+            views_bytes: std::mem::size_of_val(views_data.as_slice()) as u64,
+        }
+    }
+
+    fn group(
+        device: &wgpu::Device,
+        label: &str,
+        layout: &wgpu::BindGroupLayout,
+        first: [&wgpu::Buffer; 3],
+        buffers: &[wgpu::Buffer],
+        textures: &[wgpu::TextureView],
+        sampler: &wgpu::Sampler,
+    ) -> wgpu::BindGroup {
+        let mut r: Vec<Resource> = first.iter().map(|b| Resource::Buffer(b)).collect();
+        r.extend(buffers.iter().map(Resource::Buffer));
+        r.extend(textures.iter().map(Resource::View));
+        r.push(Resource::Sampler(sampler));
+        bind(device, label, layout, &r)
+    }
+
+    fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        clip_from_world: Mat4,
+        style: &PolypostorStyle,
+        instances: &[Instance],
+    ) {
+        // Views clamped and frames wrapped: no instance may index past the data.
+        let safe: Vec<Instance> = instances
+            .iter()
+            .map(|i| Instance {
+                view: i.view.min(self.view_count.saturating_sub(1)),
+                frame: i.frame % self.frames.max(1),
+                ..*i
+            })
+            .collect();
+        if self.instances.upload(device, queue, &safe) {
+            self.group = Self::group(
+                device,
+                "image crowd",
+                &self.layout,
+                [&self.frame, &self.views, &self.instances.buffer],
+                &self.buffers,
+                &self.textures,
+                &self.sampler,
+            );
+        }
+        let u = crowd_uniform(clip_from_world, style, self.counts, self.bases);
+        queue.write_buffer(&self.frame, 0, bytemuck::bytes_of(&u));
+    }
+
+    /// One draw call of `count` instances.
+    fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, count: usize) -> usize {
+        if count == 0 {
+            return 0;
+        }
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.group, &[]);
+        pass.draw(0..self.vertices_per_instance, 0..count as u32);
+        1
+    }
+}
+
+/// Classic animated impostors: one quad per character.
+pub struct GpuImpostors {
+    base: ImageCrowd,
     /// Bytes on the GPU (sheets and views).
     pub gpu_bytes: u64,
 }
@@ -615,21 +739,6 @@ impl GpuImpostors {
         let data = reps.impostor.as_ref().ok_or_else(|| {
             GpuError::Unsupported("no impostors were baked (bake with --representation impostor)".into())
         })?;
-        let layout = layout(
-            device,
-            "impostors",
-            &[
-                Entry::Uniform,
-                Entry::Storage,
-                Entry::Storage,
-                Entry::TextureArray,
-                Entry::TextureArray,
-                Entry::Sampler,
-            ],
-        );
-        let pipeline = pipeline(device, "impostors", &[&layout], shaders::IMPOSTOR, "vs_main", &[]);
-        let views_data = views_gpu(reps);
-        let views = storage(device, "impostor views", bytemuck::cast_slice(&views_data));
         let (color, cb) = texture_array(
             device,
             queue,
@@ -644,59 +753,21 @@ impl GpuImpostors {
             &data.normal,
             wgpu::TextureFormat::Rgba8Unorm,
         )?;
-        let sampler = clamp_sampler(device, "impostor sheets");
-        let frame = uniform_buffer(device, "impostor frame");
-        let instances = InstanceBuffer::new(device, 1024);
-        let group = Self::group(
-            device,
-            &layout,
-            &frame,
-            &views,
-            &instances.buffer,
-            &color,
-            &normal,
-            &sampler,
-        );
-        Ok(Self {
-            pipeline,
-            layout,
-            frame,
-            views,
-            instances,
-            color,
-            normal,
-            sampler,
-            group,
-            counts: [data.columns as f32, data.rows as f32, reps.manifest.frames as f32, 0.0],
-            view_count: reps.manifest.views.len() as u32,
-            gpu_bytes: cb + nb + std::mem::size_of_val(views_data.as_slice()) as u64,
-        })
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn group(
-        device: &wgpu::Device,
-        layout: &wgpu::BindGroupLayout,
-        frame: &wgpu::Buffer,
-        views: &wgpu::Buffer,
-        instances: &wgpu::Buffer,
-        color: &wgpu::TextureView,
-        normal: &wgpu::TextureView,
-        sampler: &wgpu::Sampler,
-    ) -> wgpu::BindGroup {
-        bind(
+        let base = ImageCrowd::new(
             device,
             "impostors",
-            layout,
-            &[
-                Resource::Buffer(frame),
-                Resource::Buffer(views),
-                Resource::Buffer(instances),
-                Resource::View(color),
-                Resource::View(normal),
-                Resource::Sampler(sampler),
-            ],
-        )
+            shaders::IMPOSTOR,
+            reps,
+            Vec::new(),
+            vec![color, normal],
+            [data.columns as f32, data.rows as f32, reps.manifest.frames as f32, 0.0],
+            [0; 4],
+            6,
+        );
+        Ok(Self {
+            gpu_bytes: cb + nb + base.views_bytes,
+            base,
+        })
     }
 
     pub fn prepare(
@@ -707,64 +778,18 @@ impl GpuImpostors {
         style: &PolypostorStyle,
         instances: &[Instance],
     ) {
-        let safe = clamp_instances(instances, self.view_count, self.counts[2] as u32);
-        if self.instances.upload(device, queue, &safe) {
-            self.group = Self::group(
-                device,
-                &self.layout,
-                &self.frame,
-                &self.views,
-                &self.instances.buffer,
-                &self.color,
-                &self.normal,
-                &self.sampler,
-            );
-        }
-        let u = crowd_uniform(clip_from_world, style, self.counts, [0; 4]);
-        queue.write_buffer(&self.frame, 0, bytemuck::bytes_of(&u));
+        self.base.prepare(device, queue, clip_from_world, style, instances);
     }
 
     /// One draw call of `count` quads.
     pub fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, count: usize) -> usize {
-        if count == 0 {
-            return 0;
-        }
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.group, &[]);
-        pass.draw(0..6, 0..count as u32);
-        1
+        self.base.draw(pass, count)
     }
-}
-
-/// Views clamped into the representation's views and frames wrapped (no instance may index
-/// past the data).
-fn clamp_instances(instances: &[Instance], views: u32, frames: u32) -> Vec<Instance> {
-    instances
-        .iter()
-        .map(|i| Instance {
-            view: i.view.min(views.saturating_sub(1)),
-            frame: i.frame % frames.max(1),
-            ..*i
-        })
-        .collect()
 }
 
 /// NP3D impostors: the simplified mesh per frame with projected view images.
 pub struct GpuNp3d {
-    pipeline: wgpu::RenderPipeline,
-    layout: wgpu::BindGroupLayout,
-    frame: wgpu::Buffer,
-    views: wgpu::Buffer,
-    instances: InstanceBuffer,
-    vertices: wgpu::Buffer,
-    topology: wgpu::Buffer,
-    images: wgpu::TextureView,
-    sampler: wgpu::Sampler,
-    group: wgpu::BindGroup,
-    counts: [f32; 4],
-    index_count: u32,
-    part_base: u32,
-    view_count: u32,
+    base: ImageCrowd,
     /// Bytes on the GPU (images, meshes, views).
     pub gpu_bytes: u64,
 }
@@ -780,22 +805,6 @@ impl GpuNp3d {
         let data = reps.np3d.as_ref().ok_or_else(|| {
             GpuError::Unsupported("no NP3D impostors were baked (bake with --representation np3d)".into())
         })?;
-        let layout = layout(
-            device,
-            "np3d",
-            &[
-                Entry::Uniform,
-                Entry::Storage,
-                Entry::Storage,
-                Entry::Storage,
-                Entry::Storage,
-                Entry::TextureArray,
-                Entry::Sampler,
-            ],
-        );
-        let pipeline = pipeline(device, "np3d", &[&layout], shaders::NP3D, "vs_main", &[]);
-        let views_data = views_gpu(reps);
-        let views = storage(device, "np3d views", bytemuck::cast_slice(&views_data));
         let packed = packed_frames(&data.frames);
         let vertices = storage(device, "np3d vertices", bytemuck::cast_slice(&packed));
         let mut topo: Vec<u32> = data.indices.iter().map(|&i| i as u32).collect();
@@ -813,53 +822,26 @@ impl GpuNp3d {
             &data.images,
             wgpu::TextureFormat::Rgba8UnormSrgb,
         )?;
-        let sampler = clamp_sampler(device, "np3d images");
-        let frame = uniform_buffer(device, "np3d frame");
-        let instances = InstanceBuffer::new(device, 1024);
-        let group = Self::group(
+        let base = ImageCrowd::new(
             device,
-            &layout,
-            [&frame, &views, &instances.buffer, &vertices, &topology],
-            &images,
-            &sampler,
-        );
-        Ok(Self {
-            pipeline,
-            layout,
-            frame,
-            views,
-            instances,
-            vertices,
-            topology,
-            images,
-            sampler,
-            group,
-            counts: [
+            "np3d",
+            shaders::NP3D,
+            reps,
+            vec![vertices, topology],
+            vec![images],
+            [
                 data.frames.vertex_count as f32,
                 reps.manifest.frames as f32,
                 reps.manifest.key_frame as f32,
                 0.0,
             ],
-            index_count: data.indices.len() as u32,
-            part_base,
-            view_count: reps.manifest.views.len() as u32,
-            gpu_bytes: ib
-                + (packed.len() * 16 + topo.len() * 4) as u64
-                + std::mem::size_of_val(views_data.as_slice()) as u64,
+            [part_base, 0, 0, 0],
+            data.indices.len() as u32,
+        );
+        Ok(Self {
+            gpu_bytes: ib + (packed.len() * 16 + topo.len() * 4) as u64 + base.views_bytes,
+            base,
         })
-    }
-
-    fn group(
-        device: &wgpu::Device,
-        layout: &wgpu::BindGroupLayout,
-        buffers: [&wgpu::Buffer; 5],
-        images: &wgpu::TextureView,
-        sampler: &wgpu::Sampler,
-    ) -> wgpu::BindGroup {
-        let mut r: Vec<Resource> = buffers.iter().map(|b| Resource::Buffer(b)).collect();
-        r.push(Resource::View(images));
-        r.push(Resource::Sampler(sampler));
-        bind(device, "np3d", layout, &r)
     }
 
     pub fn prepare(
@@ -870,35 +852,12 @@ impl GpuNp3d {
         style: &PolypostorStyle,
         instances: &[Instance],
     ) {
-        let safe = clamp_instances(instances, self.view_count, self.counts[1] as u32);
-        if self.instances.upload(device, queue, &safe) {
-            self.group = Self::group(
-                device,
-                &self.layout,
-                [
-                    &self.frame,
-                    &self.views,
-                    &self.instances.buffer,
-                    &self.vertices,
-                    &self.topology,
-                ],
-                &self.images,
-                &self.sampler,
-            );
-        }
-        let u = crowd_uniform(clip_from_world, style, self.counts, [self.part_base, 0, 0, 0]);
-        queue.write_buffer(&self.frame, 0, bytemuck::bytes_of(&u));
+        self.base.prepare(device, queue, clip_from_world, style, instances);
     }
 
     /// One draw call of `count` meshes.
     pub fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, count: usize) -> usize {
-        if count == 0 {
-            return 0;
-        }
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.group, &[]);
-        pass.draw(0..self.index_count, 0..count as u32);
-        1
+        self.base.draw(pass, count)
     }
 }
 

@@ -4,7 +4,6 @@
 //! impostors cannot interpolate). The error measure is the bake's: masked RMSE over pixels
 //! either image covers (colour × coverage, sRGB 0..1), as PSNR.
 
-use glam::Vec3;
 use serde::Serialize;
 
 use super::RepBytes;
@@ -14,8 +13,8 @@ use crate::crowd::Instance;
 use crate::crowd::lod::Level;
 use crate::crowd::scene::CrowdAssets;
 use crate::gpu::{
-    Camera, CharacterRenderer, CrowdRenderers, DrawOptions, GpuCharacter, GpuContext, GpuError, PolypostorStyle,
-    Projection, RenderTarget, Shading, SkinningMode,
+    CharacterRenderer, DrawOptions, GpuCharacter, GpuContext, GpuError, PolypostorStyle, RenderTarget, Shading,
+    SkinningMode,
 };
 
 /// Memory of one representation.
@@ -119,16 +118,16 @@ pub fn errors(
 ) -> Result<Vec<ErrorRow>, GpuError> {
     let (device, queue) = (&ctx.device, &ctx.queue);
     let timing = assets.timing();
-    let mut crowd = CrowdRenderers::new(
+    let mut scene = crate::crowd::scene::CrowdScene::new(
         device,
         queue,
-        &assets.character,
-        assets.clip,
-        &assets.labels,
-        assets.pack.as_ref(),
-        assets.reps.as_ref(),
-        timing,
+        assets,
+        crate::crowd::CrowdParams {
+            count: 0,
+            ..Default::default()
+        },
     )?;
+    let crowd = &mut scene.renderers;
     let levels: Vec<Level> = Level::ALL.iter().copied().filter(|l| crowd.has(*l)).collect();
     let cameras: Vec<crate::pack::PackCamera> = match (&assets.pack, &assets.reps) {
         (Some(p), _) => p.manifest.views.iter().map(|v| v.camera.clone()).collect(),
@@ -152,17 +151,7 @@ pub fn errors(
     for (n, &v) in views.iter().enumerate() {
         progress(n, views.len());
         let Some(cam) = cameras.get(v) else { continue };
-        let (center, forward, up) = (Vec3::from(cam.center), Vec3::from(cam.forward), Vec3::from(cam.up));
-        let camera = Camera {
-            eye: center + forward * cam.half_size * 4.0,
-            target: center,
-            up,
-            projection: Projection::Orthographic {
-                half_height: cam.half_size,
-            },
-            near: cam.half_size * 0.5,
-            far: cam.half_size * 8.0,
-        };
+        let camera = cam.to_camera(cam.half_size * 4.0, cam.half_size * 0.5, cam.half_size * 8.0);
         for (k, &t) in times.iter().enumerate() {
             let pose = Pose::sample_index(&assets.character, assets.clip, t / timing.fps.max(1e-3));
             renderer.render(

@@ -1,0 +1,78 @@
+// Shared by every crowd shader (prepended to crowd_mesh, impostor, np3d and polypostor.wgsl
+// by `src/gpu/shaders.rs`; WGSL has no includes). Keep the structs in sync with
+// `src/gpu/crowd_renderers.rs`, `src/gpu/polypostor_renderer.rs` and `crowd::Instance`.
+
+// Per-frame settings; `counts` and `bases` mean what each shader says.
+struct Frame {
+    clip_from_world: mat4x4<f32>,
+    // xyz: unit direction towards the light (world).
+    light_dir: vec4<f32>,
+    counts: vec4<f32>,
+    // x: shading (0 unlit, 1 lit), y: ambient, z: tint strength.
+    params: vec4<f32>,
+    bases: vec4<u32>,
+};
+
+// A baked view's orthographic camera.
+struct View {
+    right: vec4<f32>,
+    up: vec4<f32>,
+    // Towards the camera; w: the atlas page (Polypostor only).
+    forward: vec4<f32>,
+    // xyz: centre, w: half size.
+    center: vec4<f32>,
+    // Polypostor: xy atlas size / page size, zw the atlas's corner in the page.
+    uv_scale: vec4<f32>,
+};
+
+// One character (32 bytes).
+struct Instance {
+    pos: vec2<f32>,
+    // (sin h, cos h) of the heading h about +Y.
+    facing: vec2<f32>,
+    view: u32,
+    frame: u32,
+    blend: f32,
+    variant: u32,
+};
+
+fn hash(x: u32) -> u32 {
+    var h = x * 747796405u + 2891336453u;
+    h = ((h >> ((h >> 28u) + 4u)) ^ h) * 277803737u;
+    return (h >> 22u) ^ h;
+}
+
+// Rotation about +Y by the heading h, given (sin h, cos h).
+fn turn(p: vec3<f32>, f: vec2<f32>) -> vec3<f32> {
+    return vec3<f32>(f.y * p.x + f.x * p.z, p.y, -f.x * p.x + f.y * p.z);
+}
+
+// The colour modulation of body part `part` of an instance: the same in every
+// representation, so a character keeps its colours when it changes level.
+fn part_tint(variant: u32, part: u32, strength: f32) -> vec3<f32> {
+    let h = hash(variant ^ (part * 0x9e3779b9u));
+    let t = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0;
+    return mix(vec3<f32>(1.0), 0.6 + 0.8 * t, strength);
+}
+
+// The world light in a view's camera frame, for a character turned by `facing`.
+fn light_in_view(light: vec3<f32>, facing: vec2<f32>, view: View) -> vec3<f32> {
+    let l = turn(light, vec2<f32>(-facing.x, facing.y));
+    return vec3<f32>(dot(l, view.right.xyz), dot(l, view.up.xyz), dot(l, view.forward.xyz));
+}
+
+struct FragmentOut {
+    @location(0) color: vec4<f32>,
+    @location(1) normal: vec4<f32>,
+};
+
+// Albedo × tint, lit by `n·l` with an ambient term (or unlit), and the normal target.
+fn shade(albedo: vec3<f32>, tint: vec3<f32>, n: vec3<f32>, l: vec3<f32>, params: vec4<f32>) -> FragmentOut {
+    let base = albedo * tint;
+    let ambient = params.y;
+    let lit = base * (ambient + (1.0 - ambient) * max(dot(n, normalize(l)), 0.0));
+    var out: FragmentOut;
+    out.color = vec4<f32>(mix(base, lit, params.x), 1.0);
+    out.normal = vec4<f32>(n * 0.5 + vec3<f32>(0.5), 1.0);
+    return out;
+}
