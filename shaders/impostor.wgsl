@@ -16,7 +16,7 @@ struct VertexOut {
     @location(0) uv: vec2<f32>,
     @location(1) @interpolate(flat) layer: u32,
     @location(2) light_view: vec3<f32>,
-    @location(3) tint: vec3<f32>,
+    @location(3) @interpolate(flat) variant: u32,
 };
 
 @vertex
@@ -40,8 +40,7 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> 
     out.uv = (tile + vec2<f32>(0.5 + 0.5 * xy.x, 0.5 - 0.5 * xy.y)) / frame.counts.xy;
     out.layer = inst.view;
     out.light_view = light_in_view(frame.light_dir.xyz, inst.facing, view);
-    // No part labels in the images: the whole character takes part 0's tint.
-    out.tint = part_tint(inst.variant, 0u, frame.params.z);
+    out.variant = inst.variant;
     return out;
 }
 
@@ -52,5 +51,9 @@ fn fs_main(in: VertexOut) -> FragmentOut {
         discard;
     }
     let n = normalize(textureSample(normal_sheets, sheet_sampler, in.uv, in.layer).xyz * 2.0 - vec3<f32>(1.0));
-    return shade(albedo.rgb, in.tint, n, in.light_view, frame.params);
+    // The body part is stored per texel in the normal sheet's alpha (read unfiltered).
+    let size = vec2<f32>(textureDimensions(normal_sheets));
+    let texel = vec2<i32>(clamp(in.uv * size, vec2<f32>(0.0), size - vec2<f32>(1.0)));
+    let part = u32(round(textureLoad(normal_sheets, texel, i32(in.layer), 0).a * 255.0));
+    return shade(albedo.rgb, part_tint(in.variant, part, frame.params.z), n, in.light_view, frame.params);
 }

@@ -33,6 +33,9 @@ pub struct RepsOptions {
     pub key_frame: usize,
     pub set: RepSet,
     pub np3d_triangles: usize,
+    /// The body part of each triangle (impostors store it per texel for the per-part tint;
+    /// empty: every texel is part 0).
+    pub part_labels: Vec<u32>,
 }
 
 /// Bakes the impostor, NP3D and rigid representations selected in `options.set`.
@@ -67,6 +70,8 @@ pub fn bake_representations(
     if set.impostor || set.np3d {
         let renderer = CharacterRenderer::new(&ctx.device);
         let mut gpu = GpuCharacter::new(&renderer, &ctx.device, &ctx.queue, character);
+        let id_character = part_id_character(character, &options.part_labels);
+        let mut id_gpu = GpuCharacter::new(&renderer, &ctx.device, &ctx.queue, &id_character);
         let target = RenderTarget::new(&ctx.device, r, r);
         let draw = DrawOptions {
             shading: Shading::Unlit,
@@ -105,7 +110,25 @@ pub fn bake_representations(
                     &draw,
                 );
                 let mut c = target.read_color(&ctx.device, &ctx.queue)?;
-                let nrm = target.read_normal(&ctx.device, &ctx.queue)?;
+                let mut nrm = target.read_normal(&ctx.device, &ctx.queue)?;
+                if set.impostor {
+                    // The body part of every texel, in the normal image's alpha.
+                    renderer.render(
+                        &ctx.device,
+                        &ctx.queue,
+                        &target,
+                        &mut id_gpu,
+                        &id_character,
+                        &poses[f],
+                        SkinningMode::Gpu,
+                        cam,
+                        &draw,
+                    );
+                    let ids = target.read_color(&ctx.device, &ctx.queue)?;
+                    for (n, id) in nrm.pixels_mut().zip(ids.pixels()) {
+                        n[3] = if id[3] > 127 { decode_part_id(id) } else { 0 };
+                    }
+                }
                 // Bleed colour into the background so filtering at the silhouette does not
                 // pull in black.
                 crate::pack::dilate(&mut c, 2);
@@ -196,6 +219,52 @@ pub fn sheet_columns(n: usize) -> u32 {
         .unwrap_or(lo) as u32
 }
 
+/// A copy of the character whose unlit colour is the body part of each triangle (red: part
+/// mod 16, green: part / 16, each in fifteenths, linear), with every triangle's vertices its
+/// own so no colour blends across a part border.
+pub fn part_id_character(c: &Character, labels: &[u32]) -> Character {
+    let mut out = c.clone();
+    out.vertices = Vec::with_capacity(c.indices.len());
+    for (t, tri) in c.indices.chunks_exact(3).enumerate() {
+        let k = labels.get(t).copied().unwrap_or(0).min(255);
+        let color = [(k % 16) as f32 / 15.0, (k / 16) as f32 / 15.0, 0.0, 1.0];
+        for &i in tri {
+            let mut v = c.vertices.get(i as usize).copied().unwrap_or(c.vertices[0]);
+            v.color = color;
+            out.vertices.push(v);
+        }
+    }
+    out.indices = (0..out.vertices.len() as u32).collect();
+    out.textures.clear();
+    out.materials = vec![crate::character::Material {
+        name: "part id".into(),
+        base_color_factor: [1.0; 4],
+        base_color_texture: None,
+        double_sided: true,
+    }];
+    out.submeshes = vec![crate::character::Submesh {
+        first_index: 0,
+        index_count: out.indices.len() as u32,
+        material: 0,
+    }];
+    out
+}
+
+/// The part number of a texel of a [`part_id_character`] render (sRGB-encoded bytes).
+pub fn decode_part_id(p: &image::Rgba<u8>) -> u8 {
+    let linear = |b: u8| {
+        let x = b as f32 / 255.0;
+        if x <= 0.04045 {
+            x / 12.92
+        } else {
+            ((x + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let lo = (linear(p[0]) * 15.0).round() as u32;
+    let hi = (linear(p[1]) * 15.0).round() as u32;
+    (hi * 16 + lo).min(255) as u8
+}
+
 /// Skinned positions and normals at every pose, of every vertex or of `only` these.
 fn frame_vertices(character: &Character, poses: &[Pose], only: Option<&[u32]>) -> FrameVertices {
     let mut out = FrameVertices {
@@ -274,6 +343,28 @@ pub fn compact(indices: &[u32]) -> (Vec<u32>, Vec<u16>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn part_ids_survive_the_srgb_target() {
+        for k in 0..=255u32 {
+            // What the GPU writes for the linear colour of part k.
+            let enc = |v: f32| {
+                let s = if v <= 0.0031308 {
+                    v * 12.92
+                } else {
+                    1.055 * v.powf(1.0 / 2.4) - 0.055
+                };
+                (s * 255.0).round() as u8
+            };
+            let p = image::Rgba([enc((k % 16) as f32 / 15.0), enc((k / 16) as f32 / 15.0), 0, 255]);
+            assert_eq!(decode_part_id(&p) as u32, k);
+        }
+        let c = crate::default_character::generate();
+        let labels: Vec<u32> = (0..c.triangle_count() as u32).map(|t| t % 5).collect();
+        let id = part_id_character(&c, &labels);
+        assert_eq!(id.vertices.len(), c.indices.len());
+        assert_eq!(id.triangle_count(), c.triangle_count());
+    }
 
     #[test]
     fn sheets_are_near_square_with_few_empty_tiles() {
@@ -380,6 +471,7 @@ pub fn bake_folder(
             key_frame: key,
             set: job.set,
             np3d_triangles: NP3D_TRIANGLES,
+            part_labels: job.segmentation.labels.iter().map(|&l| l as u32).collect(),
         };
         let path = std::fs::canonicalize(job.character_path).unwrap_or_else(|_| job.character_path.to_owned());
         Some(bake_representations(
