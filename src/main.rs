@@ -113,6 +113,12 @@ enum BenchWhat {
         /// The character the pack was baked from (default: the path the pack names).
         #[arg(long)]
         character: Option<PathBuf>,
+        /// Only these representations (comma-separated; default: every one baked, and mixed).
+        #[arg(long, value_delimiter = ',')]
+        representations: Vec<String>,
+        /// Folder for the plot (crowd_fps.png) and the figures (crowd_fps.json).
+        #[arg(long, default_value = "bench-crowd")]
+        out: PathBuf,
         /// Offscreen image size.
         #[arg(long, default_value_t = 1280)]
         width: u32,
@@ -182,11 +188,23 @@ fn main() -> ExitCode {
                     frames,
                     pack,
                     character,
+                    representations,
+                    out,
                     width,
                     height,
                     json,
                 },
-        }) => bench_crowd(&counts, frames, pack, character, width, height, json),
+        }) => bench_crowd(
+            &counts,
+            frames,
+            pack,
+            character,
+            &representations,
+            &out,
+            width,
+            height,
+            json,
+        ),
         None => {
             let path = cli
                 .path
@@ -675,11 +693,14 @@ fn bake_default_all(out: &Path) -> anyhow::Result<()> {
 
 /// `bench crowd`: every representation at every size, one after the other on the same
 /// crowd and camera, each frame simulated, selected, uploaded, drawn and waited for.
+#[allow(clippy::too_many_arguments)]
 fn bench_crowd(
     counts: &[usize],
     frames: usize,
     pack: Option<PathBuf>,
     character: Option<PathBuf>,
+    only: &[String],
+    out: &Path,
     width: u32,
     height: u32,
     json: bool,
@@ -723,6 +744,15 @@ fn bench_crowd(
             ..Default::default()
         }),
     ));
+    if let Some(unknown) = only.iter().find(|n| !reps.iter().any(|r| r.0 == n.as_str())) {
+        anyhow::bail!(
+            "--representations: '{unknown}' is not one of {}",
+            reps.iter().map(|r| r.0).collect::<Vec<_>>().join(", ")
+        );
+    }
+    if !only.is_empty() {
+        reps.retain(|r| only.iter().any(|n| n == r.0));
+    }
     if !json {
         eprintln!(
             "crowd rendering, {width}×{height} offscreen on {}, {frames} frames per figure",
@@ -776,11 +806,34 @@ fn bench_crowd(
             }));
         }
     }
+    let names: Vec<&str> = reps.iter().map(|r| r.0).collect();
+    std::fs::create_dir_all(out)?;
+    std::fs::write(out.join("crowd_fps.json"), serde_json::to_string_pretty(&rows)?)?;
+    let fps_of = |count: usize, name: &str| {
+        rows.iter()
+            .find(|r| r["count"] == count && r["representation"] == name)
+            .and_then(|r| r["fps"].as_f64())
+            .unwrap_or(f64::NAN)
+    };
+    polypostor::plot::bar_chart(
+        &out.join("crowd_fps.png"),
+        &format!(
+            "Frames per second by crowd size ({width}×{height}, {})",
+            ctx.adapter_description().split(" (").next().unwrap_or("")
+        ),
+        "frames per second (log scale)",
+        &counts.iter().map(|c| format!("{c} characters")).collect::<Vec<_>>(),
+        &names
+            .iter()
+            .map(|n| (n.to_string(), counts.iter().map(|&c| fps_of(c, n)).collect()))
+            .collect::<Vec<_>>(),
+        true,
+    )
+    .map_err(|e| anyhow::anyhow!(e))?;
     if json {
         println!("{}", serde_json::to_string_pretty(&rows)?);
         return Ok(());
     }
-    let names: Vec<&str> = reps.iter().map(|r| r.0).collect();
     println!("frames per second ({width}×{height}, {})", ctx.adapter_description());
     print!("{:>8}", "count");
     for n in &names {
@@ -790,12 +843,7 @@ fn bench_crowd(
     for &count in counts {
         print!("{count:>8}");
         for n in &names {
-            let fps = rows
-                .iter()
-                .find(|r| r["count"] == count && r["representation"] == *n)
-                .and_then(|r| r["fps"].as_f64())
-                .unwrap_or(0.0);
-            print!(" {fps:>11.2}");
+            print!(" {:>11.2}", fps_of(count, n));
         }
         println!();
     }
@@ -814,6 +862,7 @@ fn bench_crowd(
         }
         println!();
     }
+    println!("wrote crowd_fps.png and crowd_fps.json in {}", out.display());
     Ok(())
 }
 
