@@ -99,3 +99,109 @@ fn inspect_exits_1_with_a_message_on_every_bad_file() {
     }
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// The comparison workflow from the command line: bake the comparison representations, then
+/// `compare` and `bench crowd` print their figures as JSON and write their plots; bad
+/// arguments give clear errors, never a panic.
+#[test]
+fn representations_compare_and_bench_crowd_work_end_to_end() {
+    let dir = common::temp_dir("cli-reps");
+    let out = dir.join("reps.pack");
+    let project = common::repo_path(polypostor::project::DEFAULT_PROJECT_DIR);
+    let bad = polypostor(&["bake", project.to_str().unwrap(), "--representation", "sprites"]);
+    assert_eq!(bad.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("unknown representation 'sprites'"));
+    let bake = polypostor(&[
+        "bake",
+        project.to_str().unwrap(),
+        "--representation",
+        "impostor,np3d,rigid",
+        "--views",
+        "4",
+        "--resolution",
+        "64",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(bake.status.success(), "{}", String::from_utf8_lossy(&bake.stderr));
+    assert!(out.join("representations.json").is_file());
+    assert!(!out.join("manifest.json").exists(), "no Polypostor pack was asked for");
+
+    let plots = dir.join("compare");
+    let cmp = polypostor(&[
+        "compare",
+        out.to_str().unwrap(),
+        "--views",
+        "2",
+        "--out",
+        plots.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(cmp.status.success(), "{}", String::from_utf8_lossy(&cmp.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&cmp.stdout).expect("one JSON object");
+    let names = |key: &str| -> Vec<String> {
+        v[key]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r["representation"].as_str().unwrap().to_string())
+            .collect()
+    };
+    for n in ["skinned", "rigid", "impostor", "np3d"] {
+        assert!(names("memory").contains(&n.to_string()), "memory of {n}");
+        assert!(names("error").contains(&n.to_string()), "error of {n}");
+    }
+    let impostor = v["memory"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["representation"] == "impostor")
+        .unwrap();
+    // 4 views × 10 frames × 64² × (colour + normal) RGBA8.
+    assert_eq!(impostor["total"].as_u64(), Some(4 * 10 * 64 * 64 * 8));
+    for p in ["memory.png", "error.png", "compare.json"] {
+        assert!(plots.join(p).is_file(), "{p}");
+    }
+
+    let bench_out = dir.join("bench");
+    let bench = polypostor(&[
+        "bench",
+        "crowd",
+        "--pack",
+        out.to_str().unwrap(),
+        "--counts",
+        "40,80",
+        "--frames",
+        "1",
+        "--width",
+        "320",
+        "--height",
+        "180",
+        "--out",
+        bench_out.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(bench.status.success(), "{}", String::from_utf8_lossy(&bench.stderr));
+    let rows: serde_json::Value = serde_json::from_slice(&bench.stdout).expect("a JSON list");
+    let rows = rows.as_array().unwrap();
+    for rep in ["skinned", "rigid", "impostor", "np3d", "mixed"] {
+        for count in [40, 80] {
+            let row = rows
+                .iter()
+                .find(|r| r["representation"] == rep && r["count"] == count)
+                .unwrap_or_else(|| panic!("{rep} at {count}"));
+            assert!(row["fps"].as_f64().unwrap() > 0.0);
+        }
+    }
+    assert!(bench_out.join("crowd_fps.png").is_file());
+    let bad = polypostor(&[
+        "bench",
+        "crowd",
+        "--pack",
+        out.to_str().unwrap(),
+        "--representations",
+        "polypostor",
+    ]);
+    assert_eq!(bad.status.code(), Some(1), "no pack was baked, so no polypostor");
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("'polypostor' is not one of"));
+}
