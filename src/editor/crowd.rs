@@ -389,12 +389,15 @@ impl CrowdPanel {
             });
             let forward = Vec3::new(-self.camera.yaw_rad.sin(), 0.0, -self.camera.yaw_rad.cos());
             let right = forward.cross(Vec3::Y);
-            let speed = self.camera.distance.max(5.0) * dt;
+            // Half the viewing distance per second: slow up close, quick over a big crowd.
+            let speed = (0.5 * self.camera.distance).clamp(2.0, 200.0) * dt;
             let mut step = Vec3::ZERO;
             step += forward * (w as i32 - s as i32) as f32;
             step += right * (d as i32 - a as i32) as f32;
             step += Vec3::Y * (e as i32 - q as i32) as f32;
             self.camera.target += step * speed;
+            // Never under the ground.
+            self.camera.target.y = self.camera.target.y.clamp(0.0, 1000.0);
         }
         let Some((generation, assets)) = &self.assets else {
             ui.painter().text(
