@@ -896,16 +896,38 @@ fn bench_sim(agents: usize, frames: usize, json: bool) -> anyhow::Result<()> {
     let clip = ClipTiming { frames: 10, fps: 10.0 };
     let mut sim = Vec::with_capacity(frames);
     let mut sel = Vec::with_capacity(frames);
+    let mut up = Vec::with_capacity(frames);
     let mut last = Default::default();
+    // The CPU side of the upload: the Polypostor instances sorted by view, then every level's
+    // records copied once (what `queue.write_buffer` does into its staging memory).
+    let (mut sorted, mut ranges, mut staging) = (Vec::new(), Vec::new(), Vec::<u8>::new());
     for k in 0..frames + 30 {
         let s = crowd.frame(1.0 / 60.0, &camera, &policy, &views, clip);
+        let t = std::time::Instant::now();
+        polypostor::crowd::sort_by_view(
+            &crowd.instances[Level::Polypostor as usize],
+            137,
+            clip.frames as u32,
+            &mut sorted,
+            &mut ranges,
+        );
+        staging.clear();
+        staging.extend_from_slice(bytemuck::cast_slice(&sorted));
+        for (l, list) in crowd.instances.iter().enumerate() {
+            if l != Level::Polypostor as usize {
+                staging.extend_from_slice(bytemuck::cast_slice(list));
+            }
+        }
+        std::hint::black_box(&staging);
+        let upload = t.elapsed().as_secs_f64();
         if k >= 30 {
             sim.push(s.simulate_secs * 1e3);
             sel.push(s.select_secs * 1e3);
+            up.push(upload * 1e3);
             last = s;
         }
     }
-    let total: Vec<f64> = sim.iter().zip(&sel).map(|(a, b)| a + b).collect();
+    let total: Vec<f64> = sim.iter().zip(&sel).zip(&up).map(|((a, b), c)| a + b + c).collect();
     let stat = |v: &[f64]| {
         let mut s = v.to_vec();
         s.sort_by(f64::total_cmp);
@@ -918,6 +940,7 @@ fn bench_sim(agents: usize, frames: usize, json: bool) -> anyhow::Result<()> {
     };
     let (sm, sp) = stat(&sim);
     let (lm, lp) = stat(&sel);
+    let (um, upp) = stat(&up);
     let (tm, tp) = stat(&total);
     let levels: serde_json::Map<String, serde_json::Value> = Level::ALL
         .iter()
@@ -931,6 +954,7 @@ fn bench_sim(agents: usize, frames: usize, json: bool) -> anyhow::Result<()> {
                 "frames": frames,
                 "simulate_ms": {"mean": sm, "p95": sp},
                 "select_ms": {"mean": lm, "p95": lp},
+                "upload_ms": {"mean": um, "p95": upp},
                 "cpu_ms": {"mean": tm, "p95": tp},
                 "visible": last.visible,
                 "per_level": levels,
@@ -945,6 +969,7 @@ fn bench_sim(agents: usize, frames: usize, json: bool) -> anyhow::Result<()> {
         println!("  {:<34} {:>8} {:>8}", "pass", "mean ms", "p95 ms");
         println!("  {:<34} {sm:>8.3} {sp:>8.3}", "simulate (wander, occupancy grid)");
         println!("  {:<34} {lm:>8.3} {lp:>8.3}", "cull, LOD, view, frame, instances");
+        println!("  {:<34} {um:>8.3} {upp:>8.3}", "upload (sort by view, copy)");
         println!("  {:<34} {tm:>8.3} {tp:>8.3}", "total (target <= 2 ms at 20,000)");
         println!(
             "  visible {} of {}: {}",

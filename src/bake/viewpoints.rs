@@ -80,7 +80,7 @@ impl ViewLookup {
     pub fn new(views: &[Vec3]) -> Self {
         let views: Vec<Vec3> = views.iter().map(|v| v.normalize_or_zero()).collect();
         // About fourteen cells per view (a few candidates each), at least a coarse grid.
-        let n = ((views.len() as f32 * 14.0 / 6.0).sqrt().ceil() as usize).clamp(4, 256);
+        let n = ((views.len() as f32 * 56.0 / 6.0).sqrt().ceil() as usize).clamp(4, 256);
         let mut cells = Vec::with_capacity(6 * n * n);
         let mut candidates = Vec::new();
         let at = |k: f32| -1.0 + 2.0 * k / n as f32;
@@ -127,32 +127,36 @@ impl ViewLookup {
     }
 
     /// The index of the view nearest to `dir` (as [`nearest`]); `None` only without views.
+    /// Written without data-dependent branches where it can (the crowd calls it for every
+    /// visible character, with directions in no particular order).
+    #[inline]
     pub fn nearest(&self, dir: Vec3) -> Option<usize> {
         if self.views.is_empty() {
             return None;
         }
-        let (ax, ay, az) = (dir.x.abs(), dir.y.abs(), dir.z.abs());
-        let (face, m, u, v) = if ax >= ay && ax >= az {
-            (if dir.x >= 0.0 { 0 } else { 1 }, ax, dir.z, dir.y)
-        } else if ay >= az {
-            (if dir.y >= 0.0 { 2 } else { 3 }, ay, dir.x, dir.z)
-        } else {
-            (if dir.z >= 0.0 { 4 } else { 5 }, az, dir.x, dir.y)
-        };
+        let c = dir.to_array();
+        let a = [c[0].abs(), c[1].abs(), c[2].abs()];
+        // The major axis (x on ties with y or z, then y), its sign, and the face coordinates
+        // as in `cube_dir`.
+        let x_major = a[0] >= a[1] && a[0] >= a[2];
+        let axis = if x_major { 0 } else { 1 + (a[2] > a[1]) as usize };
+        let m = a[axis];
         if !(m > 0.0) {
             return Some(0);
         }
-        let n = self.n as f32;
-        let cell = |x: f32| (((x / m + 1.0) * 0.5 * n) as usize).min(self.n - 1);
-        let (lo, hi) = self.cells[(face * self.n + cell(v)) * self.n + cell(u)];
-        let mut best = (f32::NEG_INFINITY, 0usize);
+        const UV: [(usize, usize); 3] = [(2, 1), (0, 2), (0, 1)];
+        let (ui, vi) = UV[axis];
+        let face = axis * 2 + (c[axis] < 0.0) as usize;
+        let scale = 0.5 * self.n as f32 / m;
+        let top = self.n - 1;
+        let cell = |x: f32| ((x * scale + 0.5 * self.n as f32) as usize).min(top);
+        let (lo, hi) = self.cells[(face * self.n + cell(c[vi])) * self.n + cell(c[ui])];
+        let mut best = (f32::NEG_INFINITY, 0u32);
         for &k in &self.candidates[lo as usize..hi as usize] {
             let d = self.views[k as usize].dot(dir);
-            if d > best.0 {
-                best = (d, k as usize);
-            }
+            best = if d > best.0 { (d, k) } else { best };
         }
-        Some(best.1)
+        Some(best.1 as usize)
     }
 
     /// Mean number of views a query checks (for the benchmark's notes).

@@ -87,6 +87,44 @@ pub struct Instance {
     pub variant: u32,
 }
 
+/// Counting sort of `instances` by view into `out` (views clamped below `views`, frames
+/// wrapped below `frames`), with each view's range of `out` in `ranges` (one per view): what
+/// the Polypostor renderer uploads, one indexed draw per view. Linear time, no allocation
+/// once warm.
+pub fn sort_by_view(
+    instances: &[Instance],
+    views: u32,
+    frames: u32,
+    out: &mut Vec<Instance>,
+    ranges: &mut Vec<std::ops::Range<u32>>,
+) {
+    let views = views.max(1) as usize;
+    let frames = frames.max(1);
+    ranges.clear();
+    ranges.resize(views, 0..0);
+    // Counts in `end`; then each range becomes `start..start` and `end` the write cursor.
+    for i in instances {
+        ranges[(i.view as usize).min(views - 1)].end += 1;
+    }
+    let mut at = 0u32;
+    for r in ranges.iter_mut() {
+        let n = r.end;
+        *r = at..at;
+        at += n;
+    }
+    out.clear();
+    out.resize(instances.len(), Instance::default());
+    for i in instances {
+        let v = (i.view as usize).min(views - 1);
+        out[ranges[v].end as usize] = Instance {
+            view: v as u32,
+            frame: i.frame % frames,
+            ..*i
+        };
+        ranges[v].end += 1;
+    }
+}
+
 /// What the camera sees this frame: where, how big a pixel is.
 #[derive(Clone, Copy, Debug)]
 pub struct CrowdCamera {
@@ -238,7 +276,7 @@ impl Crowd {
                 }
                 a.pos[i] = to;
                 a.facing[i] = d;
-                a.clock[i] += dt * a.rate[i] * a.speed[i] / 1.2;
+                a.clock[i] += dt * a.rate[i] * a.speed[i] * (1.0 / 1.2);
             } else {
                 // Turn away (a quarter to a half turn, either side) and try again next frame.
                 let turn = self.rng.range(0.5, 1.0) * std::f32::consts::PI;

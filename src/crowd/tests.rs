@@ -228,3 +228,41 @@ fn long_runs_keep_the_frame_in_range_and_the_blend_precise() {
         assert!(inst.frame < 10 && (0.0..1.0).contains(&inst.blend));
     }
 }
+
+#[test]
+fn sort_by_view_groups_every_instance_under_its_view() {
+    let mut rng = super::rng::Rng::new(9);
+    let instances: Vec<Instance> = (0..500)
+        .map(|k| Instance {
+            view: rng.below(40) as u32,
+            frame: rng.below(30) as u32,
+            variant: k,
+            ..Default::default()
+        })
+        .collect();
+    let (mut out, mut ranges) = (Vec::new(), Vec::new());
+    // 32 views: views 32..40 clamp to 31; 10 frames: frames wrap.
+    sort_by_view(&instances, 32, 10, &mut out, &mut ranges);
+    assert_eq!(out.len(), instances.len());
+    assert_eq!(ranges.len(), 32);
+    for (v, r) in ranges.iter().enumerate() {
+        for i in &out[r.start as usize..r.end as usize] {
+            assert_eq!(i.view as usize, v);
+            assert!(i.frame < 10);
+        }
+    }
+    assert_eq!(ranges.last().unwrap().end as usize, out.len());
+    // Nothing lost, nothing doubled: every variant once, in input order within a view.
+    let mut seen: Vec<u32> = out.iter().map(|i| i.variant).collect();
+    seen.sort_unstable();
+    assert_eq!(seen, (0..500).collect::<Vec<_>>());
+    for r in &ranges {
+        let s = &out[r.start as usize..r.end as usize];
+        assert!(s.windows(2).all(|w| w[0].variant < w[1].variant), "stable");
+    }
+    for (a, b) in instances.iter().zip(0..) {
+        let found = out.iter().find(|i| i.variant == b).unwrap();
+        assert_eq!(found.view, a.view.min(31));
+        assert_eq!(found.frame, a.frame % 10);
+    }
+}

@@ -466,30 +466,15 @@ impl GpuPolypostors {
                 &self.sampler,
             );
         }
-        // Sort by view (counting sort) so each view is one indexed draw; never let an
-        // instance index past the pack: clamp views and wrap frames here too.
-        let views = self.view_count as usize;
-        let mut starts = vec![0u32; views + 1];
-        for i in instances {
-            starts[(i.view as usize).min(views - 1) + 1] += 1;
-        }
-        for v in 0..views {
-            starts[v + 1] += starts[v];
-        }
-        for (v, r) in self.view_instances.iter_mut().enumerate() {
-            *r = starts[v]..starts[v + 1];
-        }
-        self.sorted.clear();
-        self.sorted.resize(instances.len(), Instance::default());
-        for i in instances {
-            let v = (i.view as usize).min(views - 1);
-            self.sorted[starts[v] as usize] = Instance {
-                view: v as u32,
-                frame: i.frame % self.frames,
-                ..*i
-            };
-            starts[v] += 1;
-        }
+        // Sorted by view so each view is one indexed draw; views clamped and frames wrapped
+        // so no instance indexes past the pack.
+        crate::crowd::sort_by_view(
+            instances,
+            self.view_count,
+            self.frames,
+            &mut self.sorted,
+            &mut self.view_instances,
+        );
         if !self.sorted.is_empty() {
             queue.write_buffer(&self.instances, 0, bytemuck::cast_slice(&self.sorted));
         }
