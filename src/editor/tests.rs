@@ -137,3 +137,69 @@ fn save_as_writes_a_project_that_reopens() {
     assert_eq!(again.state().playback.clip, idle);
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// The crowd preview opened on a baked folder: the panel shows the crowd, a render runs the
+/// simulation and fills the statistics, and switching the representation changes what is
+/// drawn.
+#[test]
+fn crowd_preview_opens_a_baked_folder_and_draws_the_chosen_representation() {
+    use polypostor::crowd::lod::Level;
+    let dir = std::env::temp_dir().join(format!("polypostor-editor-crowd-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = dir.join("reps.pack");
+    let c = polypostor::default_character::generate();
+    let seg = polypostor::bake::segment::auto_segment(&c);
+    let ctx = polypostor::gpu::GpuContext::new(&polypostor::gpu::AdapterPreference::SoftwareFirst).unwrap();
+    let options = polypostor::bake::pipeline::BakeOptions {
+        views: 6,
+        resolution: 64,
+        ..Default::default()
+    };
+    let character_path = repo().join(polypostor::default_character::DEFAULT_CHARACTER_PATH);
+    let job = polypostor::reps::bake::FolderBake {
+        character: &c,
+        character_path: &character_path,
+        clip_name: Some("Walk"),
+        segmentation: &seg,
+        caps: &Default::default(),
+        options: &options,
+        set: polypostor::reps::RepSet::parse("impostor,np3d,rigid").unwrap(),
+        out: &out,
+    };
+    polypostor::reps::bake::bake_folder(&ctx, &job, &|_| {}, &Default::default(), &|_, _| Ok(())).unwrap();
+
+    let mut h = harness(Some(repo().join("projects/default")));
+    h.run_steps(3);
+    h.state_mut().send(Command::OpenCrowd(out.clone()));
+    let started = std::time::Instant::now();
+    while h.state().crowd.assets.is_none() {
+        assert!(started.elapsed().as_secs() < 60, "the folder did not open");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        h.run_steps(1);
+    }
+    assert!(h.state().crowd.open, "opening a folder shows the preview");
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    // The side panel shows the crowd controls.
+    h.get_by_label("Paused (P)");
+    h.state_mut().crowd.count = 300;
+    h.run_steps(2);
+    h.render().expect("render");
+    h.run_steps(1);
+    h.render().expect("render");
+    let stats = h.state().crowd.stats.lock().unwrap().clone();
+    assert!(stats.error.is_none(), "{:?}", stats.error);
+    assert_eq!(stats.agents, 300);
+    assert!(stats.visible > 0, "some of the crowd is on screen");
+    assert!(stats.available[Level::Impostor as usize] && stats.available[Level::Np3d as usize]);
+    assert!(!stats.available[Level::Polypostor as usize], "no pack was baked");
+    assert!(stats.gpu_bytes[Level::Impostor as usize] > 0);
+
+    // Everyone as NP3D impostors.
+    h.state_mut().crowd.mode = super::crowd::PreviewMode::Only(Level::Np3d);
+    h.run_steps(1);
+    h.render().expect("render");
+    let stats = h.state().crowd.stats.lock().unwrap().clone();
+    assert_eq!(stats.per_level[Level::Np3d as usize], stats.visible);
+    assert!(stats.draw_calls >= 1);
+    let _ = std::fs::remove_dir_all(&dir);
+}
