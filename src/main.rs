@@ -732,6 +732,8 @@ fn bench_crowd(
             ..Default::default()
         },
     )?;
+    // Characters only: no ground, so each figure is the representation's own cost.
+    scene.ground = false;
     let mut reps: Vec<(&str, LodPolicy)> = Level::ALL
         .iter()
         .filter(|l| scene.renderers.has(**l))

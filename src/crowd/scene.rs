@@ -143,6 +143,8 @@ pub struct CrowdScene {
     pub views: ViewLookup,
     pub timing: ClipTiming,
     pub style: PolypostorStyle,
+    /// Draw the ground under the crowd.
+    pub ground: bool,
 }
 
 impl CrowdScene {
@@ -169,6 +171,7 @@ impl CrowdScene {
             views: ViewLookup::new(&assets.view_directions()),
             timing,
             style: PolypostorStyle::default(),
+            ground: true,
         })
     }
 
@@ -206,6 +209,7 @@ impl CrowdScene {
         };
         let mut frame = self.crowd.frame(dt, &view, policy, &self.views, self.timing);
         let t = Instant::now();
+        self.renderers.ground_half_extent = if self.ground { self.crowd.half_extent } else { 0.0 };
         self.fall_back();
         for (n, list) in frame.per_level.iter_mut().zip(&self.crowd.instances) {
             *n = list.len();

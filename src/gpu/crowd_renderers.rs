@@ -861,6 +861,30 @@ impl GpuNp3d {
     }
 }
 
+/// The ground under a crowd (`shaders/crowd_ground.wgsl`).
+struct Ground {
+    pipeline: wgpu::RenderPipeline,
+    frame: wgpu::Buffer,
+    group: wgpu::BindGroup,
+}
+
+impl Ground {
+    fn new(device: &wgpu::Device) -> Self {
+        let layout = layout(device, "crowd ground", &[Entry::Uniform]);
+        let pipeline = pipeline(
+            device,
+            "crowd ground",
+            &[&layout],
+            shaders::CROWD_GROUND,
+            "vs_main",
+            &[],
+        );
+        let frame = uniform_buffer(device, "crowd ground");
+        let group = bind(device, "crowd ground", &layout, &[Resource::Buffer(&frame)]);
+        Self { pipeline, frame, group }
+    }
+}
+
 /// Every representation of one character, ready to draw a crowd's per-level instances.
 pub struct CrowdRenderers {
     pub meshes: GpuMeshCrowd,
@@ -868,6 +892,9 @@ pub struct CrowdRenderers {
     pub impostor: Option<GpuImpostors>,
     pub np3d: Option<GpuNp3d>,
     counts: [usize; Level::COUNT],
+    ground: Ground,
+    /// Half the side of the ground square drawn under the crowd (0: no ground).
+    pub ground_half_extent: f32,
 }
 
 impl CrowdRenderers {
@@ -923,6 +950,8 @@ impl CrowdRenderers {
                 .map(|r| GpuNp3d::new(device, queue, r, &parts))
                 .transpose()?,
             counts: [0; Level::COUNT],
+            ground: Ground::new(device),
+            ground_half_extent: 0.0,
         })
     }
 
@@ -979,12 +1008,21 @@ impl CrowdRenderers {
         for l in Level::ALL {
             self.counts[l as usize] = if self.has(l) { instances[l as usize].len() } else { 0 };
         }
+        let u = crowd_uniform(clip_from_world, style, [self.ground_half_extent, 0.0, 0.0, 0.0], [0; 4]);
+        queue.write_buffer(&self.ground.frame, 0, bytemuck::bytes_of(&u));
     }
 
-    /// Draws what [`CrowdRenderers::prepare`] uploaded; returns the draw calls made.
+    /// Draws the ground (when [`CrowdRenderers::ground_half_extent`] is set) and what
+    /// [`CrowdRenderers::prepare`] uploaded; returns the draw calls made for characters.
     pub fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>) -> usize {
         let c = |l: Level| self.counts[l as usize];
-        let mut calls = self.meshes.draw(pass, c(Level::Skinned), c(Level::Rigid));
+        let mut calls = 0;
+        if self.ground_half_extent > 0.0 {
+            pass.set_pipeline(&self.ground.pipeline);
+            pass.set_bind_group(0, &self.ground.group, &[]);
+            pass.draw(0..6, 0..1);
+        }
+        calls += self.meshes.draw(pass, c(Level::Skinned), c(Level::Rigid));
         if let Some(p) = &self.polypostor {
             calls += p.draw(pass, c(Level::Polypostor));
         }

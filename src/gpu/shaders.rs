@@ -17,6 +17,10 @@ pub const IMPOSTOR: &str = concat!(
     include_str!("../../shaders/crowd_common.wgsl"),
     include_str!("../../shaders/impostor.wgsl")
 );
+pub const CROWD_GROUND: &str = concat!(
+    include_str!("../../shaders/crowd_common.wgsl"),
+    include_str!("../../shaders/crowd_ground.wgsl")
+);
 pub const NP3D: &str = concat!(
     include_str!("../../shaders/crowd_common.wgsl"),
     include_str!("../../shaders/np3d.wgsl")
@@ -32,4 +36,5 @@ pub const ALL: &[(&str, &str)] = &[
     ("crowd_mesh.wgsl", CROWD_MESH),
     ("impostor.wgsl", IMPOSTOR),
     ("np3d.wgsl", NP3D),
+    ("crowd_ground.wgsl", CROWD_GROUND),
 ];
