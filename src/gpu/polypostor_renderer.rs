@@ -82,13 +82,21 @@ pub struct GpuPolypostors {
     index_buffer: wgpu::Buffer,
     /// Each view's range of `index_buffer`.
     view_ranges: Vec<std::ops::Range<u32>>,
-    /// Instances of each view after [`GpuPolypostors::prepare`] sorted them.
+    /// Each view's coarse range of `index_buffer` (every other polygon vertex).
+    coarse_ranges: Vec<std::ops::Range<u32>>,
+    /// Instances per (view, coarse) bucket after [`GpuPolypostors::prepare`] sorted them.
     view_instances: Vec<std::ops::Range<u32>>,
+    keyed: Vec<Instance>,
+    /// Characters shorter than this on screen (NDC units, the screen height being 2) get the
+    /// coarse triangles. Default value: 0.08 (about 29 pixels at 720p); 0 turns it off.
+    pub coarse_below: f32,
     sorted: Vec<Instance>,
     /// Bytes of GPU memory this pack holds (buffers and textures, instances excluded).
     pub gpu_bytes: u64,
     /// Depth offset between consecutive parts (world units).
     pub depth_step: f32,
+    /// Half the character's framing (the largest view's half size): its screen height test.
+    half_height: f32,
 }
 
 impl GpuPolypostors {
@@ -136,6 +144,10 @@ impl GpuPolypostors {
         // (high 16 bits) and the vertex in the part (low 16 bits).
         let mut index_words: Vec<u32> = Vec::new();
         let mut view_ranges: Vec<std::ops::Range<u32>> = Vec::with_capacity(m.views.len());
+        // The same with every other polygon vertex (about half the triangles), for characters
+        // a few dozen pixels tall.
+        let mut coarse_words: Vec<u32> = Vec::new();
+        let mut coarse_ranges: Vec<std::ops::Range<u32>> = Vec::with_capacity(m.views.len());
         let page = pages.size as f32;
         for (vi, v) in m.views.iter().enumerate() {
             let c = &v.camera;
@@ -154,6 +166,7 @@ impl GpuPolypostors {
                 ],
             });
             let view_start = index_words.len() as u32;
+            let coarse_start = coarse_words.len() as u32;
             for s in 0..parts_per_view as usize {
                 let id = v.order.get(s).copied().unwrap_or(0);
                 let record = v
@@ -174,11 +187,24 @@ impl GpuPolypostors {
                         .get(start..start + record.index_count as usize)
                         .unwrap_or(&[]);
                     index_words.extend(list.iter().map(|&i| id_record << 16 | i as u32));
+                    let base = (record.vertex_word * 2) as usize;
+                    let vc = (record.vertex_count & 0xffff) as usize;
+                    let uvs = pack.vertices.get(base..base + 2 * vc).unwrap_or(&[]);
+                    match coarse_triangles(uvs) {
+                        Some(tris) => coarse_words.extend(tris.iter().map(|&i| id_record << 16 | i)),
+                        None => coarse_words.extend(list.iter().map(|&i| id_record << 16 | i as u32)),
+                    }
                 }
                 parts.push(record);
             }
             view_ranges.push(view_start..index_words.len() as u32);
+            coarse_ranges.push(coarse_start..coarse_words.len() as u32);
         }
+        // One index buffer: the full lists, then the coarse ones.
+        let shift = index_words.len() as u32;
+        index_words.extend_from_slice(&coarse_words);
+        let coarse_ranges: Vec<std::ops::Range<u32>> =
+            coarse_ranges.iter().map(|r| r.start + shift..r.end + shift).collect();
         if parts.len() > 0xffff {
             return Err(GpuError::Unsupported(format!(
                 "the pack has {} part records; this renderer addresses at most 65535",
@@ -387,11 +413,15 @@ impl GpuPolypostors {
             frames: m.frames.max(1),
             view_count,
             index_buffer,
-            view_instances: vec![0..0; view_ranges.len()],
+            view_instances: vec![0..0; 2 * view_ranges.len()],
             view_ranges,
+            coarse_ranges,
+            keyed: Vec::new(),
+            coarse_below: 0.08,
             sorted: Vec::new(),
             gpu_bytes,
             depth_step,
+            half_height: m.views.iter().map(|v| v.camera.half_size).fold(0.0f32, f32::max),
         })
     }
 
@@ -468,9 +498,26 @@ impl GpuPolypostors {
         }
         // Sorted by view so each view is one indexed draw; views clamped and frames wrapped
         // so no instance indexes past the pack.
+        // Bucket (view, coarse): the view's index range, full or coarse, is one draw each.
+        let height = 2.0 * self.half_height;
+        self.keyed.clear();
+        self.keyed.extend(instances.iter().map(|i| {
+            let foot = clip_from_world * glam::Vec4::new(i.pos[0], 0.0, i.pos[1], 1.0);
+            let head = clip_from_world * glam::Vec4::new(i.pos[0], height, i.pos[1], 1.0);
+            let tall = if foot.w > 1e-4 && head.w > 1e-4 {
+                (head.y / head.w - foot.y / foot.w).abs()
+            } else {
+                f32::INFINITY
+            };
+            let coarse = (tall < self.coarse_below) as u32;
+            Instance {
+                view: i.view.min(self.view_count - 1) * 2 + coarse,
+                ..*i
+            }
+        }));
         crate::crowd::sort_by_view(
-            instances,
-            self.view_count,
+            &self.keyed,
+            self.view_count * 2,
             self.frames,
             &mut self.sorted,
             &mut self.view_instances,
@@ -499,12 +546,17 @@ impl GpuPolypostors {
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_index_buffer(self.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
         let mut calls = 0;
-        for (indices, instances) in self.view_ranges.iter().zip(&self.view_instances) {
-            if instances.is_empty() || indices.is_empty() || instances.end as usize > count {
-                continue;
+        for (v, (fine, coarse)) in self.view_ranges.iter().zip(&self.coarse_ranges).enumerate() {
+            for (indices, instances) in [
+                (fine, &self.view_instances[2 * v]),
+                (coarse, &self.view_instances[2 * v + 1]),
+            ] {
+                if instances.is_empty() || indices.is_empty() || instances.end as usize > count {
+                    continue;
+                }
+                pass.draw_indexed(indices.clone(), 0, instances.clone());
+                calls += 1;
             }
-            pass.draw_indexed(indices.clone(), 0, instances.clone());
-            calls += 1;
         }
         calls
     }
@@ -531,6 +583,20 @@ impl GpuPolypostors {
 }
 
 use bytemuck::Zeroable;
+
+/// Triangles over every other vertex of a part's polygon (`uvs`: its vertices in order, x, y
+/// interleaved, as in the pack), as local vertex numbers; `None` when the part is too small to
+/// thin or the thinned polygon is not simple (the caller keeps the full triangles).
+fn coarse_triangles(uvs: &[f32]) -> Option<Vec<u32>> {
+    let n = uvs.len() / 2;
+    if n < 8 {
+        return None;
+    }
+    let keep: Vec<usize> = (0..n).step_by(2).collect();
+    let points: Vec<[f32; 2]> = keep.iter().map(|&k| [uvs[2 * k], uvs[2 * k + 1]]).collect();
+    let tris = crate::bake::triangulate::triangulate(&points).ok()?;
+    Some(tris.iter().flatten().map(|&i| keep[i] as u32).collect())
+}
 
 /// Where each view's atlas lies in the shared pages.
 #[derive(Debug)]
@@ -602,6 +668,23 @@ fn atlas_pages(sizes: &[[u32; 2]], max_side: u32) -> Option<AtlasPages> {
 #[cfg(test)]
 mod tests {
     use super::atlas_pages;
+
+    #[test]
+    fn coarse_triangles_use_every_other_vertex() {
+        // A 20-vertex star-ish polygon (simple): the coarse version has 10 vertices, 8
+        // triangles, only even vertex numbers.
+        let uv: Vec<f32> = (0..20)
+            .flat_map(|k| {
+                let a = k as f32 * std::f32::consts::TAU / 20.0;
+                let r = if k % 2 == 0 { 0.4 } else { 0.3 };
+                [0.5 + r * a.cos(), 0.5 + r * a.sin()]
+            })
+            .collect();
+        let t = super::coarse_triangles(&uv).unwrap();
+        assert_eq!(t.len(), 8 * 3);
+        assert!(t.iter().all(|&i| i % 2 == 0 && i < 20));
+        assert!(super::coarse_triangles(&uv[..10]).is_none(), "too small to thin");
+    }
 
     #[test]
     fn atlas_pages_never_overlap_and_stay_inside() {
