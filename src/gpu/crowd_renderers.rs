@@ -101,7 +101,7 @@ fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
     })
 }
 
-fn uniform_buffer(device: &wgpu::Device, label: &str) -> wgpu::Buffer {
+pub(super) fn uniform_buffer(device: &wgpu::Device, label: &str) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: std::mem::size_of::<CrowdUniform>() as u64,
@@ -110,14 +110,14 @@ fn uniform_buffer(device: &wgpu::Device, label: &str) -> wgpu::Buffer {
     })
 }
 
-enum Entry {
+pub(super) enum Entry {
     Uniform,
     Storage,
     TextureArray,
     Sampler,
 }
 
-fn layout(device: &wgpu::Device, label: &str, entries: &[Entry]) -> wgpu::BindGroupLayout {
+pub(super) fn layout(device: &wgpu::Device, label: &str, entries: &[Entry]) -> wgpu::BindGroupLayout {
     let entries: Vec<wgpu::BindGroupLayoutEntry> = entries
         .iter()
         .enumerate()
@@ -155,13 +155,18 @@ fn layout(device: &wgpu::Device, label: &str, entries: &[Entry]) -> wgpu::BindGr
     })
 }
 
-enum Resource<'a> {
+pub(super) enum Resource<'a> {
     Buffer(&'a wgpu::Buffer),
     View(&'a wgpu::TextureView),
     Sampler(&'a wgpu::Sampler),
 }
 
-fn bind(device: &wgpu::Device, label: &str, layout: &wgpu::BindGroupLayout, resources: &[Resource]) -> wgpu::BindGroup {
+pub(super) fn bind(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    resources: &[Resource],
+) -> wgpu::BindGroup {
     let entries: Vec<wgpu::BindGroupEntry> = resources
         .iter()
         .enumerate()
@@ -181,7 +186,7 @@ fn bind(device: &wgpu::Device, label: &str, layout: &wgpu::BindGroupLayout, reso
     })
 }
 
-fn pipeline(
+pub(super) fn pipeline(
     device: &wgpu::Device,
     label: &str,
     layouts: &[&wgpu::BindGroupLayout],
@@ -227,7 +232,7 @@ fn pipeline(
 }
 
 /// A linear-filtered, clamped sampler.
-fn clamp_sampler(device: &wgpu::Device, label: &str) -> wgpu::Sampler {
+pub(super) fn clamp_sampler(device: &wgpu::Device, label: &str) -> wgpu::Sampler {
     device.create_sampler(&wgpu::SamplerDescriptor {
         label: Some(label),
         mag_filter: wgpu::FilterMode::Linear,

@@ -282,99 +282,24 @@ impl GpuPolypostors {
             + geometry.len() * 4
             + index_words.len() * 4) as u64
             + 4 * pages.count as u64 * (pw as u64 * pw as u64 + nw as u64 * nw as u64);
-        let frame = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("polypostor frame"),
-            size: std::mem::size_of::<FrameUniform>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let storage_entry = |binding| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::VERTEX,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: true },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let texture_entry = |binding| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                view_dimension: wgpu::TextureViewDimension::D2Array,
-                multisampled: false,
-            },
-            count: None,
-        };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("polypostor"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                storage_entry(1),
-                storage_entry(2),
-                storage_entry(3),
-                storage_entry(4),
-                texture_entry(5),
-                texture_entry(6),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 7,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
+        use super::crowd_renderers::{Entry, clamp_sampler, layout as bind_layout, pipeline as crowd_pipeline};
+        let frame = super::crowd_renderers::uniform_buffer(device, "polypostor frame");
+        let layout = bind_layout(
+            device,
+            "polypostor",
+            &[
+                Entry::Uniform,
+                Entry::Storage,
+                Entry::Storage,
+                Entry::Storage,
+                Entry::Storage,
+                Entry::TextureArray,
+                Entry::TextureArray,
+                Entry::Sampler,
             ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("polypostor"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("polypostor.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(shaders::POLYPOSTOR.into()),
-        });
-        let targets = super::character_renderer::opaque_targets();
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("polypostor"),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                buffers: &[],
-                compilation_options: Default::default(),
-            },
-            primitive: wgpu::PrimitiveState {
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(super::character_renderer::depth_less()),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                targets: &targets,
-                compilation_options: Default::default(),
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
-        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("polypostor atlas"),
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            ..Default::default()
-        });
+        );
+        let pipeline = crowd_pipeline(device, "polypostor", &[&layout], shaders::POLYPOSTOR, "vs_main", &[]);
+        let sampler = clamp_sampler(device, "polypostor atlas");
         let atlas_view = atlas.create_view(&wgpu::TextureViewDescriptor {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
@@ -442,31 +367,14 @@ impl GpuPolypostors {
         normals: &wgpu::TextureView,
         sampler: &wgpu::Sampler,
     ) -> wgpu::BindGroup {
-        let mut entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
-        entries.push(wgpu::BindGroupEntry {
-            binding: 5,
-            resource: wgpu::BindingResource::TextureView(atlas),
-        });
-        entries.push(wgpu::BindGroupEntry {
-            binding: 6,
-            resource: wgpu::BindingResource::TextureView(normals),
-        });
-        entries.push(wgpu::BindGroupEntry {
-            binding: 7,
-            resource: wgpu::BindingResource::Sampler(sampler),
-        });
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("polypostor"),
-            layout,
-            entries: &entries,
-        })
+        use super::crowd_renderers::Resource;
+        let mut r: Vec<Resource> = buffers.iter().map(|b| Resource::Buffer(b)).collect();
+        r.extend([
+            Resource::View(atlas),
+            Resource::View(normals),
+            Resource::Sampler(sampler),
+        ]);
+        super::crowd_renderers::bind(device, "polypostor", layout, &r)
     }
 
     /// Views in the pack.
