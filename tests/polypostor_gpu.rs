@@ -148,4 +148,63 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
     let crowd = mask(&target.read_normal(device, queue).unwrap());
     let covered = crowd.iter().filter(|&&x| x).count();
     assert!(covered > (size * size / 20) as usize, "{covered} pixels");
+
+    // The coarse index levels (every other / every fourth polygon vertex) for small
+    // characters: drawn large, their outline stays within a fraction of a pixel of the full
+    // triangles' once scaled down to the size they are used at (0.08 and 0.035 of the
+    // screen height: 29 and 13 pixels at 720p).
+    let default_below = gpu.coarse_below;
+    for (v, view) in pack.manifest.views.iter().enumerate() {
+        let cam = &view.camera;
+        let camera = cam.to_camera(cam.half_size * 4.0, cam.half_size, cam.half_size * 8.0);
+        let instance = Instance {
+            pos: [0.0, 0.0],
+            facing: [0.0, 1.0],
+            view: v as u32,
+            frame: frame as u32,
+            blend: 0.0,
+            variant: 7,
+        };
+        let mut draw = |below: [f32; 2]| {
+            gpu.coarse_below = below;
+            gpu.render(device, queue, &target, camera.clip_from_world(1.0), &style, &[instance])
+                .unwrap();
+            mask(&target.read_normal(device, queue).unwrap())
+        };
+        let fine = draw([0.0, 0.0]);
+        let n = size as usize;
+        let outline = (0..n * n)
+            .filter(|&i| {
+                let (x, y) = (i % n, i / n);
+                fine[i]
+                    && (x == 0
+                        || y == 0
+                        || x + 1 == n
+                        || y + 1 == n
+                        || !fine[i - 1]
+                        || !fine[i + 1]
+                        || !fine[i - n]
+                        || !fine[i + n])
+            })
+            .count();
+        // Level 1 everywhere, then level 2 everywhere (any height is under 1e9).
+        for (level, below, pixels_tall) in [(1, [1e9, 0.0], 0.08 * 360.0), (2, [1e9, 1e9], 0.035 * 360.0)] {
+            let coarse = draw(below);
+            let differ = fine.iter().zip(&coarse).filter(|(a, b)| a != b).count();
+            // Mean distance between the outlines, in pixels of this image and at the size
+            // the level is used (the view's framing is at most the character's, so this
+            // over-states it).
+            let here = differ as f64 / outline.max(1) as f64;
+            let used = here * pixels_tall / size as f64;
+            eprintln!(
+                "view {v}, level {level}: outlines {here:.2} px apart here, {used:.3} px at {pixels_tall:.0} px tall"
+            );
+            assert!(
+                differ > 0 || level == 1,
+                "view {v}: level {level} drew exactly the full triangles"
+            );
+            assert!(used < 0.5, "view {v}, level {level}: {used} px");
+        }
+    }
+    gpu.coarse_below = default_below;
 }

@@ -82,14 +82,17 @@ pub struct GpuPolypostors {
     index_buffer: wgpu::Buffer,
     /// Each view's range of `index_buffer`.
     view_ranges: Vec<std::ops::Range<u32>>,
-    /// Each view's coarse range of `index_buffer` (every other polygon vertex).
-    coarse_ranges: Vec<std::ops::Range<u32>>,
-    /// Instances per (view, coarse) bucket after [`GpuPolypostors::prepare`] sorted them.
+    /// Each view's coarse ranges of `index_buffer`: every other polygon vertex, then every
+    /// fourth.
+    coarse_ranges: [Vec<std::ops::Range<u32>>; 2],
+    /// Instances per (view, level) bucket after [`GpuPolypostors::prepare`] sorted them.
     view_instances: Vec<std::ops::Range<u32>>,
     keyed: Vec<Instance>,
-    /// Characters shorter than this on screen (NDC units, the screen height being 2) get the
-    /// coarse triangles. Default value: 0.08 (about 29 pixels at 720p); 0 turns it off.
-    pub coarse_below: f32,
+    /// Characters shorter than `coarse_below[0]` on screen (NDC units, the screen height
+    /// being 2) get the triangles over every other polygon vertex, shorter than
+    /// `coarse_below[1]` over every fourth. Default value: [0.08, 0.035] (about 29 and 13
+    /// pixels at 720p); 0 turns a level off.
+    pub coarse_below: [f32; 2],
     sorted: Vec<Instance>,
     /// Bytes of GPU memory this pack holds (buffers and textures, instances excluded).
     pub gpu_bytes: u64,
@@ -145,9 +148,9 @@ impl GpuPolypostors {
         let mut index_words: Vec<u32> = Vec::new();
         let mut view_ranges: Vec<std::ops::Range<u32>> = Vec::with_capacity(m.views.len());
         // The same with every other polygon vertex (about half the triangles), for characters
-        // a few dozen pixels tall.
-        let mut coarse_words: Vec<u32> = Vec::new();
-        let mut coarse_ranges: Vec<std::ops::Range<u32>> = Vec::with_capacity(m.views.len());
+        // a few dozen pixels tall, and with every fourth for those about a dozen.
+        let mut coarse_words: [Vec<u32>; 2] = Default::default();
+        let mut coarse_ranges: [Vec<std::ops::Range<u32>>; 2] = Default::default();
         let page = pages.size as f32;
         for (vi, v) in m.views.iter().enumerate() {
             let c = &v.camera;
@@ -166,7 +169,7 @@ impl GpuPolypostors {
                 ],
             });
             let view_start = index_words.len() as u32;
-            let coarse_start = coarse_words.len() as u32;
+            let coarse_start = coarse_words.each_ref().map(|w| w.len() as u32);
             for s in 0..parts_per_view as usize {
                 let id = v.order.get(s).copied().unwrap_or(0);
                 let record = v
@@ -190,21 +193,31 @@ impl GpuPolypostors {
                     let base = (record.vertex_word * 2) as usize;
                     let vc = (record.vertex_count & 0xffff) as usize;
                     let uvs = pack.vertices.get(base..base + 2 * vc).unwrap_or(&[]);
-                    match coarse_triangles(uvs) {
-                        Some(tris) => coarse_words.extend(tris.iter().map(|&i| id_record << 16 | i)),
-                        None => coarse_words.extend(list.iter().map(|&i| id_record << 16 | i as u32)),
+                    // Each level thins the previous one; a part too small to thin keeps the
+                    // previous level's triangles.
+                    let mut previous: Vec<u32> = list.iter().map(|&i| i as u32).collect();
+                    for (level, words) in coarse_words.iter_mut().enumerate() {
+                        if let Some(tris) = coarse_triangles(uvs, 2 << level) {
+                            previous = tris;
+                        }
+                        words.extend(previous.iter().map(|&i| id_record << 16 | i));
                     }
                 }
                 parts.push(record);
             }
             view_ranges.push(view_start..index_words.len() as u32);
-            coarse_ranges.push(coarse_start..coarse_words.len() as u32);
+            for level in 0..2 {
+                coarse_ranges[level].push(coarse_start[level]..coarse_words[level].len() as u32);
+            }
         }
         // One index buffer: the full lists, then the coarse ones.
-        let shift = index_words.len() as u32;
-        index_words.extend_from_slice(&coarse_words);
-        let coarse_ranges: Vec<std::ops::Range<u32>> =
-            coarse_ranges.iter().map(|r| r.start + shift..r.end + shift).collect();
+        for level in 0..2 {
+            let shift = index_words.len() as u32;
+            index_words.extend_from_slice(&coarse_words[level]);
+            for r in &mut coarse_ranges[level] {
+                *r = r.start + shift..r.end + shift;
+            }
+        }
         if parts.len() > 0xffff {
             return Err(GpuError::Unsupported(format!(
                 "the pack has {} part records; this renderer addresses at most 65535",
@@ -342,7 +355,7 @@ impl GpuPolypostors {
             view_ranges,
             coarse_ranges,
             keyed: Vec::new(),
-            coarse_below: 0.08,
+            coarse_below: [0.08, 0.035],
             sorted: Vec::new(),
             gpu_bytes,
             depth_step,
@@ -406,7 +419,7 @@ impl GpuPolypostors {
         }
         // Sorted by view so each view is one indexed draw; views clamped and frames wrapped
         // so no instance indexes past the pack.
-        // Bucket (view, coarse): the view's index range, full or coarse, is one draw each.
+        // Bucket (view, level): the view's index range, full or coarse, is one draw each.
         let height = 2.0 * self.half_height;
         self.keyed.clear();
         self.keyed.extend(instances.iter().map(|i| {
@@ -417,15 +430,15 @@ impl GpuPolypostors {
             } else {
                 f32::INFINITY
             };
-            let coarse = (tall < self.coarse_below) as u32;
+            let level = (tall < self.coarse_below[0]) as u32 + (tall < self.coarse_below[1]) as u32;
             Instance {
-                view: i.view.min(self.view_count - 1) * 2 + coarse,
+                view: i.view.min(self.view_count - 1) * LEVELS + level,
                 ..*i
             }
         }));
         crate::crowd::sort_by_view(
             &self.keyed,
-            self.view_count * 2,
+            self.view_count * LEVELS,
             self.frames,
             &mut self.sorted,
             &mut self.view_instances,
@@ -454,11 +467,10 @@ impl GpuPolypostors {
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_index_buffer(self.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
         let mut calls = 0;
-        for (v, (fine, coarse)) in self.view_ranges.iter().zip(&self.coarse_ranges).enumerate() {
-            for (indices, instances) in [
-                (fine, &self.view_instances[2 * v]),
-                (coarse, &self.view_instances[2 * v + 1]),
-            ] {
+        for (v, fine) in self.view_ranges.iter().enumerate() {
+            let lists = [fine, &self.coarse_ranges[0][v], &self.coarse_ranges[1][v]];
+            for (level, indices) in lists.into_iter().enumerate() {
+                let instances = &self.view_instances[LEVELS as usize * v + level];
                 if instances.is_empty() || indices.is_empty() || instances.end as usize > count {
                     continue;
                 }
@@ -492,15 +504,18 @@ impl GpuPolypostors {
 
 use bytemuck::Zeroable;
 
-/// Triangles over every other vertex of a part's polygon (`uvs`: its vertices in order, x, y
-/// interleaved, as in the pack), as local vertex numbers; `None` when the part is too small to
-/// thin or the thinned polygon is not simple (the caller keeps the full triangles).
-fn coarse_triangles(uvs: &[f32]) -> Option<Vec<u32>> {
+/// Index levels per view: the full triangles and two coarser lists.
+const LEVELS: u32 = 3;
+
+/// Triangles over every `step`-th vertex of a part's polygon (`uvs`: its vertices in order, x,
+/// y interleaved, as in the pack), as local vertex numbers; `None` when fewer than 4 vertices
+/// would remain or the thinned polygon is not simple (the caller keeps finer triangles).
+fn coarse_triangles(uvs: &[f32], step: usize) -> Option<Vec<u32>> {
     let n = uvs.len() / 2;
-    if n < 8 {
+    if n < 4 * step {
         return None;
     }
-    let keep: Vec<usize> = (0..n).step_by(2).collect();
+    let keep: Vec<usize> = (0..n).step_by(step).collect();
     let points: Vec<[f32; 2]> = keep.iter().map(|&k| [uvs[2 * k], uvs[2 * k + 1]]).collect();
     let tris = crate::bake::triangulate::triangulate(&points).ok()?;
     Some(tris.iter().flatten().map(|&i| keep[i] as u32).collect())
@@ -578,7 +593,7 @@ mod tests {
     use super::atlas_pages;
 
     #[test]
-    fn coarse_triangles_use_every_other_vertex() {
+    fn coarse_triangles_use_every_other_or_fourth_vertex() {
         // A 20-vertex star-ish polygon (simple): the coarse version has 10 vertices, 8
         // triangles, only even vertex numbers.
         let uv: Vec<f32> = (0..20)
@@ -588,10 +603,15 @@ mod tests {
                 [0.5 + r * a.cos(), 0.5 + r * a.sin()]
             })
             .collect();
-        let t = super::coarse_triangles(&uv).unwrap();
+        let t = super::coarse_triangles(&uv, 2).unwrap();
         assert_eq!(t.len(), 8 * 3);
         assert!(t.iter().all(|&i| i % 2 == 0 && i < 20));
-        assert!(super::coarse_triangles(&uv[..10]).is_none(), "too small to thin");
+        assert!(super::coarse_triangles(&uv[..10], 2).is_none(), "too small to thin");
+        // Every fourth: 5 vertices, 3 triangles, multiples of 4; 12 vertices are too few.
+        let t = super::coarse_triangles(&uv, 4).unwrap();
+        assert_eq!(t.len(), 3 * 3);
+        assert!(t.iter().all(|&i| i % 4 == 0 && i < 20));
+        assert!(super::coarse_triangles(&uv[..24], 4).is_none(), "too small to thin");
     }
 
     #[test]
