@@ -25,6 +25,7 @@ pub mod bake;
 pub mod character;
 pub mod crowd;
 pub mod default_character;
+pub mod edit;
 pub mod gltf_write;
 pub mod gpu;
 pub mod import;

@@ -1,0 +1,595 @@
+//! Segmentation painting: which triangles a brush dab covers, fill by connectivity and by
+//! joint influence, the X-mirror, and the part palette (add, remove, rename, recolour).
+//!
+//! Every tool changes a [`Segmentation`]'s labels in place and returns how many triangles
+//! changed; the caller records the state before a stroke for undo.
+
+use std::collections::HashMap;
+
+use glam::{Mat4, Vec2, Vec3, Vec4Swizzles};
+
+use crate::animation::{Pose, skin_vertices};
+use crate::bake::caps::CapOverrides;
+use crate::bake::segment::{Part, Segmentation};
+use crate::character::Character;
+
+/// No neighbour / no mirror.
+pub const NONE: u32 = u32::MAX;
+
+/// Per-character data the tools need, computed once per character.
+#[derive(Clone, Debug)]
+pub struct Topology {
+    /// For each triangle, the triangles sharing an edge with it (UV seams welded), up to
+    /// three ([`NONE`] where the edge is open); a non-manifold edge links its first two.
+    pub neighbours: Vec<[u32; 3]>,
+    /// For each triangle, the bone with the largest summed weight over its corners.
+    pub dominant_bone: Vec<u16>,
+    /// For each triangle, the triangle across the character's left-right mirror plane
+    /// ([`NONE`] when none lies close enough).
+    pub mirror: Vec<u32>,
+    /// Number of triangles each bone dominates.
+    pub bone_triangles: Vec<usize>,
+}
+
+impl Topology {
+    pub fn new(c: &Character) -> Self {
+        let tris = c.indices.len() / 3;
+        let welded = crate::bake::caps::weld(c);
+        let w = |i: u32| welded.get(i as usize).copied().unwrap_or(i);
+        // Edges (welded, ordered) -> the triangles on them.
+        let mut edges: HashMap<(u32, u32), [u32; 2]> = HashMap::with_capacity(tris * 3 / 2);
+        for t in 0..tris {
+            for k in 0..3 {
+                let (a, b) = (w(c.indices[3 * t + k]), w(c.indices[3 * t + (k + 1) % 3]));
+                if a == b {
+                    continue;
+                }
+                let e = edges.entry((a.min(b), a.max(b))).or_insert([NONE, NONE]);
+                if e[0] == NONE {
+                    e[0] = t as u32;
+                } else if e[1] == NONE && e[0] != t as u32 {
+                    e[1] = t as u32;
+                }
+            }
+        }
+        let mut neighbours = vec![[NONE; 3]; tris];
+        for t in 0..tris {
+            for k in 0..3 {
+                let (a, b) = (w(c.indices[3 * t + k]), w(c.indices[3 * t + (k + 1) % 3]));
+                if let Some(e) = edges.get(&(a.min(b), a.max(b))) {
+                    let other = if e[0] == t as u32 { e[1] } else { e[0] };
+                    if other != t as u32 {
+                        neighbours[t][k] = other;
+                    }
+                }
+            }
+        }
+
+        let mut dominant_bone = Vec::with_capacity(tris);
+        let mut bone_triangles = vec![0usize; c.bones.len().max(1)];
+        for tri in c.indices.chunks_exact(3) {
+            let mut sums: [(u16, f32); 12] = [(0, 0.0); 12];
+            let mut n = 0;
+            for &i in tri {
+                let Some(v) = c.vertices.get(i as usize) else { continue };
+                for (b, wt) in v.bones.iter().zip(v.weights) {
+                    match sums[..n].iter_mut().find(|s| s.0 == *b) {
+                        Some(s) => s.1 += wt,
+                        None => {
+                            sums[n] = (*b, wt);
+                            n += 1;
+                        }
+                    }
+                }
+            }
+            let best = sums[..n]
+                .iter()
+                .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
+                .map_or(0, |s| s.0);
+            let best = if (best as usize) < bone_triangles.len() { best } else { 0 };
+            bone_triangles[best as usize] += 1;
+            dominant_bone.push(best);
+        }
+
+        let mirror = mirror_triangles(c);
+        Self {
+            neighbours,
+            dominant_bone,
+            mirror,
+            bone_triangles,
+        }
+    }
+}
+
+/// Centroids of every triangle in the rest pose (the model space the viewport shows).
+fn rest_centroids(c: &Character) -> Vec<Vec3> {
+    let (p, _) = skin_vertices(c, &Pose::rest(c));
+    c.indices
+        .chunks_exact(3)
+        .map(|t| {
+            let g = |i: u32| p.get(i as usize).copied().unwrap_or(Vec3::ZERO);
+            (g(t[0]) + g(t[1]) + g(t[2])) / 3.0
+        })
+        .collect()
+}
+
+/// For each triangle, the triangle whose rest-pose centroid is nearest to its centroid
+/// mirrored across the plane x = (middle of the bounds), if within 2 % of the character's
+/// size.
+fn mirror_triangles(c: &Character) -> Vec<u32> {
+    let centroids = rest_centroids(c);
+    if centroids.is_empty() {
+        return Vec::new();
+    }
+    let (lo, hi) = centroids
+        .iter()
+        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), &p| (a.min(p), b.max(p)));
+    let mid = 0.5 * (lo.x + hi.x);
+    let tol = 0.02 * (hi - lo).max_element().max(1e-6);
+    let cell = |p: Vec3| ((p - lo) / tol).floor().as_ivec3();
+    let mut grid: HashMap<glam::IVec3, Vec<u32>> = HashMap::new();
+    for (t, &p) in centroids.iter().enumerate() {
+        grid.entry(cell(p)).or_default().push(t as u32);
+    }
+    centroids
+        .iter()
+        .map(|&p| {
+            let m = Vec3::new(2.0 * mid - p.x, p.y, p.z);
+            let k = cell(m);
+            let mut best = (tol * tol, NONE);
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        let Some(list) = grid.get(&(k + glam::IVec3::new(dx, dy, dz))) else {
+                            continue;
+                        };
+                        for &o in list {
+                            let d = centroids[o as usize].distance_squared(m);
+                            if d <= best.0 {
+                                best = (d, o);
+                            }
+                        }
+                    }
+                }
+            }
+            best.1
+        })
+        .collect()
+}
+
+/// Sets `triangles` (and their mirrors when `mirror` is given) to `part`; returns how many
+/// labels changed.
+pub fn paint(seg: &mut Segmentation, triangles: &[usize], part: u16, mirror: Option<&Topology>) -> usize {
+    if part as usize >= seg.parts.len() {
+        return 0;
+    }
+    let mut changed = 0;
+    let mut set = |t: usize, labels: &mut Vec<u16>| {
+        if let Some(l) = labels.get_mut(t)
+            && *l != part
+        {
+            *l = part;
+            changed += 1;
+        }
+    };
+    for &t in triangles {
+        set(t, &mut seg.labels);
+        if let Some(m) = mirror.and_then(|topo| topo.mirror.get(t)).filter(|&&m| m != NONE) {
+            set(*m as usize, &mut seg.labels);
+        }
+    }
+    changed
+}
+
+/// Flood fill: every triangle connected to `start` through triangles of `start`'s part
+/// becomes `part`. Returns how many changed.
+pub fn fill_connected(seg: &mut Segmentation, topo: &Topology, start: usize, part: u16) -> usize {
+    let Some(&from) = seg.labels.get(start) else { return 0 };
+    if from == part || part as usize >= seg.parts.len() {
+        return 0;
+    }
+    let mut stack = vec![start];
+    seg.labels[start] = part;
+    let mut changed = 1;
+    while let Some(t) = stack.pop() {
+        for &n in topo.neighbours.get(t).into_iter().flatten() {
+            if n != NONE && seg.labels.get(n as usize) == Some(&from) {
+                seg.labels[n as usize] = part;
+                changed += 1;
+                stack.push(n as usize);
+            }
+        }
+    }
+    changed
+}
+
+/// Every triangle `bone` dominates becomes `part`. Returns how many changed.
+pub fn fill_bone(seg: &mut Segmentation, topo: &Topology, bone: u16, part: u16) -> usize {
+    let list: Vec<usize> = topo
+        .dominant_bone
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| **b == bone)
+        .map(|(t, _)| t)
+        .collect();
+    paint(seg, &list, part, None)
+}
+
+/// A ray from the camera through a point of the screen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+}
+
+/// The ray through `ndc` (x right, y up, -1..1) of a camera whose matrix is `clip_from_world`.
+pub fn ray_through(clip_from_world: Mat4, ndc: Vec2) -> Ray {
+    let inv = clip_from_world.inverse();
+    let at = |z: f32| {
+        let p = inv * glam::Vec4::new(ndc.x, ndc.y, z, 1.0);
+        p.xyz() / p.w
+    };
+    let (near, far) = (at(0.0), at(1.0));
+    Ray {
+        origin: near,
+        dir: (far - near).normalize_or(Vec3::NEG_Z),
+    }
+}
+
+/// The nearest triangle the ray hits (either side) and the distance along the ray.
+pub fn pick(positions: &[Vec3], indices: &[u32], ray: &Ray) -> Option<(usize, f32)> {
+    let mut best: Option<(usize, f32)> = None;
+    for (t, tri) in indices.chunks_exact(3).enumerate() {
+        let g = |i: u32| positions.get(i as usize).copied();
+        let (Some(a), Some(b), Some(c)) = (g(tri[0]), g(tri[1]), g(tri[2])) else {
+            continue;
+        };
+        // Möller–Trumbore.
+        let (e1, e2) = (b - a, c - a);
+        let p = ray.dir.cross(e2);
+        let det = e1.dot(p);
+        if det.abs() < 1e-12 {
+            continue;
+        }
+        let s = ray.origin - a;
+        let u = s.dot(p) / det;
+        if !(0.0..=1.0).contains(&u) {
+            continue;
+        }
+        let q = s.cross(e1);
+        let v = ray.dir.dot(q) / det;
+        if v < 0.0 || u + v > 1.0 {
+            continue;
+        }
+        let d = e2.dot(q) / det;
+        if d > 0.0 && best.is_none_or(|(_, bd)| d < bd) {
+            best = Some((t, d));
+        }
+    }
+    best
+}
+
+/// A brush dab: the cursor and radius on screen, and the camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Dab {
+    pub clip_from_world: Mat4,
+    /// The cursor in normalised device coordinates (x right, y up, -1..1).
+    pub cursor_ndc: Vec2,
+    /// The brush radius in pixels.
+    pub radius_px: f32,
+    /// The viewport size in pixels.
+    pub viewport_px: Vec2,
+}
+
+/// The triangles a dab covers on the posed mesh: the surface point under the cursor is
+/// found by a ray cast, then every triangle facing the camera whose centroid lies within the
+/// brush radius of it (the screen radius measured at the hit's depth) is taken. Nothing
+/// when the cursor misses the character.
+pub fn dab_triangles(positions: &[Vec3], indices: &[u32], dab: &Dab) -> Vec<usize> {
+    let ray = ray_through(dab.clip_from_world, dab.cursor_ndc);
+    let Some((_, d)) = pick(positions, indices, &ray) else {
+        return Vec::new();
+    };
+    let hit = ray.origin + ray.dir * d;
+    // World radius: unproject a point `radius_px` to the right of the cursor at the hit's depth.
+    let clip = dab.clip_from_world * hit.extend(1.0);
+    let ndc = clip.xyz() / clip.w;
+    let dx = 2.0 * dab.radius_px.max(0.5) / dab.viewport_px.x.max(1.0);
+    let side = dab.clip_from_world.inverse() * glam::Vec4::new(ndc.x + dx, ndc.y, ndc.z, 1.0);
+    let radius = (side.xyz() / side.w).distance(hit);
+    let inv = dab.clip_from_world.inverse();
+    let mut out = Vec::new();
+    for (t, tri) in indices.chunks_exact(3).enumerate() {
+        let g = |i: u32| positions.get(i as usize).copied().unwrap_or(Vec3::ZERO);
+        let (a, b, c) = (g(tri[0]), g(tri[1]), g(tri[2]));
+        let centroid = (a + b + c) / 3.0;
+        if centroid.distance_squared(hit) > radius * radius {
+            continue;
+        }
+        // Facing the camera: the normal points back along the ray through the centroid.
+        let cc = dab.clip_from_world * centroid.extend(1.0);
+        let near = inv * glam::Vec4::new(cc.x / cc.w, cc.y / cc.w, 0.0, 1.0);
+        let to_camera = near.xyz() / near.w - centroid;
+        if (b - a).cross(c - a).dot(to_camera) > 0.0 {
+            out.push(t);
+        }
+    }
+    out
+}
+
+/// Adds a part with a fresh colour; returns its index.
+pub fn add_part(seg: &mut Segmentation, name: &str) -> u16 {
+    const COLORS: [[u8; 3]; 10] = [
+        [230, 160, 60],
+        [70, 150, 230],
+        [90, 200, 110],
+        [220, 80, 90],
+        [170, 110, 220],
+        [60, 200, 200],
+        [230, 210, 80],
+        [200, 120, 160],
+        [140, 180, 60],
+        [120, 130, 240],
+    ];
+    let used: Vec<[u8; 3]> = seg.parts.iter().map(|p| p.color).collect();
+    let color = COLORS
+        .iter()
+        .find(|c| !used.contains(c))
+        .copied()
+        .unwrap_or(COLORS[seg.parts.len() % COLORS.len()]);
+    let name = if name.trim().is_empty() {
+        format!("Part {}", seg.parts.len() + 1)
+    } else {
+        name.trim().to_string()
+    };
+    seg.parts.push(Part { name, color });
+    (seg.parts.len() - 1) as u16
+}
+
+/// Removes part `p`, giving its triangles to `into` (an index before the removal); later
+/// parts move down one, and the cap colours chosen for them follow. Fails for the last part
+/// or when `into` is `p` or missing.
+pub fn remove_part(seg: &mut Segmentation, caps: &mut CapOverrides, p: u16, into: u16) -> Result<(), String> {
+    let n = seg.parts.len();
+    if n <= 1 {
+        return Err("a segmentation needs at least one part".into());
+    }
+    if p as usize >= n || into as usize >= n || p == into {
+        return Err(format!("cannot move part {p}'s triangles into part {into}"));
+    }
+    let into_after = if into > p { into - 1 } else { into };
+    for l in &mut seg.labels {
+        *l = match (*l).cmp(&p) {
+            std::cmp::Ordering::Equal => into_after,
+            std::cmp::Ordering::Greater => *l - 1,
+            std::cmp::Ordering::Less => *l,
+        };
+    }
+    seg.parts.remove(p as usize);
+    // Cap ids are "{part}:{loop}": drop the removed part's, renumber the later ones'.
+    let old = std::mem::take(&mut caps.colors);
+    for (id, color) in old {
+        let Some((part, rest)) = id.split_once(':') else { continue };
+        let Ok(part) = part.parse::<u16>() else { continue };
+        match part.cmp(&p) {
+            std::cmp::Ordering::Less => {
+                caps.colors.insert(id, color);
+            }
+            std::cmp::Ordering::Greater => {
+                caps.colors.insert(format!("{}:{rest}", part - 1), color);
+            }
+            std::cmp::Ordering::Equal => {}
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bake::segment::auto_segment;
+
+    fn character() -> Character {
+        crate::default_character::generate()
+    }
+
+    #[test]
+    fn neighbours_are_symmetric_and_share_an_edge() {
+        let c = character();
+        let topo = Topology::new(&c);
+        let welded = crate::bake::caps::weld(&c);
+        for (t, ns) in topo.neighbours.iter().enumerate() {
+            for &n in ns.iter().filter(|&&n| n != NONE) {
+                assert!(topo.neighbours[n as usize].contains(&(t as u32)), "{t} <-> {n}");
+                let set = |x: usize| -> Vec<u32> { (0..3).map(|k| welded[c.indices[3 * x + k] as usize]).collect() };
+                let (a, b) = (set(t), set(n as usize));
+                assert!(a.iter().filter(|v| b.contains(v)).count() >= 2);
+            }
+        }
+    }
+
+    #[test]
+    fn fill_connected_matches_a_brute_force_closure() {
+        let c = character();
+        let topo = Topology::new(&c);
+        let seg0 = auto_segment(&c);
+        for start in [0usize, 777, 3000] {
+            let mut seg = seg0.clone();
+            let from = seg.labels[start];
+            let to = (from + 1) % seg.parts.len() as u16;
+            let changed = fill_connected(&mut seg, &topo, start, to);
+            // Brute force: grow a set until no triangle of `from` touches it.
+            let mut inside = vec![false; seg0.labels.len()];
+            inside[start] = true;
+            loop {
+                let mut grew = false;
+                for t in 0..inside.len() {
+                    if !inside[t]
+                        && seg0.labels[t] == from
+                        && topo.neighbours[t].iter().any(|&n| n != NONE && inside[n as usize])
+                    {
+                        inside[t] = true;
+                        grew = true;
+                    }
+                }
+                if !grew {
+                    break;
+                }
+            }
+            let expected = inside.iter().filter(|&&x| x).count();
+            assert_eq!(changed, expected);
+            for t in 0..inside.len() {
+                let want = if inside[t] { to } else { seg0.labels[t] };
+                assert_eq!(seg.labels[t], want, "triangle {t}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_mirror_of_a_symmetric_character_maps_sides_onto_each_other() {
+        let c = character();
+        let topo = Topology::new(&c);
+        let found = topo.mirror.iter().filter(|&&m| m != NONE).count();
+        assert!(found as f64 > 0.9 * topo.mirror.len() as f64, "{found} of {}", topo.mirror.len());
+        // Mirroring twice comes back close (the same triangle or one next to it).
+        let centroids = rest_centroids(&c);
+        for (t, &m) in topo.mirror.iter().enumerate() {
+            if m == NONE {
+                continue;
+            }
+            let back = topo.mirror[m as usize];
+            if back != NONE {
+                assert!(centroids[back as usize].distance(centroids[t]) < 0.05, "triangle {t}");
+            }
+        }
+        // A left-arm triangle's mirror lies on the other side.
+        let seg = auto_segment(&c);
+        let left = seg.parts.iter().position(|p| p.name == "Left Arm").unwrap() as u16;
+        let right = seg.parts.iter().position(|p| p.name == "Right Arm").unwrap() as u16;
+        let t = seg.labels.iter().position(|&l| l == left).unwrap();
+        let m = topo.mirror[t];
+        assert_ne!(m, NONE);
+        assert_eq!(seg.labels[m as usize], right);
+    }
+
+    #[test]
+    fn joint_fill_takes_exactly_the_dominated_triangles() {
+        let c = character();
+        let topo = Topology::new(&c);
+        let mut seg = auto_segment(&c);
+        let bone = (0..c.bones.len()).max_by_key(|&b| topo.bone_triangles[b]).unwrap() as u16;
+        let part = add_part(&mut seg, "Picked");
+        let changed = fill_bone(&mut seg, &topo, bone, part);
+        assert_eq!(changed, topo.bone_triangles[bone as usize]);
+        for (t, &l) in seg.labels.iter().enumerate() {
+            assert_eq!(l == part, topo.dominant_bone[t] == bone);
+        }
+    }
+
+    #[test]
+    fn pick_and_dab_agree_with_brute_force_and_move_with_the_scene() {
+        let c = character();
+        let (pos, _) = skin_vertices(&c, &Pose::rest(&c));
+        let cam = crate::gpu::Camera::orbit(Vec3::new(0.0, 1.2, 0.0), 0.3, 0.1, 3.0, 0.7);
+        let m = cam.clip_from_world(1.0);
+        let dab = Dab {
+            clip_from_world: m,
+            cursor_ndc: Vec2::new(0.0, 0.0),
+            radius_px: 20.0,
+            viewport_px: Vec2::new(800.0, 800.0),
+        };
+        let tris = dab_triangles(&pos, &c.indices, &dab);
+        assert!(!tris.is_empty() && tris.len() < c.triangle_count() / 4, "{}", tris.len());
+        // The picked triangle projects under the cursor.
+        let ray = ray_through(m, dab.cursor_ndc);
+        let (t, d) = pick(&pos, &c.indices, &ray).unwrap();
+        let hit = ray.origin + ray.dir * d;
+        let clip = m * hit.extend(1.0);
+        assert!((clip.xy() / clip.w).length() < 1e-3);
+        // Independent answer: intersect the ray with each triangle's plane and test the point
+        // with signed areas; the nearest such hit is the picked one.
+        let mut nearest = (f32::MAX, usize::MAX);
+        for (u, tri) in c.indices.chunks_exact(3).enumerate() {
+            let (a, b, cc) = (pos[tri[0] as usize], pos[tri[1] as usize], pos[tri[2] as usize]);
+            let n = (b - a).cross(cc - a);
+            let denom = n.dot(ray.dir);
+            if denom.abs() < 1e-12 {
+                continue;
+            }
+            let along = n.dot(a - ray.origin) / denom;
+            let x = ray.origin + ray.dir * along;
+            let inside = [(a, b), (b, cc), (cc, a)]
+                .iter()
+                .all(|(p, q)| (*q - *p).cross(x - *p).dot(n) >= -1e-9);
+            if along > 0.0 && inside && along < nearest.0 {
+                nearest = (along, u);
+            }
+        }
+        assert_eq!(nearest.1, t);
+        assert!((nearest.0 - d).abs() < 1e-4);
+        // Translating and rotating the whole scene (mesh and camera) picks the same triangles.
+        let xf = Mat4::from_rotation_translation(glam::Quat::from_rotation_y(1.1), Vec3::new(3.0, -1.0, 2.0));
+        let moved: Vec<Vec3> = pos.iter().map(|&p| xf.transform_point3(p)).collect();
+        let dab2 = Dab {
+            clip_from_world: m * xf.inverse(),
+            ..dab
+        };
+        assert_eq!(dab_triangles(&moved, &c.indices, &dab2), tris);
+        // A dab in the empty corner covers nothing.
+        let miss = Dab {
+            cursor_ndc: Vec2::new(0.95, 0.95),
+            ..dab
+        };
+        assert!(dab_triangles(&pos, &c.indices, &miss).is_empty());
+    }
+
+    #[test]
+    fn removing_a_part_relabels_and_renumbers_cap_colours() {
+        let c = character();
+        let mut seg = auto_segment(&c);
+        let n = seg.parts.len();
+        let before = seg.clone();
+        let mut caps = CapOverrides::default();
+        caps.colors.insert("1:0".into(), [1, 2, 3]);
+        caps.colors.insert("2:0".into(), [4, 5, 6]);
+        caps.colors.insert("0:1".into(), [7, 8, 9]);
+        remove_part(&mut seg, &mut caps, 1, 0).unwrap();
+        assert_eq!(seg.parts.len(), n - 1);
+        for (t, &l) in before.labels.iter().enumerate() {
+            let want = match l {
+                0 | 1 => 0,
+                x => x - 1,
+            };
+            assert_eq!(seg.labels[t], want);
+        }
+        assert_eq!(caps.colors.get("1:0"), Some(&[4, 5, 6]));
+        assert_eq!(caps.colors.get("0:1"), Some(&[7, 8, 9]));
+        assert_eq!(caps.colors.len(), 2);
+        assert!(remove_part(&mut seg, &mut caps, 0, 0).is_err());
+        let mut one = Segmentation {
+            parts: vec![before.parts[0].clone()],
+            labels: vec![0; 3],
+        };
+        assert!(remove_part(&mut one, &mut caps, 0, 0).is_err());
+        // A new part gets a colour no other part has.
+        let p = add_part(&mut seg, "  ");
+        assert_eq!(seg.parts[p as usize].name, format!("Part {}", p + 1));
+        let colors: Vec<_> = seg.parts.iter().map(|p| p.color).collect();
+        assert!(!colors[..p as usize].contains(&colors[p as usize]));
+    }
+
+    #[test]
+    fn painting_with_the_mirror_sets_both_sides() {
+        let c = character();
+        let topo = Topology::new(&c);
+        let mut seg = auto_segment(&c);
+        let part = add_part(&mut seg, "Sleeves");
+        let t = (0..seg.labels.len()).find(|&t| topo.mirror[t] != NONE && topo.mirror[t] as usize != t).unwrap();
+        let changed = paint(&mut seg, &[t], part, Some(&topo));
+        assert_eq!(changed, 2);
+        assert_eq!(seg.labels[t], part);
+        assert_eq!(seg.labels[topo.mirror[t] as usize], part);
+        assert_eq!(paint(&mut seg, &[t], part, Some(&topo)), 0, "painting again changes nothing");
+        assert_eq!(paint(&mut seg, &[t], 99, None), 0, "no such part");
+    }
+}
