@@ -183,6 +183,17 @@ impl Project {
     }
 }
 
+/// Where the editor autosaves a project saved at `project_file`: beside it, with
+/// `.autosave` appended (`project.json.autosave`). Saving removes it; finding it newer than
+/// the project on open offers recovery.
+pub fn autosave_file(project_file: &Path) -> PathBuf {
+    let name = project_file
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| PROJECT_FILE.into());
+    project_file.with_file_name(format!("{name}.autosave"))
+}
+
 /// `path` itself if it is a file, else `path/project.json`.
 pub fn resolve_project_file(path: &Path) -> PathBuf {
     if path.is_dir() {

@@ -86,7 +86,11 @@ impl Topology {
                 .iter()
                 .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
                 .map_or(0, |s| s.0);
-            let best = if (best as usize) < bone_triangles.len() { best } else { 0 };
+            let best = if (best as usize) < bone_triangles.len() {
+                best
+            } else {
+                0
+            };
             bone_triangles[best as usize] += 1;
             dominant_bone.push(best);
         }
@@ -123,7 +127,9 @@ fn mirror_triangles(c: &Character) -> Vec<u32> {
     }
     let (lo, hi) = centroids
         .iter()
-        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), &p| (a.min(p), b.max(p)));
+        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), &p| {
+            (a.min(p), b.max(p))
+        });
     let mid = 0.5 * (lo.x + hi.x);
     let tol = 0.02 * (hi - lo).max_element().max(1e-6);
     let cell = |p: Vec3| ((p - lo) / tol).floor().as_ivec3();
@@ -317,6 +323,35 @@ pub fn dab_triangles(positions: &[Vec3], indices: &[u32], dab: &Dab) -> Vec<usiz
     out
 }
 
+/// A copy of the character for painting: every triangle its own three vertices, coloured
+/// with its part's colour (linear), untextured; triangles along a seam (an edge to another
+/// part) are darkened so the cut lines read at a glance.
+pub fn segmentation_display(c: &Character, seg: &Segmentation, topo: &Topology) -> Character {
+    let lin = |x: u8| {
+        let x = x as f32 / 255.0;
+        if x <= 0.04045 {
+            x / 12.92
+        } else {
+            ((x + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let mut out = crate::reps::bake::part_id_character(c, &[]);
+    for (t, tri) in out.vertices.chunks_exact_mut(3).enumerate() {
+        let label = seg.labels.get(t).copied().unwrap_or(0);
+        let [r, g, b] = seg.parts.get(label as usize).map_or([128; 3], |p| p.color);
+        let seam = topo.neighbours.get(t).is_some_and(|ns| {
+            ns.iter()
+                .any(|&n| n != NONE && seg.labels.get(n as usize).is_some_and(|&l| l != label))
+        });
+        let k = if seam { 0.35 } else { 1.0 };
+        for v in tri {
+            v.color = [lin(r) * k, lin(g) * k, lin(b) * k, 1.0];
+        }
+    }
+    out.name = format!("{} (segmentation)", c.name);
+    out
+}
+
 /// Adds a part with a fresh colour; returns its index.
 pub fn add_part(seg: &mut Segmentation, name: &str) -> u16 {
     const COLORS: [[u8; 3]; 10] = [
@@ -369,7 +404,9 @@ pub fn remove_part(seg: &mut Segmentation, caps: &mut CapOverrides, p: u16, into
     // Cap ids are "{part}:{loop}": drop the removed part's, renumber the later ones'.
     let old = std::mem::take(&mut caps.colors);
     for (id, color) in old {
-        let Some((part, rest)) = id.split_once(':') else { continue };
+        let Some((part, rest)) = id.split_once(':') else {
+            continue;
+        };
         let Ok(part) = part.parse::<u16>() else { continue };
         match part.cmp(&p) {
             std::cmp::Ordering::Less => {
@@ -450,7 +487,11 @@ mod tests {
         let c = character();
         let topo = Topology::new(&c);
         let found = topo.mirror.iter().filter(|&&m| m != NONE).count();
-        assert!(found as f64 > 0.9 * topo.mirror.len() as f64, "{found} of {}", topo.mirror.len());
+        assert!(
+            found as f64 > 0.9 * topo.mirror.len() as f64,
+            "{found} of {}",
+            topo.mirror.len()
+        );
         // Mirroring twice comes back close (the same triangle or one next to it).
         let centroids = rest_centroids(&c);
         for (t, &m) in topo.mirror.iter().enumerate() {
@@ -499,7 +540,11 @@ mod tests {
             viewport_px: Vec2::new(800.0, 800.0),
         };
         let tris = dab_triangles(&pos, &c.indices, &dab);
-        assert!(!tris.is_empty() && tris.len() < c.triangle_count() / 4, "{}", tris.len());
+        assert!(
+            !tris.is_empty() && tris.len() < c.triangle_count() / 4,
+            "{}",
+            tris.len()
+        );
         // The picked triangle projects under the cursor.
         let ray = ray_through(m, dab.cursor_ndc);
         let (t, d) = pick(&pos, &c.indices, &ray).unwrap();
@@ -579,17 +624,56 @@ mod tests {
     }
 
     #[test]
+    fn the_display_colours_each_triangle_with_its_part_and_darkens_seams() {
+        let c = character();
+        let topo = Topology::new(&c);
+        let seg = auto_segment(&c);
+        let d = segmentation_display(&c, &seg, &topo);
+        assert_eq!(d.vertices.len(), c.indices.len());
+        assert!(d.textures.is_empty());
+        let mut seams = 0;
+        for (t, tri) in d.vertices.chunks_exact(3).enumerate() {
+            let part = &seg.parts[seg.labels[t] as usize];
+            let brightest = part.color.iter().copied().max().unwrap() as f32 / 255.0;
+            let shown = tri[0].color[0].max(tri[0].color[1]).max(tri[0].color[2]);
+            assert!(tri.iter().all(|v| v.color == tri[0].color));
+            // The colour's hue is the part's: the channel order matches.
+            let order = |x: [f32; 3]| {
+                let mut i = [0usize, 1, 2];
+                i.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
+                i
+            };
+            let pc = part.color.map(|x| x as f32);
+            if pc[0] != pc[1] && pc[1] != pc[2] && pc[0] != pc[2] {
+                assert_eq!(order([tri[0].color[0], tri[0].color[1], tri[0].color[2]]), order(pc));
+            }
+            if shown < 0.5 * brightest.powf(2.2) {
+                seams += 1;
+            }
+            // Positions are the mesh's.
+            assert_eq!(tri[0].position, c.vertices[c.indices[3 * t] as usize].position);
+        }
+        assert!(seams > 0 && seams < c.triangle_count() / 4, "{seams} seam triangles");
+    }
+
+    #[test]
     fn painting_with_the_mirror_sets_both_sides() {
         let c = character();
         let topo = Topology::new(&c);
         let mut seg = auto_segment(&c);
         let part = add_part(&mut seg, "Sleeves");
-        let t = (0..seg.labels.len()).find(|&t| topo.mirror[t] != NONE && topo.mirror[t] as usize != t).unwrap();
+        let t = (0..seg.labels.len())
+            .find(|&t| topo.mirror[t] != NONE && topo.mirror[t] as usize != t)
+            .unwrap();
         let changed = paint(&mut seg, &[t], part, Some(&topo));
         assert_eq!(changed, 2);
         assert_eq!(seg.labels[t], part);
         assert_eq!(seg.labels[topo.mirror[t] as usize], part);
-        assert_eq!(paint(&mut seg, &[t], part, Some(&topo)), 0, "painting again changes nothing");
+        assert_eq!(
+            paint(&mut seg, &[t], part, Some(&topo)),
+            0,
+            "painting again changes nothing"
+        );
         assert_eq!(paint(&mut seg, &[t], 99, None), 0, "no such part");
     }
 }

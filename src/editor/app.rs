@@ -157,6 +157,16 @@ pub struct EditorApp {
     next_generation: u64,
     show_about: bool,
     pub crowd: super::crowd::CrowdPanel,
+    /// Which tab of the side panel shows (when the crowd preview is closed).
+    pub tab: SideTab,
+    pub segment: super::segment::SegmentPanel,
+}
+
+/// The side panel's tabs besides the crowd preview.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SideTab {
+    Character,
+    Segment,
 }
 
 impl EditorApp {
@@ -184,6 +194,8 @@ impl EditorApp {
             next_generation: 1,
             show_about: false,
             crowd: Default::default(),
+            tab: SideTab::Character,
+            segment: Default::default(),
         };
         match &app.adapter {
             Some(a) => app.info(format!("GPU adapter: {a}")),
@@ -300,6 +312,16 @@ impl EditorApp {
                 self.crowd.start_open(folder, character);
             }
             Command::ShowCrowd(show) => self.crowd.open = show,
+            Command::Undo => {
+                if let Some(label) = self.doc.as_mut().and_then(|d| d.undo()) {
+                    self.info(format!("undid {label}"));
+                }
+            }
+            Command::Redo => {
+                if let Some(label) = self.doc.as_mut().and_then(|d| d.redo()) {
+                    self.info(format!("redid {label}"));
+                }
+            }
         }
     }
 
@@ -314,19 +336,7 @@ impl EditorApp {
             return;
         }
         let c = doc.character.clone();
-        let mut warning = None;
-        let segmentation = match doc.project.segmentation.as_ref() {
-            Some(s) => match s.to_segmentation(c.triangle_count()) {
-                Ok(seg) => seg,
-                Err(e) => {
-                    warning = Some(format!(
-                        "the project's segmentation does not fit ({e}); baking with the automatic one"
-                    ));
-                    polypostor::bake::segment::auto_segment(&c)
-                }
-            },
-            None => polypostor::bake::segment::auto_segment(&c),
-        };
+        let segmentation = doc.segmentation.clone();
         let out = match &doc.project_file {
             Some(f) => f.parent().map(Path::to_owned).unwrap_or_default().join("crowd.pack"),
             None => std::env::temp_dir().join(format!("polypostor-crowd-{}.pack", std::process::id())),
@@ -344,9 +354,6 @@ impl EditorApp {
             out: out.clone(),
             character: c,
         };
-        if let Some(w) = warning {
-            self.warn(w);
-        }
         self.info(format!("baking every representation into {}", out.display()));
         self.crowd.start_bake(req);
     }
@@ -482,6 +489,10 @@ impl EditorApp {
         self.save_settings();
         let generation = self.next_generation;
         self.next_generation += 1;
+        let (segmentation, problem) = Document::decode_segmentation(&loaded.project, &loaded.character);
+        if let Some(p) = problem {
+            self.warn(p);
+        }
         self.doc = Some(Document {
             project: loaded.project,
             dirty: loaded.project_file.is_none(),
@@ -490,6 +501,10 @@ impl EditorApp {
             summary: loaded.character.summary(),
             character: Arc::new(loaded.character),
             generation,
+            segmentation,
+            revision: 0,
+            history: Default::default(),
+            autosaved_revision: 0,
         });
         self.frame_character();
     }
@@ -555,6 +570,23 @@ impl EditorApp {
     fn shortcuts(&mut self, ctx: &egui::Context) {
         use egui::{Key, KeyboardShortcut, Modifiers};
         let typing = ctx.egui_wants_keyboard_input();
+        let (undo, redo) = if typing {
+            (false, false)
+        } else {
+            ctx.input_mut(|i| {
+                // Ctrl+Shift+Z first, or Ctrl+Z would take it.
+                let redo = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z))
+                    || i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::Y));
+                let undo = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::Z));
+                (undo, redo)
+            })
+        };
+        if undo {
+            self.send(Command::Undo);
+        }
+        if redo {
+            self.send(Command::Redo);
+        }
         let (open, new, save_as, save, quit, bake) = ctx.input_mut(|i| {
             let open = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::O));
             let new = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::N));
@@ -592,6 +624,9 @@ impl EditorApp {
         }
         if p && self.crowd.open {
             self.crowd.paused = !self.crowd.paused;
+        }
+        if self.tab == SideTab::Segment && !self.crowd.open {
+            self.segment.shortcuts(ctx);
         }
         let (space, left, right, home, f) = ctx.input(|i| {
             (
@@ -682,6 +717,36 @@ impl EditorApp {
                 ui.separator();
                 if ui.add(egui::Button::new("Quit").shortcut_text("Ctrl+Q")).clicked() {
                     ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+                }
+            });
+            ui.menu_button("Edit", |ui| {
+                let (undo, redo) = self.doc.as_ref().map_or((None, None), |d| {
+                    (
+                        d.history.undo_label().map(str::to_owned),
+                        d.history.redo_label().map(str::to_owned),
+                    )
+                });
+                let text = |verb: &str, l: &Option<String>| match l {
+                    Some(l) => format!("{verb} {l}"),
+                    None => verb.to_owned(),
+                };
+                if ui
+                    .add_enabled(
+                        undo.is_some(),
+                        egui::Button::new(text("Undo", &undo)).shortcut_text("Ctrl+Z"),
+                    )
+                    .clicked()
+                {
+                    self.send(Command::Undo);
+                }
+                if ui
+                    .add_enabled(
+                        redo.is_some(),
+                        egui::Button::new(text("Redo", &redo)).shortcut_text("Ctrl+Shift+Z"),
+                    )
+                    .clicked()
+                {
+                    self.send(Command::Redo);
                 }
             });
             ui.menu_button("View", |ui| {
@@ -978,8 +1043,18 @@ impl EditorApp {
     fn viewport(&mut self, ui: &mut egui::Ui) {
         let rect = ui.available_rect_before_wrap();
         let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
-        self.camera.handle_input(ui, &response);
-        if response.double_clicked() {
+        let painting = self.tab == SideTab::Segment && self.doc.is_some();
+        if painting {
+            let doc = self.doc.as_mut().unwrap();
+            let pose = Pose::sample_index(&doc.character, self.playback.clip, self.playback.time_secs);
+            let m = self
+                .camera
+                .camera()
+                .clip_from_world(rect.width() / rect.height().max(1.0));
+            self.segment.viewport_input(ui, &response, doc, m, &pose);
+        }
+        self.camera.handle_input(ui, &response, !painting);
+        if response.double_clicked() && !painting {
             self.send(Command::FrameCharacter);
         }
         let Some(doc) = &self.doc else {
@@ -1000,20 +1075,34 @@ impl EditorApp {
         if self.adapter.is_some() {
             let pose = Pose::sample_index(&doc.character, self.playback.clip, self.playback.time_secs);
             let ppp = ui.ctx().pixels_per_point();
+            let (generation, character, mode) = if painting {
+                let (g, c) = self.segment.display(doc);
+                let mode = if self.segment.isolate {
+                    self.view_mode
+                } else {
+                    ViewMode::Lit
+                };
+                (g, c, mode)
+            } else {
+                (doc.generation, doc.character.clone(), self.view_mode)
+            };
             let callback = ViewportCallback {
-                character: doc.character.clone(),
-                generation: doc.generation,
+                character,
+                generation,
                 pose: Arc::new(pose),
                 camera: self.camera.camera(),
                 size_px: [
                     (rect.width() * ppp).round() as u32,
                     (rect.height() * ppp).round() as u32,
                 ],
-                mode: self.view_mode,
+                mode,
                 grid: self.grid,
             };
             ui.painter()
                 .add(egui_wgpu::Callback::new_paint_callback(rect, callback));
+        }
+        if painting {
+            self.segment.overlay(ui, rect, doc);
         }
         // Overlay: view mode, grid, frame button; controls hint.
         let overlay = egui::Rect::from_min_size(rect.min + egui::vec2(8.0, 8.0), egui::vec2(rect.width() - 16.0, 28.0));
@@ -1037,7 +1126,11 @@ impl EditorApp {
         ui.painter().text(
             rect.left_bottom() + egui::vec2(8.0, -8.0),
             egui::Align2::LEFT_BOTTOM,
-            "Orbit: left/middle drag · Pan: shift+middle or right drag · Zoom: wheel · Space: play/pause",
+            if painting {
+                "Paint: left drag · Orbit: middle drag · Pan: right drag · Zoom: wheel · Radius: [ ]"
+            } else {
+                "Orbit: left/middle drag · Pan: shift+middle or right drag · Zoom: wheel · Space: play/pause"
+            },
             egui::FontId::proportional(12.0),
             egui::Color32::from_gray(150),
         );
@@ -1208,6 +1301,9 @@ impl eframe::App for EditorApp {
                 Err(text) => self.fail(text),
             }
         }
+        for m in std::mem::take(&mut self.segment.messages) {
+            self.fail(m);
+        }
         self.dropped_files(&ctx);
         self.shortcuts(&ctx);
         self.apply_commands(&ctx);
@@ -1246,10 +1342,23 @@ impl eframe::App for EditorApp {
             .default_size(300.0)
             .show(ui, |ui| {
                 ui.horizontal(|ui| {
-                    if ui.selectable_label(!self.crowd.open, "Character").clicked() {
+                    let open = self.crowd.open;
+                    if ui
+                        .selectable_label(!open && self.tab == SideTab::Character, "Character")
+                        .clicked()
+                    {
+                        self.tab = SideTab::Character;
                         self.send(Command::ShowCrowd(false));
                     }
-                    if ui.selectable_label(self.crowd.open, "Crowd preview").clicked() {
+                    if ui
+                        .selectable_label(!open && self.tab == SideTab::Segment, "Segment")
+                        .on_hover_text("Paint body parts and author caps")
+                        .clicked()
+                    {
+                        self.tab = SideTab::Segment;
+                        self.send(Command::ShowCrowd(false));
+                    }
+                    if ui.selectable_label(open, "Crowd preview").clicked() {
                         self.send(Command::ShowCrowd(true));
                     }
                 });
@@ -1257,6 +1366,9 @@ impl eframe::App for EditorApp {
                 egui::ScrollArea::vertical().show(ui, |ui| {
                     if self.crowd.open {
                         self.crowd.controls(ui, fps);
+                    } else if self.tab == SideTab::Segment && self.doc.is_some() {
+                        let doc = self.doc.as_mut().unwrap();
+                        self.segment.controls(ui, doc);
                     } else {
                         self.side_panel(ui);
                     }

@@ -375,7 +375,7 @@ impl CrowdPanel {
     pub fn viewport(&mut self, ui: &mut egui::Ui, dt: f32) {
         let rect = ui.available_rect_before_wrap();
         let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
-        self.camera.handle_input(ui, &response);
+        self.camera.handle_input(ui, &response, true);
         if self.fly && (response.hovered() || response.has_focus()) {
             let (w, a, s, d, q, e) = ui.input(|i| {
                 (

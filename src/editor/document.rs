@@ -5,7 +5,10 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use polypostor::Character;
-use polypostor::project::Project;
+use polypostor::bake::caps::CapOverrides;
+use polypostor::bake::segment::{Segmentation, auto_segment};
+use polypostor::edit::history::History;
+use polypostor::project::{Project, StoredSegmentation};
 
 /// Everything the user can ask for; queued by the UI and applied once per frame.
 #[derive(Clone, Debug, PartialEq)]
@@ -29,6 +32,8 @@ pub enum Command {
     OpenCrowd(PathBuf),
     /// Show the crowd preview (true) or the character (false).
     ShowCrowd(bool),
+    Undo,
+    Redo,
 }
 
 /// The open project and its loaded character.
@@ -45,9 +50,73 @@ pub struct Document {
     pub dirty: bool,
     /// Increases with every loaded character (the viewport re-uploads on change).
     pub generation: u64,
+    /// The working segmentation (the project's, decoded; automatic when it has none).
+    pub segmentation: Segmentation,
+    /// Increases with every change of the segmentation or the caps (displays rebuild).
+    pub revision: u64,
+    /// Undo/redo of every edit, as project snapshots.
+    pub history: History<Project>,
+    /// The revision last written to the autosave file.
+    pub autosaved_revision: u64,
 }
 
 impl Document {
+    /// The segmentation a project asks for on `c`: its stored one, or the automatic one
+    /// (with the reason when the stored one does not fit).
+    pub fn decode_segmentation(project: &Project, c: &Character) -> (Segmentation, Option<String>) {
+        match project.segmentation.as_ref() {
+            Some(s) => match s.to_segmentation(c.triangle_count()) {
+                Ok(seg) => (seg, None),
+                Err(e) => (
+                    auto_segment(c),
+                    Some(format!(
+                        "the project's segmentation does not fit ({e}); using the automatic one"
+                    )),
+                ),
+            },
+            None => (auto_segment(c), None),
+        }
+    }
+
+    /// One undoable edit of the segmentation and cap colours: `f` changes them and says
+    /// whether anything changed; only then is a step recorded.
+    pub fn edit(&mut self, label: &str, f: impl FnOnce(&mut Segmentation, &mut CapOverrides) -> bool) -> bool {
+        let before = self.project.clone();
+        if !f(&mut self.segmentation, &mut self.project.caps) {
+            return false;
+        }
+        self.history.record(label, before);
+        self.store_segmentation();
+        true
+    }
+
+    /// Writes the working segmentation into the project (after a change) and marks it.
+    pub fn store_segmentation(&mut self) {
+        self.project.segmentation = Some(StoredSegmentation::from_segmentation(&self.segmentation));
+        self.dirty = true;
+        self.revision += 1;
+    }
+
+    /// Puts back a project state from the history.
+    pub fn restore(&mut self, project: Project) {
+        self.project = project;
+        self.segmentation = Self::decode_segmentation(&self.project, &self.character).0;
+        self.dirty = true;
+        self.revision += 1;
+    }
+
+    pub fn undo(&mut self) -> Option<String> {
+        let (label, state) = self.history.undo(self.project.clone())?;
+        self.restore(state);
+        Some(label)
+    }
+
+    pub fn redo(&mut self) -> Option<String> {
+        let (label, state) = self.history.redo(self.project.clone())?;
+        self.restore(state);
+        Some(label)
+    }
+
     pub fn title(&self) -> String {
         let name = if self.project.name.is_empty() {
             "untitled"

@@ -8,6 +8,7 @@
 mod app;
 pub mod crowd;
 mod document;
+mod segment;
 mod settings;
 #[cfg(test)]
 mod tests;

@@ -85,8 +85,9 @@ impl OrbitCamera {
         self.distance = (self.distance * (-wheel * 0.0015).exp()).clamp(0.05, 3000.0);
     }
 
-    /// Applies the pointer input of the viewport's response.
-    pub fn handle_input(&mut self, ui: &egui::Ui, response: &egui::Response) {
+    /// Applies the pointer input of the viewport's response; `primary_orbits` false leaves
+    /// the left button to a tool.
+    pub fn handle_input(&mut self, ui: &egui::Ui, response: &egui::Response, primary_orbits: bool) {
         let shift = ui.input(|i| i.modifiers.shift);
         let delta = response.drag_delta();
         if response.dragged_by(egui::PointerButton::Middle) {
@@ -95,7 +96,7 @@ impl OrbitCamera {
             } else {
                 self.orbit(delta)
             }
-        } else if response.dragged_by(egui::PointerButton::Primary) {
+        } else if primary_orbits && response.dragged_by(egui::PointerButton::Primary) {
             self.orbit(delta);
         } else if response.dragged_by(egui::PointerButton::Secondary) {
             self.pan(delta, response.rect.height());
