@@ -22,6 +22,8 @@ pub struct AppOptions {
     pub settings_path: Option<PathBuf>,
     /// Load on the UI thread (tests) instead of a background thread.
     pub sync_loading: bool,
+    /// Where never-saved projects are autosaved; `None`: they are not.
+    pub recovery_dir: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -156,10 +158,15 @@ pub struct EditorApp {
     texture_preview: Option<(u64, egui::TextureHandle)>,
     next_generation: u64,
     show_about: bool,
+    /// Close the window at the end of this frame.
+    closing: bool,
+    /// Where the 3D viewport was last laid out (points).
+    pub viewport_rect: egui::Rect,
     pub crowd: super::crowd::CrowdPanel,
     /// Which tab of the side panel shows (when the crowd preview is closed).
     pub tab: SideTab,
     pub segment: super::segment::SegmentPanel,
+    pub safety: super::safety::Safety,
 }
 
 /// The side panel's tabs besides the crowd preview.
@@ -193,9 +200,12 @@ impl EditorApp {
             texture_preview: None,
             next_generation: 1,
             show_about: false,
+            closing: false,
+            viewport_rect: egui::Rect::NOTHING,
             crowd: Default::default(),
             tab: SideTab::Character,
             segment: Default::default(),
+            safety: Default::default(),
         };
         match &app.adapter {
             Some(a) => app.info(format!("GPU adapter: {a}")),
@@ -367,6 +377,7 @@ impl EditorApp {
 
     fn save_to(&mut self, file: PathBuf) {
         let Some(doc) = &mut self.doc else { return };
+        let old_autosave = super::safety::autosave_path(doc, self.options.recovery_dir.as_deref());
         let mut project = doc.project.clone();
         project.view.clip = self
             .playback
@@ -387,11 +398,40 @@ impl EditorApp {
                 doc.project = project;
                 doc.project_file = Some(file.clone());
                 doc.dirty = false;
+                if let Some(old) = old_autosave {
+                    let _ = std::fs::remove_file(old);
+                }
+                self.safety.clear(doc, self.options.recovery_dir.as_deref());
                 self.settings.touch_recent(&file);
                 self.save_settings();
                 self.info(format!("saved {}", file.display()));
+                if self.safety.close_after_save {
+                    self.safety.allow_close = true;
+                    self.closing = true;
+                }
             }
-            Err(e) => self.fail(e.to_string()),
+            Err(e) => {
+                self.safety.close_after_save = false;
+                self.fail(e.to_string())
+            }
+        }
+    }
+
+    /// Writes the autosave now if anything changed since the last one (tests; the frame loop
+    /// calls it every 30 s).
+    #[cfg(test)]
+    pub fn autosave_now(&mut self) -> bool {
+        self.autosave(true)
+    }
+
+    fn autosave(&mut self, force: bool) -> bool {
+        let Some(doc) = &self.doc else { return false };
+        match self.safety.tick(doc, self.options.recovery_dir.as_deref(), force) {
+            Ok(wrote) => wrote,
+            Err(e) => {
+                self.warn(e);
+                false
+            }
         }
     }
 
@@ -493,7 +533,7 @@ impl EditorApp {
         if let Some(p) = problem {
             self.warn(p);
         }
-        self.doc = Some(Document {
+        let doc = Document {
             project: loaded.project,
             dirty: loaded.project_file.is_none(),
             project_file: loaded.project_file,
@@ -504,8 +544,11 @@ impl EditorApp {
             segmentation,
             revision: 0,
             history: Default::default(),
-            autosaved_revision: 0,
-        });
+        };
+        if let Some(w) = self.safety.check_on_open(&doc, self.options.recovery_dir.as_deref()) {
+            self.warn(w);
+        }
+        self.doc = Some(doc);
         self.frame_character();
     }
 
@@ -831,6 +874,11 @@ impl EditorApp {
                 ui.label(format!("{:.0} FPS", self.timer.fps()));
                 ui.separator();
                 ui.label(self.adapter.as_deref().unwrap_or("no GPU"));
+                if let Some(t) = self.safety.written_at {
+                    ui.separator();
+                    ui.label(egui::RichText::new(format!("autosaved {} s ago", t.elapsed().as_secs())).weak())
+                        .on_hover_text("Unsaved changes are autosaved every 30 s and offered back after a crash");
+                }
             });
         });
     }
@@ -1043,6 +1091,7 @@ impl EditorApp {
     fn viewport(&mut self, ui: &mut egui::Ui) {
         let rect = ui.available_rect_before_wrap();
         let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
+        self.viewport_rect = rect;
         let painting = self.tab == SideTab::Segment && self.doc.is_some();
         if painting {
             let doc = self.doc.as_mut().unwrap();
@@ -1134,6 +1183,91 @@ impl EditorApp {
             egui::FontId::proportional(12.0),
             egui::Color32::from_gray(150),
         );
+    }
+
+    /// The recovery and close prompts.
+    fn safety_dialogs(&mut self, ctx: &egui::Context) {
+        if let Some((path, _, when)) = self.safety.recovery.clone() {
+            let age = when
+                .elapsed()
+                .map_or("earlier".into(), |d| format!("{} s ago", d.as_secs()));
+            let mut answer = None;
+            egui::Modal::new(egui::Id::unique("recovery prompt")).show(ctx, |ui| {
+                ui.set_max_width(520.0);
+                ui.heading("Recover unsaved changes?");
+                ui.add_space(6.0);
+                ui.label(format!(
+                    "The editor closed without saving this project. An autosave from {age} holds changes the project file does not have:\n{}",
+                    path.display()
+                ));
+                ui.add_space(8.0);
+                ui.horizontal(|ui| {
+                    if ui.button("Recover").clicked() {
+                        answer = Some(true);
+                    }
+                    if ui.button("Discard autosave").clicked() {
+                        answer = Some(false);
+                    }
+                });
+            });
+            match answer {
+                Some(true) => {
+                    if let (Some(doc), Some((_, project, _))) = (&mut self.doc, self.safety.recovery.take()) {
+                        doc.history.record("Recover autosave", doc.project.clone());
+                        doc.restore(project);
+                        self.info(format!("recovered unsaved changes from {}", path.display()));
+                    }
+                }
+                Some(false) => {
+                    self.safety.recovery = None;
+                    let _ = std::fs::remove_file(&path);
+                    self.info(format!("discarded the autosave {}", path.display()));
+                }
+                None => {}
+            }
+        }
+        if self.safety.close_prompt {
+            let name = self.doc.as_ref().map_or(String::new(), |d| d.title());
+            let mut answer = None;
+            egui::Modal::new(egui::Id::unique("close prompt")).show(ctx, |ui| {
+                ui.set_max_width(480.0);
+                ui.heading("Save changes before closing?");
+                ui.add_space(6.0);
+                ui.label(format!("{name} has unsaved changes."));
+                ui.add_space(8.0);
+                ui.horizontal(|ui| {
+                    if ui.button("Save").clicked() {
+                        answer = Some(0);
+                    }
+                    if ui.button("Don't save").clicked() {
+                        answer = Some(1);
+                    }
+                    if ui.button("Cancel").clicked() || ui.input(|i| i.key_pressed(egui::Key::Escape)) {
+                        answer = Some(2);
+                    }
+                });
+            });
+            match answer {
+                Some(0) => {
+                    self.safety.close_prompt = false;
+                    self.safety.close_after_save = true;
+                    self.send(Command::Save);
+                }
+                Some(1) => {
+                    self.safety.close_prompt = false;
+                    if let Some(doc) = &self.doc {
+                        self.safety.clear(doc, self.options.recovery_dir.as_deref());
+                    }
+                    self.safety.allow_close = true;
+                    self.closing = true;
+                }
+                Some(_) => {
+                    self.safety.close_prompt = false;
+                    self.safety.close_after_save = false;
+                }
+                None => {}
+            }
+        }
     }
 
     fn dialogs(&mut self, ctx: &egui::Context) {
@@ -1307,6 +1441,15 @@ impl eframe::App for EditorApp {
         self.dropped_files(&ctx);
         self.shortcuts(&ctx);
         self.apply_commands(&ctx);
+        self.autosave(false);
+        // Closing with unsaved changes asks first.
+        if ctx.input(|i| i.viewport().close_requested())
+            && !self.safety.allow_close
+            && self.doc.as_ref().is_some_and(|d| d.dirty)
+        {
+            ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
+            self.safety.close_prompt = true;
+        }
 
         // Advance playback.
         if let Some(doc) = &self.doc {
@@ -1382,6 +1525,10 @@ impl eframe::App for EditorApp {
             }
         });
         self.dialogs(&ctx);
+        self.safety_dialogs(&ctx);
+        if std::mem::take(&mut self.closing) {
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        }
 
         // Keep animating while playing or loading.
         if (self.playback.playing && self.doc.is_some())

@@ -56,8 +56,6 @@ pub struct Document {
     pub revision: u64,
     /// Undo/redo of every edit, as project snapshots.
     pub history: History<Project>,
-    /// The revision last written to the autosave file.
-    pub autosaved_revision: u64,
 }
 
 impl Document {

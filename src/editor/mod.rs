@@ -8,6 +8,7 @@
 mod app;
 pub mod crowd;
 mod document;
+mod safety;
 mod segment;
 mod settings;
 #[cfg(test)]
@@ -60,6 +61,7 @@ pub fn run(path: PathBuf) -> anyhow::Result<()> {
     let app_options = AppOptions {
         settings_path: settings::default_path(),
         sync_loading: false,
+        recovery_dir: settings::default_path().and_then(|p| p.parent().map(|d| d.join("recovery"))),
     };
     eframe::run_native(
         "Polypostor Studio",

@@ -21,6 +21,7 @@ fn harness(open: Option<PathBuf>) -> Harness<'static, EditorApp> {
                 AppOptions {
                     settings_path: None,
                     sync_loading: true,
+                    recovery_dir: None,
                 },
                 open,
             )
@@ -202,4 +203,180 @@ fn crowd_preview_opens_a_baked_folder_and_draws_the_chosen_representation() {
     assert_eq!(stats.per_level[Level::Np3d as usize], stats.visible);
     assert!(stats.draw_calls >= 1);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A copy of the default project in a fresh folder (absolute character path).
+fn temp_project(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("polypostor-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let character = repo().join(polypostor::default_character::DEFAULT_CHARACTER_PATH);
+    let project = polypostor::project::Project::new_for_character(tag, &character, &dir);
+    project.save(&dir.join("project.json")).unwrap();
+    dir
+}
+
+/// Paint a stroke over the left arm with the Torso part in the Segment tab: the arm's
+/// triangles under the brush (and their mirrors) become Torso, as one undo step; Ctrl+Z puts
+/// every label back, Ctrl+Shift+Z paints it again.
+#[test]
+fn a_paint_stroke_is_one_undo_step() {
+    use polypostor::edit::paint;
+    let mut h = harness(Some(repo().join("projects/default")));
+    h.run_steps(3);
+    h.get_by_label("Segment").click();
+    h.state_mut().send(Command::SetPlaying(false));
+    h.state_mut().send(Command::Seek(0.0));
+    h.run_steps(3);
+    assert_eq!(h.state().tab, super::app::SideTab::Segment);
+    let (target, before) = {
+        let app = h.state();
+        let doc = app.doc.as_ref().unwrap();
+        let rect = app.viewport_rect;
+        let seg = &doc.segmentation;
+        let arm = seg.parts.iter().position(|p| p.name == "Left Arm").unwrap() as u16;
+        let pose = polypostor::animation::Pose::sample_index(&doc.character, app.playback.clip, 0.0);
+        let (pos, _) = polypostor::animation::skin_vertices(&doc.character, &pose);
+        let m = app.camera.camera().clip_from_world(rect.width() / rect.height());
+        // An arm triangle the cursor would hit first from where it projects.
+        let target = (0..seg.labels.len())
+            .filter(|&t| seg.labels[t] == arm)
+            .find_map(|t| {
+                let tri = &doc.character.indices[3 * t..3 * t + 3];
+                let c = (pos[tri[0] as usize] + pos[tri[1] as usize] + pos[tri[2] as usize]) / 3.0;
+                let clip = m * c.extend(1.0);
+                let ndc = glam::Vec2::new(clip.x / clip.w, clip.y / clip.w);
+                let ray = paint::ray_through(m, ndc);
+                let (hit, _) = paint::pick(&pos, &doc.character.indices, &ray)?;
+                (seg.labels[hit] == arm).then(|| {
+                    egui::pos2(
+                        rect.left() + (ndc.x + 1.0) * 0.5 * rect.width(),
+                        rect.top() + (1.0 - ndc.y) * 0.5 * rect.height(),
+                    )
+                })
+            })
+            .expect("a visible arm triangle");
+        (target, seg.clone())
+    };
+    assert_eq!(h.state().segment.active, 0, "Torso is the active part");
+    h.hover_at(target);
+    h.run_steps(1);
+    h.drag_at(target);
+    h.run_steps(1);
+    h.hover_at(target + egui::vec2(0.0, 4.0));
+    h.run_steps(1);
+    h.drop_at(target + egui::vec2(0.0, 4.0));
+    h.run_steps(2);
+    let painted = {
+        let doc = h.state().doc.as_ref().unwrap();
+        let changed: Vec<usize> = (0..before.labels.len())
+            .filter(|&t| doc.segmentation.labels[t] != before.labels[t])
+            .collect();
+        assert!(!changed.is_empty(), "the stroke painted nothing");
+        assert!(changed.iter().all(|&t| doc.segmentation.labels[t] == 0));
+        let right = before.parts.iter().position(|p| p.name == "Right Arm").unwrap() as u16;
+        assert!(
+            changed.iter().any(|&t| before.labels[t] == right),
+            "the X-mirror painted the other arm too"
+        );
+        assert_eq!(doc.history.undo_len(), 1, "one stroke, one undo step");
+        assert!(doc.dirty);
+        assert!(
+            doc.project.segmentation.is_some(),
+            "the project holds the painted segmentation"
+        );
+        doc.segmentation.clone()
+    };
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(2);
+    assert_eq!(
+        h.state().doc.as_ref().unwrap().segmentation,
+        before,
+        "undo restores every label"
+    );
+    h.key_press_modifiers(egui::Modifiers::COMMAND | egui::Modifiers::SHIFT, egui::Key::Z);
+    h.run_steps(2);
+    assert_eq!(
+        h.state().doc.as_ref().unwrap().segmentation,
+        painted,
+        "redo paints it again"
+    );
+}
+
+/// Crash recovery: an edit autosaved, the editor dropped without saving (as if killed), the
+/// project reopened: the project file is untouched, the editor offers the autosave, Recover
+/// brings the edit back, and saving writes it and removes the autosave.
+#[test]
+fn an_autosave_is_recovered_after_a_crash() {
+    let dir = temp_project("recovery");
+    let file = dir.join("project.json");
+    let original = std::fs::read_to_string(&file).unwrap();
+    {
+        let mut h = harness(Some(dir.clone()));
+        h.run_steps(3);
+        h.get_by_label("Segment").click();
+        h.run_steps(2);
+        h.get_by_label("➕ Add part").click();
+        h.run_steps(2);
+        let app = h.state_mut();
+        assert_eq!(app.doc.as_ref().unwrap().segmentation.parts.len(), 6);
+        assert!(app.autosave_now(), "the edit is autosaved");
+        assert!(!app.autosave_now(), "nothing new to autosave");
+        // Dropped here without saving: the crash.
+    }
+    assert_eq!(
+        std::fs::read_to_string(&file).unwrap(),
+        original,
+        "the project file is untouched"
+    );
+    let autosave = polypostor::project::autosave_file(&file);
+    assert!(autosave.exists());
+
+    let mut h = harness(Some(dir.clone()));
+    h.run_steps(3);
+    assert!(h.state().safety.recovery.is_some(), "the autosave is offered");
+    assert_eq!(h.state().doc.as_ref().unwrap().segmentation.parts.len(), 5);
+    h.get_by_label("Recover").click();
+    h.run_steps(2);
+    {
+        let doc = h.state().doc.as_ref().unwrap();
+        assert_eq!(doc.segmentation.parts.len(), 6, "the added part is back");
+        assert!(doc.dirty);
+    }
+    h.state_mut().send(Command::Save);
+    h.run_steps(2);
+    assert!(!autosave.exists(), "saving removes the autosave");
+    let (saved, _) = polypostor::project::Project::load(&dir).unwrap();
+    assert_eq!(saved.segmentation.unwrap().parts.len(), 6);
+    // Reopening offers nothing.
+    let mut again = harness(Some(dir.clone()));
+    again.run_steps(3);
+    assert!(again.state().safety.recovery.is_none());
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// Closing with unsaved changes asks first; Cancel keeps the editor open.
+#[test]
+fn closing_with_unsaved_changes_asks_first() {
+    let dir = temp_project("close");
+    let mut h = harness(Some(dir.clone()));
+    h.run_steps(3);
+    h.get_by_label("Segment").click();
+    h.run_steps(2);
+    h.get_by_label("➕ Add part").click();
+    h.run_steps(2);
+    h.input_mut()
+        .viewports
+        .entry(egui::ViewportId::ROOT)
+        .or_default()
+        .events
+        .push(egui::ViewportEvent::Close);
+    h.run_steps(2);
+    assert!(h.state().safety.close_prompt, "the close prompt shows");
+    h.get_by_label("Save changes before closing?");
+    h.get_by_label("Cancel").click();
+    h.run_steps(2);
+    assert!(!h.state().safety.close_prompt);
+    assert!(h.state().doc.as_ref().unwrap().dirty, "nothing was saved or discarded");
+    let _ = std::fs::remove_dir_all(dir);
 }
