@@ -1227,7 +1227,13 @@ impl EditorApp {
             }
         }
         if self.safety.close_prompt {
-            let name = self.doc.as_ref().map_or(String::new(), |d| d.title());
+            let name = self.doc.as_ref().map_or(String::new(), |d| {
+                if d.project.name.is_empty() {
+                    "This project".to_owned()
+                } else {
+                    format!("Project “{}”", d.project.name)
+                }
+            });
             let mut answer = None;
             egui::Modal::new(egui::Id::unique("close prompt")).show(ctx, |ui| {
                 ui.set_max_width(480.0);
