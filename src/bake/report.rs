@@ -1,11 +1,11 @@
 //! The bake report (`report.json`) and debug images.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::pipeline::Bake;
 use crate::pack::PackStats;
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct PartReport {
     pub name: String,
     /// PSNR of the part against its own render, per frame (dB).
@@ -17,7 +17,7 @@ pub struct PartReport {
     pub problem: Option<String>,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ViewReport {
     pub index: usize,
     pub direction: [f32; 3],
@@ -30,14 +30,14 @@ pub struct ViewReport {
     pub parts: Vec<PartReport>,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct WorstView {
     pub view: usize,
     pub mean_psnr: f64,
     pub direction: [f32; 3],
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Settings {
     pub views: usize,
     pub resolution: u32,
@@ -54,7 +54,7 @@ pub struct Settings {
     pub final_vertices: usize,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Report {
     pub character: String,
     pub adapter: String,
@@ -77,6 +77,13 @@ pub struct Report {
     /// The views with the lowest mean PSNR, worst first (where the artist should look).
     pub worst_views: Vec<WorstView>,
     pub views: Vec<ViewReport>,
+}
+
+/// Reads a bake's `report.json` (a file, or the pack folder holding one).
+pub fn read_report(path: &std::path::Path) -> Result<Report, String> {
+    let file = if path.is_dir() { path.join("report.json") } else { path.to_owned() };
+    let text = std::fs::read_to_string(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))?;
+    serde_json::from_str(&text).map_err(|e| format!("{} is not a bake report: {e}", file.display()))
 }
 
 fn mean(v: &[f64]) -> f64 {

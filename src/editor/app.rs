@@ -167,6 +167,7 @@ pub struct EditorApp {
     pub tab: SideTab,
     pub segment: super::segment::SegmentPanel,
     pub safety: super::safety::Safety,
+    pub views: super::views::ViewsPanel,
 }
 
 /// The side panel's tabs besides the crowd preview.
@@ -174,6 +175,7 @@ pub struct EditorApp {
 pub enum SideTab {
     Character,
     Segment,
+    Views,
 }
 
 impl EditorApp {
@@ -206,6 +208,7 @@ impl EditorApp {
             tab: SideTab::Character,
             segment: Default::default(),
             safety: Default::default(),
+            views: Default::default(),
         };
         match &app.adapter {
             Some(a) => app.info(format!("GPU adapter: {a}")),
@@ -318,6 +321,7 @@ impl EditorApp {
             Command::FrameCharacter => self.frame_character(),
             Command::BakeCrowd => self.bake_crowd(),
             Command::OpenCrowd(folder) => {
+                self.views.set_source(Some(&folder));
                 let character = self.doc.as_ref().map(|d| d.character_path.clone());
                 self.crowd.start_open(folder, character);
             }
@@ -347,10 +351,8 @@ impl EditorApp {
         }
         let c = doc.character.clone();
         let segmentation = doc.segmentation.clone();
-        let out = match &doc.project_file {
-            Some(f) => f.parent().map(Path::to_owned).unwrap_or_default().join("crowd.pack"),
-            None => std::env::temp_dir().join(format!("polypostor-crowd-{}.pack", std::process::id())),
-        };
+        let out = bake_dir(doc);
+        self.views.set_source(Some(&out));
         let clip = self
             .playback
             .clip
@@ -548,6 +550,7 @@ impl EditorApp {
         if let Some(w) = self.safety.check_on_open(&doc, self.options.recovery_dir.as_deref()) {
             self.warn(w);
         }
+        self.views.set_source(Some(&bake_dir(&doc)));
         self.doc = Some(doc);
         self.frame_character();
     }
@@ -1359,6 +1362,15 @@ impl EditorApp {
     }
 }
 
+/// Where the editor bakes a document: `crowd.pack` beside its project, or a temporary folder
+/// for a project never saved.
+fn bake_dir(doc: &Document) -> PathBuf {
+    match &doc.project_file {
+        Some(f) => f.parent().map(Path::to_owned).unwrap_or_default().join("crowd.pack"),
+        None => std::env::temp_dir().join(format!("polypostor-crowd-{}.pack", std::process::id())),
+    }
+}
+
 fn expand_home(text: &str) -> PathBuf {
     if let Some(rest) = text.strip_prefix("~/") {
         if let Some(home) = std::env::var_os("HOME") {
@@ -1507,6 +1519,14 @@ impl eframe::App for EditorApp {
                         self.tab = SideTab::Segment;
                         self.send(Command::ShowCrowd(false));
                     }
+                    if ui
+                        .selectable_label(!open && self.tab == SideTab::Views, "Views")
+                        .on_hover_text("The bake's viewpoints by fit error, and the error per frame")
+                        .clicked()
+                    {
+                        self.tab = SideTab::Views;
+                        self.send(Command::ShowCrowd(false));
+                    }
                     if ui.selectable_label(open, "Crowd preview").clicked() {
                         self.send(Command::ShowCrowd(true));
                     }
@@ -1518,6 +1538,8 @@ impl eframe::App for EditorApp {
                     } else if self.tab == SideTab::Segment && self.doc.is_some() {
                         let doc = self.doc.as_mut().unwrap();
                         self.segment.controls(ui, doc);
+                    } else if self.tab == SideTab::Views {
+                        self.views.controls(ui, &mut self.camera);
                     } else {
                         self.side_panel(ui);
                     }

@@ -10,6 +10,7 @@ pub mod crowd;
 mod document;
 mod safety;
 mod segment;
+mod views;
 mod settings;
 #[cfg(test)]
 mod tests;

@@ -1,0 +1,239 @@
+//! The Views tab: the bake's viewpoints on the hemisphere, coloured by how well the
+//! Polypostor fits there, the worst first in a list beside it; picking one turns the viewport
+//! camera to look from it. Below, the chosen view's error per frame for the whole character
+//! and for every part (egui_plot).
+
+use std::path::{Path, PathBuf};
+use std::time::SystemTime;
+
+use polypostor::bake::report::{Report, read_report};
+
+use super::viewport::OrbitCamera;
+
+#[derive(Default)]
+pub struct ViewsPanel {
+    /// The report shown, from which file, and that file's time (reloaded when it changes).
+    pub report: Option<(PathBuf, SystemTime, Report)>,
+    pub selected: Option<usize>,
+    pub error: Option<String>,
+    /// Where the report is looked for (the project's bake folder).
+    pub source: Option<PathBuf>,
+}
+
+/// Yaw and pitch of an orbit camera looking from `dir` (from the character towards the
+/// camera) at the character.
+pub fn yaw_pitch(dir: [f32; 3]) -> (f32, f32) {
+    let d = glam::Vec3::from(dir).normalize_or(glam::Vec3::Z);
+    (d.x.atan2(d.z), d.y.clamp(-1.0, 1.0).asin())
+}
+
+/// Red (worst) through yellow to green (best) for `t` in 0..1.
+fn heat(t: f32) -> egui::Color32 {
+    let t = t.clamp(0.0, 1.0);
+    let (r, g) = if t < 0.5 { (1.0, 2.0 * t) } else { (2.0 - 2.0 * t, 1.0) };
+    egui::Color32::from_rgb((r * 230.0) as u8, (g * 200.0) as u8, 60)
+}
+
+impl ViewsPanel {
+    /// Loads (or reloads, when the file changed) the report of the bake at `source`.
+    pub fn refresh(&mut self) {
+        let Some(dir) = &self.source else { return };
+        let file = dir.join("report.json");
+        let Ok(modified) = std::fs::metadata(&file).and_then(|m| m.modified()) else {
+            self.report = None;
+            self.error = Some(format!("no bake report yet at {} (bake with Ctrl+B)", file.display()));
+            return;
+        };
+        if self.report.as_ref().is_some_and(|(f, t, _)| *f == file && *t == modified) {
+            return;
+        }
+        match read_report(&file) {
+            Ok(r) => {
+                self.selected = self.selected.filter(|&s| s < r.views.len());
+                self.report = Some((file, modified, r));
+                self.error = None;
+            }
+            Err(e) => {
+                self.report = None;
+                self.error = Some(e);
+            }
+        }
+    }
+
+    /// Points the panel at a bake folder.
+    pub fn set_source(&mut self, dir: Option<&Path>) {
+        if self.source.as_deref() != dir {
+            self.source = dir.map(Path::to_owned);
+            self.report = None;
+            self.selected = None;
+        }
+    }
+
+    /// Selects a view and turns the camera to look from it.
+    pub fn select(&mut self, view: usize, camera: &mut OrbitCamera) {
+        let Some((_, _, r)) = &self.report else { return };
+        let Some(v) = r.views.get(view) else { return };
+        self.selected = Some(view);
+        let (yaw, pitch) = yaw_pitch(v.direction);
+        camera.yaw_rad = yaw;
+        camera.pitch_rad = pitch.clamp(-1.55, 1.55);
+    }
+
+    pub fn controls(&mut self, ui: &mut egui::Ui, camera: &mut OrbitCamera) {
+        self.refresh();
+        ui.heading("Viewpoints");
+        if let Some(dir) = &self.source {
+            ui.label(egui::RichText::new(dir.display().to_string()).small().weak());
+        }
+        if let Some(e) = &self.error {
+            ui.label(egui::RichText::new(e).color(ui.visuals().warn_fg_color));
+        }
+        let Some((_, _, report)) = &self.report else { return };
+        let (lo, hi) = report
+            .views
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v.mean_psnr), b.max(v.mean_psnr)));
+        let span = (hi - lo).max(1e-6);
+        ui.label(format!(
+            "{} views · mean {:.2} dB · worst {:.2} dB · key frame {}",
+            report.views.len(),
+            report.mean_psnr,
+            report.worst_psnr,
+            report.key_frame
+        ));
+
+        // The hemisphere seen from above: the centre is straight up, the rim the horizon,
+        // the character's front (+Z) at the bottom.
+        let size = ui.available_width().min(260.0);
+        let (rect, response) = ui.allocate_exact_size(egui::vec2(size, size), egui::Sense::click());
+        let painter = ui.painter_at(rect);
+        let centre = rect.center();
+        let radius = size * 0.5 - 8.0;
+        painter.circle_filled(centre, radius, egui::Color32::from_gray(28));
+        for k in 1..=3 {
+            painter.circle_stroke(
+                centre,
+                radius * k as f32 / 3.0,
+                egui::Stroke::new(1.0, egui::Color32::from_gray(55)),
+            );
+        }
+        painter.text(
+            centre + egui::vec2(0.0, radius + 1.0),
+            egui::Align2::CENTER_BOTTOM,
+            "front",
+            egui::FontId::proportional(10.0),
+            egui::Color32::from_gray(140),
+        );
+        let place = |d: [f32; 3]| {
+            // Azimuthal equidistant: distance from the centre grows with the angle from up.
+            let v = glam::Vec3::from(d).normalize_or(glam::Vec3::Y);
+            let from_up = v.y.clamp(-1.0, 1.0).acos() / std::f32::consts::FRAC_PI_2;
+            let h = glam::Vec2::new(v.x, v.z).normalize_or_zero();
+            centre + egui::vec2(h.x, h.y) * from_up.min(1.05) * radius
+        };
+        let mut hovered = None;
+        let pointer = response.hover_pos();
+        for (i, v) in report.views.iter().enumerate() {
+            let p = place(v.direction);
+            let t = ((v.mean_psnr - lo) / span) as f32;
+            let r = if self.selected == Some(i) { 6.0 } else { 4.0 };
+            painter.circle_filled(p, r, heat(t));
+            if self.selected == Some(i) {
+                painter.circle_stroke(p, r + 2.0, egui::Stroke::new(2.0, egui::Color32::WHITE));
+            }
+            if pointer.is_some_and(|q| q.distance(p) < 7.0) {
+                hovered = Some(i);
+            }
+        }
+        let mut pick = None;
+        if let Some(i) = hovered {
+            let v = &report.views[i];
+            response.clone().on_hover_text(format!("view {i}: {:.2} dB", v.mean_psnr));
+            if response.clicked() {
+                pick = Some(i);
+            }
+        }
+        // Worst first.
+        ui.label(egui::RichText::new("Worst views first").strong());
+        let mut order: Vec<usize> = (0..report.views.len()).collect();
+        order.sort_by(|&a, &b| report.views[a].mean_psnr.total_cmp(&report.views[b].mean_psnr));
+        egui::ScrollArea::vertical()
+            .id_salt("views list")
+            .max_height(160.0)
+            .show(ui, |ui| {
+                for &i in &order {
+                    let v = &report.views[i];
+                    let t = ((v.mean_psnr - lo) / span) as f32;
+                    ui.horizontal(|ui| {
+                        let (dot, _) = ui.allocate_exact_size(egui::vec2(10.0, 10.0), egui::Sense::hover());
+                        ui.painter().circle_filled(dot.center(), 4.0, heat(t));
+                        let text = format!("view {i:>3}   {:.2} dB", v.mean_psnr);
+                        if ui.selectable_label(self.selected == Some(i), text).clicked() {
+                            pick = Some(i);
+                        }
+                    });
+                }
+            });
+        if let Some(i) = pick {
+            self.select(i, camera);
+        }
+        self.error_plot(ui);
+    }
+
+    /// PSNR per frame of the chosen view: the character (fitted and still key-frame polygons)
+    /// and every part.
+    fn error_plot(&self, ui: &mut egui::Ui) {
+        let (Some((_, _, report)), Some(sel)) = (&self.report, self.selected) else {
+            ui.label(egui::RichText::new("Pick a view to see its error per frame.").weak());
+            return;
+        };
+        let v = &report.views[sel];
+        ui.separator();
+        ui.label(egui::RichText::new(format!("View {sel}: PSNR per frame (dB)")).strong());
+        use egui_plot::{Legend, Line, Plot, PlotPoints};
+        let series = |values: &[f64]| -> PlotPoints<'static> {
+            values
+                .iter()
+                .enumerate()
+                .filter(|(_, y)| y.is_finite())
+                .map(|(f, &y)| [f as f64, y])
+                .collect()
+        };
+        Plot::new(("view error", sel))
+            .height(180.0)
+            .legend(Legend::default())
+            .x_axis_label("frame")
+            .allow_scroll(false)
+            .show(ui, |plot| {
+                plot.line(
+                    Line::new("character", series(&v.psnr))
+                        .width(2.5)
+                        .color(egui::Color32::WHITE),
+                );
+                plot.line(
+                    Line::new("still key frame", series(&v.psnr_static))
+                        .style(egui_plot::LineStyle::dashed_dense())
+                        .color(egui::Color32::GRAY),
+                );
+                for p in &v.parts {
+                    plot.line(Line::new(p.name.clone(), series(&p.psnr)));
+                }
+            });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::yaw_pitch;
+
+    #[test]
+    fn yaw_pitch_give_back_the_direction() {
+        for d in [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.3, 0.8, -0.5], [-0.6, 0.1, -0.7]] {
+            let (yaw, pitch) = yaw_pitch(d);
+            let cam = polypostor::gpu::Camera::orbit(glam::Vec3::ZERO, yaw, pitch, 1.0, 0.7);
+            let got = cam.eye.normalize();
+            let want = glam::Vec3::from(d).normalize();
+            assert!(got.distance(want) < 1e-5, "{d:?}: {got:?}");
+        }
+    }
+}
