@@ -81,7 +81,11 @@ pub struct Report {
 
 /// Reads a bake's `report.json` (a file, or the pack folder holding one).
 pub fn read_report(path: &std::path::Path) -> Result<Report, String> {
-    let file = if path.is_dir() { path.join("report.json") } else { path.to_owned() };
+    let file = if path.is_dir() {
+        path.join("report.json")
+    } else {
+        path.to_owned()
+    };
     let text = std::fs::read_to_string(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))?;
     serde_json::from_str(&text).map_err(|e| format!("{} is not a bake report: {e}", file.display()))
 }

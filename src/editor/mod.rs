@@ -10,11 +10,11 @@ pub mod crowd;
 mod document;
 mod safety;
 mod segment;
-mod views;
 mod settings;
 #[cfg(test)]
 mod tests;
 pub mod viewport;
+mod views;
 
 use std::path::PathBuf;
 

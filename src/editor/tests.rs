@@ -380,3 +380,62 @@ fn closing_with_unsaved_changes_asks_first() {
     assert!(h.state().doc.as_ref().unwrap().dirty, "nothing was saved or discarded");
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// The Views tab on a real (small) bake: every view is listed worst first, the dots and the
+/// list agree with the report, and picking the worst view turns the camera to look from it.
+#[test]
+fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
+    let dir = std::env::temp_dir().join(format!("polypostor-editor-views-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = dir.join("walk.pack");
+    let c = polypostor::default_character::generate();
+    let seg = polypostor::bake::segment::auto_segment(&c);
+    let ctx = polypostor::gpu::GpuContext::new(&polypostor::gpu::AdapterPreference::SoftwareFirst).unwrap();
+    let options = polypostor::bake::pipeline::BakeOptions {
+        views: 5,
+        resolution: 48,
+        fps: 5.0,
+        ..Default::default()
+    };
+    let character_path = repo().join(polypostor::default_character::DEFAULT_CHARACTER_PATH);
+    let job = polypostor::reps::bake::FolderBake {
+        character: &c,
+        character_path: &character_path,
+        clip_name: Some("Walk"),
+        segmentation: &seg,
+        caps: &Default::default(),
+        options: &options,
+        set: polypostor::reps::RepSet::parse("polypostor").unwrap(),
+        out: &out,
+    };
+    polypostor::reps::bake::bake_folder(&ctx, &job, &|_| {}, &Default::default(), &|_, _| Ok(())).unwrap();
+    let report = polypostor::bake::report::read_report(&out).unwrap();
+    assert_eq!(report.views.len(), 5);
+
+    let mut h = harness(Some(repo().join("projects/default")));
+    h.run_steps(3);
+    h.state_mut().send(Command::OpenCrowd(out.clone()));
+    h.run_steps(1);
+    h.state_mut().send(Command::ShowCrowd(false));
+    h.run_steps(1);
+    h.get_by_label("Views").click();
+    h.run_steps(2);
+    assert!(h.state().views.report.is_some(), "{:?}", h.state().views.error);
+    let worst = (0..report.views.len())
+        .min_by(|&a, &b| report.views[a].mean_psnr.total_cmp(&report.views[b].mean_psnr))
+        .unwrap();
+    let label = format!("view {worst:>3}   {:.2} dB", report.views[worst].mean_psnr);
+    h.get_by_label(&label).click();
+    h.run_steps(2);
+    let app = h.state();
+    assert_eq!(app.views.selected, Some(worst));
+    let eye = (app.camera.camera().eye - app.camera.target).normalize();
+    let want = glam::Vec3::from(report.views[worst].direction).normalize();
+    assert!(
+        eye.distance(want) < 1e-3,
+        "the camera looks from {eye:?}, the view from {want:?}"
+    );
+    // The per-frame plot of that view is shown.
+    h.get_by_label(&format!("View {worst}: PSNR per frame (dB)"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -44,7 +44,11 @@ impl ViewsPanel {
             self.error = Some(format!("no bake report yet at {} (bake with Ctrl+B)", file.display()));
             return;
         };
-        if self.report.as_ref().is_some_and(|(f, t, _)| *f == file && *t == modified) {
+        if self
+            .report
+            .as_ref()
+            .is_some_and(|(f, t, _)| *f == file && *t == modified)
+        {
             return;
         }
         match read_report(&file) {
@@ -89,10 +93,9 @@ impl ViewsPanel {
             ui.label(egui::RichText::new(e).color(ui.visuals().warn_fg_color));
         }
         let Some((_, _, report)) = &self.report else { return };
-        let (lo, hi) = report
-            .views
-            .iter()
-            .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v.mean_psnr), b.max(v.mean_psnr)));
+        let (lo, hi) = report.views.iter().fold((f64::MAX, f64::MIN), |(a, b), v| {
+            (a.min(v.mean_psnr), b.max(v.mean_psnr))
+        });
         let span = (hi - lo).max(1e-6);
         ui.label(format!(
             "{} views · mean {:.2} dB · worst {:.2} dB · key frame {}",
@@ -148,7 +151,9 @@ impl ViewsPanel {
         let mut pick = None;
         if let Some(i) = hovered {
             let v = &report.views[i];
-            response.clone().on_hover_text(format!("view {i}: {:.2} dB", v.mean_psnr));
+            response
+                .clone()
+                .on_hover_text(format!("view {i}: {:.2} dB", v.mean_psnr));
             if response.clicked() {
                 pick = Some(i);
             }
