@@ -419,6 +419,7 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         None => polypostor::bake::segment::auto_segment(&c),
     };
     let caps = project.as_ref().map(|p| p.caps.clone()).unwrap_or_default();
+    let overrides = project.as_ref().map(|p| p.overrides.clone()).unwrap_or_default();
     let key_frame = match a.key_frame.as_str() {
         "auto" => KeyFrame::Auto,
         k => KeyFrame::Frame(
@@ -450,6 +451,7 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
             },
             ..Default::default()
         },
+        overrides,
         keep_frame_images: a.debug_images,
         ..Default::default()
     };

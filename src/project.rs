@@ -109,6 +109,9 @@ pub struct Project {
     /// Cap colours chosen by the artist.
     #[serde(default)]
     pub caps: crate::bake::caps::CapOverrides,
+    /// Per-view corrections of the bake (key frame, drawing order, pinned correspondences).
+    #[serde(default, skip_serializing_if = "crate::bake::overrides::BakeOverrides::is_empty")]
+    pub overrides: crate::bake::overrides::BakeOverrides,
 }
 
 impl Project {
@@ -124,6 +127,7 @@ impl Project {
             view: ViewState::default(),
             segmentation: None,
             caps: Default::default(),
+            overrides: Default::default(),
         }
     }
 

@@ -102,3 +102,89 @@ fn small_bake_of_the_default_character() {
     );
     assert!(mean > 12.0, "mean PSNR {mean}");
 }
+
+/// The artist's corrections reach the bake: a view's own key frame, drawing order and a
+/// pinned correspondence are used there and nowhere else; corrections made for another
+/// number of views are ignored.
+#[test]
+fn overrides_change_only_their_view() {
+    use polypostor::bake::overrides::{BakeOverrides, OverrideBasis, Pin};
+    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let c = polypostor::default_character::generate();
+    let seg = auto_segment(&c);
+    let base = BakeOptions {
+        views: 3,
+        resolution: 64,
+        fps: 5.0,
+        key_frame: KeyFrame::Frame(0),
+        ..Default::default()
+    };
+    let run = |options: &BakeOptions| {
+        bake(
+            &ctx,
+            &c,
+            &seg,
+            &CapOverrides::default(),
+            options,
+            &|_| {},
+            &AtomicBool::new(false),
+        )
+        .unwrap()
+    };
+    let plain = run(&base);
+    let frames = plain.frame_times.len();
+    let basis = OverrideBasis {
+        views: 3,
+        full_sphere: false,
+        frames,
+    };
+    // Pin part 0's first key vertex at the last frame onto a target vertex it does not map
+    // to without the pin.
+    let fit = plain.views[1].parts[0].fit.as_ref().unwrap();
+    let f = frames - 1;
+    let m = fit.targets[f].len();
+    let free = fit.mappings[f][0];
+    let pinned = (free + m / 2) % m;
+    let mut overrides = BakeOverrides::default();
+    let reversed: Vec<usize> = plain.views[1].order.iter().rev().copied().collect();
+    {
+        let v = overrides.view_mut(basis, 1);
+        v.key_frame = Some(2);
+        v.order = Some(reversed.clone());
+        v.pins.insert(
+            0,
+            vec![Pin {
+                frame: f,
+                source: 0,
+                target: pinned,
+            }],
+        );
+    }
+    let corrected = run(&BakeOptions {
+        overrides: overrides.clone(),
+        ..base.clone()
+    });
+    let view = &corrected.views[1];
+    assert_eq!(view.key_frame, 2);
+    assert_eq!(view.order, reversed);
+    let fit = view.parts[0].fit.as_ref().unwrap();
+    assert_eq!(fit.key_frame, 2);
+    // The pin holds (pins refer to the key polygon of the view's key frame).
+    assert_eq!(fit.mappings[f][0], pinned);
+    for v in [0, 2] {
+        assert_eq!(corrected.views[v].key_frame, 0);
+        assert_eq!(corrected.views[v].order, plain.views[v].order);
+        assert_eq!(
+            corrected.views[v].parts[0].fit.as_ref().unwrap().mappings,
+            plain.views[v].parts[0].fit.as_ref().unwrap().mappings
+        );
+    }
+    // Another basis: ignored.
+    let mut other = BakeOverrides::default();
+    other.view_mut(OverrideBasis { views: 24, ..basis }, 1).key_frame = Some(2);
+    let ignored = run(&BakeOptions {
+        overrides: other,
+        ..base
+    });
+    assert_eq!(ignored.views[1].key_frame, 0);
+}

@@ -13,11 +13,13 @@
 //! - [`caps`]: the loops each cut opens, closed by coloured caps; per-part meshes.
 //! - [`visibility`]: the drawing order of parts from the occlusion graph (exact minimum
 //!   feedback arc set).
+//! - [`overrides`]: the artist's per-view corrections (key frame, order, pins) every bake applies.
 
 pub mod caps;
 pub mod contour;
 pub mod fit;
 pub mod image_cost;
+pub mod overrides;
 pub mod part_fit;
 pub mod pipeline;
 pub mod raster;

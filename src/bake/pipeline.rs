@@ -11,6 +11,7 @@ use rayon::prelude::*;
 
 use super::caps::{CapOverrides, find_caps};
 use super::image_cost::PartTile;
+use super::overrides::{BakeOverrides, OverrideBasis, ViewOverride, valid_order};
 use super::part_fit::{PartFit, PartFitOptions, fit_part};
 use super::raster::{Canvas, psnr, tile_canvas};
 use super::renders::{frame_times, merge_parts, sample_frames, view_cameras};
@@ -46,6 +47,9 @@ pub struct BakeOptions {
     pub key_frame_probe_views: usize,
     /// Keep every frame's part images (for debug images; memory grows with views × frames).
     pub keep_frame_images: bool,
+    /// The artist's corrections (per-view key frame, order, pins), applied where their basis
+    /// matches this bake's views and frames.
+    pub overrides: BakeOverrides,
 }
 
 impl Default for BakeOptions {
@@ -60,6 +64,7 @@ impl Default for BakeOptions {
             fit: PartFitOptions::default(),
             key_frame_probe_views: 4,
             keep_frame_images: false,
+            overrides: BakeOverrides::default(),
         }
     }
 }
@@ -94,6 +99,8 @@ pub struct PartResult {
 pub struct ViewResult {
     pub direction: Vec3,
     pub camera: Camera,
+    /// This view's texture key frame (the bake's unless overridden).
+    pub key_frame: usize,
     pub parts: Vec<PartResult>,
     /// `hidden[a][b]`: pixels of part b hidden by part a, averaged over frames.
     pub hidden: Vec<Vec<f64>>,
@@ -128,13 +135,15 @@ pub struct Progress {
     pub total: usize,
 }
 
-struct ViewData {
-    tiles: Vec<Vec<PartTile>>,
-    hidden: Vec<Vec<f64>>,
-    depth_order_tiles: PartImages,
+/// One view's renders, ready to fit: every part's tile per frame, the occlusion weights and
+/// the images (with depth) they came from.
+pub struct ViewData {
+    pub tiles: Vec<Vec<PartTile>>,
+    pub hidden: Vec<Vec<f64>>,
+    pub depth_order_tiles: PartImages,
 }
 
-fn extract(images: PartImages) -> ViewData {
+pub fn extract(images: PartImages) -> ViewData {
     let (parts, frames, r) = (images.parts, images.frames, images.resolution);
     let tiles: Vec<Vec<PartTile>> = (0..parts)
         .map(|p| {
@@ -174,7 +183,7 @@ fn extract(images: PartImages) -> ViewData {
 }
 
 /// The ground truth of a frame: the parts composited by depth.
-fn ground_truth(images: &PartImages, frame: usize) -> Canvas {
+pub fn ground_truth(images: &PartImages, frame: usize) -> Canvas {
     let r = images.resolution;
     let mut c = Canvas::new(r);
     for y in 0..r {
@@ -218,58 +227,93 @@ pub fn render_polypostor(
     c
 }
 
-fn fit_view(
+/// Fits one part of a view (with its pins) and measures it against its own render per
+/// frame.
+pub fn fit_view_part(
+    data: &ViewData,
+    p: usize,
+    key: usize,
+    options: &PartFitOptions,
+    pins: &[Vec<(usize, usize)>],
+) -> PartResult {
+    let images = &data.depth_order_tiles;
+    let tiles = &data.tiles[p];
+    let frames = tiles.len();
+    let (fit, problem) = match fit_part(tiles, key, options, pins) {
+        Ok(f) => (Some(f), None),
+        Err(e) => (None, Some(e.to_string())),
+    };
+    let psnr_per_frame = (0..frames)
+        .map(|f| match &fit {
+            Some(fit) => {
+                let mut c = Canvas::new(tiles[f].size);
+                let pos = fit.positions(f);
+                let uv = fit.uvs();
+                for t in &fit.triangles {
+                    c.draw_textured(t.map(|i| pos[i]), t.map(|i| uv[i]), &tiles[key]);
+                }
+                psnr(c.rmse(&tile_canvas(&tiles[f])).0)
+            }
+            None => 0.0,
+        })
+        .collect();
+    PartResult {
+        fit,
+        problem,
+        psnr: psnr_per_frame,
+        key_color: images.tile(&images.color, p, key),
+        key_normal: images.tile(&images.normal, p, key),
+    }
+}
+
+/// The composite's PSNR per frame against the ground truth, with the polygons moving and
+/// left still at the key frame.
+pub fn composite_psnr(data: &ViewData, parts: &[PartResult], order: &[usize], key: usize) -> (Vec<f64>, Vec<f64>) {
+    let images = &data.depth_order_tiles;
+    let frames = data.tiles.first().map_or(0, |t| t.len());
+    let key_tiles: Vec<PartTile> = data.tiles.iter().map(|t| t[key].clone()).collect();
+    let still = render_polypostor(parts, &key_tiles, order, key, images.resolution);
+    (0..frames)
+        .map(|f| {
+            let gt = ground_truth(images, f);
+            let poly = render_polypostor(parts, &key_tiles, order, f, images.resolution);
+            (psnr(poly.rmse(&gt).0), psnr(still.rmse(&gt).0))
+        })
+        .unzip()
+}
+
+/// The drawing order of a view: the override when it is a valid permutation, else the
+/// minimum feedback arc set of the occlusion graph.
+pub fn view_order(hidden: &[Vec<f64>], ov: Option<&ViewOverride>) -> Vec<usize> {
+    match ov.and_then(|o| o.order.as_ref()) {
+        Some(order) if valid_order(order, hidden.len()) => order.clone(),
+        _ => draw_order(hidden).order,
+    }
+}
+
+/// Fits a whole view: every part (with the view's pins), the order, the composite error.
+pub fn fit_view(
     direction: Vec3,
     camera: Camera,
     data: ViewData,
     key: usize,
     options: &PartFitOptions,
     keep: bool,
+    ov: Option<&ViewOverride>,
 ) -> ViewResult {
     let parts_n = data.tiles.len();
     let frames = data.tiles.first().map_or(0, |t| t.len());
-    let images = &data.depth_order_tiles;
+    let key = ov.and_then(|o| o.key_frame).filter(|&k| k < frames).unwrap_or(key);
     let parts: Vec<PartResult> = (0..parts_n)
         .into_par_iter()
         .map(|p| {
-            let tiles = &data.tiles[p];
-            let (fit, problem) = match fit_part(tiles, key, options, &[]) {
-                Ok(f) => (Some(f), None),
-                Err(e) => (None, Some(e.to_string())),
-            };
-            let psnr_per_frame = (0..frames)
-                .map(|f| match &fit {
-                    Some(fit) => {
-                        let mut c = Canvas::new(tiles[f].size);
-                        let pos = fit.positions(f);
-                        let uv = fit.uvs();
-                        for t in &fit.triangles {
-                            c.draw_textured(t.map(|i| pos[i]), t.map(|i| uv[i]), &tiles[key]);
-                        }
-                        psnr(c.rmse(&tile_canvas(&tiles[f])).0)
-                    }
-                    None => 0.0,
-                })
-                .collect();
-            PartResult {
-                fit,
-                problem,
-                psnr: psnr_per_frame,
-                key_color: images.tile(&images.color, p, key),
-                key_normal: images.tile(&images.normal, p, key),
-            }
+            let pins = ov.map_or_else(Vec::new, |o| o.pins_per_frame(p, frames));
+            fit_view_part(&data, p, key, options, &pins)
         })
         .collect();
-    let order = draw_order(&data.hidden).order;
-    let key_tiles: Vec<PartTile> = data.tiles.iter().map(|t| t[key].clone()).collect();
-    let still = render_polypostor(&parts, &key_tiles, &order, key, images.resolution);
-    let (psnr_frames, psnr_static) = (0..frames)
-        .map(|f| {
-            let gt = ground_truth(images, f);
-            let poly = render_polypostor(&parts, &key_tiles, &order, f, images.resolution);
-            (psnr(poly.rmse(&gt).0), psnr(still.rmse(&gt).0))
-        })
-        .unzip();
+    let order = view_order(&data.hidden, ov);
+    let (psnr_frames, psnr_static) = composite_psnr(&data, &parts, &order, key);
+    let images = &data.depth_order_tiles;
     let frame_colors = if keep {
         (0..parts_n)
             .map(|p| (0..frames).map(|f| images.tile(&images.color, p, f)).collect())
@@ -280,12 +324,146 @@ fn fit_view(
     ViewResult {
         direction,
         camera,
+        key_frame: key,
         parts,
         hidden: data.hidden,
         order,
         psnr: psnr_frames,
         psnr_static,
         frame_colors,
+    }
+}
+
+/// Everything a bake sets up before fitting views: the capped, merged character uploaded
+/// with its frames, the view directions and cameras. Views can then be rendered one at a
+/// time (the editor re-fits single views with it).
+pub struct Prepared {
+    pub times: Vec<f32>,
+    pub directions: Vec<Vec3>,
+    pub cameras: Vec<Camera>,
+    pub basis: OverrideBasis,
+    renderer: CharacterRenderer,
+    batch: PartRenderer,
+}
+
+impl Prepared {
+    /// Caps, merges, samples the frames, places the views and uploads everything.
+    pub fn new(
+        ctx: &GpuContext,
+        character: &Character,
+        segmentation: &Segmentation,
+        cap_overrides: &CapOverrides,
+        options: &BakeOptions,
+    ) -> Result<Self, BakeError> {
+        if segmentation.labels.len() != character.triangle_count() {
+            return Err(BakeError::Segmentation {
+                got: segmentation.labels.len(),
+                want: character.triangle_count(),
+            });
+        }
+        let caps = find_caps(character, segmentation);
+        let (merged, ranges) = merge_parts(character, segmentation, &caps, cap_overrides);
+        let duration = options
+            .clip
+            .and_then(|i| character.clips.get(i))
+            .map_or(0.0, |c| c.duration_secs);
+        let times = frame_times(duration, options.fps);
+        let (poses, points) = sample_frames(&merged, options.clip, &times);
+        let dirs = directions(options.views.max(1), options.coverage);
+        let cameras = view_cameras(&points, &dirs);
+        let renderer = CharacterRenderer::new(&ctx.device);
+        let batch = PartRenderer::new(
+            &renderer,
+            &ctx.device,
+            &ctx.queue,
+            &merged,
+            ranges,
+            &poses,
+            options.resolution,
+        );
+        let basis = OverrideBasis {
+            views: dirs.len(),
+            full_sphere: options.coverage == Coverage::FullSphere,
+            frames: times.len(),
+        };
+        Ok(Self {
+            times,
+            directions: dirs,
+            cameras,
+            basis,
+            renderer,
+            batch,
+        })
+    }
+
+    /// Renders view `v`'s parts at every frame.
+    pub fn render(&self, ctx: &GpuContext, v: usize) -> Result<ViewData, BakeError> {
+        Ok(extract(self.render_images(ctx, v)?))
+    }
+
+    fn render_images(&self, ctx: &GpuContext, v: usize) -> Result<PartImages, BakeError> {
+        Ok(self
+            .batch
+            .render_view(&self.renderer, &ctx.device, &ctx.queue, &self.cameras[v])?)
+    }
+
+    /// The bake's key frame: the one asked for, or (auto) the candidate whose fits cost least
+    /// over a few probe views.
+    pub fn key_frame(
+        &self,
+        ctx: &GpuContext,
+        options: &BakeOptions,
+        progress: &(dyn Fn(Progress) + Sync),
+        cancel: &AtomicBool,
+    ) -> Result<usize, BakeError> {
+        let times = &self.times;
+        Ok(match options.key_frame {
+            KeyFrame::Frame(k) if k < times.len() => k,
+            KeyFrame::Frame(k) => return Err(BakeError::KeyFrame(k, times.len())),
+            KeyFrame::Auto if times.len() == 1 => 0,
+            KeyFrame::Auto => {
+                let n_dirs = self.directions.len();
+                let probes: Vec<usize> = (0..options.key_frame_probe_views.max(1))
+                    .map(|i| (i * n_dirs) / options.key_frame_probe_views.max(1))
+                    .collect();
+                // Candidate key frames: at most KEY_FRAME_CANDIDATES, evenly spread.
+                let step = times.len().div_ceil(KEY_FRAME_CANDIDATES).max(1);
+                let candidates: Vec<usize> = (0..times.len()).step_by(step).collect();
+                let mut totals = vec![0.0f64; candidates.len()];
+                for (n, &v) in probes.iter().enumerate() {
+                    if cancel.load(Ordering::Relaxed) {
+                        return Err(BakeError::Cancelled);
+                    }
+                    progress(Progress {
+                        stage: "key frame",
+                        done: n,
+                        total: probes.len(),
+                    });
+                    let data = self.render(ctx, v)?;
+                    // Ranking key frames needs no restarts (they polish the poorest frames of
+                    // whichever key): the plain fast mode, at two thirds of the time.
+                    let probe = PartFitOptions {
+                        restart_threshold: f64::INFINITY,
+                        ..options.fit
+                    };
+                    let per_key: Vec<f64> = candidates
+                        .par_iter()
+                        .map(|&k| {
+                            data.tiles
+                                .iter()
+                                .map(|tiles| fit_part(tiles, k, &probe, &[]).map_or(0.0, |f| f.total_cost()))
+                                .sum()
+                        })
+                        .collect();
+                    for (t, c) in totals.iter_mut().zip(per_key) {
+                        *t += c;
+                    }
+                }
+                (0..candidates.len())
+                    .min_by(|&a, &b| totals[a].total_cmp(&totals[b]))
+                    .map_or(0, |i| candidates[i])
+            }
+        })
     }
 }
 
@@ -299,91 +477,19 @@ pub fn bake(
     progress: &(dyn Fn(Progress) + Sync),
     cancel: &AtomicBool,
 ) -> Result<Bake, BakeError> {
-    if segmentation.labels.len() != character.triangle_count() {
-        return Err(BakeError::Segmentation {
-            got: segmentation.labels.len(),
-            want: character.triangle_count(),
-        });
-    }
     let mut stage_secs = BTreeMap::new();
     let t0 = Instant::now();
-    let caps = find_caps(character, segmentation);
-    let (merged, ranges) = merge_parts(character, segmentation, &caps, cap_overrides);
-    let duration = options
-        .clip
-        .and_then(|i| character.clips.get(i))
-        .map_or(0.0, |c| c.duration_secs);
-    let times = frame_times(duration, options.fps);
-    let (poses, points) = sample_frames(&merged, options.clip, &times);
-    let dirs = directions(options.views.max(1), options.coverage);
-    let cameras = view_cameras(&points, &dirs);
+    let prepared = Prepared::new(ctx, character, segmentation, cap_overrides, options)?;
     stage_secs.insert("prepare".into(), t0.elapsed().as_secs_f64());
-
-    let t1 = Instant::now();
-    let renderer = CharacterRenderer::new(&ctx.device);
-    let batch = PartRenderer::new(
-        &renderer,
-        &ctx.device,
-        &ctx.queue,
-        &merged,
-        ranges,
-        &poses,
-        options.resolution,
-    );
-    stage_secs.insert("upload".into(), t1.elapsed().as_secs_f64());
 
     // Key frame.
     let t2 = Instant::now();
-    let key = match options.key_frame {
-        KeyFrame::Frame(k) if k < times.len() => k,
-        KeyFrame::Frame(k) => return Err(BakeError::KeyFrame(k, times.len())),
-        KeyFrame::Auto if times.len() == 1 => 0,
-        KeyFrame::Auto => {
-            let probes: Vec<usize> = (0..options.key_frame_probe_views.max(1))
-                .map(|i| (i * dirs.len()) / options.key_frame_probe_views.max(1))
-                .collect();
-            // Candidate key frames: at most KEY_FRAME_CANDIDATES, evenly spread.
-            let step = times.len().div_ceil(KEY_FRAME_CANDIDATES).max(1);
-            let candidates: Vec<usize> = (0..times.len()).step_by(step).collect();
-            let mut totals = vec![0.0f64; candidates.len()];
-            for (n, &v) in probes.iter().enumerate() {
-                if cancel.load(Ordering::Relaxed) {
-                    return Err(BakeError::Cancelled);
-                }
-                progress(Progress {
-                    stage: "key frame",
-                    done: n,
-                    total: probes.len(),
-                });
-                let data = extract(batch.render_view(&renderer, &ctx.device, &ctx.queue, &cameras[v])?);
-                // Ranking key frames needs no restarts (they polish the poorest frames of
-                // whichever key): the plain fast mode, at two thirds of the time.
-                let probe = PartFitOptions {
-                    restart_threshold: f64::INFINITY,
-                    ..options.fit
-                };
-                let per_key: Vec<f64> = candidates
-                    .par_iter()
-                    .map(|&k| {
-                        data.tiles
-                            .iter()
-                            .map(|tiles| fit_part(tiles, k, &probe, &[]).map_or(0.0, |f| f.total_cost()))
-                            .sum()
-                    })
-                    .collect();
-                for (t, c) in totals.iter_mut().zip(per_key) {
-                    *t += c;
-                }
-            }
-            (0..candidates.len())
-                .min_by(|&a, &b| totals[a].total_cmp(&totals[b]))
-                .map_or(0, |i| candidates[i])
-        }
-    };
+    let key = prepared.key_frame(ctx, options, progress, cancel)?;
     stage_secs.insert("key_frame".into(), t2.elapsed().as_secs_f64());
 
     // Render views on this thread; fit them on the rayon pool, a few views in flight.
     let t3 = Instant::now();
+    let dirs = &prepared.directions;
     let (tx, rx) = std::sync::mpsc::channel::<(usize, ViewResult)>();
     let mut results: Vec<Option<ViewResult>> = vec![None; dirs.len()];
     let mut received = 0usize;
@@ -398,7 +504,7 @@ pub fn bake(
             total: dirs.len(),
         });
     };
-    for (v, cam) in cameras.iter().enumerate() {
+    for (v, cam) in prepared.cameras.iter().enumerate() {
         if cancel.load(Ordering::Relaxed) {
             return Err(BakeError::Cancelled);
         }
@@ -409,12 +515,13 @@ pub fn bake(
             }
         }
         let tr = Instant::now();
-        let images = batch.render_view(&renderer, &ctx.device, &ctx.queue, cam)?;
+        let images = prepared.render_images(ctx, v)?;
         render_secs += tr.elapsed().as_secs_f64();
         let tx = tx.clone();
         let (dir, cam, fit_options, keep) = (dirs[v], *cam, options.fit, options.keep_frame_images);
+        let ov = options.overrides.view(prepared.basis, v).cloned();
         rayon::spawn(move || {
-            let r = fit_view(dir, cam, extract(images), key, &fit_options, keep);
+            let r = fit_view(dir, cam, extract(images), key, &fit_options, keep, ov.as_ref());
             let _ = tx.send((v, r));
         });
     }
@@ -433,7 +540,7 @@ pub fn bake(
     let views: Vec<ViewResult> = results.into_iter().map(|r| r.expect("every view fitted")).collect();
     Ok(Bake {
         options: options.clone(),
-        frame_times: times,
+        frame_times: prepared.times,
         key_frame: key,
         segmentation: segmentation.clone(),
         views,

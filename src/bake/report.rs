@@ -28,6 +28,13 @@ pub struct ViewReport {
     pub mean_psnr: f64,
     pub order: Vec<usize>,
     pub parts: Vec<PartReport>,
+    /// This view's texture key frame.
+    #[serde(default)]
+    pub key_frame: usize,
+    /// `hidden[a][b]`: pixels of part b hidden by part a, averaged over frames (the
+    /// occlusion graph the order comes from).
+    #[serde(default)]
+    pub hidden: Vec<Vec<f64>>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -114,6 +121,8 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
             psnr_static: v.psnr_static.clone(),
             mean_psnr: mean(&v.psnr),
             order: v.order.clone(),
+            key_frame: v.key_frame,
+            hidden: v.hidden.clone(),
             parts: v
                 .parts
                 .iter()

@@ -363,6 +363,7 @@ impl EditorApp {
             clip,
             segmentation,
             caps: doc.project.caps.clone(),
+            overrides: doc.project.overrides.clone(),
             out: out.clone(),
             character: c,
         };

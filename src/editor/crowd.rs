@@ -124,6 +124,7 @@ pub struct BakeRequest {
     pub clip: Option<usize>,
     pub segmentation: polypostor::bake::segment::Segmentation,
     pub caps: polypostor::bake::caps::CapOverrides,
+    pub overrides: polypostor::bake::overrides::BakeOverrides,
     pub out: PathBuf,
 }
 
@@ -157,6 +158,7 @@ impl CrowdPanel {
                     .map(|k| k.name.clone());
                 let options = polypostor::bake::pipeline::BakeOptions {
                     clip: req.clip,
+                    overrides: req.overrides.clone(),
                     ..Default::default()
                 };
                 let job = polypostor::reps::bake::FolderBake {
