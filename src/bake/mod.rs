@@ -19,6 +19,7 @@ pub mod caps;
 pub mod contour;
 pub mod fit;
 pub mod image_cost;
+pub mod inspect;
 pub mod overrides;
 pub mod part_fit;
 pub mod pipeline;
