@@ -86,6 +86,37 @@ pub struct Report {
     pub views: Vec<ViewReport>,
 }
 
+impl Report {
+    /// The options that made this bake (for re-fitting single views the same way):
+    /// settings, clip by name in `character`, the coverage its view directions show.
+    pub fn bake_options(&self, character: &crate::character::Character) -> super::pipeline::BakeOptions {
+        let s = &self.settings;
+        let full_sphere = self.views.iter().any(|v| v.direction[1] < -1e-3);
+        super::pipeline::BakeOptions {
+            views: s.views,
+            coverage: if full_sphere {
+                super::viewpoints::Coverage::FullSphere
+            } else {
+                super::viewpoints::Coverage::UpperHemisphere
+            },
+            resolution: s.resolution,
+            fps: s.fps,
+            clip: s.clip.as_deref().and_then(|n| character.find_clip(n)),
+            key_frame: super::pipeline::KeyFrame::Frame(self.key_frame),
+            fit: super::part_fit::PartFitOptions {
+                key_vertices: s.key_vertices,
+                frame_vertices: s.frame_vertices,
+                final_vertices: s.final_vertices,
+                exhaustive: s.exhaustive,
+                fold_free: s.fold_free,
+                restart_threshold: s.restart_threshold.unwrap_or(f64::INFINITY),
+                ..Default::default()
+            },
+            ..Default::default()
+        }
+    }
+}
+
 /// Reads a bake's `report.json` (a file, or the pack folder holding one).
 pub fn read_report(path: &std::path::Path) -> Result<Report, String> {
     let file = if path.is_dir() {

@@ -24,6 +24,9 @@ pub struct AppOptions {
     pub sync_loading: bool,
     /// Where never-saved projects are autosaved; `None`: they are not.
     pub recovery_dir: Option<PathBuf>,
+    /// Autosave and offer recovery (tests that do not exercise it turn it off, so a stray
+    /// autosave beside the default project cannot change what they see).
+    pub autosave: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -428,6 +431,9 @@ impl EditorApp {
     }
 
     fn autosave(&mut self, force: bool) -> bool {
+        if !self.options.autosave {
+            return false;
+        }
         let Some(doc) = &self.doc else { return false };
         match self.safety.tick(doc, self.options.recovery_dir.as_deref(), force) {
             Ok(wrote) => wrote,
@@ -548,7 +554,9 @@ impl EditorApp {
             revision: 0,
             history: Default::default(),
         };
-        if let Some(w) = self.safety.check_on_open(&doc, self.options.recovery_dir.as_deref()) {
+        if self.options.autosave
+            && let Some(w) = self.safety.check_on_open(&doc, self.options.recovery_dir.as_deref())
+        {
             self.warn(w);
         }
         self.views.set_source(Some(&bake_dir(&doc)));
@@ -1540,12 +1548,24 @@ impl eframe::App for EditorApp {
                         let doc = self.doc.as_mut().unwrap();
                         self.segment.controls(ui, doc);
                     } else if self.tab == SideTab::Views {
-                        self.views.controls(ui, &mut self.camera);
+                        let sync = self.options.sync_loading;
+                        self.views.controls(ui, &mut self.camera, self.doc.as_mut(), sync);
                     } else {
                         self.side_panel(ui);
                     }
                 });
             });
+        if !self.crowd.open && self.tab == SideTab::Views && self.views.selected.is_some() && self.doc.is_some() {
+            egui::Panel::right("fit inspector")
+                .resizable(true)
+                .default_size(470.0)
+                .show(ui, |ui| {
+                    egui::ScrollArea::vertical().id_salt("inspector scroll").show(ui, |ui| {
+                        let doc = self.doc.as_mut().unwrap();
+                        self.views.inspector_panel(ui, doc, dt);
+                    });
+                });
+        }
         egui::CentralPanel::default().frame(egui::Frame::NONE).show(ui, |ui| {
             if self.crowd.open {
                 self.crowd.viewport(ui, dt);
@@ -1564,6 +1584,7 @@ impl eframe::App for EditorApp {
             || self.loading.is_some()
             || self.dialog.is_some()
             || self.crowd.busy()
+            || self.views.inspector.busy()
             || (self.crowd.open && self.crowd.assets.is_some())
         {
             ctx.request_repaint();

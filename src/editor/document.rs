@@ -88,6 +88,22 @@ impl Document {
         true
     }
 
+    /// One undoable edit of the bake corrections (key frames, orders, pins).
+    pub fn edit_overrides(
+        &mut self,
+        label: &str,
+        f: impl FnOnce(&mut polypostor::bake::overrides::BakeOverrides) -> bool,
+    ) -> bool {
+        let before = self.project.clone();
+        if !f(&mut self.project.overrides) {
+            return false;
+        }
+        self.project.overrides.tidy();
+        self.history.record(label, before);
+        self.dirty = true;
+        true
+    }
+
     /// Writes the working segmentation into the project (after a change) and marks it.
     pub fn store_segmentation(&mut self) {
         self.project.segmentation = Some(StoredSegmentation::from_segmentation(&self.segmentation));

@@ -8,6 +8,7 @@
 mod app;
 pub mod crowd;
 mod document;
+mod inspect;
 mod safety;
 mod segment;
 mod settings;
@@ -63,6 +64,7 @@ pub fn run(path: PathBuf) -> anyhow::Result<()> {
         settings_path: settings::default_path(),
         sync_loading: false,
         recovery_dir: settings::default_path().and_then(|p| p.parent().map(|d| d.join("recovery"))),
+        autosave: true,
     };
     eframe::run_native(
         "Polypostor Studio",

@@ -12,6 +12,12 @@ fn repo() -> PathBuf {
 }
 
 fn harness(open: Option<PathBuf>) -> Harness<'static, EditorApp> {
+    harness_with(open, false)
+}
+
+/// `autosave`: autosave and recovery on (off elsewhere, so a stray autosave beside the
+/// default project cannot change what a test sees).
+fn harness_with(open: Option<PathBuf>, autosave: bool) -> Harness<'static, EditorApp> {
     Harness::builder()
         .with_size(egui::vec2(1280.0, 800.0))
         .wgpu()
@@ -22,6 +28,7 @@ fn harness(open: Option<PathBuf>) -> Harness<'static, EditorApp> {
                     settings_path: None,
                     sync_loading: true,
                     recovery_dir: None,
+                    autosave,
                 },
                 open,
             )
@@ -312,7 +319,7 @@ fn an_autosave_is_recovered_after_a_crash() {
     let file = dir.join("project.json");
     let original = std::fs::read_to_string(&file).unwrap();
     {
-        let mut h = harness(Some(dir.clone()));
+        let mut h = harness_with(Some(dir.clone()), true);
         h.run_steps(3);
         h.get_by_label("Segment").click();
         h.run_steps(2);
@@ -332,7 +339,7 @@ fn an_autosave_is_recovered_after_a_crash() {
     let autosave = polypostor::project::autosave_file(&file);
     assert!(autosave.exists());
 
-    let mut h = harness(Some(dir.clone()));
+    let mut h = harness_with(Some(dir.clone()), true);
     h.run_steps(3);
     assert!(h.state().safety.recovery.is_some(), "the autosave is offered");
     assert_eq!(h.state().doc.as_ref().unwrap().segmentation.parts.len(), 5);
@@ -349,7 +356,7 @@ fn an_autosave_is_recovered_after_a_crash() {
     let (saved, _) = polypostor::project::Project::load(&dir).unwrap();
     assert_eq!(saved.segmentation.unwrap().parts.len(), 6);
     // Reopening offers nothing.
-    let mut again = harness(Some(dir.clone()));
+    let mut again = harness_with(Some(dir.clone()), true);
     again.run_steps(3);
     assert!(again.state().safety.recovery.is_none());
     let _ = std::fs::remove_dir_all(dir);
@@ -414,13 +421,18 @@ fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
 
     let mut h = harness(Some(repo().join("projects/default")));
     h.run_steps(3);
-    h.state_mut().send(Command::OpenCrowd(out.clone()));
-    h.run_steps(1);
-    h.state_mut().send(Command::ShowCrowd(false));
-    h.run_steps(1);
+    // As after a bake from the editor: the Views tab reads the bake's report.
+    h.state_mut().views.set_source(Some(&out));
     h.get_by_label("Views").click();
     h.run_steps(2);
-    assert!(h.state().views.report.is_some(), "{:?}", h.state().views.error);
+    assert_eq!(h.state().tab, super::app::SideTab::Views);
+    assert!(!h.state().crowd.open);
+    assert!(
+        h.state().views.report.is_some(),
+        "{:?} {:?}",
+        h.state().views.error,
+        h.state().views.source
+    );
     let worst = (0..report.views.len())
         .min_by(|&a, &b| report.views[a].mean_psnr.total_cmp(&report.views[b].mean_psnr))
         .unwrap();
@@ -437,5 +449,86 @@ fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
     );
     // The per-frame plot of that view is shown.
     h.get_by_label(&format!("View {worst}: PSNR per frame (dB)"));
+
+    // The fit inspector re-fitted the view the way the bake did (same polygons).
+    h.run_steps(2);
+    let (basis, frames, part, fit0) = {
+        let s = h
+            .state()
+            .views
+            .inspector
+            .session
+            .as_ref()
+            .expect("the inspector opened the view");
+        assert_eq!(s.view, worst);
+        for (p, r) in s.parts.iter().enumerate() {
+            let baked = &report.views[worst].parts[p];
+            assert_eq!(r.fit.as_ref().map_or(0, |f| f.kept.len()), baked.vertices, "part {p}");
+        }
+        let part = (0..s.parts.len()).find(|&p| s.parts[p].fit.is_some()).unwrap();
+        (s.basis, s.frames(), part, s.parts[part].fit.clone().unwrap())
+    };
+    h.get_by_label(&format!("Fit inspector: view {worst}"));
+    // Pin the first kept vertex at the last frame half-way round the contour: the part is
+    // re-solved under the pin at once.
+    let f = frames - 1;
+    let m = fit0.targets[f].len();
+    let source = fit0.kept[0];
+    let target = (fit0.mappings[f][source] + m / 2) % m;
+    h.state_mut()
+        .doc
+        .as_mut()
+        .unwrap()
+        .edit_overrides("Pin correspondence", |o| {
+            o.view_mut(basis, worst)
+                .pins
+                .entry(part)
+                .or_default()
+                .push(polypostor::bake::overrides::Pin {
+                    frame: f,
+                    source,
+                    target,
+                });
+            true
+        });
+    h.run_steps(3);
+    {
+        let app = h.state();
+        let s = app.views.inspector.session.as_ref().unwrap();
+        let fit = s.parts[part].fit.as_ref().unwrap();
+        assert_eq!(fit.mappings[f][source], target, "the pin holds");
+        assert_ne!(fit.mappings[f], fit0.mappings[f], "the fit changed");
+        assert!(app.views.inspector.last_refit_ms.is_some());
+        h.get_by_label(&format!("frame {f}: vertex {source} -> contour {target}"));
+    }
+    // Reorder: the back part moves one step forward.
+    let before = h.state().views.inspector.session.as_ref().unwrap().order.clone();
+    // A tall window, so the order list is on screen without scrolling.
+    h.set_size(egui::vec2(1280.0, 1800.0));
+    h.run_steps(2);
+    h.get_all_by_label("Down").next().unwrap().click();
+    h.run_steps(3);
+    let after = h.state().views.inspector.session.as_ref().unwrap().order.clone();
+    let mut want = before.clone();
+    want.swap(0, 1);
+    assert_eq!(after, want);
+    {
+        let doc = h.state().doc.as_ref().unwrap();
+        assert_eq!(
+            doc.project.overrides.view(basis, worst).unwrap().order.as_ref(),
+            Some(&want)
+        );
+    }
+    // Undo the reorder, then the pin: the session follows the project back.
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(3);
+    assert_eq!(h.state().views.inspector.session.as_ref().unwrap().order, before);
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(3);
+    {
+        let s = h.state().views.inspector.session.as_ref().unwrap();
+        assert_eq!(s.parts[part].fit.as_ref().unwrap().mappings, fit0.mappings);
+        assert!(h.state().doc.as_ref().unwrap().project.overrides.is_empty());
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -8,10 +8,13 @@ use std::time::SystemTime;
 
 use polypostor::bake::report::{Report, read_report};
 
+use super::document::Document;
+use super::inspect::Inspector;
 use super::viewport::OrbitCamera;
 
 #[derive(Default)]
 pub struct ViewsPanel {
+    pub inspector: Inspector,
     /// The report shown, from which file, and that file's time (reloaded when it changes).
     pub report: Option<(PathBuf, SystemTime, Report)>,
     pub selected: Option<usize>,
@@ -83,8 +86,17 @@ impl ViewsPanel {
         camera.pitch_rad = pitch.clamp(-1.55, 1.55);
     }
 
-    pub fn controls(&mut self, ui: &mut egui::Ui, camera: &mut OrbitCamera) {
+    pub fn controls(
+        &mut self,
+        ui: &mut egui::Ui,
+        camera: &mut OrbitCamera,
+        mut doc: Option<&mut Document>,
+        sync: bool,
+    ) {
         self.refresh();
+        if let Some(d) = doc.as_deref() {
+            self.inspector.poll(d, sync);
+        }
         ui.heading("Viewpoints");
         if let Some(dir) = &self.source {
             ui.label(egui::RichText::new(dir.display().to_string()).small().weak());
@@ -183,6 +195,22 @@ impl ViewsPanel {
             self.select(i, camera);
         }
         self.error_plot(ui);
+        if let (Some(sel), Some(d)) = (self.selected, doc.as_deref_mut()) {
+            let report = self.report.as_ref().map(|r| r.2.clone()).unwrap();
+            if !self.inspector.is_for(sel) {
+                self.inspector.open(sel, d, &report, sync);
+                self.inspector.poll(d, sync);
+            }
+        }
+    }
+
+    /// The fit inspector of the chosen view (a panel of its own, beside the viewport).
+    pub fn inspector_panel(&mut self, ui: &mut egui::Ui, doc: &mut Document, dt: f32) {
+        let (Some(_), Some((_, _, report))) = (self.selected, &self.report) else {
+            return;
+        };
+        let report = report.clone();
+        self.inspector.ui(ui, doc, &report, dt);
     }
 
     /// PSNR per frame of the chosen view: the character (fitted and still key-frame polygons)
@@ -193,6 +221,21 @@ impl ViewsPanel {
             return;
         };
         let v = &report.views[sel];
+        // After corrections the inspector's re-fit is newer than the report.
+        let live = self.inspector.session.as_ref().filter(|s| s.view == sel);
+        let (overall, still): (Vec<f64>, Vec<f64>) = match live {
+            Some(s) => (s.psnr.clone(), s.psnr_static.clone()),
+            None => (v.psnr.clone(), v.psnr_static.clone()),
+        };
+        let per_part: Vec<(String, Vec<f64>)> = match live {
+            Some(s) => s
+                .names
+                .iter()
+                .cloned()
+                .zip(s.parts.iter().map(|p| p.psnr.clone()))
+                .collect(),
+            None => v.parts.iter().map(|p| (p.name.clone(), p.psnr.clone())).collect(),
+        };
         ui.separator();
         ui.label(egui::RichText::new(format!("View {sel}: PSNR per frame (dB)")).strong());
         use egui_plot::{Legend, Line, Plot, PlotPoints};
@@ -211,17 +254,17 @@ impl ViewsPanel {
             .allow_scroll(false)
             .show(ui, |plot| {
                 plot.line(
-                    Line::new("character", series(&v.psnr))
+                    Line::new("character", series(&overall))
                         .width(2.5)
                         .color(egui::Color32::WHITE),
                 );
                 plot.line(
-                    Line::new("still key frame", series(&v.psnr_static))
+                    Line::new("still key frame", series(&still))
                         .style(egui_plot::LineStyle::dashed_dense())
                         .color(egui::Color32::GRAY),
                 );
-                for p in &v.parts {
-                    plot.line(Line::new(p.name.clone(), series(&p.psnr)));
+                for (name, values) in &per_part {
+                    plot.line(Line::new(name.clone(), series(values)));
                 }
             });
     }

@@ -1,0 +1,743 @@
+//! The fit inspector of the Views tab: one view re-rendered and re-fitted in the background
+//! the way the bake did it, then per part and frame the target render with its traced
+//! contour and the fitted polygon over it, the key-frame texture with the source polygon,
+//! the per-pixel error, and the polypostor played against the ground truth (in-between
+//! frames interpolated). Dragging a fitted vertex onto a contour vertex pins the
+//! correspondence; the part is re-solved under its pins at once. The view's key frame and
+//! drawing order are edited here too. Every edit is a project change (undoable, saved, used
+//! by every later bake); the inspector re-fits whatever the project's corrections now say.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, channel};
+use std::time::Instant;
+
+use polypostor::bake::inspect::{composite_at, error_map, positions_at, tile_image};
+use polypostor::bake::overrides::{OverrideBasis, Pin, ViewOverride};
+use polypostor::bake::part_fit::PartFitOptions;
+use polypostor::bake::pipeline::{
+    PartResult, Prepared, ViewData, composite_psnr, fit_view_part, ground_truth, view_order,
+};
+use polypostor::bake::raster::psnr;
+use polypostor::bake::report::Report;
+use polypostor::project::StoredSegmentation;
+use rayon::prelude::*;
+
+use super::document::Document;
+
+/// One view, rendered and fitted.
+pub struct Session {
+    pub view: usize,
+    pub basis: OverrideBasis,
+    /// The bake's key frame (this view's unless overridden).
+    pub bake_key: usize,
+    pub key: usize,
+    pub options: PartFitOptions,
+    pub data: Arc<ViewData>,
+    pub parts: Vec<PartResult>,
+    pub order: Vec<usize>,
+    pub psnr: Vec<f64>,
+    pub psnr_static: Vec<f64>,
+    pub names: Vec<String>,
+    /// The corrections it was fitted with.
+    pub ov: ViewOverride,
+    /// The segmentation and caps it was made for (stale when the project's differ).
+    made_for: (Option<StoredSegmentation>, polypostor::bake::caps::CapOverrides),
+    /// Increases with every change (textures rebuild).
+    version: u64,
+}
+
+impl Session {
+    pub fn frames(&self) -> usize {
+        self.data.tiles.first().map_or(0, Vec::len)
+    }
+}
+
+/// A finished re-fit.
+struct Refit {
+    view: usize,
+    key: usize,
+    parts: Vec<(usize, PartResult)>,
+    order: Vec<usize>,
+    psnr: Vec<f64>,
+    psnr_static: Vec<f64>,
+    ov: ViewOverride,
+    ms: f32,
+}
+
+#[derive(Default)]
+pub struct Inspector {
+    pub session: Option<Session>,
+    opening: Option<(usize, Receiver<Result<Session, String>>, Instant)>,
+    refit: Option<Receiver<Refit>>,
+    pub part: usize,
+    /// Time in frames (fractional: in-between frames are interpolated).
+    pub time: f32,
+    pub playing: bool,
+    /// How long the last re-solve took (one part after a pin: the 250 ms target).
+    pub last_refit_ms: Option<f32>,
+    pub error: Option<String>,
+    drag: Option<usize>,
+    drag_to: Option<egui::Pos2>,
+    textures: Textures,
+}
+
+type Textures = HashMap<&'static str, (u64, egui::TextureHandle)>;
+
+/// A texture for `name`, rebuilt only when `version` changes.
+fn texture(
+    textures: &mut Textures,
+    ui: &egui::Ui,
+    name: &'static str,
+    version: u64,
+    make: impl FnOnce() -> image::RgbaImage,
+) -> egui::TextureId {
+    if let Some((v, t)) = textures.get(name)
+        && *v == version
+    {
+        return t.id();
+    }
+    let handle = ui
+        .ctx()
+        .load_texture(name, to_color_image(&make()), egui::TextureOptions::NEAREST);
+    let id = handle.id();
+    textures.insert(name, (version, handle));
+    id
+}
+
+fn to_color_image(img: &image::RgbaImage) -> egui::ColorImage {
+    egui::ColorImage::from_rgba_unmultiplied([img.width() as usize, img.height() as usize], img.as_raw())
+}
+
+impl Inspector {
+    /// Whether a session or an opening is for `view`.
+    pub fn is_for(&self, view: usize) -> bool {
+        self.session.as_ref().is_some_and(|s| s.view == view) || self.opening.as_ref().is_some_and(|o| o.0 == view)
+    }
+
+    pub fn busy(&self) -> bool {
+        self.opening.is_some() || self.refit.is_some()
+    }
+
+    /// Renders and fits `view` of the bake `report` describes, in the background.
+    pub fn open(&mut self, view: usize, doc: &Document, report: &Report, sync: bool) {
+        let character = doc.character.clone();
+        let segmentation = doc.segmentation.clone();
+        let caps = doc.project.caps.clone();
+        let mut options = report.bake_options(&character);
+        options.overrides = doc.project.overrides.clone();
+        let made_for = (doc.project.segmentation.clone(), doc.project.caps.clone());
+        let names: Vec<String> = segmentation.parts.iter().map(|p| p.name.clone()).collect();
+        let bake_key = report.key_frame;
+        let job = move || -> Result<Session, String> {
+            let ctx = polypostor::gpu::GpuContext::from_env().map_err(|e| e.to_string())?;
+            let prepared =
+                Prepared::new(&ctx, &character, &segmentation, &caps, &options).map_err(|e| e.to_string())?;
+            if view >= prepared.directions.len() {
+                return Err(format!("view {view} is not in this bake"));
+            }
+            let data = Arc::new(prepared.render(&ctx, view).map_err(|e| e.to_string())?);
+            let ov = options
+                .overrides
+                .view(prepared.basis, view)
+                .cloned()
+                .unwrap_or_default();
+            let frames = prepared.times.len();
+            let key = ov
+                .key_frame
+                .filter(|&k| k < frames)
+                .unwrap_or(bake_key.min(frames.saturating_sub(1)));
+            let parts: Vec<PartResult> = (0..data.tiles.len())
+                .into_par_iter()
+                .map(|p| fit_view_part(&data, p, key, &options.fit, &ov.pins_per_frame(p, frames)))
+                .collect();
+            let order = view_order(&data.hidden, Some(&ov));
+            let (psnr, psnr_static) = composite_psnr(&data, &parts, &order, key);
+            Ok(Session {
+                view,
+                basis: prepared.basis,
+                bake_key,
+                key,
+                options: options.fit,
+                data,
+                parts,
+                order,
+                psnr,
+                psnr_static,
+                names,
+                ov,
+                made_for,
+                version: 0,
+            })
+        };
+        self.session = None;
+        self.refit = None;
+        self.error = None;
+        self.drag = None;
+        let (tx, rx) = channel();
+        if sync {
+            let _ = tx.send(job());
+        } else {
+            std::thread::spawn(move || {
+                let _ = tx.send(job());
+            });
+        }
+        self.opening = Some((view, rx, Instant::now()));
+    }
+
+    /// Collects finished work and starts a re-fit when the project's corrections for the
+    /// view no longer match what the session was fitted with.
+    pub fn poll(&mut self, doc: &Document, sync: bool) {
+        if let Some((_, rx, _)) = &self.opening
+            && let Ok(result) = rx.try_recv()
+        {
+            self.opening = None;
+            match result {
+                Ok(s) => {
+                    self.part = self.part.min(s.parts.len().saturating_sub(1));
+                    self.time = self.time.min(s.frames().saturating_sub(1) as f32);
+                    self.session = Some(s);
+                }
+                Err(e) => self.error = Some(e),
+            }
+        }
+        if let Some(rx) = &self.refit
+            && let Ok(r) = rx.try_recv()
+        {
+            self.refit = None;
+            if let Some(s) = self.session.as_mut().filter(|s| s.view == r.view) {
+                for (p, result) in r.parts {
+                    s.parts[p] = result;
+                }
+                s.key = r.key;
+                s.order = r.order;
+                s.psnr = r.psnr;
+                s.psnr_static = r.psnr_static;
+                s.ov = r.ov;
+                s.version += 1;
+                self.last_refit_ms = Some(r.ms);
+            }
+        }
+        let Some(s) = &self.session else { return };
+        if self.refit.is_some() {
+            return;
+        }
+        let want = doc.project.overrides.view(s.basis, s.view).cloned().unwrap_or_default();
+        if want == s.ov {
+            return;
+        }
+        // What changed: the key frame re-fits every part; pins re-fit their parts; the order
+        // only re-composites.
+        let frames = s.frames();
+        let redo: Vec<usize> = if want.key_frame != s.ov.key_frame {
+            (0..s.parts.len()).collect()
+        } else {
+            (0..s.parts.len())
+                .filter(|p| want.pins.get(p) != s.ov.pins.get(p))
+                .collect()
+        };
+        let key = want
+            .key_frame
+            .filter(|&k| k < frames)
+            .unwrap_or(s.bake_key.min(frames.saturating_sub(1)));
+        let (data, options, view) = (s.data.clone(), s.options, s.view);
+        let mut parts_now = s.parts.clone();
+        let job = move || {
+            let t = Instant::now();
+            let parts: Vec<(usize, PartResult)> = redo
+                .par_iter()
+                .map(|&p| {
+                    (
+                        p,
+                        fit_view_part(&data, p, key, &options, &want.pins_per_frame(p, frames)),
+                    )
+                })
+                .collect();
+            let ms = t.elapsed().as_secs_f32() * 1000.0;
+            for (p, r) in &parts {
+                parts_now[*p] = r.clone();
+            }
+            let order = view_order(&data.hidden, Some(&want));
+            let (psnr, psnr_static) = composite_psnr(&data, &parts_now, &order, key);
+            Refit {
+                view,
+                key,
+                parts,
+                order,
+                psnr,
+                psnr_static,
+                ov: want,
+                ms,
+            }
+        };
+        let (tx, rx) = channel();
+        if sync {
+            let _ = tx.send(job());
+        } else {
+            std::thread::spawn(move || {
+                let _ = tx.send(job());
+            });
+        }
+        self.refit = Some(rx);
+    }
+
+    /// The inspector's panel for the selected view.
+    pub fn ui(&mut self, ui: &mut egui::Ui, doc: &mut Document, report: &Report, dt: f32) {
+        if let Some((view, _, since)) = &self.opening {
+            ui.horizontal(|ui| {
+                ui.spinner();
+                ui.label(format!(
+                    "Rendering and fitting view {view} … {:.1} s",
+                    since.elapsed().as_secs_f32()
+                ));
+            });
+            ui.ctx().request_repaint();
+            return;
+        }
+        if let Some(e) = &self.error {
+            ui.label(egui::RichText::new(e).color(ui.visuals().error_fg_color));
+        }
+        let Some(s) = &self.session else { return };
+        let stale = s.made_for.0 != doc.project.segmentation || s.made_for.1 != doc.project.caps;
+        if stale {
+            ui.label(
+                egui::RichText::new(
+                    "The segmentation or caps changed since this view was fitted; pick the view again.",
+                )
+                .color(ui.visuals().warn_fg_color),
+            );
+        }
+        let frames = s.frames();
+        let (view, parts_n, version) = (s.view, s.parts.len(), s.version);
+        ui.separator();
+        ui.label(egui::RichText::new(format!("Fit inspector: view {view}")).strong());
+        // Part and time.
+        ui.horizontal(|ui| {
+            egui::ComboBox::from_id_salt("inspect part")
+                .selected_text(s.names.get(self.part).cloned().unwrap_or_default())
+                .show_ui(ui, |ui| {
+                    for (p, name) in s.names.iter().enumerate() {
+                        ui.selectable_value(&mut self.part, p, name);
+                    }
+                });
+            ui.checkbox(&mut self.playing, "▶ play");
+        });
+        if self.playing && frames > 0 {
+            // The bake's frame rate: report settings.
+            self.time = (self.time + dt * report.settings.fps).rem_euclid(frames as f32);
+            ui.ctx().request_repaint();
+        }
+        ui.add(egui::Slider::new(&mut self.time, 0.0..=(frames.saturating_sub(1)) as f32).text("frame"));
+        let part = self.part.min(parts_n.saturating_sub(1));
+        let t = self.time;
+        let f = (t.round() as usize).min(frames.saturating_sub(1));
+        let s = self.session.as_ref().unwrap();
+        let result = &s.parts[part];
+        let Some(fit) = result.fit.clone() else {
+            ui.label(format!(
+                "{} is not fitted in this view: {}",
+                s.names[part],
+                result.problem.clone().unwrap_or_default()
+            ));
+            return;
+        };
+        let data = s.data.clone();
+        let key = s.key;
+        let tiles = &data.tiles[part];
+        let w = ((ui.available_width() - 8.0) / 2.0).clamp(80.0, 220.0);
+        let size = tiles[f].size as f32;
+        // Zoom on the part: the square around its polygons over every frame.
+        let (mut lo, mut hi) = (egui::pos2(size, size), egui::pos2(0.0, 0.0));
+        for p in fit.targets.iter().flatten().chain(&fit.key_polygon) {
+            lo = lo.min(egui::pos2(p[0], p[1]));
+            hi = hi.max(egui::pos2(p[0], p[1]));
+        }
+        let side = ((hi - lo).max_elem() + 8.0).clamp(8.0, size);
+        let centre = lo + (hi - lo) * 0.5;
+        let crop_min = egui::pos2(
+            (centre.x - side / 2.0).clamp(0.0, size - side),
+            (centre.y - side / 2.0).clamp(0.0, size - side),
+        );
+        let crop_uv = egui::Rect::from_min_size(
+            egui::pos2(crop_min.x / size, crop_min.y / size),
+            egui::vec2(side / size, side / size),
+        );
+        let scale = w / side;
+
+        // Row 1: the target with the traced contour and the fitted polygon; the key texture
+        // with the source polygon.
+        let target_id = texture(
+            &mut self.textures,
+            ui,
+            "target",
+            version * 1_000_003 + (part * 1000 + f) as u64,
+            || tile_image(&tiles[f]),
+        );
+        let key_id = texture(&mut self.textures, ui, "key", version * 1_000_003 + part as u64, || {
+            tile_image(&tiles[key])
+        });
+        let mut pin_made: Option<Pin> = None;
+        let pins_here: Vec<Pin> = s.ov.pins.get(&part).cloned().unwrap_or_default();
+        ui.horizontal(|ui| {
+            ui.vertical(|ui| {
+                ui.label(egui::RichText::new("target + fit (drag a vertex to pin)").small());
+                let (rect, response) = ui.allocate_exact_size(egui::vec2(w, w), egui::Sense::drag());
+                let painter = ui.painter_at(rect);
+                painter.rect_filled(rect, 0.0, egui::Color32::from_gray(20));
+                painter.image(target_id, rect, crop_uv, egui::Color32::WHITE);
+                let to_screen = |p: [f32; 2]| rect.min + (egui::pos2(p[0], p[1]) - crop_min) * scale;
+                let contour: Vec<egui::Pos2> = fit.targets[f].iter().map(|&p| to_screen(p)).collect();
+                painter.add(egui::Shape::closed_line(
+                    contour.clone(),
+                    egui::Stroke::new(1.0, egui::Color32::from_rgb(80, 200, 255)),
+                ));
+                for &c in &contour {
+                    painter.circle_filled(c, 1.5, egui::Color32::from_rgb(80, 200, 255));
+                }
+                let fitted: Vec<egui::Pos2> = positions_at(&fit, t).iter().map(|&p| to_screen(p)).collect();
+                painter.add(egui::Shape::closed_line(
+                    fitted.clone(),
+                    egui::Stroke::new(1.5, egui::Color32::YELLOW),
+                ));
+                for (k, &v) in fitted.iter().enumerate() {
+                    let pinned = pins_here.iter().any(|p| p.frame == f && p.source == fit.kept[k]);
+                    let color = if pinned {
+                        egui::Color32::from_rgb(255, 60, 200)
+                    } else {
+                        egui::Color32::YELLOW
+                    };
+                    painter.circle_filled(v, if pinned { 4.0 } else { 2.5 }, color);
+                }
+                // Drag a fitted vertex onto a contour vertex.
+                if response.drag_started()
+                    && let Some(p) = ui
+                        .input(|i| i.pointer.press_origin())
+                        .or(response.interact_pointer_pos())
+                {
+                    self.drag = fitted
+                        .iter()
+                        .enumerate()
+                        .map(|(k, v)| (k, v.distance(p)))
+                        .filter(|(_, d)| *d < 10.0)
+                        .min_by(|a, b| a.1.total_cmp(&b.1))
+                        .map(|(k, _)| k);
+                }
+                if let Some(p) = response.interact_pointer_pos().or(response.hover_pos()) {
+                    self.drag_to = Some(p);
+                }
+                if let (Some(k), Some(p)) = (self.drag, self.drag_to) {
+                    painter.line_segment(
+                        [fitted[k], p],
+                        egui::Stroke::new(2.0, egui::Color32::from_rgb(255, 60, 200)),
+                    );
+                    if let Some((_, j)) = contour
+                        .iter()
+                        .enumerate()
+                        .map(|(j, c)| (c.distance(p), j))
+                        .filter(|(d, _)| *d < 10.0)
+                        .min_by(|a, b| a.0.total_cmp(&b.0))
+                    {
+                        painter.circle_stroke(contour[j], 5.0, egui::Stroke::new(2.0, egui::Color32::WHITE));
+                    }
+                }
+                if response.drag_stopped() {
+                    if let (Some(k), Some(p)) = (self.drag.take(), self.drag_to.take())
+                        && let Some((_, j)) = contour
+                            .iter()
+                            .enumerate()
+                            .map(|(j, c)| (c.distance(p), j))
+                            .filter(|(d, _)| *d < 10.0)
+                            .min_by(|a, b| a.0.total_cmp(&b.0))
+                    {
+                        pin_made = Some(Pin {
+                            frame: f,
+                            source: fit.kept[k],
+                            target: j,
+                        });
+                    }
+                    self.drag = None;
+                }
+            });
+            ui.vertical(|ui| {
+                ui.label(egui::RichText::new(format!("key frame {key} texture + source polygon")).small());
+                let (rect, _) = ui.allocate_exact_size(egui::vec2(w, w), egui::Sense::hover());
+                let painter = ui.painter_at(rect);
+                painter.rect_filled(rect, 0.0, egui::Color32::from_gray(20));
+                painter.image(key_id, rect, crop_uv, egui::Color32::WHITE);
+                let to_screen = |p: [f32; 2]| rect.min + (egui::pos2(p[0], p[1]) - crop_min) * scale;
+                let source: Vec<egui::Pos2> = fit.key_polygon.iter().map(|&p| to_screen(p)).collect();
+                painter.add(egui::Shape::closed_line(
+                    source,
+                    egui::Stroke::new(1.0, egui::Color32::from_rgb(80, 200, 255)),
+                ));
+                for &k in &fit.kept {
+                    painter.circle_filled(to_screen(fit.key_polygon[k]), 2.5, egui::Color32::YELLOW);
+                }
+            });
+        });
+        // Row 2: the error map; the polypostor and the ground truth at this time.
+        let (heat, rmse) = error_map(&fit, &tiles[key], &tiles[f], f);
+        let heat_id = texture(
+            &mut self.textures,
+            ui,
+            "error",
+            version * 1_000_003 + (part * 1000 + f) as u64,
+            || heat,
+        );
+        let quant = (t * 8.0).round() as u64;
+        let s = self.session.as_ref().unwrap();
+        let key_tiles: Vec<_> = data.tiles.iter().map(|tl| tl[key].clone()).collect();
+        let order = s.order.clone();
+        let parts = s.parts.clone();
+        let res = data.depth_order_tiles.resolution;
+        let poly_id = texture(&mut self.textures, ui, "composite", version * 1_000_003 + quant, || {
+            composite_at(&parts, &key_tiles, &order, t, res).to_image()
+        });
+        let truth_id = texture(&mut self.textures, ui, "truth", version * 1_000_003 + f as u64, || {
+            ground_truth(&data.depth_order_tiles, f).to_image()
+        });
+        ui.horizontal(|ui| {
+            ui.vertical(|ui| {
+                ui.label(egui::RichText::new(format!("error at frame {f}: {:.1} dB", psnr(rmse))).small());
+                let (rect, _) = ui.allocate_exact_size(egui::vec2(w, w), egui::Sense::hover());
+                ui.painter_at(rect).rect_filled(rect, 0.0, egui::Color32::from_gray(20));
+                ui.painter_at(rect).image(heat_id, rect, crop_uv, egui::Color32::WHITE);
+            });
+            ui.vertical(|ui| {
+                ui.label(egui::RichText::new("polypostor | ground truth").small());
+                let (rect, _) = ui.allocate_exact_size(egui::vec2(w, w / 2.0), egui::Sense::hover());
+                let painter = ui.painter_at(rect);
+                painter.rect_filled(rect, 0.0, egui::Color32::from_gray(20));
+                let left = egui::Rect::from_min_size(rect.min, egui::vec2(w / 2.0, w / 2.0));
+                let right =
+                    egui::Rect::from_min_size(rect.min + egui::vec2(w / 2.0, 0.0), egui::vec2(w / 2.0, w / 2.0));
+                let full = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
+                painter.image(poly_id, left, full, egui::Color32::WHITE);
+                painter.image(truth_id, right, full, egui::Color32::WHITE);
+                ui.label(
+                    egui::RichText::new(format!(
+                        "view PSNR at frame {f}: {:.1} dB (still: {:.1})",
+                        s.psnr.get(f).copied().unwrap_or(0.0),
+                        s.psnr_static.get(f).copied().unwrap_or(0.0)
+                    ))
+                    .small(),
+                );
+            });
+        });
+        if let Some(ms) = self.last_refit_ms {
+            ui.label(egui::RichText::new(format!("last re-solve: {ms:.0} ms")).small().weak());
+        }
+        if self.refit.is_some() {
+            ui.horizontal(|ui| {
+                ui.spinner();
+                ui.label("re-solving…");
+            });
+            ui.ctx().request_repaint();
+        }
+        let basis = s.basis;
+        if let Some(pin) = pin_made {
+            doc.edit_overrides("Pin correspondence", |o| {
+                let list = o.view_mut(basis, view).pins.entry(part).or_default();
+                list.retain(|p| !(p.frame == pin.frame && p.source == pin.source));
+                list.push(pin);
+                list.sort();
+                true
+            });
+        }
+        self.pins_ui(ui, doc, basis, view, part);
+        self.key_frame_ui(ui, doc, report, basis, view, frames);
+        self.order_ui(ui, doc, report, basis, view);
+    }
+
+    fn pins_ui(&mut self, ui: &mut egui::Ui, doc: &mut Document, basis: OverrideBasis, view: usize, part: usize) {
+        let pins: Vec<Pin> = doc
+            .project
+            .overrides
+            .view(basis, view)
+            .and_then(|o| o.pins.get(&part))
+            .cloned()
+            .unwrap_or_default();
+        egui::CollapsingHeader::new(format!("Pins of this part ({})", pins.len()))
+            .default_open(true)
+            .show(ui, |ui| {
+                if pins.is_empty() {
+                    ui.label(egui::RichText::new("none: drag a yellow vertex onto a blue contour vertex").weak());
+                }
+                let mut remove = None;
+                for (i, p) in pins.iter().enumerate() {
+                    ui.horizontal(|ui| {
+                        ui.label(format!(
+                            "frame {}: vertex {} -> contour {}",
+                            p.frame, p.source, p.target
+                        ));
+                        if ui.small_button("Remove").on_hover_text("Remove this pin").clicked() {
+                            remove = Some(i);
+                        }
+                    });
+                }
+                if let Some(i) = remove {
+                    doc.edit_overrides("Remove pin", |o| {
+                        o.view_mut(basis, view).pins.entry(part).or_default().remove(i);
+                        true
+                    });
+                }
+                if !pins.is_empty() && ui.button("Clear pins of this part").clicked() {
+                    doc.edit_overrides("Clear pins", |o| o.view_mut(basis, view).pins.remove(&part).is_some());
+                }
+            });
+    }
+
+    fn key_frame_ui(
+        &mut self,
+        ui: &mut egui::Ui,
+        doc: &mut Document,
+        report: &Report,
+        basis: OverrideBasis,
+        view: usize,
+        frames: usize,
+    ) {
+        let current = doc.project.overrides.view(basis, view).and_then(|o| o.key_frame);
+        let bake_key = report.key_frame;
+        ui.horizontal(|ui| {
+            ui.label("Key frame:");
+            let text = match current {
+                Some(k) => format!("frame {k}"),
+                None => format!("auto (bake's: {bake_key})"),
+            };
+            let mut choice = current;
+            egui::ComboBox::from_id_salt("key frame")
+                .selected_text(text)
+                .show_ui(ui, |ui| {
+                    ui.selectable_value(&mut choice, None, format!("auto (bake's: {bake_key})"));
+                    for k in 0..frames {
+                        ui.selectable_value(&mut choice, Some(k), format!("frame {k}"));
+                    }
+                });
+            if choice != current {
+                doc.edit_overrides("Key frame", |o| {
+                    o.view_mut(basis, view).key_frame = choice;
+                    true
+                });
+            }
+            if ui
+                .button("Use for all views")
+                .on_hover_text("Every view takes this key frame (pins of other views are kept)")
+                .clicked()
+            {
+                doc.edit_overrides("Key frame for all views", |o| {
+                    for v in 0..basis.views {
+                        o.view_mut(basis, v).key_frame = choice;
+                    }
+                    true
+                });
+            }
+        });
+    }
+
+    fn order_ui(&mut self, ui: &mut egui::Ui, doc: &mut Document, report: &Report, basis: OverrideBasis, view: usize) {
+        let Some(s) = &self.session else { return };
+        let order = s.order.clone();
+        let names = s.names.clone();
+        let hidden = s.data.hidden.clone();
+        let overridden = doc
+            .project
+            .overrides
+            .view(basis, view)
+            .and_then(|o| o.order.as_ref())
+            .is_some();
+        egui::CollapsingHeader::new("Visibility order (back to front)")
+            .default_open(true)
+            .show(ui, |ui| {
+                let mut new_order: Option<Vec<usize>> = None;
+                for (i, &p) in order.iter().enumerate() {
+                    ui.horizontal(|ui| {
+                        if ui.add_enabled(i > 0, egui::Button::new("Up").small()).clicked() {
+                            let mut o = order.clone();
+                            o.swap(i, i - 1);
+                            new_order = Some(o);
+                        }
+                        if ui
+                            .add_enabled(i + 1 < order.len(), egui::Button::new("Down").small())
+                            .clicked()
+                        {
+                            let mut o = order.clone();
+                            o.swap(i, i + 1);
+                            new_order = Some(o);
+                        }
+                        // What this part hides and what hides it (pixels per frame).
+                        let hides: Vec<String> = (0..hidden.len())
+                            .filter(|&q| q != p && hidden[p][q] >= 0.5)
+                            .map(|q| format!("{} {:.0}", names[q], hidden[p][q]))
+                            .collect();
+                        ui.label(names.get(p).cloned().unwrap_or_default())
+                            .on_hover_text(if hides.is_empty() {
+                                "hides nothing".to_owned()
+                            } else {
+                                format!("hides (pixels per frame): {}", hides.join(", "))
+                            });
+                        // Weight of the occlusions this order gets wrong for this part.
+                        let wrong: f64 = order[..i].iter().map(|&q| hidden[q][p]).sum();
+                        if wrong >= 0.5 {
+                            ui.label(
+                                egui::RichText::new(format!("⚠ {wrong:.0} px drawn under parts behind it"))
+                                    .small()
+                                    .color(ui.visuals().warn_fg_color),
+                            );
+                        }
+                    });
+                }
+                let violated: f64 = (0..order.len())
+                    .flat_map(|i| (0..i).map(move |j| (i, j)))
+                    .map(|(i, j)| hidden[order[j]][order[i]])
+                    .sum::<f64>();
+                ui.label(
+                    egui::RichText::new(format!("occlusion drawn wrong: {violated:.0} px per frame"))
+                        .small()
+                        .weak(),
+                );
+                ui.horizontal(|ui| {
+                    if ui
+                        .button("Apply to neighbours")
+                        .on_hover_text("The four nearest views take this order too")
+                        .clicked()
+                    {
+                        let dir = glam::Vec3::from(report.views[view].direction);
+                        let mut near: Vec<usize> = (0..report.views.len()).filter(|&v| v != view).collect();
+                        near.sort_by(|&a, &b| {
+                            let da = glam::Vec3::from(report.views[a].direction).dot(dir);
+                            let db = glam::Vec3::from(report.views[b].direction).dot(dir);
+                            db.total_cmp(&da)
+                        });
+                        let order = order.clone();
+                        doc.edit_overrides("Order for neighbouring views", |o| {
+                            for &v in near.iter().take(4).chain([view].iter()) {
+                                o.view_mut(basis, v).order = Some(order.clone());
+                            }
+                            true
+                        });
+                    }
+                    if ui.button("Apply to all views").clicked() {
+                        let order = order.clone();
+                        doc.edit_overrides("Order for all views", |o| {
+                            for v in 0..basis.views {
+                                o.view_mut(basis, v).order = Some(order.clone());
+                            }
+                            true
+                        });
+                    }
+                    if ui
+                        .add_enabled(overridden, egui::Button::new("Computed order"))
+                        .clicked()
+                    {
+                        doc.edit_overrides("Computed order", |o| o.view_mut(basis, view).order.take().is_some());
+                    }
+                });
+                if let Some(o) = new_order {
+                    doc.edit_overrides("Reorder parts", |ov| {
+                        ov.view_mut(basis, view).order = Some(o);
+                        true
+                    });
+                }
+            });
+    }
+}
