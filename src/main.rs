@@ -503,6 +503,8 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         options: &options,
         set,
         out: &out,
+        previous: None,
+        reuse_representations: false,
     };
     let debug_images = |dir: &Path, b: Option<&polypostor::bake::pipeline::Bake>| -> Result<(), String> {
         if let (true, Some(b)) = (a.debug_images, b) {

@@ -179,6 +179,69 @@ fn overrides_change_only_their_view() {
             plain.views[v].parts[0].fit.as_ref().unwrap().mappings
         );
     }
+    // Re-baking from the plain bake with the corrections re-does view 1 only (every part:
+    // its key frame changed) and gives what the full bake with them gave.
+    let (again, reuse) = polypostor::bake::pipeline::rebake(
+        &ctx,
+        &plain,
+        &c,
+        &seg,
+        &CapOverrides::default(),
+        &BakeOptions {
+            overrides: overrides.clone(),
+            ..base.clone()
+        },
+        &|_| {},
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    assert!(!reuse.full);
+    assert_eq!((reuse.views_refit, reuse.parts_refit), (1, seg.parts.len()));
+    for (a, b) in again.views.iter().zip(&corrected.views) {
+        assert_eq!(a.key_frame, b.key_frame);
+        assert_eq!(a.order, b.order);
+        assert_eq!(a.psnr, b.psnr);
+        for (pa, pb) in a.parts.iter().zip(&b.parts) {
+            assert_eq!(
+                pa.fit.as_ref().map(|f| &f.mappings),
+                pb.fit.as_ref().map(|f| &f.mappings)
+            );
+        }
+    }
+    // Only a pin changed since: that part alone is re-fitted.
+    let mut moved = overrides.clone();
+    moved.view_mut(basis, 1).pins.get_mut(&0).unwrap()[0].target = (pinned + 1) % m;
+    let (_, reuse) = polypostor::bake::pipeline::rebake(
+        &ctx,
+        &again,
+        &c,
+        &seg,
+        &CapOverrides::default(),
+        &BakeOptions {
+            overrides: moved,
+            ..base.clone()
+        },
+        &|_| {},
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    assert_eq!((reuse.views_refit, reuse.parts_refit), (1, 1));
+    // A different segmentation bakes everything.
+    let mut seg2 = seg.clone();
+    seg2.labels[0] = (seg2.labels[0] + 1) % seg2.parts.len() as u16;
+    let (_, reuse) = polypostor::bake::pipeline::rebake(
+        &ctx,
+        &again,
+        &c,
+        &seg2,
+        &CapOverrides::default(),
+        &base,
+        &|_| {},
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    assert!(reuse.full && reuse.views_refit == 3);
+
     // Another basis: ignored.
     let mut other = BakeOverrides::default();
     other.view_mut(OverrideBasis { views: 24, ..basis }, 1).key_frame = Some(2);

@@ -121,6 +121,8 @@ pub struct Bake {
     pub frame_times: Vec<f32>,
     pub key_frame: usize,
     pub segmentation: Segmentation,
+    /// The cap colours it was made with.
+    pub caps: CapOverrides,
     pub views: Vec<ViewResult>,
     /// Seconds per stage.
     pub stage_secs: BTreeMap<String, f64>,
@@ -543,8 +545,138 @@ pub fn bake(
         frame_times: prepared.times,
         key_frame: key,
         segmentation: segmentation.clone(),
+        caps: cap_overrides.clone(),
         views,
         stage_secs,
         adapter: ctx.adapter_description(),
     })
+}
+
+/// What [`rebake`] re-did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Reuse {
+    /// Everything was baked again (the inputs changed beyond the corrections).
+    pub full: bool,
+    pub views_refit: usize,
+    pub parts_refit: usize,
+    pub views: usize,
+}
+
+/// Whether `a` and `b` differ only in their corrections.
+fn same_but_overrides(a: &BakeOptions, b: &BakeOptions) -> bool {
+    BakeOptions {
+        overrides: BakeOverrides::default(),
+        ..a.clone()
+    } == BakeOptions {
+        overrides: BakeOverrides::default(),
+        ..b.clone()
+    }
+}
+
+/// Bakes again after an edit, re-doing only what the edit touched: when the character's
+/// segmentation, caps and settings are those of `prev` and only the corrections changed,
+/// only the views whose corrections changed are rendered again, and in them only the parts
+/// whose pins changed are re-fitted (every part when the view's key frame changed; a new
+/// order only re-composites). Anything else is a full bake.
+#[allow(clippy::too_many_arguments)]
+pub fn rebake(
+    ctx: &GpuContext,
+    prev: &Bake,
+    character: &Character,
+    segmentation: &Segmentation,
+    cap_overrides: &CapOverrides,
+    options: &BakeOptions,
+    progress: &(dyn Fn(Progress) + Sync),
+    cancel: &AtomicBool,
+) -> Result<(Bake, Reuse), BakeError> {
+    let compatible = prev.segmentation == *segmentation
+        && prev.caps == *cap_overrides
+        && same_but_overrides(&prev.options, options)
+        && segmentation.labels.len() == character.triangle_count();
+    if !compatible {
+        let b = bake(ctx, character, segmentation, cap_overrides, options, progress, cancel)?;
+        let n = b.views.len();
+        let parts = b.views.iter().map(|v| v.parts.len()).sum();
+        return Ok((
+            b,
+            Reuse {
+                full: true,
+                views_refit: n,
+                parts_refit: parts,
+                views: n,
+            },
+        ));
+    }
+    let t0 = Instant::now();
+    let basis = OverrideBasis {
+        views: prev.views.len(),
+        full_sphere: options.coverage == Coverage::FullSphere,
+        frames: prev.frame_times.len(),
+    };
+    let changed: Vec<usize> = (0..prev.views.len())
+        .filter(|&v| prev.options.overrides.view(basis, v) != options.overrides.view(basis, v))
+        .collect();
+    let mut views = prev.views.clone();
+    let mut reuse = Reuse {
+        full: false,
+        views_refit: changed.len(),
+        parts_refit: 0,
+        views: prev.views.len(),
+    };
+    if !changed.is_empty() {
+        let prepared = Prepared::new(ctx, character, segmentation, cap_overrides, options)?;
+        for (n, &v) in changed.iter().enumerate() {
+            if cancel.load(Ordering::Relaxed) {
+                return Err(BakeError::Cancelled);
+            }
+            progress(Progress {
+                stage: "views",
+                done: n,
+                total: changed.len(),
+            });
+            let old = prev.options.overrides.view(basis, v).cloned().unwrap_or_default();
+            let new = options.overrides.view(basis, v).cloned().unwrap_or_default();
+            let data = prepared.render(ctx, v)?;
+            let frames = prepared.times.len();
+            let key = new.key_frame.filter(|&k| k < frames).unwrap_or(prev.key_frame);
+            let redo: Vec<usize> = (0..data.tiles.len())
+                .filter(|&p| key != prev.views[v].key_frame || old.pins.get(&p) != new.pins.get(&p))
+                .collect();
+            reuse.parts_refit += redo.len();
+            let refit: Vec<(usize, PartResult)> = redo
+                .par_iter()
+                .map(|&p| {
+                    (
+                        p,
+                        fit_view_part(&data, p, key, &options.fit, &new.pins_per_frame(p, frames)),
+                    )
+                })
+                .collect();
+            let view = &mut views[v];
+            for (p, r) in refit {
+                view.parts[p] = r;
+            }
+            view.key_frame = key;
+            view.order = view_order(&data.hidden, Some(&new));
+            let (psnr_frames, psnr_static) = composite_psnr(&data, &view.parts, &view.order, key);
+            view.psnr = psnr_frames;
+            view.psnr_static = psnr_static;
+            view.hidden = data.hidden;
+        }
+    }
+    let mut stage_secs = BTreeMap::new();
+    stage_secs.insert("rebake".into(), t0.elapsed().as_secs_f64());
+    Ok((
+        Bake {
+            options: options.clone(),
+            frame_times: prev.frame_times.clone(),
+            key_frame: prev.key_frame,
+            segmentation: segmentation.clone(),
+            caps: cap_overrides.clone(),
+            views,
+            stage_secs,
+            adapter: ctx.adapter_description(),
+        },
+        reuse,
+    ))
 }

@@ -367,6 +367,12 @@ impl EditorApp {
             segmentation,
             caps: doc.project.caps.clone(),
             overrides: doc.project.overrides.clone(),
+            previous: self
+                .crowd
+                .last_bake
+                .as_ref()
+                .filter(|(folder, _)| *folder == out)
+                .map(|(_, b)| b.clone()),
             out: out.clone(),
             character: c,
         };

@@ -70,8 +70,16 @@ struct Job {
     started: Instant,
     progress: Arc<Mutex<(String, usize, usize)>>,
     cancel: Arc<AtomicBool>,
-    rx: Receiver<Result<(PathBuf, CrowdAssets), String>>,
+    rx: Receiver<Result<JobDone, String>>,
 }
+
+/// A finished job: the folder, its assets, and for a bake the bake kept for the next
+/// incremental one with a line saying what was re-done.
+type JobDone = (
+    PathBuf,
+    CrowdAssets,
+    Option<(Arc<polypostor::bake::pipeline::Bake>, String)>,
+);
 
 /// The preview's state (UI side).
 pub struct CrowdPanel {
@@ -87,6 +95,9 @@ pub struct CrowdPanel {
     pub folder: Option<PathBuf>,
     next_generation: u64,
     job: Option<Job>,
+    /// The last bake this session made, and into which folder (the next bake there only
+    /// re-does what changed).
+    pub last_bake: Option<(PathBuf, Arc<polypostor::bake::pipeline::Bake>)>,
     /// Messages for the editor's log (drained by the app).
     pub messages: Vec<Result<String, String>>,
 }
@@ -112,6 +123,7 @@ impl Default for CrowdPanel {
             folder: None,
             next_generation: 1,
             job: None,
+            last_bake: None,
             messages: Vec::new(),
         }
     }
@@ -126,6 +138,8 @@ pub struct BakeRequest {
     pub caps: polypostor::bake::caps::CapOverrides,
     pub overrides: polypostor::bake::overrides::BakeOverrides,
     pub out: PathBuf,
+    /// The previous bake into `out`, for an incremental bake.
+    pub previous: Option<Arc<polypostor::bake::pipeline::Bake>>,
 }
 
 impl CrowdPanel {
@@ -150,7 +164,7 @@ impl CrowdPanel {
             rx,
         });
         std::thread::spawn(move || {
-            let result = (|| -> Result<(PathBuf, CrowdAssets), String> {
+            let result = (|| -> Result<JobDone, String> {
                 let ctx = polypostor::gpu::GpuContext::from_env().map_err(|e| e.to_string())?;
                 let clip_name = req
                     .clip
@@ -170,17 +184,26 @@ impl CrowdPanel {
                     options: &options,
                     set: polypostor::reps::RepSet::ALL,
                     out: &req.out,
+                    previous: req.previous.as_deref(),
+                    reuse_representations: true,
                 };
                 let progress = |pr: polypostor::bake::pipeline::Progress| {
                     if let Ok(mut g) = p.lock() {
                         *g = (pr.stage.to_string(), pr.done, pr.total);
                     }
                 };
-                polypostor::reps::bake::bake_folder(&ctx, &job, &progress, &c, &|_, _| Ok(()))
+                let done = polypostor::reps::bake::bake_folder(&ctx, &job, &progress, &c, &|_, _| Ok(()))
                     .map_err(|e| e.to_string())?;
                 let labels = req.segmentation.labels.iter().map(|&l| l as u32).collect();
                 let assets = CrowdAssets::load(&req.out, Some(&req.character_path), Some(labels))?;
-                Ok((req.out.clone(), assets))
+                let what = match done.reuse {
+                    Some(r) if !r.full => format!(
+                        "re-baked {} of {} views ({} parts) after the corrections; other representations kept",
+                        r.views_refit, r.views, r.parts_refit
+                    ),
+                    _ => "baked every view and representation".to_owned(),
+                };
+                Ok((req.out.clone(), assets, done.bake.map(|b| (Arc::new(b), what))))
             })();
             let _ = tx.send(result);
         });
@@ -200,7 +223,7 @@ impl CrowdPanel {
             rx,
         });
         std::thread::spawn(move || {
-            let r = CrowdAssets::load(&folder, character.as_deref(), None).map(|a| (folder, a));
+            let r = CrowdAssets::load(&folder, character.as_deref(), None).map(|a| (folder, a, None));
             let _ = tx.send(r);
         });
     }
@@ -209,7 +232,12 @@ impl CrowdPanel {
     pub fn poll(&mut self) {
         let Some(job) = &self.job else { return };
         match job.rx.try_recv() {
-            Ok(Ok((folder, assets))) => {
+            Ok(Ok((folder, assets, bake))) => {
+                if let Some((b, what)) = bake {
+                    self.messages
+                        .push(Ok(format!("{what} in {:.1} s", job.started.elapsed().as_secs_f64())));
+                    self.last_bake = Some((folder.clone(), b));
+                }
                 self.messages.push(Ok(format!(
                     "crowd preview: {} ({:.1} s)",
                     folder.display(),

@@ -173,6 +173,8 @@ fn crowd_preview_opens_a_baked_folder_and_draws_the_chosen_representation() {
         options: &options,
         set: polypostor::reps::RepSet::parse("impostor,np3d,rigid").unwrap(),
         out: &out,
+        previous: None,
+        reuse_representations: false,
     };
     polypostor::reps::bake::bake_folder(&ctx, &job, &|_| {}, &Default::default(), &|_, _| Ok(())).unwrap();
 
@@ -414,6 +416,8 @@ fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
         options: &options,
         set: polypostor::reps::RepSet::parse("polypostor").unwrap(),
         out: &out,
+        previous: None,
+        reuse_representations: false,
     };
     polypostor::reps::bake::bake_folder(&ctx, &job, &|_| {}, &Default::default(), &|_, _| Ok(())).unwrap();
     let report = polypostor::bake::report::read_report(&out).unwrap();

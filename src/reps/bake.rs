@@ -413,12 +413,20 @@ pub struct FolderBake<'a> {
     pub options: &'a crate::bake::pipeline::BakeOptions,
     pub set: RepSet,
     pub out: &'a std::path::Path,
+    /// The last bake into `out`: only what changed since is baked again
+    /// ([`crate::bake::pipeline::rebake`]).
+    pub previous: Option<&'a crate::bake::pipeline::Bake>,
+    /// Copy the other representations from the folder already at `out` instead of baking
+    /// them again (when `previous` applies: same character, segmentation and settings).
+    pub reuse_representations: bool,
 }
 
 /// What [`bake_folder`] wrote.
 pub struct FolderResult {
     pub bake: Option<crate::bake::pipeline::Bake>,
     pub stats: Option<crate::pack::PackStats>,
+    /// What an incremental bake re-did (`None`: a plain bake).
+    pub reuse: Option<crate::bake::pipeline::Reuse>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -443,20 +451,36 @@ pub fn bake_folder(
     use crate::bake::pipeline::KeyFrame;
     let started = std::time::Instant::now();
     let o = job.options;
+    let mut reuse = None;
     let bake = if job.set.polypostor {
-        Some(crate::bake::pipeline::bake(
-            ctx,
-            job.character,
-            job.segmentation,
-            job.caps,
-            o,
-            progress,
-            cancel,
-        )?)
+        Some(match job.previous {
+            Some(prev) => {
+                let (b, r) = crate::bake::pipeline::rebake(
+                    ctx,
+                    prev,
+                    job.character,
+                    job.segmentation,
+                    job.caps,
+                    o,
+                    progress,
+                    cancel,
+                )?;
+                reuse = Some(r);
+                b
+            }
+            None => crate::bake::pipeline::bake(ctx, job.character, job.segmentation, job.caps, o, progress, cancel)?,
+        })
     } else {
         None
     };
-    let reps = if job.set.any_other() {
+    // The other representations depend on the character, segmentation and settings only:
+    // after an incremental bake they are copied from the folder they are already in.
+    let copy_from = (job.reuse_representations
+        && reuse.is_some_and(|r| !r.full)
+        && job.set.any_other()
+        && super::load_representations(job.out).is_ok())
+    .then(|| job.out.to_owned());
+    let reps = if job.set.any_other() && copy_from.is_none() {
         let key = match (&bake, o.key_frame) {
             (Some(b), _) => b.key_frame,
             (None, KeyFrame::Frame(k)) => k,
@@ -487,6 +511,19 @@ pub fn bake_folder(
         None
     };
     let write_reps = |dir: &std::path::Path| -> Result<(), String> {
+        if let Some(from) = &copy_from {
+            // Every file of the old folder the new one does not have yet (the pack's own
+            // files were just written under the same names).
+            for entry in std::fs::read_dir(from).map_err(|e| e.to_string())? {
+                let entry = entry.map_err(|e| e.to_string())?;
+                let target = dir.join(entry.file_name());
+                if entry.file_type().map_err(|e| e.to_string())?.is_file() && !target.exists() {
+                    std::fs::copy(entry.path(), &target).map_err(|e| e.to_string())?;
+                }
+            }
+            super::load_representations(dir)
+                .map_err(|e| format!("the copied representations do not load back: {e}"))?;
+        }
         if let Some(r) = &reps {
             super::write_representations(r, dir)?;
             super::load_representations(dir)
@@ -507,6 +544,7 @@ pub fn bake_folder(
         return Ok(FolderResult {
             bake: None,
             stats: None,
+            reuse: None,
         });
     };
     let write_started = std::time::Instant::now();
@@ -532,5 +570,6 @@ pub fn bake_folder(
     Ok(FolderResult {
         bake: Some(b),
         stats: Some(stats),
+        reuse,
     })
 }
