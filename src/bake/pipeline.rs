@@ -50,6 +50,46 @@ pub struct BakeOptions {
     /// The artist's corrections (per-view key frame, order, pins), applied where their basis
     /// matches this bake's views and frames.
     pub overrides: BakeOverrides,
+    /// How hard the pack's PNG atlases are compressed (lossless either way).
+    pub png: PngCompression,
+}
+
+/// PNG compression of the written textures: lossless at every level, trading write time for
+/// file size.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum PngCompression {
+    Fast,
+    #[default]
+    Balanced,
+    Best,
+}
+
+impl PngCompression {
+    pub const ALL: [PngCompression; 3] = [PngCompression::Fast, PngCompression::Balanced, PngCompression::Best];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            PngCompression::Fast => "PNG, fast",
+            PngCompression::Balanced => "PNG, balanced",
+            PngCompression::Best => "PNG, smallest",
+        }
+    }
+
+    /// Encodes `img` as PNG at this level.
+    pub fn encode(self, img: &image::RgbaImage) -> Result<Vec<u8>, String> {
+        use image::ImageEncoder;
+        use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+        let level = match self {
+            PngCompression::Fast => CompressionType::Fast,
+            PngCompression::Balanced => CompressionType::Default,
+            PngCompression::Best => CompressionType::Best,
+        };
+        let mut out = Vec::new();
+        PngEncoder::new_with_quality(&mut out, level, FilterType::Adaptive)
+            .write_image(img.as_raw(), img.width(), img.height(), image::ExtendedColorType::Rgba8)
+            .map_err(|e| e.to_string())?;
+        Ok(out)
+    }
 }
 
 impl Default for BakeOptions {
@@ -65,6 +105,7 @@ impl Default for BakeOptions {
             key_frame_probe_views: 4,
             keep_frame_images: false,
             overrides: BakeOverrides::default(),
+            png: PngCompression::default(),
         }
     }
 }

@@ -116,7 +116,8 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
         let normal_name = format!("normal_{v:03}.png");
         for (name, img) in [(&atlas_name, &atlas.color), (&normal_name, &atlas.normal)] {
             let path = dir.join(name);
-            img.save(&path).map_err(|e| io(&path, e))?;
+            let bytes = bake.options.png.encode(img).map_err(|e| io(&path, &e))?;
+            std::fs::write(&path, bytes).map_err(|e| io(&path, &e))?;
             stats.texture_bytes += img.width() as u64 * img.height() as u64 * 4;
         }
         let (aw, ah) = (atlas.width as f32, atlas.height as f32);

@@ -264,3 +264,44 @@ mod tests {
         assert_eq!(chosen_views(5, 24), vec![0, 1, 2, 3, 4]);
     }
 }
+
+/// Memory of each representation estimated before baking (uncompressed bytes, textures and
+/// geometry): exact for classic impostors (a colour and a normal image per view per frame);
+/// for Polypostors and NP3D from densities measured on the default character (atlas texels
+/// per view ≈ 0.59 r² colour + a quarter for normals; 20 vertices per part and frame);
+/// skinned and rigid from the mesh.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Estimate {
+    pub polypostor: u64,
+    pub impostor: u64,
+    pub np3d: u64,
+    pub rigid: u64,
+    pub skinned: u64,
+}
+
+/// See [`Estimate`]. `texture_bytes`: the character's own textures, uncompressed.
+pub fn estimate(
+    views: usize,
+    resolution: u32,
+    frames: usize,
+    parts: usize,
+    vertices: usize,
+    texture_bytes: u64,
+) -> Estimate {
+    let (v, r2, f, p, n) = (
+        views as u64,
+        (resolution as u64).pow(2),
+        frames.max(1) as u64,
+        parts as u64,
+        vertices as u64,
+    );
+    let atlas = v * r2 * 59 / 100 * 4 * 5 / 4;
+    let poly_geometry = v * p * f * 20 * 4 + v * p * 18 * 3 * 2;
+    Estimate {
+        polypostor: atlas + poly_geometry,
+        impostor: v * f * r2 * 4 * 2,
+        np3d: v * r2 * 4 + f * 220 * 24 + 400 * 3 * 2,
+        rigid: f * n * 24 + n * 8 + texture_bytes,
+        skinned: n * 56 + texture_bytes,
+    }
+}
