@@ -171,6 +171,7 @@ pub struct EditorApp {
     pub segment: super::segment::SegmentPanel,
     pub safety: super::safety::Safety,
     pub views: super::views::ViewsPanel,
+    pub export: super::export::ExportDialog,
 }
 
 /// The side panel's tabs besides the crowd preview.
@@ -212,6 +213,7 @@ impl EditorApp {
             segment: Default::default(),
             safety: Default::default(),
             views: Default::default(),
+            export: Default::default(),
         };
         match &app.adapter {
             Some(a) => app.info(format!("GPU adapter: {a}")),
@@ -329,6 +331,16 @@ impl EditorApp {
                 self.crowd.start_open(folder, character);
             }
             Command::ShowCrowd(show) => self.crowd.open = show,
+            Command::Export(req) => {
+                let options = polypostor::bake::pipeline::BakeOptions {
+                    views: req.views,
+                    resolution: req.resolution,
+                    fps: req.fps,
+                    png: req.png,
+                    ..Default::default()
+                };
+                self.bake_into(req.folder, options, req.set);
+            }
             Command::Undo => {
                 if let Some(label) = self.doc.as_mut().and_then(|d| d.undo()) {
                     self.info(format!("undid {label}"));
@@ -349,13 +361,29 @@ impl EditorApp {
             self.fail("open a character before baking it for the crowd".into());
             return;
         };
+        let out = bake_dir(doc);
+        self.bake_into(out, Default::default(), polypostor::reps::RepSet::ALL);
+    }
+
+    /// Bakes `set` with `options` into `out` in the background, then previews it.
+    fn bake_into(
+        &mut self,
+        out: PathBuf,
+        options: polypostor::bake::pipeline::BakeOptions,
+        set: polypostor::reps::RepSet,
+    ) {
+        let Some(doc) = &self.doc else {
+            self.fail("open a character before baking it for the crowd".into());
+            return;
+        };
         if self.crowd.busy() {
             return;
         }
         let c = doc.character.clone();
         let segmentation = doc.segmentation.clone();
-        let out = bake_dir(doc);
-        self.views.set_source(Some(&out));
+        if set.polypostor {
+            self.views.set_source(Some(&out));
+        }
         let clip = self
             .playback
             .clip
@@ -373,10 +401,12 @@ impl EditorApp {
                 .as_ref()
                 .filter(|(folder, _)| *folder == out)
                 .map(|(_, b)| b.clone()),
+            options,
+            set,
             out: out.clone(),
             character: c,
         };
-        self.info(format!("baking every representation into {}", out.display()));
+        self.info(format!("baking into {}", out.display()));
         self.crowd.start_bake(req);
     }
 
@@ -658,6 +688,12 @@ impl EditorApp {
             let bake = i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::B));
             (open, new, save_as, save, quit, bake)
         });
+        if ctx.input_mut(|i| i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::E)))
+            && !self.crowd.busy()
+            && let Some(doc) = &self.doc
+        {
+            self.export.show(doc);
+        }
         if bake && self.doc.is_some() {
             self.send(Command::BakeCrowd);
         }
@@ -774,6 +810,17 @@ impl EditorApp {
                 }
                 if ui.add_enabled(has_doc, egui::Button::new("Save As path…")).clicked() {
                     self.prompt = Some(PathPrompt::new(PathPurpose::SaveAs));
+                }
+                ui.separator();
+                if ui
+                    .add_enabled(
+                        has_doc && !self.crowd.busy(),
+                        egui::Button::new("Export…").shortcut_text("Ctrl+E"),
+                    )
+                    .clicked()
+                    && let Some(doc) = &self.doc
+                {
+                    self.export.show(doc);
                 }
                 ui.separator();
                 if ui.add(egui::Button::new("Quit").shortcut_text("Ctrl+Q")).clicked() {
@@ -1581,6 +1628,12 @@ impl eframe::App for EditorApp {
         });
         self.dialogs(&ctx);
         self.safety_dialogs(&ctx);
+        if let Some(doc) = &self.doc
+            && let Some(req) = self.export.ui(&ctx, doc, self.playback.clip)
+        {
+            self.info(format!("exporting into {}", req.folder.display()));
+            self.send(Command::Export(req));
+        }
         if std::mem::take(&mut self.closing) {
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
         }

@@ -140,6 +140,10 @@ pub struct BakeRequest {
     pub out: PathBuf,
     /// The previous bake into `out`, for an incremental bake.
     pub previous: Option<Arc<polypostor::bake::pipeline::Bake>>,
+    /// Views, resolution, frame rate, compression (clip and corrections are set from the
+    /// fields above).
+    pub options: polypostor::bake::pipeline::BakeOptions,
+    pub set: polypostor::reps::RepSet,
 }
 
 impl CrowdPanel {
@@ -173,7 +177,7 @@ impl CrowdPanel {
                 let options = polypostor::bake::pipeline::BakeOptions {
                     clip: req.clip,
                     overrides: req.overrides.clone(),
-                    ..Default::default()
+                    ..req.options.clone()
                 };
                 let job = polypostor::reps::bake::FolderBake {
                     character: &req.character,
@@ -182,7 +186,7 @@ impl CrowdPanel {
                     segmentation: &req.segmentation,
                     caps: &req.caps,
                     options: &options,
-                    set: polypostor::reps::RepSet::ALL,
+                    set: req.set,
                     out: &req.out,
                     previous: req.previous.as_deref(),
                     reuse_representations: true,

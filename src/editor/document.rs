@@ -34,6 +34,8 @@ pub enum Command {
     ShowCrowd(bool),
     Undo,
     Redo,
+    /// Bake and write the chosen representations, then preview them.
+    Export(super::export::ExportRequest),
 }
 
 /// The open project and its loaded character.

@@ -8,6 +8,7 @@
 mod app;
 pub mod crowd;
 mod document;
+mod export;
 mod inspect;
 mod safety;
 mod segment;

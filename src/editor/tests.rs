@@ -536,3 +536,56 @@ fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The export dialog: Ctrl+E opens it with a memory estimate; Export bakes the chosen
+/// representations in the background into the folder and opens the crowd preview on it; the
+/// estimate was close to what was written.
+#[test]
+fn export_writes_the_chosen_representations_and_opens_the_preview() {
+    let dir = temp_project("export");
+    let out = dir.join("export.pack");
+    let mut h = harness(Some(dir.clone()));
+    h.run_steps(3);
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::E);
+    h.run_steps(2);
+    assert!(h.state().export.open, "Ctrl+E opens the export dialog");
+    h.get_by_label("Estimated memory (10 frames, uncompressed)");
+    {
+        let e = &mut h.state_mut().export;
+        e.folder = out.display().to_string();
+        e.views = 4;
+        e.resolution = 64;
+        e.fps = 5.0;
+        e.set = polypostor::reps::RepSet::parse("polypostor,impostor").unwrap();
+    }
+    h.run_steps(2);
+    h.get_by_label("Export").click();
+    h.run_steps(2);
+    assert!(!h.state().export.open);
+    let started = std::time::Instant::now();
+    while h.state().crowd.assets.is_none() {
+        assert!(h.state().error.is_none(), "{:?}", h.state().error);
+        assert!(started.elapsed().as_secs() < 300, "the export did not finish");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        h.run_steps(1);
+    }
+    assert!(h.state().crowd.open, "the crowd preview opens on the export");
+    assert_eq!(h.state().crowd.folder.as_deref(), Some(out.as_path()));
+    let report = polypostor::bake::report::read_report(&out).unwrap();
+    assert_eq!(report.views.len(), 4);
+    assert_eq!(report.settings.resolution, 64);
+    let reps = polypostor::reps::load_representations(&out).unwrap();
+    assert!(reps.impostor.is_some() && reps.np3d.is_none() && reps.rigid.is_none());
+    // The estimate shown before writing, against what was written.
+    let c = &h.state().doc.as_ref().unwrap().character;
+    let e = polypostor::reps::compare::estimate(4, 64, report.settings.frames, 5, c.vertices.len(), 0);
+    assert_eq!(e.impostor, report.impostor_bytes, "impostor memory is exact");
+    let ratio = e.polypostor as f64 / report.pack_bytes as f64;
+    assert!(
+        (0.6..1.6).contains(&ratio),
+        "polypostor estimate {} vs {}",
+        e.polypostor,
+        report.pack_bytes
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}

@@ -268,8 +268,8 @@ mod tests {
 /// Memory of each representation estimated before baking (uncompressed bytes, textures and
 /// geometry): exact for classic impostors (a colour and a normal image per view per frame);
 /// for Polypostors and NP3D from densities measured on the default character (atlas texels
-/// per view ≈ 0.59 r² colour + a quarter for normals; 20 vertices per part and frame);
-/// skinned and rigid from the mesh.
+/// per view ≈ 0.47 r² colour + a quarter for normals; 20 vertices per part and frame);
+/// skinned and rigid from the mesh (the character's textures with their mipmaps).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Estimate {
     pub polypostor: u64,
@@ -295,7 +295,8 @@ pub fn estimate(
         parts as u64,
         vertices as u64,
     );
-    let atlas = v * r2 * 59 / 100 * 4 * 5 / 4;
+    let atlas = v * r2 * 47 / 100 * 4 * 5 / 4;
+    let texture_bytes = texture_bytes * 4 / 3;
     let poly_geometry = v * p * f * 20 * 4 + v * p * 18 * 3 * 2;
     Estimate {
         polypostor: atlas + poly_geometry,

@@ -1,0 +1,218 @@
+//! The export dialog (File ▸ Export…, Ctrl+E): which representations, how many views, the
+//! resolution, frame rate and texture compression, with a memory estimate before anything
+//! is written. Exporting bakes in the background (progress and cancel in the status bar)
+//! and opens the crowd preview on the new folder.
+
+use std::path::PathBuf;
+
+use polypostor::bake::overrides::OverrideBasis;
+use polypostor::bake::pipeline::PngCompression;
+use polypostor::bake::renders::frame_times;
+use polypostor::reps::RepSet;
+use polypostor::reps::compare::estimate;
+
+use super::document::Document;
+
+pub struct ExportDialog {
+    pub open: bool,
+    pub folder: String,
+    pub set: RepSet,
+    pub views: usize,
+    pub resolution: u32,
+    pub fps: f32,
+    pub png: PngCompression,
+}
+
+impl Default for ExportDialog {
+    fn default() -> Self {
+        Self {
+            open: false,
+            folder: String::new(),
+            set: RepSet::ALL,
+            views: polypostor::bake::viewpoints::DEFAULT_VIEW_COUNT,
+            resolution: polypostor::bake::renders::DEFAULT_RESOLUTION,
+            fps: polypostor::bake::renders::DEFAULT_FPS,
+            png: PngCompression::default(),
+        }
+    }
+}
+
+/// What the user asked to export.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExportRequest {
+    pub folder: PathBuf,
+    pub set: RepSet,
+    pub views: usize,
+    pub resolution: u32,
+    pub fps: f32,
+    pub png: PngCompression,
+}
+
+fn mb(bytes: u64) -> String {
+    format!("{:.1} MB", bytes as f64 / 1e6)
+}
+
+impl ExportDialog {
+    /// Opens the dialog with a default folder beside the project.
+    pub fn show(&mut self, doc: &Document) {
+        if self.folder.is_empty() {
+            let dir = doc
+                .project_file
+                .as_ref()
+                .and_then(|f| f.parent().map(|p| p.to_owned()))
+                .unwrap_or_else(std::env::temp_dir);
+            self.folder = dir.join("export.pack").display().to_string();
+        }
+        self.open = true;
+    }
+
+    /// The dialog; returns a request when the user presses Export.
+    pub fn ui(&mut self, ctx: &egui::Context, doc: &Document, clip: Option<usize>) -> Option<ExportRequest> {
+        if !self.open {
+            return None;
+        }
+        let mut request = None;
+        let mut close = false;
+        let duration = clip
+            .and_then(|i| doc.character.clips.get(i))
+            .map_or(0.0, |c| c.duration_secs);
+        let frames = frame_times(duration, self.fps).len();
+        egui::Modal::new(egui::Id::unique("export dialog")).show(ctx, |ui| {
+            ui.set_width(520.0);
+            ui.heading("Export crowd assets");
+            ui.add_space(4.0);
+            egui::Grid::new("export settings").num_columns(2).show(ui, |ui| {
+                ui.label("Folder");
+                ui.add(egui::TextEdit::singleline(&mut self.folder).desired_width(360.0));
+                ui.end_row();
+                ui.label("Representations");
+                ui.horizontal(|ui| {
+                    ui.checkbox(&mut self.set.polypostor, "Polypostor");
+                    ui.checkbox(&mut self.set.impostor, "Impostor");
+                    ui.checkbox(&mut self.set.np3d, "NP3D");
+                    ui.checkbox(&mut self.set.rigid, "Rigid");
+                });
+                ui.end_row();
+                ui.label("Views");
+                ui.horizontal(|ui| {
+                    ui.add(egui::Slider::new(&mut self.views, 1..=400).logarithmic(true));
+                    for n in [24, 60, 137] {
+                        if ui.small_button(n.to_string()).clicked() {
+                            self.views = n;
+                        }
+                    }
+                });
+                ui.end_row();
+                ui.label("Resolution");
+                egui::ComboBox::from_id_salt("export resolution")
+                    .selected_text(format!("{0}×{0}", self.resolution))
+                    .show_ui(ui, |ui| {
+                        for r in [64, 96, 128, 192, 256] {
+                            ui.selectable_value(&mut self.resolution, r, format!("{r}×{r}"));
+                        }
+                    });
+                ui.end_row();
+                ui.label("Frame rate");
+                ui.add(egui::Slider::new(&mut self.fps, 2.0..=30.0).suffix(" fps").step_by(1.0));
+                ui.end_row();
+                ui.label("Textures");
+                egui::ComboBox::from_id_salt("export png")
+                    .selected_text(self.png.label())
+                    .show_ui(ui, |ui| {
+                        for p in PngCompression::ALL {
+                            ui.selectable_value(&mut self.png, p, p.label());
+                        }
+                    })
+                    .response
+                    .on_hover_text("Lossless at every level; slower writing gives smaller files");
+                ui.end_row();
+            });
+            ui.separator();
+            // Memory before writing.
+            let texture_bytes: u64 = doc
+                .character
+                .textures
+                .iter()
+                .map(|t| t.width as u64 * t.height as u64 * 4)
+                .sum();
+            let e = estimate(
+                self.views,
+                self.resolution,
+                frames,
+                doc.segmentation.parts.len(),
+                doc.character.vertices.len(),
+                texture_bytes,
+            );
+            ui.label(egui::RichText::new(format!("Estimated memory ({frames} frames, uncompressed)")).strong());
+            let mut total = 0;
+            egui::Grid::new("export estimate").num_columns(2).striped(true).show(ui, |ui| {
+                for (on, name, bytes) in [
+                    (self.set.polypostor, "Polypostor", e.polypostor),
+                    (self.set.impostor, "Classic impostor", e.impostor),
+                    (self.set.np3d, "NP3D impostor", e.np3d),
+                    (self.set.rigid, "Rigid mesh", e.rigid),
+                ] {
+                    if on {
+                        ui.label(name);
+                        ui.label(mb(bytes));
+                        ui.end_row();
+                        total += bytes;
+                    }
+                }
+                ui.strong("Total");
+                ui.strong(mb(total));
+                ui.end_row();
+            });
+            if self.set.polypostor && self.set.impostor && e.polypostor > 0 {
+                ui.label(
+                    egui::RichText::new(format!(
+                        "Polypostors: {:.0}× less memory than classic impostors",
+                        e.impostor as f64 / e.polypostor as f64
+                    ))
+                    .weak(),
+                );
+            }
+            let basis = OverrideBasis {
+                views: self.views,
+                full_sphere: false,
+                frames,
+            };
+            let ov = &doc.project.overrides;
+            if !ov.is_empty() && ov.basis != basis {
+                ui.label(
+                    egui::RichText::new(format!(
+                        "The project's corrections were made for {} views and {} frames; they do not apply to this export.",
+                        ov.basis.views, ov.basis.frames
+                    ))
+                    .color(ui.visuals().warn_fg_color),
+                );
+            }
+            let nothing = !(self.set.polypostor || self.set.any_other());
+            ui.add_space(6.0);
+            ui.horizontal(|ui| {
+                let ok = !nothing && !self.folder.trim().is_empty();
+                if ui.add_enabled(ok, egui::Button::new("Export")).clicked() {
+                    request = Some(ExportRequest {
+                        folder: PathBuf::from(self.folder.trim()),
+                        set: self.set,
+                        views: self.views,
+                        resolution: self.resolution,
+                        fps: self.fps,
+                        png: self.png,
+                    });
+                    close = true;
+                }
+                if ui.button("Cancel").clicked() || ui.input(|i| i.key_pressed(egui::Key::Escape)) {
+                    close = true;
+                }
+                if nothing {
+                    ui.label(egui::RichText::new("choose at least one representation").weak());
+                }
+            });
+        });
+        if close {
+            self.open = false;
+        }
+        request
+    }
+}
