@@ -936,7 +936,11 @@ impl EditorApp {
                 self.show_log = !self.show_log;
             }
             ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
-                ui.label(format!("{:.0} FPS", self.timer.fps()));
+                ui.label(format!(
+                    "{:.0} FPS · {:.0} ms",
+                    self.timer.fps(),
+                    1000.0 / self.timer.fps().max(0.1)
+                ));
                 ui.separator();
                 ui.label(self.adapter.as_deref().unwrap_or("no GPU"));
                 if let Some(t) = self.safety.written_at {

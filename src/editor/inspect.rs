@@ -327,7 +327,22 @@ impl Inspector {
             self.time = (self.time + dt * report.settings.fps).rem_euclid(frames as f32);
             ui.ctx().request_repaint();
         }
-        ui.add(egui::Slider::new(&mut self.time, 0.0..=(frames.saturating_sub(1)) as f32).text("frame"));
+        ui.horizontal(|ui| {
+            ui.add(egui::Slider::new(&mut self.time, 0.0..=(frames.saturating_sub(1)) as f32).text("frame"));
+            let f = (self.time.round() as usize).min(frames.saturating_sub(1));
+            let s = self.session.as_ref().unwrap();
+            if ui
+                .add_enabled(f != s.key, egui::Button::new("Key frame here"))
+                .on_hover_text("Use this frame's texture for this view (the fit is re-solved)")
+                .clicked()
+            {
+                let (basis, view) = (s.basis, s.view);
+                doc.edit_overrides("Key frame", |o| {
+                    o.view_mut(basis, view).key_frame = Some(f);
+                    true
+                });
+            }
+        });
         let part = self.part.min(parts_n.saturating_sub(1));
         let t = self.time;
         let f = (t.round() as usize).min(frames.saturating_sub(1));
