@@ -29,7 +29,8 @@ pub struct Segmentation {
     pub labels: Vec<u16>,
 }
 
-const PALETTE: [[u8; 3]; 8] = [
+/// Part display colours, in the order parts get them.
+pub const PALETTE: [[u8; 3]; 10] = [
     [230, 160, 60],
     [70, 150, 230],
     [90, 200, 110],
@@ -37,7 +38,9 @@ const PALETTE: [[u8; 3]; 8] = [
     [170, 110, 220],
     [60, 200, 200],
     [220, 210, 70],
-    [150, 150, 150],
+    [200, 120, 160],
+    [140, 180, 60],
+    [120, 130, 240],
 ];
 
 impl Segmentation {

@@ -354,18 +354,7 @@ pub fn segmentation_display(c: &Character, seg: &Segmentation, topo: &Topology) 
 
 /// Adds a part with a fresh colour; returns its index.
 pub fn add_part(seg: &mut Segmentation, name: &str) -> u16 {
-    const COLORS: [[u8; 3]; 10] = [
-        [230, 160, 60],
-        [70, 150, 230],
-        [90, 200, 110],
-        [220, 80, 90],
-        [170, 110, 220],
-        [60, 200, 200],
-        [230, 210, 80],
-        [200, 120, 160],
-        [140, 180, 60],
-        [120, 130, 240],
-    ];
+    use crate::bake::segment::PALETTE as COLORS;
     let used: Vec<[u8; 3]> = seg.parts.iter().map(|p| p.color).collect();
     let color = COLORS
         .iter()

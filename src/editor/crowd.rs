@@ -196,17 +196,7 @@ impl CrowdPanel {
                         *g = (pr.stage.to_string(), pr.done, pr.total);
                     }
                 };
-                // One core stays with the editor so it keeps drawing while the bake runs.
-                let threads = std::thread::available_parallelism()
-                    .map_or(2, |n| n.get())
-                    .saturating_sub(1)
-                    .max(1);
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .map_err(|e| e.to_string())?;
-                let done = pool
-                    .install(|| polypostor::reps::bake::bake_folder(&ctx, &job, &progress, &c, &|_, _| Ok(())))
+                let done = polypostor::reps::bake::bake_folder(&ctx, &job, &progress, &c, &|_, _| Ok(()))
                     .map_err(|e| e.to_string())?;
                 let labels = req.segmentation.labels.iter().map(|&l| l as u32).collect();
                 let assets = CrowdAssets::load(&req.out, Some(&req.character_path), Some(labels))?;

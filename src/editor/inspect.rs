@@ -82,6 +82,19 @@ pub struct Inspector {
     textures: Textures,
 }
 
+/// Runs `job` here (`sync`, for tests) or on a thread; its result arrives on the receiver.
+fn run<T: Send + 'static>(sync: bool, job: impl FnOnce() -> T + Send + 'static) -> Receiver<T> {
+    let (tx, rx) = channel();
+    if sync {
+        let _ = tx.send(job());
+    } else {
+        std::thread::spawn(move || {
+            let _ = tx.send(job());
+        });
+    }
+    rx
+}
+
 type Textures = HashMap<&'static str, (u64, egui::TextureHandle)>;
 
 /// A texture for `name`, rebuilt only when `version` changes.
@@ -174,15 +187,7 @@ impl Inspector {
         self.refit = None;
         self.error = None;
         self.drag = None;
-        let (tx, rx) = channel();
-        if sync {
-            let _ = tx.send(job());
-        } else {
-            std::thread::spawn(move || {
-                let _ = tx.send(job());
-            });
-        }
-        self.opening = Some((view, rx, Instant::now()));
+        self.opening = Some((view, run(sync, job), Instant::now()));
     }
 
     /// Collects finished work and starts a re-fit when the project's corrections for the
@@ -270,15 +275,7 @@ impl Inspector {
                 ms,
             }
         };
-        let (tx, rx) = channel();
-        if sync {
-            let _ = tx.send(job());
-        } else {
-            std::thread::spawn(move || {
-                let _ = tx.send(job());
-            });
-        }
-        self.refit = Some(rx);
+        self.refit = Some(run(sync, job));
     }
 
     /// The inspector's panel for the selected view.

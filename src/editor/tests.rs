@@ -152,31 +152,16 @@ fn save_as_writes_a_project_that_reopens() {
 #[test]
 fn crowd_preview_opens_a_baked_folder_and_draws_the_chosen_representation() {
     use polypostor::crowd::lod::Level;
-    let dir = std::env::temp_dir().join(format!("polypostor-editor-crowd-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let out = dir.join("reps.pack");
-    let c = polypostor::default_character::generate();
-    let seg = polypostor::bake::segment::auto_segment(&c);
-    let ctx = polypostor::gpu::GpuContext::new(&polypostor::gpu::AdapterPreference::SoftwareFirst).unwrap();
-    let options = polypostor::bake::pipeline::BakeOptions {
-        views: 6,
-        resolution: 64,
-        ..Default::default()
-    };
-    let character_path = repo().join(polypostor::default_character::DEFAULT_CHARACTER_PATH);
-    let job = polypostor::reps::bake::FolderBake {
-        character: &c,
-        character_path: &character_path,
-        clip_name: Some("Walk"),
-        segmentation: &seg,
-        caps: &Default::default(),
-        options: &options,
-        set: polypostor::reps::RepSet::parse("impostor,np3d,rigid").unwrap(),
-        out: &out,
-        previous: None,
-        reuse_representations: false,
-    };
-    polypostor::reps::bake::bake_folder(&ctx, &job, &|_| {}, &Default::default(), &|_, _| Ok(())).unwrap();
+    let (dir, out) = bake_small(
+        "crowd",
+        "reps.pack",
+        "impostor,np3d,rigid",
+        polypostor::bake::pipeline::BakeOptions {
+            views: 6,
+            resolution: 64,
+            ..Default::default()
+        },
+    );
 
     let mut h = harness(Some(repo().join("projects/default")));
     h.run_steps(3);
@@ -212,6 +197,36 @@ fn crowd_preview_opens_a_baked_folder_and_draws_the_chosen_representation() {
     assert_eq!(stats.per_level[Level::Np3d as usize], stats.visible);
     assert!(stats.draw_calls >= 1);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Bakes the default character (Walk) with `set` into a fresh `dir/name`, small.
+fn bake_small(
+    tag: &str,
+    name: &str,
+    set: &str,
+    options: polypostor::bake::pipeline::BakeOptions,
+) -> (PathBuf, PathBuf) {
+    let dir = std::env::temp_dir().join(format!("polypostor-editor-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = dir.join(name);
+    let c = polypostor::default_character::generate();
+    let seg = polypostor::bake::segment::auto_segment(&c);
+    let ctx = polypostor::gpu::GpuContext::new(&polypostor::gpu::AdapterPreference::SoftwareFirst).unwrap();
+    let character_path = repo().join(polypostor::default_character::DEFAULT_CHARACTER_PATH);
+    let job = polypostor::reps::bake::FolderBake {
+        character: &c,
+        character_path: &character_path,
+        clip_name: Some("Walk"),
+        segmentation: &seg,
+        caps: &Default::default(),
+        options: &options,
+        set: polypostor::reps::RepSet::parse(set).unwrap(),
+        out: &out,
+        previous: None,
+        reuse_representations: false,
+    };
+    polypostor::reps::bake::bake_folder(&ctx, &job, &|_| {}, &Default::default(), &|_, _| Ok(())).unwrap();
+    (dir, out)
 }
 
 /// A copy of the default project in a fresh folder (absolute character path).
@@ -394,32 +409,17 @@ fn closing_with_unsaved_changes_asks_first() {
 /// list agree with the report, and picking the worst view turns the camera to look from it.
 #[test]
 fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
-    let dir = std::env::temp_dir().join(format!("polypostor-editor-views-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let out = dir.join("walk.pack");
-    let c = polypostor::default_character::generate();
-    let seg = polypostor::bake::segment::auto_segment(&c);
-    let ctx = polypostor::gpu::GpuContext::new(&polypostor::gpu::AdapterPreference::SoftwareFirst).unwrap();
-    let options = polypostor::bake::pipeline::BakeOptions {
-        views: 5,
-        resolution: 48,
-        fps: 5.0,
-        ..Default::default()
-    };
-    let character_path = repo().join(polypostor::default_character::DEFAULT_CHARACTER_PATH);
-    let job = polypostor::reps::bake::FolderBake {
-        character: &c,
-        character_path: &character_path,
-        clip_name: Some("Walk"),
-        segmentation: &seg,
-        caps: &Default::default(),
-        options: &options,
-        set: polypostor::reps::RepSet::parse("polypostor").unwrap(),
-        out: &out,
-        previous: None,
-        reuse_representations: false,
-    };
-    polypostor::reps::bake::bake_folder(&ctx, &job, &|_| {}, &Default::default(), &|_, _| Ok(())).unwrap();
+    let (dir, out) = bake_small(
+        "views",
+        "walk.pack",
+        "polypostor",
+        polypostor::bake::pipeline::BakeOptions {
+            views: 5,
+            resolution: 48,
+            fps: 5.0,
+            ..Default::default()
+        },
+    );
     let report = polypostor::bake::report::read_report(&out).unwrap();
     assert_eq!(report.views.len(), 5);
 
