@@ -662,7 +662,7 @@ impl Inspector {
             .show(ui, |ui| {
                 let mut new_order: Option<Vec<usize>> = None;
                 for (i, &p) in order.iter().enumerate() {
-                    ui.horizontal(|ui| {
+                    let row = ui.horizontal(|ui| {
                         if ui.add_enabled(i > 0, egui::Button::new("Up").small()).clicked() {
                             let mut o = order.clone();
                             o.swap(i, i - 1);
@@ -681,12 +681,18 @@ impl Inspector {
                             .filter(|&q| q != p && hidden[p][q] >= 0.5)
                             .map(|q| format!("{} {:.0}", names[q], hidden[p][q]))
                             .collect();
-                        ui.label(names.get(p).cloned().unwrap_or_default())
-                            .on_hover_text(if hides.is_empty() {
-                                "hides nothing".to_owned()
-                            } else {
-                                format!("hides (pixels per frame): {}", hides.join(", "))
-                            });
+                        // Drag the name onto another row to move the part there.
+                        let name = names.get(p).cloned().unwrap_or_default();
+                        let drag_id = ui.scope_id().with(("order row", view, i));
+                        ui.dnd_drag_source(drag_id, i, |ui| {
+                            ui.label(format!(":: {name}"));
+                        })
+                        .response
+                        .on_hover_text(if hides.is_empty() {
+                            "drag to reorder · hides nothing".to_owned()
+                        } else {
+                            format!("drag to reorder · hides (pixels per frame): {}", hides.join(", "))
+                        });
                         // Weight of the occlusions this order gets wrong for this part.
                         let wrong: f64 = order[..i].iter().map(|&q| hidden[q][p]).sum();
                         if wrong >= 0.5 {
@@ -697,6 +703,31 @@ impl Inspector {
                             );
                         }
                     });
+                    // A row dropped here takes this place.
+                    let response = row.response;
+                    if let Some(from) = response.dnd_hover_payload::<usize>()
+                        && *from != i
+                    {
+                        let y = if *from < i {
+                            response.rect.bottom()
+                        } else {
+                            response.rect.top()
+                        };
+                        ui.painter().hline(
+                            response.rect.x_range(),
+                            y,
+                            egui::Stroke::new(2.0, ui.visuals().selection.bg_fill),
+                        );
+                    }
+                    if let Some(from) = response.dnd_release_payload::<usize>()
+                        && *from != i
+                        && *from < order.len()
+                    {
+                        let mut o = order.clone();
+                        let moved = o.remove(*from);
+                        o.insert(i, moved);
+                        new_order = Some(o);
+                    }
                 }
                 let violated: f64 = (0..order.len())
                     .flat_map(|i| (0..i).map(move |j| (i, j)))
