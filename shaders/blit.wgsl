@@ -1,15 +1,13 @@
 // Copies an offscreen image into a rectangle of the egui frame (the viewport's paint
 // callback). Draws one full-viewport triangle.
-// Keep `BlitUniforms` in sync with `src/gpu/gpu_data.rs`.
+//
+// No colour conversion happens here: the caller binds a view of the image whose encoding
+// matches the window's (the sRGB view for an sRGB window, the raw-bytes view otherwise), so
+// the copy costs one texel fetch per pixel — it runs on every frame, and on a software
+// rasteriser a per-pixel `pow` is a measurable share of the frame.
 
-struct BlitUniforms {
-    // x: 1 to encode linear -> sRGB in the shader (for non-sRGB targets), else 0.
-    params: vec4<f32>,
-};
-
-@group(0) @binding(0) var<uniform> blit: BlitUniforms;
-@group(0) @binding(1) var source: texture_2d<f32>;
-@group(0) @binding(2) var source_sampler: sampler;
+@group(0) @binding(0) var source: texture_2d<f32>;
+@group(0) @binding(1) var source_sampler: sampler;
 
 struct VertexOut {
     @builtin(position) clip_position: vec4<f32>,
@@ -26,18 +24,7 @@ fn vs_main(@builtin(vertex_index) i: u32) -> VertexOut {
     return out;
 }
 
-fn linear_to_srgb(c: vec3<f32>) -> vec3<f32> {
-    let lo = c * 12.92;
-    let hi = 1.055 * pow(c, vec3<f32>(1.0 / 2.4)) - 0.055;
-    return select(hi, lo, c <= vec3<f32>(0.0031308));
-}
-
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
-    let c = textureSample(source, source_sampler, in.uv);
-    var rgb = c.rgb;
-    if (blit.params.x > 0.5) {
-        rgb = linear_to_srgb(rgb);
-    }
-    return vec4<f32>(rgb, 1.0);
+    return vec4<f32>(textureSample(source, source_sampler, in.uv).rgb, 1.0);
 }

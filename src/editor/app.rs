@@ -115,6 +115,11 @@ struct Loading {
 struct FrameTimer {
     last: Option<Instant>,
     smoothed_secs: f32,
+    /// eframe's CPU time of a frame (update + paint, without waiting for vsync), smoothed.
+    cpu_secs: f32,
+    /// `POLYPOSTOR_FRAME_LOG`: one line per frame, "interval_ms cpu_ms", for measuring the UI
+    /// (see the README's benchmarks).
+    log: Option<std::io::LineWriter<std::fs::File>>,
 }
 
 impl FrameTimer {
@@ -131,6 +136,32 @@ impl FrameTimer {
         }
         dt.min(0.25)
     }
+    /// Opens the frame log named by `POLYPOSTOR_FRAME_LOG`, if any.
+    fn from_env() -> Self {
+        let log = std::env::var_os("POLYPOSTOR_FRAME_LOG").and_then(|p| {
+            std::fs::File::create(&p)
+                .map_err(|e| log::warn!("cannot write the frame log {}: {e}", p.display()))
+                .ok()
+                .map(std::io::LineWriter::new)
+        });
+        Self { log, ..Self::default() }
+    }
+
+    /// Records eframe's figures for the last frame (and logs this frame's interval).
+    fn record(&mut self, dt_secs: f32, cpu: Option<f32>) {
+        if let Some(c) = cpu {
+            self.cpu_secs = if self.cpu_secs == 0.0 {
+                c
+            } else {
+                self.cpu_secs * 0.9 + c * 0.1
+            };
+        }
+        if let Some(f) = &mut self.log {
+            use std::io::Write;
+            let _ = writeln!(f, "{:.2} {:.2}", dt_secs * 1000.0, cpu.unwrap_or(0.0) * 1000.0);
+        }
+    }
+
     fn fps(&self) -> f32 {
         if self.smoothed_secs > 0.0 {
             1.0 / self.smoothed_secs
@@ -200,7 +231,7 @@ impl EditorApp {
             log: Vec::new(),
             show_log: true,
             adapter,
-            timer: FrameTimer::default(),
+            timer: FrameTimer::from_env(),
             prompt: None,
             dialog: None,
             texture_preview: None,
@@ -937,9 +968,10 @@ impl EditorApp {
             }
             ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
                 ui.label(format!(
-                    "{:.0} FPS · {:.0} ms",
+                    "{:.0} FPS · {:.0} ms · cpu {:.0} ms",
                     self.timer.fps(),
-                    1000.0 / self.timer.fps().max(0.1)
+                    1000.0 / self.timer.fps().max(0.1),
+                    self.timer.cpu_secs * 1000.0
                 ));
                 ui.separator();
                 ui.label(self.adapter.as_deref().unwrap_or("no GPU"));
@@ -1507,9 +1539,10 @@ impl LoadRequest {
 }
 
 impl eframe::App for EditorApp {
-    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+    fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
         let dt = self.timer.tick();
+        self.timer.record(dt, frame.info().cpu_usage);
         self.poll_loading();
         self.poll_dialog();
         self.crowd.poll();
@@ -1642,15 +1675,15 @@ impl eframe::App for EditorApp {
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
         }
 
-        // Keep animating while playing or loading.
+        // Animation redraws every frame. Background work only needs its progress shown: a
+        // few redraws a second leave the CPU to the bake (input still redraws at once).
         if (self.playback.playing && self.doc.is_some())
-            || self.loading.is_some()
-            || self.dialog.is_some()
-            || self.crowd.busy()
             || self.views.inspector.busy()
             || (self.crowd.open && self.crowd.assets.is_some())
         {
             ctx.request_repaint();
+        } else if self.loading.is_some() || self.dialog.is_some() || self.crowd.busy() {
+            ctx.request_repaint_after(std::time::Duration::from_millis(100));
         }
     }
 }

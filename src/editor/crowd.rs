@@ -168,6 +168,8 @@ impl CrowdPanel {
             rx,
         });
         std::thread::spawn(move || {
+            // Before the device: llvmpipe's render threads inherit the priority.
+            super::lower_thread_priority();
             let result = (|| -> Result<JobDone, String> {
                 let ctx = polypostor::gpu::GpuContext::from_env().map_err(|e| e.to_string())?;
                 let clip_name = req
@@ -518,7 +520,7 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
             match CrowdScene::new(device, queue, &self.assets, params.clone()) {
                 Ok(scene) => {
                     let target = RenderTarget::new(device, w, h);
-                    let blit = res.blit_group(device, &target.color_view);
+                    let blit = res.blit_group(device, &target);
                     res.crowd = Some(CrowdGpu {
                         generation: self.generation,
                         scene,
@@ -534,14 +536,13 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
                 }
             }
         }
-        res.write_blit_params(queue);
         let resize = res
             .crowd
             .as_ref()
             .is_some_and(|c| c.target.width != w || c.target.height != h);
         if resize {
             let target = RenderTarget::new(device, w, h);
-            let blit = res.blit_group(device, &target.color_view);
+            let blit = res.blit_group(device, &target);
             if let Some(c) = res.crowd.as_mut() {
                 c.target = target;
                 c.blit = blit;

@@ -10,7 +10,7 @@ use glam::Vec3;
 use polypostor::Character;
 use polypostor::animation::Pose;
 use polypostor::gpu::{
-    Camera, CharacterRenderer, DrawOptions, GpuCharacter, RenderTarget, Shading, SkinningMode, gpu_data, shaders,
+    Camera, CharacterRenderer, DrawOptions, GpuCharacter, RenderTarget, Shading, SkinningMode, shaders,
 };
 
 /// What the viewport shows.
@@ -122,10 +122,24 @@ pub struct ViewportResources {
     target: Option<RenderTarget>,
     blit_pipeline: wgpu::RenderPipeline,
     blit_layout: wgpu::BindGroupLayout,
-    blit_uniforms: wgpu::Buffer,
     blit_sampler: wgpu::Sampler,
     blit_groups: Option<(wgpu::BindGroup, wgpu::BindGroup)>,
     target_is_srgb: bool,
+    /// What the target holds now: a frame asking for the same image only blits it again
+    /// (paused playback, a bake running, the mouse over a panel), which on a software
+    /// rasteriser is most of the frame's cost saved.
+    drawn: Option<Drawn>,
+}
+
+/// The inputs of the image in the viewport's target.
+#[derive(PartialEq)]
+struct Drawn {
+    generation: u64,
+    pose: Arc<Pose>,
+    camera: Camera,
+    size_px: [u32; 2],
+    mode: ViewMode,
+    grid: bool,
 }
 
 impl ViewportResources {
@@ -140,16 +154,6 @@ impl ViewportResources {
                 wgpu::BindGroupLayoutEntry {
                     binding: 0,
                     visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
                     ty: wgpu::BindingType::Texture {
                         sample_type: wgpu::TextureSampleType::Float { filterable: true },
                         view_dimension: wgpu::TextureViewDimension::D2,
@@ -158,7 +162,7 @@ impl ViewportResources {
                     count: None,
                 },
                 wgpu::BindGroupLayoutEntry {
-                    binding: 2,
+                    binding: 1,
                     visibility: wgpu::ShaderStages::FRAGMENT,
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                     count: None,
@@ -199,12 +203,6 @@ impl ViewportResources {
             multiview_mask: None,
             cache: None,
         });
-        let blit_uniforms = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("blit uniforms"),
-            size: 512, // colour view's uniforms at 0, normal view's at 256 (offset alignment)
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         let blit_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("blit"),
             mag_filter: wgpu::FilterMode::Nearest,
@@ -224,9 +222,9 @@ impl ViewportResources {
                 target: None,
                 blit_pipeline,
                 blit_layout,
-                blit_uniforms,
                 blit_sampler,
                 blit_groups: None,
+                drawn: None,
                 target_is_srgb: render_state.target_format.is_srgb(),
             });
         adapter
@@ -234,47 +232,33 @@ impl ViewportResources {
 }
 
 impl ViewportResources {
-    /// A blit bind group showing `view` with the uniforms at `offset` (colour: 0, normals: 256).
-    fn blit_group_at(&self, device: &wgpu::Device, view: &wgpu::TextureView, offset: u64) -> wgpu::BindGroup {
+    /// A blit bind group showing `view` as it is.
+    fn blit_group_of(&self, device: &wgpu::Device, view: &wgpu::TextureView) -> wgpu::BindGroup {
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("blit"),
             layout: &self.blit_layout,
             entries: &[
                 wgpu::BindGroupEntry {
                     binding: 0,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: &self.blit_uniforms,
-                        offset,
-                        size: wgpu::BufferSize::new(std::mem::size_of::<gpu_data::BlitUniforms>() as u64),
-                    }),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
                     resource: wgpu::BindingResource::TextureView(view),
                 },
                 wgpu::BindGroupEntry {
-                    binding: 2,
+                    binding: 1,
                     resource: wgpu::BindingResource::Sampler(&self.blit_sampler),
                 },
             ],
         })
     }
 
-    /// A blit bind group for a colour image.
-    pub fn blit_group(&self, device: &wgpu::Device, view: &wgpu::TextureView) -> wgpu::BindGroup {
-        self.blit_group_at(device, view, 0)
-    }
-
-    /// The colour blit's uniforms (sRGB encoding when the window's format needs it).
-    pub fn write_blit_params(&self, queue: &wgpu::Queue) {
-        let encode_color = if self.target_is_srgb { 0.0 } else { 1.0 };
-        queue.write_buffer(
-            &self.blit_uniforms,
-            0,
-            bytemuck::bytes_of(&gpu_data::BlitUniforms {
-                params: [encode_color, 0.0, 0.0, 0.0],
-            }),
-        );
+    /// A blit bind group for a render target's colour image: the view whose encoding matches
+    /// the window's, so the blit copies texels without converting them.
+    pub fn blit_group(&self, device: &wgpu::Device, target: &RenderTarget) -> wgpu::BindGroup {
+        let view = if self.target_is_srgb {
+            &target.color_view
+        } else {
+            &target.color_bytes_view
+        };
+        self.blit_group_of(device, view)
     }
 
     /// Draws a full-viewport blit of `group`'s image.
@@ -318,20 +302,25 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
         let [w, h] = [self.size_px[0].max(1), self.size_px[1].max(1)];
         if res.target.as_ref().is_none_or(|t| t.width != w || t.height != h) {
             let target = RenderTarget::new(device, w, h);
-            // Uniform offsets must be 256-byte aligned: colour at 0, normals at 256.
             res.blit_groups = Some((
-                res.blit_group_at(device, &target.color_view, 0),
-                res.blit_group_at(device, &target.normal_view, 256),
+                res.blit_group(device, &target),
+                res.blit_group_of(device, &target.normal_view),
             ));
             res.target = Some(target);
+            res.drawn = None;
         }
-        res.write_blit_params(queue);
-        queue.write_buffer(
-            &res.blit_uniforms,
-            256,
-            bytemuck::bytes_of(&gpu_data::BlitUniforms { params: [0.0; 4] }),
-        );
-
+        let drawn = Drawn {
+            generation: self.generation,
+            pose: self.pose.clone(),
+            camera: self.camera,
+            size_px: [w, h],
+            mode: self.mode,
+            grid: self.grid,
+        };
+        if res.drawn.as_ref() == Some(&drawn) {
+            return Vec::new();
+        }
+        res.drawn = Some(drawn);
         let (Some((_, gpu)), Some(target)) = (res.character.as_mut(), res.target.as_ref()) else {
             return Vec::new();
         };

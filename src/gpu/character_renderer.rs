@@ -10,6 +10,8 @@ use crate::character::{Character, Texture};
 
 /// Colour target: sRGB-encoded RGBA8 (linear values written, encoded by the hardware).
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+/// [`COLOR_FORMAT`] without the sRGB decode: the view format of `RenderTarget::color_bytes_view`.
+pub const COLOR_BYTES_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 /// Normal target: view-space unit normal encoded as `n * 0.5 + 0.5`, alpha 1 on the character.
 pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -59,6 +61,9 @@ pub struct RenderTarget {
     pub height: u32,
     pub color: wgpu::Texture,
     pub color_view: wgpu::TextureView,
+    /// The colour image read as its stored (sRGB-encoded) bytes, without decoding: what a
+    /// non-sRGB window wants to show it as is.
+    pub color_bytes_view: wgpu::TextureView,
     pub normal: wgpu::Texture,
     pub normal_view: wgpu::TextureView,
     pub depth: wgpu::Texture,
@@ -68,7 +73,7 @@ pub struct RenderTarget {
 impl RenderTarget {
     pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Self {
         let (width, height) = (width.max(1), height.max(1));
-        let make = |label, format| {
+        let make = |label, format: wgpu::TextureFormat| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
                 size: wgpu::Extent3d {
@@ -83,7 +88,12 @@ impl RenderTarget {
                 usage: wgpu::TextureUsages::RENDER_ATTACHMENT
                     | wgpu::TextureUsages::COPY_SRC
                     | wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
+                // The colour image can also be read as its stored bytes (see `color_bytes_view`).
+                view_formats: if format == COLOR_FORMAT {
+                    &[COLOR_BYTES_FORMAT]
+                } else {
+                    &[]
+                },
             })
         };
         let color = make("target colour", COLOR_FORMAT);
@@ -93,6 +103,11 @@ impl RenderTarget {
             width,
             height,
             color_view: color.create_view(&Default::default()),
+            color_bytes_view: color.create_view(&wgpu::TextureViewDescriptor {
+                label: Some("target colour bytes"),
+                format: Some(COLOR_BYTES_FORMAT),
+                ..Default::default()
+            }),
             normal_view: normal.create_view(&Default::default()),
             depth_view: depth.create_view(&Default::default()),
             color,

@@ -30,13 +30,6 @@ pub struct MaterialUniforms {
     pub base_color_factor: [f32; 4],
 }
 
-/// `BlitUniforms` in `blit.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct BlitUniforms {
-    pub params: [f32; 4],
-}
-
 /// Vertex stream 0 (rewritten each frame when skinning on the CPU).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
