@@ -83,13 +83,28 @@ pub struct Inspector {
 }
 
 /// Runs `job` here (`sync`, for tests) or on a thread; its result arrives on the receiver.
+///
+/// Its parallel work runs in a pool of its own at normal priority: the global pool's threads
+/// are lowered for bakes (`lower_thread_priority`), and a pin the user is waiting on must not
+/// wait behind the window's drawing or a bake.
 fn run<T: Send + 'static>(sync: bool, job: impl FnOnce() -> T + Send + 'static) -> Receiver<T> {
+    static POOL: std::sync::OnceLock<Option<rayon::ThreadPool>> = std::sync::OnceLock::new();
     let (tx, rx) = channel();
     if sync {
         let _ = tx.send(job());
     } else {
         std::thread::spawn(move || {
-            let _ = tx.send(job());
+            let pool = POOL.get_or_init(|| {
+                rayon::ThreadPoolBuilder::new()
+                    .thread_name(|i| format!("inspector {i}"))
+                    .build()
+                    .ok()
+            });
+            let result = match pool {
+                Some(pool) => pool.install(job),
+                None => job(),
+            };
+            let _ = tx.send(result);
         });
     }
     rx
