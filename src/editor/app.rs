@@ -120,6 +120,9 @@ struct FrameTimer {
     /// `POLYPOSTOR_FRAME_LOG`: one line per frame, "interval_ms cpu_ms", for measuring the UI
     /// (see the README's benchmarks).
     log: Option<std::io::LineWriter<std::fs::File>>,
+    /// Whether the last frame asked for the next one at once: only then is the interval
+    /// between them the frame's cost (a throttled or idle window waits on purpose).
+    continuous: bool,
 }
 
 impl FrameTimer {
@@ -127,7 +130,7 @@ impl FrameTimer {
         let now = Instant::now();
         let dt = self.last.map_or(0.0, |l| (now - l).as_secs_f32());
         self.last = Some(now);
-        if dt > 0.0 {
+        if dt > 0.0 && std::mem::take(&mut self.continuous) {
             self.smoothed_secs = if self.smoothed_secs == 0.0 {
                 dt
             } else {
@@ -1682,6 +1685,7 @@ impl eframe::App for EditorApp {
             || (self.crowd.open && self.crowd.assets.is_some())
         {
             ctx.request_repaint();
+            self.timer.continuous = true;
         } else if self.loading.is_some() || self.dialog.is_some() || self.crowd.busy() {
             ctx.request_repaint_after(std::time::Duration::from_millis(100));
         }
