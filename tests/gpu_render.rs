@@ -175,3 +175,67 @@ fn colour_normal_and_depth_are_consistent() {
         .count();
     assert!(blue > 200, "{blue}");
 }
+
+/// The editor's playback path (the grid drawn once into a backdrop, then each pose drawn
+/// over a copy of it) gives the same image as drawing character and grid together, and a
+/// second pose over the same backdrop leaves no trace of the first.
+#[test]
+fn character_over_a_cached_grid_backdrop_matches_a_full_draw() {
+    let ctx = context();
+    let c = polypostor::default_character::generate();
+    let renderer = CharacterRenderer::new(&ctx.device);
+    let mut gpu = GpuCharacter::new(&renderer, &ctx.device, &ctx.queue, &c);
+    let (w, h) = (200, 150);
+    let full = RenderTarget::new(&ctx.device, w, h);
+    let backdrop = RenderTarget::new(&ctx.device, w, h);
+    let over = RenderTarget::new(&ctx.device, w, h);
+    let cam = Camera::orbit(glam::Vec3::new(0.0, 0.9, 0.0), 0.6, 0.35, 4.0, 0.8);
+    let opts = DrawOptions {
+        shading: Shading::Lit,
+        clear_color: [0.045, 0.05, 0.06, 1.0],
+        grid: true,
+    };
+    let clip = c.find_clip("Walk");
+    let d = clip.map_or(1.0, |i| c.clips[i].duration_secs);
+    for (k, t) in [0.1f32, 0.6].into_iter().enumerate() {
+        let pose = Pose::sample_index(&c, clip, t * d);
+        gpu.set_pose(&ctx.queue, &c, &pose, SkinningMode::Gpu);
+        gpu.set_camera(&ctx.queue, &cam, w as f32 / h as f32, opts.shading);
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        renderer.encode(&mut encoder, &full, &gpu, &opts);
+        if k == 0 {
+            // Drawn once, for the first pose only.
+            renderer.encode_backdrop(&mut encoder, &backdrop, &gpu, &opts);
+        }
+        renderer.encode_over(&mut encoder, &over, &backdrop, &gpu);
+        ctx.queue.submit([encoder.finish()]);
+        let a = full.read_color(&ctx.device, &ctx.queue).unwrap();
+        let b = over.read_color(&ctx.device, &ctx.queue).unwrap();
+        // The background's red byte (sRGB-encoded).
+        let clear_r = (0.045f32.powf(1.0 / 2.2) * 255.0) as i32;
+        let (mut differ, mut grid, mut figure) = (0, 0, 0);
+        for (p, q) in a.pixels().zip(b.pixels()) {
+            if (0..4).any(|i| (p[i] as i32 - q[i] as i32).abs() > 2) {
+                differ += 1;
+            }
+            // Grid lines are lighter grey than the background; the character is brighter
+            // still and coloured.
+            if (p[0] as i32 - clear_r).abs() > 12 && (p[0] as i32 - p[2] as i32).abs() < 6 {
+                grid += 1;
+            }
+            if p[0] as i32 + p[1] as i32 + p[2] as i32 > 250 && (p[0] as i32 - p[2] as i32).abs() > 30 {
+                figure += 1;
+            }
+        }
+        eprintln!("pose {k}: grid {grid} px, character {figure} px, {differ} px differ");
+        assert!(grid > 500, "pose {k}: the grid shows ({grid} px)");
+        assert!(figure > 300, "pose {k}: the character shows ({figure} px)");
+        // The character's feet reach a little below the ground, where the full draw blends
+        // grid lines over them and the backdrop path does not.
+        assert!(
+            differ * 200 < (w * h) as usize,
+            "pose {k}: {differ} of {} pixels differ",
+            w * h
+        );
+    }
+}

@@ -1541,7 +1541,20 @@ impl LoadRequest {
     }
 }
 
+/// A docked panel's frame without a fill: the window is cleared to the panel colour instead
+/// ([`eframe::App::clear_color`]). On a software rasteriser shading the panels' background
+/// quads cost about 20 ms a frame at 1440×900, as much as all the rest of the UI; a clear
+/// costs next to nothing.
+fn panel_frame(style: &egui::Style) -> egui::Frame {
+    egui::Frame::side_top_panel(style).fill(egui::Color32::TRANSPARENT)
+}
+
 impl eframe::App for EditorApp {
+    /// The panels' background: they leave it unpainted (see [`panel_frame`]).
+    fn clear_color(&self, visuals: &egui::Visuals) -> [f32; 4] {
+        visuals.panel_fill.to_normalized_gamma_f32()
+    }
+
     fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
         let dt = self.timer.tick();
@@ -1585,15 +1598,22 @@ impl eframe::App for EditorApp {
         };
         ctx.send_viewport_cmd(egui::ViewportCommand::Title(title));
 
-        egui::Panel::top("menu").show(ui, |ui| self.menu_bar(ui));
-        egui::Panel::bottom("status").show(ui, |ui| self.status_bar(ui));
-        egui::Panel::bottom("timeline").show(ui, |ui| {
-            ui.add_space(4.0);
-            self.timeline(ui);
-            ui.add_space(2.0);
-        });
+        egui::Panel::top("menu")
+            .frame(panel_frame(ui.style()))
+            .show(ui, |ui| self.menu_bar(ui));
+        egui::Panel::bottom("status")
+            .frame(panel_frame(ui.style()))
+            .show(ui, |ui| self.status_bar(ui));
+        egui::Panel::bottom("timeline")
+            .frame(panel_frame(ui.style()))
+            .show(ui, |ui| {
+                ui.add_space(4.0);
+                self.timeline(ui);
+                ui.add_space(2.0);
+            });
         if self.show_log {
             egui::Panel::bottom("log")
+                .frame(panel_frame(ui.style()))
                 .resizable(true)
                 .default_size(130.0)
                 .min_size(60.0)
@@ -1601,6 +1621,7 @@ impl eframe::App for EditorApp {
         }
         let fps = self.timer.fps();
         egui::Panel::left("character")
+            .frame(panel_frame(ui.style()))
             .resizable(true)
             .default_size(300.0)
             .show(ui, |ui| {
@@ -1650,6 +1671,7 @@ impl eframe::App for EditorApp {
             });
         if !self.crowd.open && self.tab == SideTab::Views && self.views.selected.is_some() && self.doc.is_some() {
             egui::Panel::right("fit inspector")
+                .frame(panel_frame(ui.style()))
                 .resizable(true)
                 .default_size(470.0)
                 .show(ui, |ui| {

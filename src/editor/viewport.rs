@@ -129,6 +129,9 @@ pub struct ViewportResources {
     /// (paused playback, a bake running, the mouse over a panel), which on a software
     /// rasteriser is most of the frame's cost saved.
     drawn: Option<Drawn>,
+    /// The ground grid alone, and the camera it was drawn for: while only the pose changes
+    /// (playback) each frame copies it and draws the character over it.
+    backdrop: Option<(RenderTarget, Option<Camera>)>,
 }
 
 /// The inputs of the image in the viewport's target.
@@ -225,6 +228,7 @@ impl ViewportResources {
                 blit_sampler,
                 blit_groups: None,
                 drawn: None,
+                backdrop: None,
                 target_is_srgb: render_state.target_format.is_srgb(),
             });
         adapter
@@ -308,6 +312,7 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
             ));
             res.target = Some(target);
             res.drawn = None;
+            res.backdrop = None;
         }
         let drawn = Drawn {
             generation: self.generation,
@@ -321,6 +326,9 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
             return Vec::new();
         }
         res.drawn = Some(drawn);
+        if self.grid && res.backdrop.is_none() {
+            res.backdrop = Some((RenderTarget::new(device, w, h), None));
+        }
         let (Some((_, gpu)), Some(target)) = (res.character.as_mut(), res.target.as_ref()) else {
             return Vec::new();
         };
@@ -336,7 +344,16 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
             clear_color: [0.045, 0.05, 0.06, 1.0],
             grid: self.grid,
         };
-        res.renderer.encode(encoder, target, gpu, &options);
+        match res.backdrop.as_mut().filter(|_| self.grid) {
+            Some((backdrop, drawn_for)) => {
+                if *drawn_for != Some(self.camera) {
+                    res.renderer.encode_backdrop(encoder, backdrop, gpu, &options);
+                    *drawn_for = Some(self.camera);
+                }
+                res.renderer.encode_over(encoder, target, backdrop, gpu);
+            }
+            None => res.renderer.encode(encoder, target, gpu, &options),
+        }
         Vec::new()
     }
 

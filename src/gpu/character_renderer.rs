@@ -87,6 +87,7 @@ impl RenderTarget {
                 format,
                 usage: wgpu::TextureUsages::RENDER_ATTACHMENT
                     | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::COPY_DST
                     | wgpu::TextureUsages::TEXTURE_BINDING,
                 // The colour image can also be read as its stored bytes (see `color_bytes_view`).
                 view_formats: if format == COLOR_FORMAT {
@@ -124,13 +125,32 @@ impl RenderTarget {
         label: &'static str,
         clear: wgpu::Color,
     ) -> wgpu::RenderPass<'e> {
+        self.pass(encoder, label, Some(clear))
+    }
+
+    /// A render pass over the three targets that keeps the colour and normal images and
+    /// clears depth to far.
+    pub(crate) fn begin_pass_over<'e>(
+        &'e self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        label: &'static str,
+    ) -> wgpu::RenderPass<'e> {
+        self.pass(encoder, label, None)
+    }
+
+    fn pass<'e>(
+        &'e self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        label: &'static str,
+        clear: Option<wgpu::Color>,
+    ) -> wgpu::RenderPass<'e> {
         let attachment = |view: &'e wgpu::TextureView, color: wgpu::Color| {
             Some(wgpu::RenderPassColorAttachment {
                 view,
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(color),
+                    load: clear.map_or(wgpu::LoadOp::Load, |_| wgpu::LoadOp::Clear(color)),
                     store: wgpu::StoreOp::Store,
                 },
             })
@@ -138,7 +158,7 @@ impl RenderTarget {
         encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some(label),
             color_attachments: &[
-                attachment(&self.color_view, clear),
+                attachment(&self.color_view, clear.unwrap_or(wgpu::Color::TRANSPARENT)),
                 attachment(&self.normal_view, wgpu::Color::TRANSPARENT),
             ],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
@@ -153,6 +173,18 @@ impl RenderTarget {
             occlusion_query_set: None,
             multiview_mask: None,
         })
+    }
+
+    /// Records copies of this target's colour and normal images into `dst` (same size).
+    pub(crate) fn copy_images_to(&self, encoder: &mut wgpu::CommandEncoder, dst: &RenderTarget) {
+        let size = wgpu::Extent3d {
+            width: self.width.min(dst.width),
+            height: self.height.min(dst.height),
+            depth_or_array_layers: 1,
+        };
+        for (from, to) in [(&self.color, &dst.color), (&self.normal, &dst.normal)] {
+            encoder.copy_texture_to_texture(from.as_image_copy(), to.as_image_copy(), size);
+        }
     }
 
     pub fn read_color(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<image::RgbaImage, GpuError> {
@@ -395,6 +427,49 @@ impl CharacterRenderer {
     ) {
         let [r, g, b, a] = options.clear_color;
         let mut pass = target.begin_pass(encoder, "character", wgpu::Color { r, g, b, a });
+        self.draw_character(&mut pass, character);
+        if options.grid {
+            pass.set_pipeline(&self.grid_pipeline);
+            pass.set_bind_group(0, &character.frame_group, &[]);
+            pass.draw(0..6, 0..1);
+        }
+    }
+
+    /// Records the ground grid alone into `backdrop` (cleared to `options.clear_color`): the
+    /// background [`Self::encode_over`] starts from. It depends only on the camera and the
+    /// target size, so a viewport that plays an animation draws it once rather than every
+    /// frame (the grid covers most of the view; on a software rasteriser it is most of the 3D
+    /// view's cost).
+    pub fn encode_backdrop(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        backdrop: &RenderTarget,
+        character: &GpuCharacter,
+        options: &DrawOptions,
+    ) {
+        let [r, g, b, a] = options.clear_color;
+        let mut pass = backdrop.begin_pass(encoder, "backdrop", wgpu::Color { r, g, b, a });
+        pass.set_pipeline(&self.grid_pipeline);
+        pass.set_bind_group(0, &character.frame_group, &[]);
+        pass.draw(0..6, 0..1);
+    }
+
+    /// Records a copy of `backdrop` (same size, drawn by [`Self::encode_backdrop`] with this
+    /// camera) into `target`, and `character` over it. Unlike [`Self::encode`] with a grid,
+    /// the grid lines do not show through the parts of the character below the ground.
+    pub fn encode_over(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        backdrop: &RenderTarget,
+        character: &GpuCharacter,
+    ) {
+        backdrop.copy_images_to(encoder, target);
+        let mut pass = target.begin_pass_over(encoder, "character over backdrop");
+        self.draw_character(&mut pass, character);
+    }
+
+    fn draw_character(&self, pass: &mut wgpu::RenderPass<'_>, character: &GpuCharacter) {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &character.frame_group, &[]);
         pass.set_vertex_buffer(0, character.stream0.slice(..));
@@ -403,11 +478,6 @@ impl CharacterRenderer {
         for s in &character.submeshes {
             pass.set_bind_group(1, &character.materials[s.material].1, &[]);
             pass.draw_indexed(s.first_index..s.first_index + s.index_count, 0, 0..1);
-        }
-        if options.grid {
-            pass.set_pipeline(&self.grid_pipeline);
-            pass.set_bind_group(0, &character.frame_group, &[]);
-            pass.draw(0..6, 0..1);
         }
     }
 
