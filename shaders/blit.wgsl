@@ -1,10 +1,11 @@
 // Copies an offscreen image into a rectangle of the egui frame (the viewport's paint
 // callback). Draws one full-viewport triangle.
 //
-// No colour conversion happens here: the caller binds a view of the image whose encoding
-// matches the window's (the sRGB view for an sRGB window, the raw-bytes view otherwise), so
-// the copy costs one texel fetch per pixel — it runs on every frame, and on a software
-// rasteriser a per-pixel `pow` is a measurable share of the frame.
+// `fs_main` converts no colour: the caller binds a view of the image whose encoding matches
+// the window's (the sRGB view for an sRGB window, the raw-bytes view otherwise), so the copy
+// costs one texel fetch per pixel — it runs on every frame, and on a software rasteriser a
+// per-pixel `pow` is a measurable share of the frame. `fs_encode` is for a non-sRGB window
+// where no raw-bytes view can be made (OpenGL): it encodes the decoded colour back to sRGB.
 
 @group(0) @binding(0) var source: texture_2d<f32>;
 @group(0) @binding(1) var source_sampler: sampler;
@@ -27,4 +28,11 @@ fn vs_main(@builtin(vertex_index) i: u32) -> VertexOut {
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     return vec4<f32>(textureSample(source, source_sampler, in.uv).rgb, 1.0);
+}
+
+@fragment
+fn fs_encode(in: VertexOut) -> @location(0) vec4<f32> {
+    let c = textureSample(source, source_sampler, in.uv).rgb;
+    let encoded = select(1.055 * pow(c, vec3<f32>(1.0 / 2.4)) - 0.055, c * 12.92, c <= vec3<f32>(0.0031308));
+    return vec4<f32>(encoded, 1.0);
 }

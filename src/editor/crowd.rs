@@ -519,7 +519,7 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
             res.crowd = None;
             match CrowdScene::new(device, queue, &self.assets, params.clone()) {
                 Ok(scene) => {
-                    let target = RenderTarget::new(device, w, h);
+                    let target = res.new_target(device, w, h);
                     let blit = res.blit_group(device, &target);
                     res.crowd = Some(CrowdGpu {
                         generation: self.generation,
@@ -541,7 +541,7 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
             .as_ref()
             .is_some_and(|c| c.target.width != w || c.target.height != h);
         if resize {
-            let target = RenderTarget::new(device, w, h);
+            let target = res.new_target(device, w, h);
             let blit = res.blit_group(device, &target);
             if let Some(c) = res.crowd.as_mut() {
                 c.target = target;
@@ -596,6 +596,6 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
             return;
         };
         let Some(crowd) = &res.crowd else { return };
-        res.blit(pass, &crowd.blit);
+        res.blit(pass, &crowd.blit, true);
     }
 }

@@ -120,11 +120,16 @@ pub struct ViewportResources {
     renderer: CharacterRenderer,
     character: Option<(u64, GpuCharacter)>,
     target: Option<RenderTarget>,
+    /// Shows an image as it is.
     blit_pipeline: wgpu::RenderPipeline,
+    /// Shows a colour image sRGB-encoded, when the window is not sRGB and the targets have no
+    /// raw-bytes view.
+    encode_pipeline: Option<wgpu::RenderPipeline>,
+    /// Whether colour targets are made with a raw-bytes view (a non-sRGB window that can).
+    bytes_view: bool,
     blit_layout: wgpu::BindGroupLayout,
     blit_sampler: wgpu::Sampler,
     blit_groups: Option<(wgpu::BindGroup, wgpu::BindGroup)>,
-    target_is_srgb: bool,
     /// What the target holds now: a frame asking for the same image only blits it again
     /// (paused playback, a bake running, the mouse over a panel), which on a software
     /// rasteriser is most of the frame's cost saved.
@@ -181,31 +186,39 @@ impl ViewportResources {
             label: Some("blit.wgsl"),
             source: wgpu::ShaderSource::Wgsl(shaders::BLIT.into()),
         });
-        let blit_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("blit"),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                buffers: &[],
-                compilation_options: Default::default(),
-            },
-            primitive: Default::default(),
-            depth_stencil: None,
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: render_state.target_format,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-                compilation_options: Default::default(),
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let pipeline = |entry_point: &'static str| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(entry_point),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_main"),
+                    buffers: &[],
+                    compilation_options: Default::default(),
+                },
+                primitive: Default::default(),
+                depth_stencil: None,
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(entry_point),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: render_state.target_format,
+                        blend: None,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                    compilation_options: Default::default(),
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let blit_pipeline = pipeline("fs_main");
+        // A non-sRGB window shows the sRGB colour image through its raw-bytes view; where no
+        // such view can be made (OpenGL), the blit encodes instead.
+        let target_is_srgb = render_state.target_format.is_srgb();
+        let bytes_view = !target_is_srgb && polypostor::gpu::view_formats_supported(&render_state.adapter);
+        let encode_pipeline = (!target_is_srgb && !bytes_view).then(|| pipeline("fs_encode"));
         let blit_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("blit"),
             mag_filter: wgpu::FilterMode::Nearest,
@@ -224,12 +237,13 @@ impl ViewportResources {
                 character: None,
                 target: None,
                 blit_pipeline,
+                encode_pipeline,
+                bytes_view,
                 blit_layout,
                 blit_sampler,
                 blit_groups: None,
                 drawn: None,
                 backdrop: None,
-                target_is_srgb: render_state.target_format.is_srgb(),
             });
         adapter
     }
@@ -254,20 +268,35 @@ impl ViewportResources {
         })
     }
 
-    /// A blit bind group for a render target's colour image: the view whose encoding matches
-    /// the window's, so the blit copies texels without converting them.
-    pub fn blit_group(&self, device: &wgpu::Device, target: &RenderTarget) -> wgpu::BindGroup {
-        let view = if self.target_is_srgb {
-            &target.color_view
+    /// A render target for the viewport or the crowd preview: with a raw-bytes view of its
+    /// colour when the blit wants one.
+    pub fn new_target(&self, device: &wgpu::Device, width: u32, height: u32) -> RenderTarget {
+        if self.bytes_view {
+            RenderTarget::with_bytes_view(device, width, height)
         } else {
-            &target.color_bytes_view
+            RenderTarget::new(device, width, height)
+        }
+    }
+
+    /// A blit bind group for a render target's colour image (made by [`Self::new_target`]):
+    /// the view whose encoding matches the window's, so the blit copies texels without
+    /// converting them where it can.
+    pub fn blit_group(&self, device: &wgpu::Device, target: &RenderTarget) -> wgpu::BindGroup {
+        let view = match &target.color_bytes_view {
+            Some(bytes) if self.bytes_view => bytes,
+            _ => &target.color_view,
         };
         self.blit_group_of(device, view)
     }
 
-    /// Draws a full-viewport blit of `group`'s image.
-    pub fn blit(&self, pass: &mut wgpu::RenderPass<'static>, group: &wgpu::BindGroup) {
-        pass.set_pipeline(&self.blit_pipeline);
+    /// Draws a full-viewport blit of `group`: a colour image's group from
+    /// [`Self::blit_group`] when `color`, else an image shown as it is (the normals).
+    pub fn blit(&self, pass: &mut wgpu::RenderPass<'static>, group: &wgpu::BindGroup, color: bool) {
+        let pipeline = match &self.encode_pipeline {
+            Some(encode) if color => encode,
+            _ => &self.blit_pipeline,
+        };
+        pass.set_pipeline(pipeline);
         pass.set_bind_group(0, group, &[]);
         pass.draw(0..3, 0..1);
     }
@@ -305,7 +334,7 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
         }
         let [w, h] = [self.size_px[0].max(1), self.size_px[1].max(1)];
         if res.target.as_ref().is_none_or(|t| t.width != w || t.height != h) {
-            let target = RenderTarget::new(device, w, h);
+            let target = res.new_target(device, w, h);
             res.blit_groups = Some((
                 res.blit_group(device, &target),
                 res.blit_group_of(device, &target.normal_view),
@@ -372,8 +401,7 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
         if res.target.is_none() {
             return;
         }
-        pass.set_pipeline(&res.blit_pipeline);
-        pass.set_bind_group(0, if self.mode == ViewMode::Normals { normal } else { color }, &[]);
-        pass.draw(0..3, 0..1);
+        let normals = self.mode == ViewMode::Normals;
+        res.blit(pass, if normals { normal } else { color }, !normals);
     }
 }

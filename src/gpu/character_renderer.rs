@@ -62,8 +62,9 @@ pub struct RenderTarget {
     pub color: wgpu::Texture,
     pub color_view: wgpu::TextureView,
     /// The colour image read as its stored (sRGB-encoded) bytes, without decoding: what a
-    /// non-sRGB window wants to show it as is.
-    pub color_bytes_view: wgpu::TextureView,
+    /// non-sRGB window wants to show as is. Only in targets made by
+    /// [`RenderTarget::with_bytes_view`].
+    pub color_bytes_view: Option<wgpu::TextureView>,
     pub normal: wgpu::Texture,
     pub normal_view: wgpu::TextureView,
     pub depth: wgpu::Texture,
@@ -72,6 +73,17 @@ pub struct RenderTarget {
 
 impl RenderTarget {
     pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Self {
+        Self::make(device, width, height, false)
+    }
+
+    /// A target whose colour image can also be read as its stored bytes
+    /// ([`Self::color_bytes_view`]). Needs the `VIEW_FORMATS` downlevel capability, which the
+    /// OpenGL backend lacks (see [`view_formats_supported`]).
+    pub fn with_bytes_view(device: &wgpu::Device, width: u32, height: u32) -> Self {
+        Self::make(device, width, height, true)
+    }
+
+    fn make(device: &wgpu::Device, width: u32, height: u32, bytes_view: bool) -> Self {
         let (width, height) = (width.max(1), height.max(1));
         let make = |label, format: wgpu::TextureFormat| {
             device.create_texture(&wgpu::TextureDescriptor {
@@ -90,7 +102,7 @@ impl RenderTarget {
                     | wgpu::TextureUsages::COPY_DST
                     | wgpu::TextureUsages::TEXTURE_BINDING,
                 // The colour image can also be read as its stored bytes (see `color_bytes_view`).
-                view_formats: if format == COLOR_FORMAT {
+                view_formats: if bytes_view && format == COLOR_FORMAT {
                     &[COLOR_BYTES_FORMAT]
                 } else {
                     &[]
@@ -104,10 +116,12 @@ impl RenderTarget {
             width,
             height,
             color_view: color.create_view(&Default::default()),
-            color_bytes_view: color.create_view(&wgpu::TextureViewDescriptor {
-                label: Some("target colour bytes"),
-                format: Some(COLOR_BYTES_FORMAT),
-                ..Default::default()
+            color_bytes_view: bytes_view.then(|| {
+                color.create_view(&wgpu::TextureViewDescriptor {
+                    label: Some("target colour bytes"),
+                    format: Some(COLOR_BYTES_FORMAT),
+                    ..Default::default()
+                })
             }),
             normal_view: normal.create_view(&Default::default()),
             depth_view: depth.create_view(&Default::default()),
@@ -196,6 +210,15 @@ impl RenderTarget {
     pub fn read_depth(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<DepthImage, GpuError> {
         read_depth(device, queue, &self.depth)
     }
+}
+
+/// Whether `adapter` can view a texture in another format than its own (sRGB colour as its
+/// raw bytes): not on OpenGL.
+pub fn view_formats_supported(adapter: &wgpu::Adapter) -> bool {
+    adapter
+        .get_downlevel_capabilities()
+        .flags
+        .contains(wgpu::DownlevelFlags::VIEW_FORMATS)
 }
 
 /// The colour and normal targets of a [`RenderTarget`], written without blending.
