@@ -205,3 +205,54 @@ fn representations_compare_and_bench_crowd_work_end_to_end() {
     assert_eq!(bad.status.code(), Some(1), "no pack was baked, so no polypostor");
     assert!(String::from_utf8_lossy(&bad.stderr).contains("'polypostor' is not one of"));
 }
+
+/// On the OpenGL backend (the software fallback where Vulkan is not installed) a bake runs
+/// (depth is read back through a shader there) and gives the same pack as the default
+/// backend.
+#[test]
+fn a_bake_on_opengl_matches_the_default_backend() {
+    let project = common::repo_path(polypostor::project::DEFAULT_PROJECT_DIR);
+    let dir = common::temp_dir("cli-gl");
+    let bake = |backend: Option<&str>, name: &str| {
+        let out = dir.join(name);
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_polypostor"));
+        cmd.args([
+            "bake",
+            project.to_str().unwrap(),
+            "--views",
+            "3",
+            "--resolution",
+            "64",
+            "--out",
+        ])
+        .arg(&out);
+        if let Some(b) = backend {
+            cmd.env("WGPU_BACKEND", b);
+        }
+        (cmd.output().expect("run polypostor"), out)
+    };
+    let (gl, gl_out) = bake(Some("gl"), "gl.pack");
+    let stderr = String::from_utf8_lossy(&gl.stderr);
+    if !gl.status.success() && stderr.contains("no GPU adapter") {
+        eprintln!("skipped: no OpenGL adapter here ({stderr})");
+        return;
+    }
+    assert!(gl.status.success(), "{stderr}");
+    let said = format!("{}{stderr}", String::from_utf8_lossy(&gl.stdout));
+    assert!(said.contains("(Gl,"), "the bake did not run on OpenGL: {said}");
+    let (default, default_out) = bake(None, "default.pack");
+    assert!(default.status.success(), "{}", String::from_utf8_lossy(&default.stderr));
+    let report = |p: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p.join("report.json")).unwrap()).unwrap()
+    };
+    let (a, b) = (report(&gl_out), report(&default_out));
+    let psnr = |r: &serde_json::Value| r["mean_psnr"].as_f64().expect("mean_psnr");
+    assert!(
+        (psnr(&a) - psnr(&b)).abs() < 0.05,
+        "OpenGL {} dB vs default {} dB",
+        psnr(&a),
+        psnr(&b)
+    );
+    assert_eq!(a["views"].as_array().map(Vec::len), Some(3));
+    std::fs::remove_dir_all(dir).unwrap();
+}

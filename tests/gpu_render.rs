@@ -149,6 +149,10 @@ fn colour_normal_and_depth_are_consistent() {
     let depth = target.read_depth(&ctx.device, &ctx.queue).unwrap();
     assert_eq!((color.width(), color.height()), (128, 160));
     assert_eq!(depth.data.len(), 128 * 160);
+    // The shader readback (what the OpenGL backend uses) gives the same depths bit for bit.
+    let via_shader = read_depth_via_shader(&ctx.device, &ctx.queue, &target.depth).unwrap();
+    let bits = |d: &DepthImage| d.data.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&via_shader), bits(&depth));
     let mut covered = 0;
     let mut facing = 0.0f64;
     for (i, (c, n)) in color.pixels().zip(normal.pixels()).enumerate() {

@@ -29,4 +29,4 @@ pub use crowd_renderers::{
 };
 pub use part_renderer::{PartImages, PartRenderer};
 pub use polypostor_renderer::{GpuPolypostors, PolypostorStyle};
-pub use readback::{DepthImage, read_depth, read_rgba8};
+pub use readback::{DepthImage, read_depth, read_depth_via_shader, read_rgba8};

@@ -87,16 +87,136 @@ pub fn read_rgba8(
         .ok_or_else(|| GpuError::Readback("size mismatch".into()))
 }
 
-/// Reads a `Depth32Float` texture.
+/// Reads a `Depth32Float` texture (with `TEXTURE_BINDING` usage where the backend is OpenGL,
+/// which cannot copy depth to a buffer: there [`read_depth_via_shader`] reads it).
 pub fn read_depth(device: &wgpu::Device, queue: &wgpu::Queue, texture: &wgpu::Texture) -> Result<DepthImage, GpuError> {
+    if device.adapter_info().backend == wgpu::Backend::Gl {
+        return read_depth_via_shader(device, queue, texture);
+    }
     let bytes = read_texture(device, queue, texture, wgpu::TextureAspect::DepthOnly, 4)?;
+    Ok(depth_image(texture, &bytes))
+}
+
+/// Reads a `Depth32Float` texture (with `TEXTURE_BINDING` usage) on any backend, bit for bit:
+/// `depth_bytes.wgsl` writes each value's bits into an RGBA8 image, which is copied back.
+pub fn read_depth_via_shader(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+) -> Result<DepthImage, GpuError> {
+    let bytes = depth_bytes_via_shader(device, queue, texture)?;
+    Ok(depth_image(texture, &bytes))
+}
+
+fn depth_image(texture: &wgpu::Texture, bytes: &[u8]) -> DepthImage {
     let data = bytes
         .chunks_exact(4)
         .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
         .collect();
-    Ok(DepthImage {
+    DepthImage {
         width: texture.width(),
         height: texture.height(),
         data,
-    })
+    }
+}
+
+/// The raw little-endian bytes of a depth texture, drawn by `depth_bytes.wgsl` into an RGBA8
+/// image (one texel per depth value) and read back from that.
+fn depth_bytes_via_shader(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+) -> Result<Vec<u8>, GpuError> {
+    const BYTES_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("depth_bytes.wgsl"),
+        source: wgpu::ShaderSource::Wgsl(super::shaders::DEPTH_BYTES.into()),
+    });
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("depth bytes"),
+        entries: &[wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled: false,
+            },
+            count: None,
+        }],
+    });
+    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("depth bytes"),
+        layout: Some(&device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("depth bytes"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        })),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs_main"),
+            buffers: &[],
+            compilation_options: Default::default(),
+        },
+        primitive: Default::default(),
+        depth_stencil: None,
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs_main"),
+            targets: &[Some(BYTES_FORMAT.into())],
+            compilation_options: Default::default(),
+        }),
+        multiview_mask: None,
+        cache: None,
+    });
+    let view = texture.create_view(&wgpu::TextureViewDescriptor {
+        aspect: wgpu::TextureAspect::DepthOnly,
+        ..Default::default()
+    });
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("depth bytes"),
+        layout: &layout,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::TextureView(&view),
+        }],
+    });
+    let bytes = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("depth bytes"),
+        size: texture.size(),
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: BYTES_FORMAT,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("depth bytes"),
+    });
+    {
+        let target = bytes.create_view(&Default::default());
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("depth bytes"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &target,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+    queue.submit([encoder.finish()]);
+    read_texture(device, queue, &bytes, wgpu::TextureAspect::All, 4)
 }

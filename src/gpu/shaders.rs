@@ -3,6 +3,7 @@
 pub const CHARACTER: &str = include_str!("../../shaders/character.wgsl");
 pub const GRID: &str = include_str!("../../shaders/grid.wgsl");
 pub const BLIT: &str = include_str!("../../shaders/blit.wgsl");
+pub const DEPTH_BYTES: &str = include_str!("../../shaders/depth_bytes.wgsl");
 /// Structs and functions every crowd shader shares (WGSL has no includes: it is prepended).
 pub const CROWD_COMMON: &str = include_str!("../../shaders/crowd_common.wgsl");
 pub const POLYPOSTOR: &str = concat!(
@@ -31,6 +32,7 @@ pub const ALL: &[(&str, &str)] = &[
     ("character.wgsl", CHARACTER),
     ("grid.wgsl", GRID),
     ("blit.wgsl", BLIT),
+    ("depth_bytes.wgsl", DEPTH_BYTES),
     ("crowd_common.wgsl", CROWD_COMMON),
     ("polypostor.wgsl", POLYPOSTOR),
     ("crowd_mesh.wgsl", CROWD_MESH),
