@@ -69,6 +69,24 @@ pub fn run(path: PathBuf) -> anyhow::Result<()> {
                 .ok_or_else(|| "no GPU adapter can draw to this window".to_owned())
         },
     ));
+    // egui asks an OpenGL adapter for WebGL 2 limits, which allow no storage buffers in vertex
+    // shaders: the crowd preview's instanced renderers need them. Ask such an adapter for what
+    // it has instead (desktop OpenGL, llvmpipe included, has them).
+    let egui_device = wgpu_setup.device_descriptor.clone();
+    wgpu_setup.device_descriptor = std::sync::Arc::new(move |adapter: &wgpu::Adapter| {
+        let mut desc = egui_device(adapter);
+        if adapter.get_info().backend == wgpu::Backend::Gl {
+            let have = adapter.limits();
+            desc.required_limits = wgpu::Limits {
+                max_texture_dimension_2d: desc
+                    .required_limits
+                    .max_texture_dimension_2d
+                    .min(have.max_texture_dimension_2d),
+                ..have
+            };
+        }
+        desc
+    });
     let options = eframe::NativeOptions {
         renderer: eframe::Renderer::Wgpu,
         viewport: egui::ViewportBuilder::default()

@@ -264,7 +264,7 @@ fn texture_array(
         size: wgpu::Extent3d {
             width: w.max(1),
             height: h.max(1),
-            depth_or_array_layers: images.len().max(1) as u32,
+            depth_or_array_layers: array_layers(device, w.max(1), h.max(1), images.len() as u32),
         },
         mip_level_count: 1,
         sample_count: 1,
@@ -308,6 +308,23 @@ fn texture_array(
         ..Default::default()
     });
     Ok((view, 4 * w as u64 * h as u64 * images.len() as u64))
+}
+
+/// How many layers to give a 2D texture array of `w`×`h` that holds `count` images. The
+/// OpenGL backend guesses a texture's kind from its shape when it is created (one layer: a
+/// plain 2D texture; square with a multiple of six: a cube map) and then cannot view it as an
+/// array; there the array gets one or two unused layers so that it is one.
+pub(crate) fn array_layers(device: &wgpu::Device, w: u32, h: u32, count: u32) -> u32 {
+    layers_for(device.adapter_info().backend, w, h, count)
+}
+
+fn layers_for(backend: wgpu::Backend, w: u32, h: u32, count: u32) -> u32 {
+    let count = count.max(1);
+    if backend != wgpu::Backend::Gl {
+        return count;
+    }
+    let layers = count.max(2);
+    if w == h && layers % 6 == 0 { layers + 1 } else { layers }
 }
 
 /// A growable storage buffer of instances.
@@ -1061,5 +1078,25 @@ impl CrowdRenderers {
         };
         queue.submit([encoder.finish()]);
         calls
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::layers_for;
+    use wgpu::Backend::{Gl, Vulkan};
+
+    #[test]
+    fn texture_arrays_on_opengl_never_look_like_2d_or_cube_textures() {
+        for count in 0..40 {
+            for (w, h) in [(64, 64), (64, 32)] {
+                assert_eq!(layers_for(Vulkan, w, h, count), count.max(1));
+                let n = layers_for(Gl, w, h, count);
+                assert!(n >= count.max(2), "{count} images in {n} layers");
+                assert!(n <= count.max(2) + 1, "{count} images in {n} layers");
+                // wgpu-hal's guess: one layer is 2D, a square multiple of six is a cube (array).
+                assert!(!(w == h && n % 6 == 0), "{count} images: {n} square layers");
+            }
+        }
     }
 }

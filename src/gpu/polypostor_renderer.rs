@@ -246,7 +246,7 @@ impl GpuPolypostors {
                 size: wgpu::Extent3d {
                     width: w,
                     height: h,
-                    depth_or_array_layers: pages.count,
+                    depth_or_array_layers: super::crowd_renderers::array_layers(device, w, h, pages.count),
                 },
                 mip_level_count: 1,
                 sample_count: 1,
