@@ -219,6 +219,9 @@ pub enum SideTab {
 impl EditorApp {
     pub fn new(cc: &eframe::CreationContext<'_>, options: AppOptions, open: Option<PathBuf>) -> Self {
         let adapter = cc.wgpu_render_state.as_ref().map(ViewportResources::install);
+        if let Some(rs) = &cc.wgpu_render_state {
+            super::set_software_rendering(&cc.egui_ctx, rs.adapter.get_info().device_type == wgpu::DeviceType::Cpu);
+        }
         let settings = Settings::load(options.settings_path.as_deref());
         let mut app = Self {
             options,
@@ -1296,7 +1299,7 @@ impl EditorApp {
                 .elapsed()
                 .map_or("earlier".into(), |d| format!("{} s ago", d.as_secs()));
             let mut answer = None;
-            egui::Modal::new(egui::Id::unique("recovery prompt")).show(ctx, |ui| {
+            super::modal(ctx, "recovery prompt").show(ctx, |ui| {
                 ui.set_max_width(520.0);
                 ui.heading("Recover unsaved changes?");
                 ui.add_space(6.0);
@@ -1339,7 +1342,7 @@ impl EditorApp {
                 }
             });
             let mut answer = None;
-            egui::Modal::new(egui::Id::unique("close prompt")).show(ctx, |ui| {
+            super::modal(ctx, "close prompt").show(ctx, |ui| {
                 ui.set_max_width(480.0);
                 ui.heading("Save changes before closing?");
                 ui.add_space(6.0);
@@ -1382,7 +1385,7 @@ impl EditorApp {
 
     fn dialogs(&mut self, ctx: &egui::Context) {
         if let Some(message) = self.error.clone() {
-            let modal = egui::Modal::new(egui::Id::unique("error dialog")).show(ctx, |ui| {
+            let modal = super::modal(ctx, "error dialog").show(ctx, |ui| {
                 ui.set_max_width(520.0);
                 ui.heading("Something went wrong");
                 ui.add_space(6.0);
@@ -1401,7 +1404,7 @@ impl EditorApp {
         let mut submit = None;
         let mut cancel = false;
         if let Some(prompt) = &mut self.prompt {
-            egui::Modal::new(egui::Id::unique("path prompt")).show(ctx, |ui| {
+            super::modal(ctx, "path prompt").show(ctx, |ui| {
                 ui.set_min_width(520.0);
                 ui.heading(prompt.purpose.title());
                 let edit = ui.add(

@@ -77,7 +77,7 @@ impl ExportDialog {
             .and_then(|i| doc.character.clips.get(i))
             .map_or(0.0, |c| c.duration_secs);
         let frames = frame_times(duration, self.fps).len();
-        egui::Modal::new(egui::Id::unique("export dialog")).show(ctx, |ui| {
+        super::modal(ctx, "export dialog").show(ctx, |ui| {
             ui.set_width(520.0);
             ui.heading("Export crowd assets");
             ui.add_space(4.0);

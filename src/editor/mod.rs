@@ -40,6 +40,27 @@ pub fn lower_thread_priority() {
     }
 }
 
+/// Records whether the window is drawn by a software rasteriser (see [`modal`]).
+pub(crate) fn set_software_rendering(ctx: &egui::Context, software: bool) {
+    ctx.data_mut(|d| d.insert_temp(software_id(), software));
+}
+
+fn software_id() -> egui::Id {
+    egui::Id::unique("polypostor software rendering")
+}
+
+/// A modal dialog. On a software rasteriser its backdrop is left out: blending a translucent
+/// quad over the whole window costs llvmpipe tens of milliseconds a frame (the dialog still
+/// blocks the rest of the window).
+pub(crate) fn modal(ctx: &egui::Context, id: &'static str) -> egui::Modal {
+    let modal = egui::Modal::new(egui::Id::unique(id));
+    if ctx.data(|d| d.get_temp::<bool>(software_id())).unwrap_or(false) {
+        modal.backdrop_color(egui::Color32::TRANSPARENT)
+    } else {
+        modal
+    }
+}
+
 /// Opens the editor window on `path` (a project folder, a project.json, or a .glb/.gltf).
 pub fn run(path: PathBuf) -> anyhow::Result<()> {
     use eframe::egui_wgpu;
