@@ -187,31 +187,14 @@ impl ViewportResources {
             source: wgpu::ShaderSource::Wgsl(shaders::BLIT.into()),
         });
         let pipeline = |entry_point: &'static str| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(entry_point),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    buffers: &[],
-                    compilation_options: Default::default(),
-                },
-                primitive: Default::default(),
-                depth_stencil: None,
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some(entry_point),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: render_state.target_format,
-                        blend: None,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                    compilation_options: Default::default(),
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
+            polypostor::gpu::fullscreen_pipeline(
+                device,
+                entry_point,
+                &layout,
+                &module,
+                entry_point,
+                render_state.target_format,
+            )
         };
         let blit_pipeline = pipeline("fs_main");
         // A non-sRGB window shows the sRGB colour image through its raw-bytes view; where no

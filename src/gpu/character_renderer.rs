@@ -221,6 +221,40 @@ pub fn view_formats_supported(adapter: &wgpu::Adapter) -> bool {
         .contains(wgpu::DownlevelFlags::VIEW_FORMATS)
 }
 
+/// A pipeline that draws one full-target triangle (`module`'s `vs_main`, three vertices, no
+/// buffers) shaded by `fragment_entry` into one unblended `format` target: blits and
+/// per-pixel conversions.
+pub fn fullscreen_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    fragment_entry: &str,
+    format: wgpu::TextureFormat,
+) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs_main"),
+            buffers: &[],
+            compilation_options: Default::default(),
+        },
+        primitive: Default::default(),
+        depth_stencil: None,
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some(fragment_entry),
+            targets: &[Some(format.into())],
+            compilation_options: Default::default(),
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
 /// The colour and normal targets of a [`RenderTarget`], written without blending.
 pub(crate) fn opaque_targets() -> [Option<wgpu::ColorTargetState>; 2] {
     [COLOR_FORMAT, NORMAL_FORMAT].map(|format| {

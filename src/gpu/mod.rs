@@ -21,7 +21,7 @@ pub mod shaders;
 pub use camera::{Camera, Projection};
 pub use character_renderer::{
     COLOR_FORMAT, CharacterRenderer, DEPTH_FORMAT, DrawOptions, GpuCharacter, NORMAL_FORMAT, RenderTarget, Shading,
-    SkinningMode, view_formats_supported,
+    SkinningMode, fullscreen_pipeline, view_formats_supported,
 };
 pub use context::{AdapterPreference, GpuContext, GpuError, rank_adapter};
 pub use crowd_renderers::{

@@ -145,31 +145,19 @@ fn depth_bytes_via_shader(
             count: None,
         }],
     });
-    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("depth bytes"),
-        layout: Some(&device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("depth bytes"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        })),
-        vertex: wgpu::VertexState {
-            module: &module,
-            entry_point: Some("vs_main"),
-            buffers: &[],
-            compilation_options: Default::default(),
-        },
-        primitive: Default::default(),
-        depth_stencil: None,
-        multisample: Default::default(),
-        fragment: Some(wgpu::FragmentState {
-            module: &module,
-            entry_point: Some("fs_main"),
-            targets: &[Some(BYTES_FORMAT.into())],
-            compilation_options: Default::default(),
-        }),
-        multiview_mask: None,
-        cache: None,
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
     });
+    let pipeline = super::fullscreen_pipeline(
+        device,
+        "depth bytes",
+        &pipeline_layout,
+        &module,
+        "fs_main",
+        BYTES_FORMAT,
+    );
     let view = texture.create_view(&wgpu::TextureViewDescriptor {
         aspect: wgpu::TextureAspect::DepthOnly,
         ..Default::default()
