@@ -80,6 +80,8 @@ pub struct Inspector {
     drag: Option<usize>,
     drag_to: Option<egui::Pos2>,
     textures: Textures,
+    /// The shown error map's RMSE (computed with its texture, when that is rebuilt).
+    rmse: f64,
 }
 
 /// Runs `job` here (`sync`, for tests) or on a thread; its result arrives on the receiver.
@@ -131,6 +133,22 @@ fn texture(
     let id = handle.id();
     textures.insert(name, (version, handle));
     id
+}
+
+/// The tiles' background: composited into their images rather than painted under them, so
+/// each pixel is shaded once (on a software rasteriser every overdrawn pixel counts).
+const TILE_BACKGROUND: [u8; 3] = [20, 20, 20];
+
+/// `img` over [`TILE_BACKGROUND`], opaque.
+fn on_tile_background(mut img: image::RgbaImage) -> image::RgbaImage {
+    for p in img.pixels_mut() {
+        let a = p[3] as u32;
+        for c in 0..3 {
+            p[c] = ((p[c] as u32 * a + TILE_BACKGROUND[c] as u32 * (255 - a) + 127) / 255) as u8;
+        }
+        p[3] = 255;
+    }
+    img
 }
 
 fn to_color_image(img: &image::RgbaImage) -> egui::ColorImage {
@@ -398,10 +416,10 @@ impl Inspector {
             ui,
             "target",
             version * 1_000_003 + (part * 1000 + f) as u64,
-            || tile_image(&tiles[f]),
+            || on_tile_background(tile_image(&tiles[f])),
         );
         let key_id = texture(&mut self.textures, ui, "key", version * 1_000_003 + part as u64, || {
-            tile_image(&tiles[key])
+            on_tile_background(tile_image(&tiles[key]))
         });
         let mut pin_made: Option<Pin> = None;
         let pins_here: Vec<Pin> = s.ov.pins.get(&part).cloned().unwrap_or_default();
@@ -410,7 +428,6 @@ impl Inspector {
                 ui.label(egui::RichText::new("target + fit (drag a vertex to pin)").small());
                 let (rect, response) = ui.allocate_exact_size(egui::vec2(w, w), egui::Sense::drag());
                 let painter = ui.painter_at(rect);
-                painter.rect_filled(rect, 0.0, egui::Color32::from_gray(20));
                 painter.image(target_id, rect, crop_uv, egui::Color32::WHITE);
                 let to_screen = |p: [f32; 2]| rect.min + (egui::pos2(p[0], p[1]) - crop_min) * scale;
                 let contour: Vec<egui::Pos2> = fit.targets[f].iter().map(|&p| to_screen(p)).collect();
@@ -489,7 +506,6 @@ impl Inspector {
                 ui.label(egui::RichText::new(format!("key frame {key} texture + source polygon")).small());
                 let (rect, _) = ui.allocate_exact_size(egui::vec2(w, w), egui::Sense::hover());
                 let painter = ui.painter_at(rect);
-                painter.rect_filled(rect, 0.0, egui::Color32::from_gray(20));
                 painter.image(key_id, rect, crop_uv, egui::Color32::WHITE);
                 let to_screen = |p: [f32; 2]| rect.min + (egui::pos2(p[0], p[1]) - crop_min) * scale;
                 let source: Vec<egui::Pos2> = fit.key_polygon.iter().map(|&p| to_screen(p)).collect();
@@ -503,14 +519,23 @@ impl Inspector {
             });
         });
         // Row 2: the error map; the polypostor and the ground truth at this time.
-        let (heat, rmse) = error_map(&fit, &tiles[key], &tiles[f], f);
+        // The error map and its RMSE are computed only when the texture is rebuilt.
+        let mut fresh_rmse = None;
         let heat_id = texture(
             &mut self.textures,
             ui,
             "error",
             version * 1_000_003 + (part * 1000 + f) as u64,
-            || heat,
+            || {
+                let (heat, rmse) = error_map(&fit, &tiles[key], &tiles[f], f);
+                fresh_rmse = Some(rmse);
+                on_tile_background(heat)
+            },
         );
+        if let Some(rmse) = fresh_rmse {
+            self.rmse = rmse;
+        }
+        let rmse = self.rmse;
         let quant = (t * 8.0).round() as u64;
         let s = self.session.as_ref().unwrap();
         let key_tiles: Vec<_> = data.tiles.iter().map(|tl| tl[key].clone()).collect();
@@ -518,23 +543,21 @@ impl Inspector {
         let parts = s.parts.clone();
         let res = data.depth_order_tiles.resolution;
         let poly_id = texture(&mut self.textures, ui, "composite", version * 1_000_003 + quant, || {
-            composite_at(&parts, &key_tiles, &order, t, res).to_image()
+            on_tile_background(composite_at(&parts, &key_tiles, &order, t, res).to_image())
         });
         let truth_id = texture(&mut self.textures, ui, "truth", version * 1_000_003 + f as u64, || {
-            ground_truth(&data.depth_order_tiles, f).to_image()
+            on_tile_background(ground_truth(&data.depth_order_tiles, f).to_image())
         });
         ui.horizontal(|ui| {
             ui.vertical(|ui| {
                 ui.label(egui::RichText::new(format!("error at frame {f}: {:.1} dB", psnr(rmse))).small());
                 let (rect, _) = ui.allocate_exact_size(egui::vec2(w, w), egui::Sense::hover());
-                ui.painter_at(rect).rect_filled(rect, 0.0, egui::Color32::from_gray(20));
                 ui.painter_at(rect).image(heat_id, rect, crop_uv, egui::Color32::WHITE);
             });
             ui.vertical(|ui| {
                 ui.label(egui::RichText::new("polypostor | ground truth").small());
                 let (rect, _) = ui.allocate_exact_size(egui::vec2(w, w / 2.0), egui::Sense::hover());
                 let painter = ui.painter_at(rect);
-                painter.rect_filled(rect, 0.0, egui::Color32::from_gray(20));
                 let left = egui::Rect::from_min_size(rect.min, egui::vec2(w / 2.0, w / 2.0));
                 let right =
                     egui::Rect::from_min_size(rect.min + egui::vec2(w / 2.0, 0.0), egui::vec2(w / 2.0, w / 2.0));
