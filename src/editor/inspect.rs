@@ -822,3 +822,35 @@ impl Inspector {
             });
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{TILE_BACKGROUND, on_tile_background};
+
+    #[test]
+    fn tiles_are_composited_over_their_background() {
+        let img = image::RgbaImage::from_fn(3, 1, |x, _| match x {
+            0 => image::Rgba([200, 100, 50, 255]),
+            1 => image::Rgba([200, 100, 50, 0]),
+            _ => image::Rgba([220, 120, 70, 128]),
+        });
+        let out = on_tile_background(img);
+        assert_eq!(out.get_pixel(0, 0).0, [200, 100, 50, 255], "opaque stays");
+        let [r, g, b] = TILE_BACKGROUND;
+        assert_eq!(
+            out.get_pixel(1, 0).0,
+            [r, g, b, 255],
+            "transparent shows the background"
+        );
+        // Half covered: half way between the colour and the background.
+        for ((c, want), bg) in out.get_pixel(2, 0).0[..3]
+            .iter()
+            .zip([220, 120, 70])
+            .zip(TILE_BACKGROUND)
+        {
+            let mid = (want + bg as u32) as f32 / 2.0;
+            assert!((*c as f32 - mid).abs() <= 1.0, "{c} vs {mid}");
+        }
+        assert_eq!(out.get_pixel(2, 0)[3], 255);
+    }
+}
