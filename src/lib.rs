@@ -19,6 +19,9 @@
 //! - [`pack`]: the pack format (manifest, vertex and index data, atlases), writer and validating loader.
 //! - [`plot`]: PNG charts for reports (grouped bars, optionally log-scaled; lines per series).
 //! - [`project`]: the serde project file (atomic save, versioned load).
+//! - [`limits`]: every documented limit (views, frames, resolution, parts, memory budgets).
+//! - [`safe_fs`]: bounded reads of regular files, outputs that never clobber what the user
+//!   had, staging clean-up and temporary folders.
 
 pub mod animation;
 pub mod bake;
@@ -29,10 +32,12 @@ pub mod edit;
 pub mod gltf_write;
 pub mod gpu;
 pub mod import;
+pub mod limits;
 pub mod pack;
 pub mod plot;
 pub mod project;
 pub mod reps;
+pub mod safe_fs;
 
 pub use character::Character;
 pub use import::{ImportError, import_path};

@@ -153,9 +153,49 @@ pub fn repo_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// Set by Ctrl-C (or SIGTERM): a running bake stops at its next check.
+static CANCEL: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+/// A bake is running and will stop on [`CANCEL`] (else an interrupt exits at once).
+static BAKING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// The command-line tools, unlike the editor, behave as Unix filters: a closed pipe ends the
+/// process quietly (`inspect --json | head`), and an interrupt removes the temporary folders
+/// before exiting (a bake finishes cancelling first).
+fn cli_process_setup() {
+    #[cfg(unix)]
+    // SAFETY: restoring the default disposition of SIGPIPE, before any thread writes output.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+    let _ = ctrlc::set_handler(|| {
+        use std::sync::atomic::Ordering;
+        if BAKING.load(Ordering::Relaxed) && !CANCEL.swap(true, Ordering::Relaxed) {
+            eprintln!("\ncancelling…");
+            return;
+        }
+        polypostor::safe_fs::remove_temp_dirs();
+        std::process::exit(130);
+    });
+}
+
+/// A bake that was cancelled: not an error, exit 130 quietly.
+#[derive(Debug)]
+struct Cancelled;
+
+impl std::fmt::Display for Cancelled {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("cancelled: nothing was written")
+    }
+}
+
+impl std::error::Error for Cancelled {}
+
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn,polypostor=info")).init();
     let cli = Cli::parse();
+    if cli.command.is_some() {
+        cli_process_setup();
+    }
     let result = match cli.command {
         Some(Command::Inspect { file, json }) => inspect(&file, json),
         Some(Command::Render {
@@ -212,8 +252,14 @@ fn main() -> ExitCode {
             editor::run(path)
         }
     };
+    // Temporary folders (a benchmark's bake) go with the process.
+    polypostor::safe_fs::remove_temp_dirs();
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.is::<Cancelled>() => {
+            eprintln!("{e}");
+            ExitCode::from(130)
+        }
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::from(1)
@@ -266,7 +312,12 @@ fn render(
         ),
         None => (!c.clips.is_empty()).then_some(0),
     };
+    polypostor::safe_fs::check_output_file(out, polypostor::safe_fs::OutputFile::Png).map_err(anyhow::Error::msg)?;
+    if !time.is_finite() || !yaw.is_finite() || !pitch.is_finite() {
+        anyhow::bail!("--time, --yaw and --pitch must be finite numbers");
+    }
     let ctx = GpuContext::from_env()?;
+    polypostor::limits::check_render_size(&ctx.device, size, size, "--size")?;
     eprintln!("adapter: {}", ctx.adapter_description());
     let renderer = CharacterRenderer::new(&ctx.device);
     let mut gpu = GpuCharacter::new(&renderer, &ctx.device, &ctx.queue, &c);
@@ -304,15 +355,16 @@ fn render(
     } else {
         target.read_color(&ctx.device, &ctx.queue)?
     };
-    img.save(out)?;
+    polypostor::safe_fs::write_png(out, &img).map_err(anyhow::Error::msg)?;
     eprintln!("wrote {}", out.display());
     Ok(())
 }
 
 fn generate_default(out: Option<PathBuf>) -> anyhow::Result<()> {
     let out = out.unwrap_or_else(|| polypostor::default_character::default_path(&repo_root()));
+    polypostor::safe_fs::check_output_file(&out, polypostor::safe_fs::OutputFile::Glb).map_err(anyhow::Error::msg)?;
     let bytes = polypostor::default_character::generate_glb();
-    polypostor::project::write_atomic(&out, &bytes)?;
+    polypostor::safe_fs::write_file_atomic(&out, &bytes).map_err(anyhow::Error::msg)?;
     eprintln!("wrote {} ({} bytes)", out.display(), bytes.len());
     Ok(())
 }
@@ -365,27 +417,71 @@ struct BakeArgs {
     representation: String,
 }
 
-static CANCEL: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
 fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     use polypostor::bake::pipeline::{BakeOptions, KeyFrame};
+    use polypostor::limits::{MAX_FPS, MAX_RESOLUTION, MAX_VIEWS, MIN_FPS, MIN_RESOLUTION};
     use polypostor::project::Project;
     let started = std::time::Instant::now();
+    // The settings first: nothing is read or rendered for a bake that cannot run.
+    if a.views == 0 || a.views > MAX_VIEWS {
+        anyhow::bail!("--views {}: choose 1 to {MAX_VIEWS}", a.views);
+    }
+    if !(MIN_RESOLUTION..=MAX_RESOLUTION).contains(&a.resolution) {
+        anyhow::bail!(
+            "--resolution {}: choose {MIN_RESOLUTION} to {MAX_RESOLUTION}",
+            a.resolution
+        );
+    }
+    if !(a.fps.is_finite() && a.fps >= MIN_FPS && a.fps <= MAX_FPS) {
+        anyhow::bail!("--fps {}: choose {MIN_FPS} to {MAX_FPS}", a.fps);
+    }
+    let set =
+        polypostor::reps::RepSet::parse(&a.representation).map_err(|e| anyhow::anyhow!("--representation: {e}"))?;
     let is_gltf = a
         .input
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"));
-    let (project, character_path) = if is_gltf {
-        let project = match &a.project {
-            Some(p) => Some(Project::load(p)?.0),
-            None => None,
+    let (project, project_file, character_path) = if is_gltf {
+        let (project, file) = match &a.project {
+            Some(p) => {
+                let (p, f) = Project::load(p)?;
+                (Some(p), Some(f))
+            }
+            None => (None, None),
         };
-        (project, a.input.clone())
+        (project, file, a.input.clone())
     } else {
         let (p, file) = Project::load(&a.input)?;
         let path = p.character_path(&file);
-        (Some(p), path)
+        (Some(p), Some(file), path)
     };
+    let stem = character_path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "character".into());
+    let default_out = |clip: Option<&str>| PathBuf::from(format!("{stem}-{}.pack", clip.unwrap_or("rest")));
+    // Where the pack goes, before any work: never over what this tool did not write, never
+    // over an input, never into the project's own folder.
+    let check_out = |out: &Path| -> anyhow::Result<()> {
+        let mut protected: Vec<&Path> = vec![&character_path];
+        if let Some(f) = &project_file {
+            protected.push(f);
+            if let Some(dir) = f.parent().filter(|d| !d.as_os_str().is_empty()) {
+                let (dir_real, out_real) = (polypostor::safe_fs::resolved(dir), polypostor::safe_fs::resolved(out));
+                if out_real.starts_with(&dir_real) {
+                    anyhow::bail!(
+                        "--out '{}' lies inside the project folder '{}'; write packs beside the project, not into it",
+                        out.display(),
+                        dir.display()
+                    );
+                }
+            }
+        }
+        polypostor::safe_fs::check_bake_output(out, &protected).map_err(|e| anyhow::anyhow!("--out: {e}"))
+    };
+    if let Some(out) = &a.out {
+        check_out(out)?;
+    }
     let c =
         polypostor::import_path(&character_path).map_err(|e| anyhow::anyhow!("{}: {e}", character_path.display()))?;
     for w in &c.warnings {
@@ -427,9 +523,6 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
                 .map_err(|_| anyhow::anyhow!("--key-frame must be a frame number or 'auto', not '{k}'"))?,
         ),
     };
-    if a.views == 0 || a.resolution < 16 || a.resolution > 2048 || !(a.fps > 0.0 && a.fps <= 240.0) {
-        anyhow::bail!("--views must be at least 1, --resolution 16..=2048 and --fps in (0, 240]");
-    }
     let options = BakeOptions {
         views: a.views,
         coverage: if a.full_sphere {
@@ -455,15 +548,26 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         keep_frame_images: a.debug_images,
         ..Default::default()
     };
-    let stem = character_path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "character".into());
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("{stem}-{}.pack", clip_name.as_deref().unwrap_or("rest"))));
+    let out = match &a.out {
+        Some(o) => o.clone(),
+        None => {
+            let o = default_out(clip_name.as_deref());
+            check_out(&o)?;
+            o
+        }
+    };
     let ctx = polypostor::gpu::GpuContext::from_env()?;
+    // Every setting against its limit and this GPU, and the memory it needs.
+    let plan = polypostor::bake::plan::check(&c, &seg, &options, set, ctx.device.limits().max_texture_dimension_2d)?;
+    log::info!(
+        "bake plan: {} views × {} frames × {} parts at {}², about {} of memory (budget {})",
+        plan.views,
+        plan.frames,
+        plan.parts,
+        plan.resolution,
+        polypostor::limits::human_bytes(plan.estimated_bytes),
+        polypostor::limits::human_bytes(plan.budget_bytes)
+    );
     eprintln!(
         "baking {} ({} parts: {}), clip {}, {} views, {}², {} fps, on {}",
         c.name,
@@ -475,10 +579,6 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         options.fps,
         ctx.adapter_description()
     );
-    let _ = ctrlc::set_handler(|| {
-        CANCEL.store(true, std::sync::atomic::Ordering::Relaxed);
-        eprintln!("\ncancelling…");
-    });
     let bar = indicatif::ProgressBar::new(options.views as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
@@ -492,8 +592,6 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         bar.set_length(p.total as u64);
         bar.set_position(p.done as u64);
     };
-    let set =
-        polypostor::reps::RepSet::parse(&a.representation).map_err(|e| anyhow::anyhow!("--representation: {e}"))?;
     let job = polypostor::reps::bake::FolderBake {
         character: &c,
         character_path: &character_path,
@@ -518,13 +616,14 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         }
         Ok(())
     };
+    BAKING.store(true, std::sync::atomic::Ordering::Relaxed);
     let result = polypostor::reps::bake::bake_folder(&ctx, &job, &progress, &CANCEL, &debug_images);
+    BAKING.store(false, std::sync::atomic::Ordering::Relaxed);
     bar.finish_and_clear();
     let written = match result {
         Ok(r) => r,
         Err(polypostor::reps::bake::FolderError::Bake(polypostor::bake::pipeline::BakeError::Cancelled)) => {
-            eprintln!("cancelled: nothing was written");
-            std::process::exit(130);
+            return Err(Cancelled.into());
         }
         Err(e) => return Err(e.into()),
     };
@@ -575,6 +674,8 @@ fn compare_cmd(
     json: bool,
 ) -> anyhow::Result<()> {
     use polypostor::reps::compare;
+    let out = out.unwrap_or_else(|| dir.join("compare"));
+    check_output_files(&out, &["memory.png", "error.png", "compare.json"])?;
     let assets = polypostor::crowd::scene::CrowdAssets::load(dir, character, None).map_err(|e| anyhow::anyhow!(e))?;
     let memory = compare::memory(&assets);
     let ctx = polypostor::gpu::GpuContext::from_env()?;
@@ -586,7 +687,6 @@ fn compare_cmd(
     }
     let errors = compare::errors(&ctx, &assets, &chosen, &|d, _| bar.set_position(d as u64))?;
     bar.finish_and_clear();
-    let out = out.unwrap_or_else(|| dir.join("compare"));
     std::fs::create_dir_all(&out)?;
     let names: Vec<String> = memory.iter().map(|m| m.representation.clone()).collect();
     let mb = |f: &dyn Fn(&compare::MemoryRow) -> u64| memory.iter().map(|m| f(m) as f64 / 1e6).collect::<Vec<f64>>();
@@ -634,7 +734,7 @@ fn compare_cmd(
         "error": errors,
         "plots": [out.join("memory.png").display().to_string(), out.join("error.png").display().to_string()],
     });
-    std::fs::write(out.join("compare.json"), serde_json::to_string_pretty(&report)?)?;
+    polypostor::safe_fs::write_json(&out.join("compare.json"), report.clone()).map_err(anyhow::Error::msg)?;
     if json {
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());
@@ -668,6 +768,31 @@ fn compare_cmd(
         );
     }
     println!("wrote memory.png, error.png and compare.json in {}", out.display());
+    Ok(())
+}
+
+/// Checks, before any work, that the files a command will write into `dir` are new or its
+/// own earlier output (and that `dir` is a folder, or can be made one).
+fn check_output_files(dir: &Path, names: &[&str]) -> anyhow::Result<()> {
+    if let Ok(m) = std::fs::symlink_metadata(dir)
+        && !m.is_dir()
+    {
+        anyhow::bail!(
+            "--out '{}' is {}, not a folder",
+            dir.display(),
+            polypostor::safe_fs::kind_of(&m.file_type())
+        );
+    }
+    let kind = |n: &str| {
+        if n.ends_with(".png") {
+            polypostor::safe_fs::OutputFile::Png
+        } else {
+            polypostor::safe_fs::OutputFile::Json
+        }
+    };
+    for n in names {
+        polypostor::safe_fs::check_output_file(&dir.join(n), kind(n)).map_err(anyhow::Error::msg)?;
+    }
     Ok(())
 }
 
@@ -715,16 +840,23 @@ fn bench_crowd(
     if counts.is_empty() || counts.iter().any(|&c| c == 0 || c > 1_000_000) || frames == 0 {
         anyhow::bail!("--counts must list crowd sizes from 1 to 1,000,000 and --frames must be at least 1");
     }
+    check_output_files(out, &["crowd_fps.png", "crowd_fps.json"])?;
+    let ctx = polypostor::gpu::GpuContext::from_env()?;
+    polypostor::limits::check_render_size(&ctx.device, width, height, "--width × --height")?;
+    // Without --pack: a bake of the default character in a temporary folder, removed when
+    // the benchmark ends (or is interrupted).
+    let mut temp = None;
     let dir = match pack {
         Some(p) => p,
         None => {
-            let d = std::env::temp_dir().join(format!("polypostor-bench-{}", std::process::id()));
-            bake_default_all(&d.join("default.pack"))?;
-            d.join("default.pack")
+            let t = polypostor::safe_fs::TempDir::new("polypostor-bench")?;
+            let d = t.path().join("default.pack");
+            temp = Some(t);
+            bake_default_all(&d)?;
+            d
         }
     };
     let assets = CrowdAssets::load(&dir, character.as_deref(), None).map_err(|e| anyhow::anyhow!(e))?;
-    let ctx = polypostor::gpu::GpuContext::from_env()?;
     let (device, queue) = (&ctx.device, &ctx.queue);
     let target = polypostor::gpu::RenderTarget::new(device, width, height);
     let mut scene = CrowdScene::new(
@@ -812,9 +944,14 @@ fn bench_crowd(
             }));
         }
     }
+    drop(temp);
     let names: Vec<&str> = reps.iter().map(|r| r.0).collect();
     std::fs::create_dir_all(out)?;
-    std::fs::write(out.join("crowd_fps.json"), serde_json::to_string_pretty(&rows)?)?;
+    polypostor::safe_fs::write_json(
+        &out.join("crowd_fps.json"),
+        serde_json::json!({ "adapter": ctx.adapter_description(), "width": width, "height": height, "rows": rows }),
+    )
+    .map_err(anyhow::Error::msg)?;
     let fps_of = |count: usize, name: &str| {
         rows.iter()
             .find(|r| r["count"] == count && r["representation"] == name)

@@ -17,7 +17,8 @@
 //!   values an axis cannot span (a range overflowing `f64`, or below ~1e-300 on a log axis).
 //!
 //! The file is always written as PNG, whatever the extension of `path`; the parent folder must
-//! exist.
+//! exist, and an existing file is replaced only if this tool wrote it
+//! ([`crate::safe_fs::write_png`]).
 
 use std::ops::Range;
 use std::path::Path;
@@ -259,9 +260,8 @@ where
     }
     let image =
         image::RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| "chart buffer has the wrong size".to_string())?;
-    image
-        .save_with_format(path, image::ImageFormat::Png)
-        .map_err(|e| format!("writing chart {}: {e}", path.display()))
+    let rgba = image::DynamicImage::ImageRgb8(image).to_rgba8();
+    crate::safe_fs::write_png(path, &rgba).map_err(|e| format!("writing chart {}: {e}", path.display()))
 }
 
 /// The bundled font, parsed once, for [`Canvas`]'s own text rendering.

@@ -12,6 +12,8 @@ pub const FORMAT_VERSION: u32 = 1;
 pub const PROJECT_FILE: &str = "project.json";
 /// The default project, relative to the repository root.
 pub const DEFAULT_PROJECT_DIR: &str = "projects/default";
+/// Largest project file read (segmentations are run-length encoded; corrections are small).
+pub const MAX_PROJECT_BYTES: u64 = 256 << 20;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ProjectError {
@@ -144,9 +146,14 @@ impl Project {
     /// Loads a project from a `project.json` or from the folder that holds one.
     pub fn load(path: &Path) -> Result<(Self, PathBuf), ProjectError> {
         let file = resolve_project_file(path);
-        let text = std::fs::read_to_string(&file).map_err(|e| ProjectError::Read {
-            path: file.clone(),
-            message: e.to_string(),
+        let text = crate::safe_fs::read_regular_string(&file, MAX_PROJECT_BYTES, "a project file").map_err(|e| {
+            ProjectError::Read {
+                path: file.clone(),
+                message: match e {
+                    crate::safe_fs::FsError::Io { message, .. } => message,
+                    other => other.to_string(),
+                },
+            }
         })?;
         // Read the version first so a newer file is reported as such, not as a parse error.
         #[derive(Deserialize)]

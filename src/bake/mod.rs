@@ -23,6 +23,7 @@ pub mod inspect;
 pub mod overrides;
 pub mod part_fit;
 pub mod pipeline;
+pub mod plan;
 pub mod raster;
 pub mod renders;
 pub mod report;

@@ -75,20 +75,14 @@ impl PngCompression {
         }
     }
 
-    /// Encodes `img` as PNG at this level.
+    /// Encodes `img` as PNG at this level (marked as this tool's: see [`crate::safe_fs`]).
     pub fn encode(self, img: &image::RgbaImage) -> Result<Vec<u8>, String> {
-        use image::ImageEncoder;
-        use image::codecs::png::{CompressionType, FilterType, PngEncoder};
         let level = match self {
-            PngCompression::Fast => CompressionType::Fast,
-            PngCompression::Balanced => CompressionType::Default,
-            PngCompression::Best => CompressionType::Best,
+            PngCompression::Fast => png::Compression::Fast,
+            PngCompression::Balanced => png::Compression::Balanced,
+            PngCompression::Best => png::Compression::High,
         };
-        let mut out = Vec::new();
-        PngEncoder::new_with_quality(&mut out, level, FilterType::Adaptive)
-            .write_image(img.as_raw(), img.width(), img.height(), image::ExtendedColorType::Rgba8)
-            .map_err(|e| e.to_string())?;
-        Ok(out)
+        crate::safe_fs::encode_png(img, level)
     }
 }
 
@@ -118,6 +112,8 @@ pub enum BakeError {
     Segmentation { got: usize, want: usize },
     #[error("key frame {0} is out of range ({1} frames)")]
     KeyFrame(usize, usize),
+    #[error("{0}")]
+    Limit(#[from] crate::limits::LimitError),
     #[error("cancelled")]
     Cancelled,
 }
@@ -404,6 +400,14 @@ impl Prepared {
                 want: character.triangle_count(),
             });
         }
+        let max_side = ctx.device.limits().max_texture_dimension_2d;
+        super::plan::check(
+            character,
+            segmentation,
+            options,
+            crate::reps::RepSet::POLYPOSTOR,
+            max_side,
+        )?;
         let caps = find_caps(character, segmentation);
         let (merged, ranges) = merge_parts(character, segmentation, &caps, cap_overrides);
         let duration = options
@@ -537,7 +541,12 @@ pub fn bake(
     let mut results: Vec<Option<ViewResult>> = vec![None; dirs.len()];
     let mut received = 0usize;
     let mut render_secs = 0.0;
-    let in_flight_limit = 2 * rayon::current_num_threads().max(1);
+    let in_flight_limit = super::plan::views_in_flight(
+        segmentation.parts.len(),
+        prepared.times.len(),
+        options.resolution,
+        rayon::current_num_threads(),
+    );
     let mut store = |pair: (usize, ViewResult), received: &mut usize| {
         results[pair.0] = Some(pair.1);
         *received += 1;

@@ -23,7 +23,8 @@ pub fn frame_times(duration_secs: f32, fps: f32) -> Vec<f32> {
     if !(duration_secs > 0.0) || !(fps > 0.0) {
         return vec![0.0];
     }
-    let n = ((duration_secs * fps) - 1e-4).ceil().max(1.0) as usize;
+    // Callers check the count first ([`crate::limits::frame_count`]); never more than the limit.
+    let n = crate::limits::frame_count(duration_secs, fps).unwrap_or(crate::limits::MAX_FRAMES);
     (0..n).map(|k| k as f32 / fps).collect()
 }
 

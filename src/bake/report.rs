@@ -124,8 +124,8 @@ pub fn read_report(path: &std::path::Path) -> Result<Report, String> {
     } else {
         path.to_owned()
     };
-    let text = std::fs::read_to_string(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))?;
-    serde_json::from_str(&text).map_err(|e| format!("{} is not a bake report: {e}", file.display()))
+    let bytes = crate::safe_fs::read_regular(&file, 256 << 20, "a bake report").map_err(|e| e.to_string())?;
+    serde_json::from_slice(&bytes).map_err(|e| format!("{} is not a bake report: {e}", file.display()))
 }
 
 fn mean(v: &[f64]) -> f64 {

@@ -60,6 +60,15 @@ impl CrowdAssets {
                         .to_string()
                 })?,
         };
+        if let (Some(p), Some(r)) = (&pack, &reps) {
+            check_agreement(&p.manifest, &r.manifest).map_err(|e| {
+                format!(
+                    "{}: manifest.json and {} disagree: {e} (they must come from one bake; re-bake)",
+                    dir.display(),
+                    crate::reps::REPS_FILE
+                )
+            })?;
+        }
         let c = crate::import_path(&path).map_err(|e| format!("{}: {e}", path.display()))?;
         let clip_name = pack
             .as_ref()
@@ -72,6 +81,40 @@ impl CrowdAssets {
             ),
             None => None,
         };
+        // The character must be the one baked: the clip's frame count at the baked rate.
+        let (frames, fps) = pack
+            .as_ref()
+            .map(|p| (p.manifest.frames, p.manifest.fps))
+            .or_else(|| reps.as_ref().map(|r| (r.manifest.frames, r.manifest.fps)))
+            .unwrap_or((1, 10.0));
+        let duration = clip.map_or(0.0, |i| c.clips[i].duration_secs);
+        match crate::limits::frame_count(duration, fps) {
+            Ok(n) if n == frames as usize => {}
+            found => {
+                return Err(format!(
+                    "{}: the bake has {frames} frames at {fps} fps, but {} {} ({}): the character is not the one baked (give it with --character) or the folder is damaged",
+                    dir.display(),
+                    path.display(),
+                    clip_name
+                        .as_deref()
+                        .map_or("(rest pose)".to_string(), |n| format!("clip '{n}'")),
+                    match found {
+                        Ok(n) => format!("gives {n} frames"),
+                        Err(e) => e.to_string(),
+                    }
+                ));
+            }
+        }
+        if let Some(n) = reps.as_ref().and_then(|r| r.np3d.as_ref())
+            && let Some(bad) = n.source.iter().find(|&&s| s as usize >= c.vertices.len())
+        {
+            return Err(format!(
+                "{}: np3d.bin names vertex {bad}, but {} has {} vertices",
+                dir.display(),
+                path.display(),
+                c.vertices.len()
+            ));
+        }
         let labels = labels.unwrap_or_else(|| {
             crate::bake::segment::auto_segment(&c)
                 .labels
@@ -88,7 +131,35 @@ impl CrowdAssets {
             reps,
         })
     }
+}
 
+/// Where a pack and the representations beside it disagree (they must share views, frames,
+/// frame rate, resolution and clip).
+fn check_agreement(p: &crate::pack::Manifest, r: &crate::reps::RepsManifest) -> Result<(), String> {
+    if p.frames != r.frames {
+        return Err(format!("{} frames against {}", p.frames, r.frames));
+    }
+    if p.fps != r.fps {
+        return Err(format!("{} fps against {}", p.fps, r.fps));
+    }
+    if p.resolution != r.resolution {
+        return Err(format!("resolution {} against {}", p.resolution, r.resolution));
+    }
+    if p.clip != r.clip {
+        return Err(format!("clip {:?} against {:?}", p.clip, r.clip));
+    }
+    if p.views.len() != r.views.len() {
+        return Err(format!("{} views against {}", p.views.len(), r.views.len()));
+    }
+    for (v, (a, b)) in p.views.iter().zip(&r.views).enumerate() {
+        if (Vec3::from(a.direction) - Vec3::from(b.direction)).length() > 1e-4 {
+            return Err(format!("view {v} looks from another direction"));
+        }
+    }
+    Ok(())
+}
+
+impl CrowdAssets {
     /// The baked animation: frames and rate (pack first, then representations).
     pub fn timing(&self) -> ClipTiming {
         if let Some(p) = &self.pack {

@@ -24,7 +24,7 @@ pub fn default_path() -> Option<PathBuf> {
 impl Settings {
     /// Loads settings; a missing or unreadable file gives the defaults.
     pub fn load(path: Option<&Path>) -> Self {
-        path.and_then(|p| std::fs::read_to_string(p).ok())
+        path.and_then(|p| polypostor::safe_fs::read_regular_string(p, 16 << 20, "the settings").ok())
             .and_then(|t| serde_json::from_str(&t).ok())
             .unwrap_or_default()
     }

@@ -1,5 +1,8 @@
-//! Batched part renders for the bake: for one view, every part at every frame in one render
-//! pass (a tile per part and frame), read back as one colour, one normal and one depth image.
+//! Batched part renders for the bake: for one view, every part at every frame (a tile per
+//! part and frame), read back as one colour, one normal and one depth image. Where every
+//! tile fits one render target within the device's texture limit, one pass draws them in
+//! the images' own layout; otherwise (long clips, high resolutions, many parts) the tiles go
+//! through a smaller target in batches and are copied into place.
 
 use wgpu::util::DeviceExt;
 
@@ -44,6 +47,9 @@ impl PartImages {
     }
 }
 
+/// Most pixels of the bake's part-render target (colour, normal and depth: 12 bytes each).
+pub const MAX_TARGET_PIXELS: u64 = 32 << 20;
+
 /// GPU state of a part-render batch: the merged part meshes and one bone buffer per frame.
 pub struct PartRenderer {
     gpu: GpuCharacter,
@@ -52,6 +58,31 @@ pub struct PartRenderer {
     frame_groups: Vec<wgpu::BindGroup>,
     resolution: u32,
     target: RenderTarget,
+    /// Tiles per row and rows of the target; `None`: the images' own layout (part column,
+    /// frame row) in one pass.
+    grid: Option<(u32, u32)>,
+}
+
+/// The target grid for `tiles` tiles of `resolution²` within a texture side of `max_side`:
+/// `None` if the images' own layout (`parts × frames` tiles) fits, else tiles per row and
+/// rows of a smaller target drawn in batches.
+pub fn tile_grid(parts: u32, frames: u32, resolution: u32, max_side: u32) -> Option<(u32, u32)> {
+    let (parts, frames, r) = (parts.max(1), frames.max(1), resolution.max(1));
+    let fits = |cols: u32, rows: u32| {
+        u64::from(cols) * u64::from(r) <= u64::from(max_side)
+            && u64::from(rows) * u64::from(r) <= u64::from(max_side)
+            && u64::from(cols) * u64::from(rows) * u64::from(r) * u64::from(r) <= MAX_TARGET_PIXELS
+    };
+    if fits(parts, frames) {
+        return None;
+    }
+    let tiles = u64::from(parts) * u64::from(frames);
+    let cols = (max_side / r).max(1).min(tiles.min(u64::from(u32::MAX)) as u32);
+    let by_pixels = (MAX_TARGET_PIXELS / (u64::from(cols) * u64::from(r) * u64::from(r))).max(1);
+    let rows = u64::from((max_side / r).max(1))
+        .min(by_pixels)
+        .min(tiles.div_ceil(u64::from(cols))) as u32;
+    Some((cols, rows.max(1)))
 }
 
 impl PartRenderer {
@@ -85,7 +116,10 @@ impl PartRenderer {
             })
             .collect();
         let parts = part_ranges.len().max(1) as u32;
-        let target = RenderTarget::new(device, parts * resolution, poses.len().max(1) as u32 * resolution);
+        let frames = poses.len().max(1) as u32;
+        let grid = tile_grid(parts, frames, resolution, device.limits().max_texture_dimension_2d);
+        let (cols, rows) = grid.unwrap_or((parts, frames));
+        let target = RenderTarget::new(device, cols * resolution, rows * resolution);
         Self {
             gpu,
             part_ranges,
@@ -93,6 +127,7 @@ impl PartRenderer {
             frame_groups,
             resolution,
             target,
+            grid,
         }
     }
 
@@ -110,6 +145,72 @@ impl PartRenderer {
             0,
             bytemuck::bytes_of(&frame_uniforms(camera, 1.0, Shading::Unlit)),
         );
+        let parts = self.part_ranges.len();
+        let frames = self.frame_groups.len();
+        let Some((cols, rows)) = self.grid else {
+            // One pass in the images' own layout.
+            let tiles: Vec<(usize, usize)> = (0..frames).flat_map(|f| (0..parts).map(move |p| (p, f))).collect();
+            self.draw_tiles(renderer, device, queue, &tiles, |p, f| (p as u32, f as u32));
+            return Ok(PartImages {
+                resolution: self.resolution,
+                parts,
+                frames,
+                color: self.target.read_color(device, queue)?,
+                normal: self.target.read_normal(device, queue)?,
+                depth: self.target.read_depth(device, queue)?,
+            });
+        };
+        let r = self.resolution;
+        let (w, h) = (parts as u32 * r, frames as u32 * r);
+        let mut out = PartImages {
+            resolution: r,
+            parts,
+            frames,
+            color: image::RgbaImage::new(w, h),
+            normal: image::RgbaImage::new(w, h),
+            depth: DepthImage {
+                width: w,
+                height: h,
+                data: vec![1.0; w as usize * h as usize],
+            },
+        };
+        let all: Vec<(usize, usize)> = (0..frames).flat_map(|f| (0..parts).map(move |p| (p, f))).collect();
+        for batch in all.chunks((cols * rows) as usize) {
+            let slot = |k: usize| ((k as u32) % cols, (k as u32) / cols);
+            let index: std::collections::HashMap<(usize, usize), usize> =
+                batch.iter().enumerate().map(|(k, &t)| (t, k)).collect();
+            self.draw_tiles(renderer, device, queue, batch, |p, f| slot(index[&(p, f)]));
+            let color = self.target.read_color(device, queue)?;
+            let normal = self.target.read_normal(device, queue)?;
+            let depth = self.target.read_depth(device, queue)?;
+            for (k, &(p, f)) in batch.iter().enumerate() {
+                let (sx, sy) = slot(k);
+                let (sx, sy) = (sx * r, sy * r);
+                let (dx, dy) = out.tile_origin(p, f);
+                for (dst, src) in [(&mut out.color, &color), (&mut out.normal, &normal)] {
+                    let tile = image::imageops::crop_imm(src, sx, sy, r, r).to_image();
+                    image::imageops::replace(dst, &tile, i64::from(dx), i64::from(dy));
+                }
+                for y in 0..r {
+                    let from = ((sy + y) * depth.width + sx) as usize;
+                    let to = ((dy + y) * w + dx) as usize;
+                    out.depth.data[to..to + r as usize].copy_from_slice(&depth.data[from..from + r as usize]);
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Draws part `p` at frame `f` for every `(p, f)` of `tiles` into the target tile
+    /// `slot(p, f)` (column, row), in one pass.
+    fn draw_tiles(
+        &self,
+        renderer: &CharacterRenderer,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        tiles: &[(usize, usize)],
+        slot: impl Fn(usize, usize) -> (u32, u32),
+    ) {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("bake view"),
         });
@@ -119,29 +220,42 @@ impl PartRenderer {
                 .begin_pass(&mut encoder, "bake parts", wgpu::Color::TRANSPARENT);
             pass.set_pipeline(renderer.pipeline());
             self.gpu.bind_geometry(&mut pass);
-            let r = self.resolution as f32;
-            for (f, group) in self.frame_groups.iter().enumerate() {
-                pass.set_bind_group(0, group, &[]);
-                for (p, ranges) in self.part_ranges.iter().enumerate() {
-                    pass.set_viewport(p as f32 * r, f as f32 * r, r, r, 0.0, 1.0);
-                    pass.set_scissor_rect(
-                        p as u32 * self.resolution,
-                        f as u32 * self.resolution,
-                        self.resolution,
-                        self.resolution,
-                    );
-                    self.gpu.draw_ranges(&mut pass, ranges);
+            let r = self.resolution;
+            let mut bound = None;
+            for &(p, f) in tiles {
+                if bound != Some(f) {
+                    pass.set_bind_group(0, &self.frame_groups[f], &[]);
+                    bound = Some(f);
                 }
+                let (col, row) = slot(p, f);
+                pass.set_viewport((col * r) as f32, (row * r) as f32, r as f32, r as f32, 0.0, 1.0);
+                pass.set_scissor_rect(col * r, row * r, r, r);
+                self.gpu.draw_ranges(&mut pass, &self.part_ranges[p]);
             }
         }
         queue.submit([encoder.finish()]);
-        Ok(PartImages {
-            resolution: self.resolution,
-            parts: self.part_ranges.len(),
-            frames: self.frame_groups.len(),
-            color: self.target.read_color(device, queue)?,
-            normal: self.target.read_normal(device, queue)?,
-            depth: self.target.read_depth(device, queue)?,
-        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tile_grids_stay_within_the_texture_limit() {
+        assert_eq!(tile_grid(5, 10, 128, 16384), None);
+        for (parts, frames, r, side) in [
+            (5, 129, 128, 16384),
+            (5, 10, 2048, 16384),
+            (20, 10, 2048, 16384),
+            (5, 21, 1024, 8192),
+            (1, 10_000, 128, 16384),
+            (20, 10_000, 16, 2048),
+        ] {
+            let (c, rows) = tile_grid(parts, frames, r, side).expect("too big for one pass");
+            assert!(c * r <= side && rows * r <= side, "{parts}×{frames} at {r}: {c}×{rows}");
+            assert!(u64::from(c * rows) * u64::from(r * r) <= MAX_TARGET_PIXELS);
+            assert!(c >= 1 && rows >= 1);
+        }
     }
 }

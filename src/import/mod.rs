@@ -26,7 +26,7 @@ use crate::character::{
 /// Largest file (and external buffer or image) the importer reads.
 pub const MAX_FILE_BYTES: u64 = 1 << 31;
 /// Largest texture side accepted.
-pub const MAX_TEXTURE_SIDE: u32 = 16384;
+pub const MAX_TEXTURE_SIDE: u32 = crate::limits::MAX_IMPORT_TEXTURE_SIDE;
 
 /// Why a file could not be imported.
 #[derive(Debug, thiserror::Error)]
@@ -62,21 +62,15 @@ pub fn import_path(path: &Path) -> Result<Character, ImportError> {
 }
 
 fn read_file(path: &Path) -> Result<Vec<u8>, ImportError> {
-    let io = |e: std::io::Error| ImportError::Io {
-        path: path.to_owned(),
-        message: e.to_string(),
-    };
-    let meta = std::fs::metadata(path).map_err(io)?;
-    if meta.is_dir() {
-        return Err(ImportError::Io {
-            path: path.to_owned(),
-            message: "is a directory".into(),
-        });
-    }
-    if meta.len() > MAX_FILE_BYTES {
-        return Err(ImportError::TooLarge(path.to_owned()));
-    }
-    std::fs::read(path).map_err(io)
+    use crate::safe_fs::FsError;
+    crate::safe_fs::read_regular(path, MAX_FILE_BYTES, "a glTF file or its external data").map_err(|e| match e {
+        FsError::TooLarge { path, .. } => ImportError::TooLarge(path),
+        FsError::NotRegular { path, kind } => ImportError::Io {
+            path,
+            message: format!("is {kind}, not a regular file"),
+        },
+        FsError::Io { path, message } => ImportError::Io { path, message },
+    })
 }
 
 /// Imports from bytes. `base_dir` resolves relative URIs of external buffers and images
@@ -110,6 +104,7 @@ pub fn import_slice(bytes: &[u8], base_dir: Option<&Path>, name: &str) -> Result
         buffers: &buffers,
         base_dir,
         warnings,
+        decoded_texture_bytes: Default::default(),
     }
     .build(name)
 }
@@ -205,7 +200,10 @@ fn percent_decode(s: &str) -> String {
     String::from_utf8_lossy(&out).into_owned()
 }
 
-/// Resolves a relative URI to a file path under `base_dir`.
+/// Resolves a relative URI to a file path inside `base_dir`, the model's folder: URIs are
+/// relative references without a scheme, and the file they name (after symbolic links) must
+/// lie in that folder or below it. `..` that leaves the folder, absolute paths and links
+/// pointing elsewhere are refused, so a model never reads other files of the machine.
 fn resolve_uri(uri: &str, base_dir: Option<&Path>) -> Result<PathBuf, String> {
     if uri.is_empty() {
         return Err("empty URI".into());
@@ -221,11 +219,40 @@ fn resolve_uri(uri: &str, base_dir: Option<&Path>) -> Result<PathBuf, String> {
     }
     let decoded = percent_decode(uri);
     let rel = Path::new(&decoded);
-    if rel.is_absolute() {
-        return Err(format!("URI '{uri}' is an absolute path"));
+    if rel.is_absolute() || decoded.starts_with('/') || decoded.starts_with('\\') || decoded.contains('\0') {
+        return Err(format!(
+            "URI '{uri}' is an absolute path (only files in the model's folder are read)"
+        ));
     }
     let base = base_dir.ok_or_else(|| format!("URI '{uri}' refers to an external file, but no folder is known"))?;
-    Ok(base.join(rel))
+    // Lexically first: no `..` may climb above the folder.
+    let mut depth = 0i32;
+    for c in rel.components() {
+        match c {
+            std::path::Component::ParentDir => depth -= 1,
+            std::path::Component::Normal(_) => depth += 1,
+            std::path::Component::CurDir => {}
+            _ => return Err(format!("URI '{uri}' is not a relative path")),
+        }
+        if depth < 0 {
+            return Err(format!(
+                "URI '{uri}' leaves the model's folder (only files in {} and below are read)",
+                base.display()
+            ));
+        }
+    }
+    let path = base.join(rel);
+    // Then for real, through symbolic links (a missing file is reported when it is read).
+    if let (Ok(real), Ok(real_base)) = (std::fs::canonicalize(&path), std::fs::canonicalize(base))
+        && !real.starts_with(&real_base)
+    {
+        return Err(format!(
+            "URI '{uri}' leads outside the model's folder (to {}; only files in {} and below are read)",
+            real.display(),
+            base.display()
+        ));
+    }
+    Ok(path)
 }
 
 fn load_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>, String> {
@@ -297,6 +324,9 @@ struct Builder<'a> {
     buffers: &'a [Result<Vec<u8>, ImportError>],
     base_dir: Option<&'a Path>,
     warnings: Vec<String>,
+    /// Bytes of the textures decoded so far (RGBA8), bounded by
+    /// [`crate::limits::MAX_IMPORT_TEXTURE_BYTES`].
+    decoded_texture_bytes: std::cell::Cell<u64>,
 }
 
 impl Builder<'_> {
@@ -310,6 +340,12 @@ impl Builder<'_> {
     /// Parent of every node, checking that the hierarchy is a forest.
     fn parents(&self) -> Result<Vec<Option<usize>>, ImportError> {
         let n = self.root.nodes.len();
+        if n > crate::limits::MAX_NODES {
+            return Err(ImportError::Invalid(format!(
+                "{n} nodes, more than the limit of {}",
+                crate::limits::MAX_NODES
+            )));
+        }
         let mut parent = vec![None; n];
         for (i, node) in self.root.nodes.iter().enumerate() {
             for c in node.children.iter().flatten() {
@@ -326,18 +362,28 @@ impl Builder<'_> {
                 parent[c] = Some(i);
             }
         }
-        // With one parent per node, a cycle is a walk up that never ends.
+        // With one parent per node, a cycle is a walk up that never ends. Each node is
+        // walked over once: a walk stops at a node already known to reach a root.
+        let mut state = vec![0u8; n]; // 0: unknown, 1: on the current walk, 2: reaches a root
+        let mut walk = Vec::new();
         for start in 0..n {
             let mut at = start;
-            let mut steps = 0;
-            while let Some(p) = parent[at] {
-                at = p;
-                steps += 1;
-                if steps > n {
-                    return Err(ImportError::Invalid(format!(
-                        "the node hierarchy has a cycle through node {start}"
-                    )));
+            walk.clear();
+            while state[at] == 0 {
+                state[at] = 1;
+                walk.push(at);
+                match parent[at] {
+                    Some(p) => at = p,
+                    None => break,
                 }
+            }
+            if state[at] == 1 && parent[at].is_some() {
+                return Err(ImportError::Invalid(format!(
+                    "the node hierarchy has a cycle through node {at}"
+                )));
+            }
+            for &w in &walk {
+                state[w] = 2;
             }
         }
         Ok(parent)
@@ -897,13 +943,36 @@ impl Builder<'_> {
                 return Err(format!("image {img_index} has neither a bufferView nor a URI"));
             }
         };
-        let mut reader = image::ImageReader::new(std::io::Cursor::new(&bytes[..]))
-            .with_guessed_format()
+        let reader = || {
+            image::ImageReader::new(std::io::Cursor::new(&bytes[..]))
+                .with_guessed_format()
+                .map_err(|e| format!("image {img_index}: {e}"))
+        };
+        // The size from the header first: nothing is decoded past the documented limits.
+        let (w, h) = reader()?
+            .into_dimensions()
             .map_err(|e| format!("image {img_index}: {e}"))?;
+        if w > MAX_TEXTURE_SIDE || h > MAX_TEXTURE_SIDE {
+            return Err(format!(
+                "image {img_index} is {w}×{h} pixels, more than the limit of {MAX_TEXTURE_SIDE} per side"
+            ));
+        }
+        let rgba = u64::from(w) * u64::from(h) * 4;
+        let total = self.decoded_texture_bytes.get() + rgba;
+        if total > crate::limits::MAX_IMPORT_TEXTURE_BYTES {
+            return Err(format!(
+                "image {img_index} ({w}×{h}) brings the decoded textures to {}, more than the limit of {}",
+                crate::limits::human_bytes(total),
+                crate::limits::human_bytes(crate::limits::MAX_IMPORT_TEXTURE_BYTES)
+            ));
+        }
+        self.decoded_texture_bytes.set(total);
+        let mut reader = reader()?;
         let mut limits = image::Limits::default();
         limits.max_image_width = Some(MAX_TEXTURE_SIDE);
         limits.max_image_height = Some(MAX_TEXTURE_SIDE);
-        limits.max_alloc = Some(1 << 30);
+        // 16-bit RGBA at most, plus the 8-bit copy.
+        limits.max_alloc = Some(rgba * 2 + (1 << 20));
         reader.limits(limits);
         let decoded = reader
             .decode()

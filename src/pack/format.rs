@@ -1,9 +1,32 @@
 //! The manifest: what `manifest.json` holds (serde).
 
+use std::collections::BTreeMap;
+
 use serde::{Deserialize, Serialize};
 
 pub const FORMAT_NAME: &str = "polypostor-pack";
-pub const FORMAT_VERSION: u32 = 2;
+/// Version 3 added [`Manifest::checksums`]; older packs are refused with "re-bake".
+pub const FORMAT_VERSION: u32 = 3;
+
+/// Size and CRC-32 (IEEE, as zlib and PNG compute it) of one file of a pack or
+/// representations folder.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FileSum {
+    pub bytes: u64,
+    pub crc32: u32,
+}
+
+impl FileSum {
+    pub fn of(bytes: &[u8]) -> Self {
+        Self {
+            bytes: bytes.len() as u64,
+            crc32: crc32fast::hash(bytes),
+        }
+    }
+}
+
+/// Every data file of a folder by name, with its size and checksum.
+pub type Checksums = BTreeMap<String, FileSum>;
 
 /// The orthographic camera of a view: a world point maps to view-plane coordinates
 /// `((p - center)·right, (p - center)·up) / half_size`, in [-1, 1] inside the frame.
@@ -106,4 +129,8 @@ pub struct Manifest {
     pub vertex_bytes: u64,
     pub index_file: String,
     pub index_bytes: u64,
+    /// Size and CRC-32 of every file the pack's data lives in (`vertices.bin`,
+    /// `indices.bin`, every atlas); the loader reads nothing that is not listed here.
+    #[serde(default)]
+    pub checksums: Checksums,
 }

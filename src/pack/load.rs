@@ -1,21 +1,38 @@
 //! Loading a pack, validating everything: a damaged or forged pack gives a clear error, never
-//! a panic or an out-of-bounds read later (every offset, count and index is checked here).
+//! a panic, a hang or an allocation beyond what the pack really holds (every number is
+//! checked for range and finiteness, every size computed with checked arithmetic, every
+//! file read is a regular file of the size and checksum the manifest lists, and the decoded
+//! textures are bounded before anything is decoded).
 
 use std::path::{Path, PathBuf};
 
-use super::format::{FORMAT_NAME, FORMAT_VERSION, Manifest};
+use super::format::{Checksums, FORMAT_NAME, FORMAT_VERSION, Manifest, PackCamera};
+use crate::limits::{
+    MAX_FPS, MAX_FRAMES, MAX_LOADED_TEXTURE_BYTES, MAX_PARTS, MAX_RESOLUTION, MAX_VIEWS, MIN_RESOLUTION,
+};
 
 #[derive(Debug, thiserror::Error)]
 pub enum PackError {
     #[error("cannot read '{path}': {message}")]
     Io { path: PathBuf, message: String },
-    #[error("manifest.json is not a valid pack manifest: {0}")]
-    Manifest(String),
-    #[error("not a polypostor pack (format '{0}')")]
-    NotAPack(String),
-    #[error("pack version {0} is not supported (this build reads version {FORMAT_VERSION})")]
-    Version(u32),
-    #[error("damaged pack: {0}")]
+    #[error("{file} is not a valid manifest: {message}")]
+    Manifest { file: &'static str, message: String },
+    #[error("{file} is not a polypostor manifest (format '{found}')")]
+    NotAPack { file: &'static str, found: String },
+    #[error("{file} has version {found}, newer than this build reads ({current})")]
+    Version {
+        file: &'static str,
+        found: u32,
+        current: u32,
+    },
+    #[error("{file} has version {found}, older than this build reads ({current}): re-bake it")]
+    OldVersion {
+        file: &'static str,
+        found: u32,
+        current: u32,
+    },
+    /// The message starts with the file it concerns.
+    #[error("damaged {0}")]
     Damaged(String),
 }
 
@@ -38,76 +55,386 @@ pub struct LoadedPack {
     pub views: Vec<LoadedView>,
 }
 
-/// Largest file the loader reads.
-const MAX_FILE: u64 = 1 << 32;
+/// Most bytes of `vertices.bin` + `indices.bin` a pack may declare.
+pub const MAX_VERTEX_FILE_BYTES: u64 = 1 << 30;
+/// Largest manifest read.
+pub const MAX_MANIFEST_BYTES: u64 = 64 << 20;
+/// Most vertices of one part in one view (the bake writes 20).
+pub const MAX_PART_VERTICES: u32 = 1024;
+/// Largest atlas side.
+pub const MAX_ATLAS_SIDE: u32 = 16384;
 
-pub(crate) fn read(path: &Path, limit: u64) -> Result<Vec<u8>, PackError> {
-    let io = |e: std::io::Error| PackError::Io {
-        path: path.to_owned(),
-        message: e.to_string(),
-    };
-    let len = std::fs::metadata(path).map_err(io)?.len();
-    if len > limit {
-        return Err(PackError::Damaged(format!(
-            "{} is {len} bytes, more than the {limit} expected",
-            path.display()
-        )));
+fn damaged(m: String) -> PackError {
+    PackError::Damaged(m)
+}
+
+fn fs_error(e: crate::safe_fs::FsError) -> PackError {
+    match e {
+        crate::safe_fs::FsError::Io { path, message } => PackError::Io { path, message },
+        other => PackError::Damaged(other.to_string()),
     }
-    std::fs::read(path).map_err(io)
 }
 
 /// A file name inside the pack folder (no paths, no parent references).
 pub(crate) fn member(dir: &Path, name: &str) -> Result<PathBuf, PackError> {
-    if name.is_empty() || name.contains('/') || name.contains('\\') || name == ".." || name == "." {
-        return Err(PackError::Damaged(format!(
+    if name.is_empty()
+        || name.contains('/')
+        || name.contains('\\')
+        || name == ".."
+        || name == "."
+        || name.contains('\0')
+    {
+        return Err(damaged(format!(
             "file name '{name}' is not a plain name in the pack folder"
         )));
     }
     Ok(dir.join(name))
 }
 
+/// Parses a manifest: its format and version first (so an old or foreign file is named as
+/// such, not as a parse error), then the whole of it.
+pub(crate) fn parse_manifest<T: serde::de::DeserializeOwned>(
+    dir: &Path,
+    file: &'static str,
+    format: &str,
+    version: u32,
+) -> Result<T, PackError> {
+    let bytes = crate::safe_fs::read_regular(&dir.join(file), MAX_MANIFEST_BYTES, "a manifest").map_err(fs_error)?;
+    #[derive(serde::Deserialize)]
+    struct Head {
+        format: String,
+        version: u32,
+    }
+    let bad = |e: serde_json::Error| PackError::Manifest {
+        file,
+        message: e.to_string(),
+    };
+    let head: Head = serde_json::from_slice(&bytes).map_err(bad)?;
+    if head.format != format {
+        return Err(PackError::NotAPack {
+            file,
+            found: head.format,
+        });
+    }
+    if head.version > version {
+        return Err(PackError::Version {
+            file,
+            found: head.version,
+            current: version,
+        });
+    }
+    if head.version < version {
+        return Err(PackError::OldVersion {
+            file,
+            found: head.version,
+            current: version,
+        });
+    }
+    serde_json::from_slice(&bytes).map_err(bad)
+}
+
+/// Frame rate, frame count and key frame of a manifest.
+pub(crate) fn check_timing(file: &str, fps: f32, frames: u32, key_frame: u32) -> Result<(), PackError> {
+    if frames == 0 || frames as usize > MAX_FRAMES {
+        return Err(damaged(format!(
+            "{file}: frame count {frames} is out of range (1 to {MAX_FRAMES})"
+        )));
+    }
+    if key_frame >= frames {
+        return Err(damaged(format!(
+            "{file}: key frame {key_frame} is not below the frame count {frames}"
+        )));
+    }
+    if !(fps.is_finite() && fps >= crate::limits::MIN_FPS && fps <= MAX_FPS) {
+        return Err(damaged(format!(
+            "{file}: frame rate {fps} is out of range ({} to {MAX_FPS})",
+            crate::limits::MIN_FPS
+        )));
+    }
+    Ok(())
+}
+
+/// Resolution and view count of a manifest.
+pub(crate) fn check_resolution_views(file: &str, resolution: u32, views: usize) -> Result<(), PackError> {
+    if !(MIN_RESOLUTION..=MAX_RESOLUTION).contains(&resolution) {
+        return Err(damaged(format!(
+            "{file}: resolution {resolution} is out of range ({MIN_RESOLUTION} to {MAX_RESOLUTION})"
+        )));
+    }
+    if views == 0 || views > MAX_VIEWS {
+        return Err(damaged(format!(
+            "{file}: {views} views, out of range (1 to {MAX_VIEWS})"
+        )));
+    }
+    Ok(())
+}
+
+fn unit(v: [f32; 3]) -> bool {
+    v.iter().all(|x| x.is_finite()) && (glam::Vec3::from(v).length() - 1.0).abs() < 1e-3
+}
+
+/// A view direction: a finite unit vector.
+pub(crate) fn check_direction(what: &str, d: [f32; 3]) -> Result<(), PackError> {
+    if !unit(d) {
+        return Err(damaged(format!("{what}: direction {d:?} is not a unit vector")));
+    }
+    Ok(())
+}
+
+/// An orthographic view camera: finite, an orthonormal frame whose forward axis is the view
+/// direction, a positive finite half size.
+pub(crate) fn check_camera(what: &str, cam: &PackCamera, direction: [f32; 3]) -> Result<(), PackError> {
+    let bad = |why: &str| damaged(format!("{what}: camera {why}"));
+    if !cam.center.iter().all(|x| x.is_finite() && x.abs() < 1e12) {
+        return Err(bad("centre is not a finite point"));
+    }
+    if !(unit(cam.right) && unit(cam.up) && unit(cam.forward)) {
+        return Err(bad("axes are not unit vectors"));
+    }
+    let (r, u, f) = (
+        glam::Vec3::from(cam.right),
+        glam::Vec3::from(cam.up),
+        glam::Vec3::from(cam.forward),
+    );
+    if r.dot(u).abs() > 1e-3 || r.dot(f).abs() > 1e-3 || u.dot(f).abs() > 1e-3 {
+        return Err(bad("axes are not perpendicular"));
+    }
+    if (f - glam::Vec3::from(direction)).length() > 1e-3 {
+        return Err(bad("does not look along the view direction"));
+    }
+    if !(cam.half_size.is_finite() && cam.half_size > 1e-9 && cam.half_size < 1e12) {
+        return Err(bad(&format!("half size {} is not a positive size", cam.half_size)));
+    }
+    Ok(())
+}
+
+/// Reads the data files of a pack or representations folder: plain names listed in the
+/// manifest's checksums, regular files of exactly the listed size and checksum.
+pub(crate) struct FolderReader<'a> {
+    pub dir: &'a Path,
+    pub manifest_file: &'static str,
+    pub checksums: &'a Checksums,
+}
+
+impl FolderReader<'_> {
+    /// The bytes of `name`, checked against its size and checksum.
+    pub fn read(&self, name: &str) -> Result<Vec<u8>, PackError> {
+        let path = member(self.dir, name)?;
+        let sum = self.checksums.get(name).ok_or_else(|| {
+            damaged(format!(
+                "{}: no checksum listed for {name} (every data file must be)",
+                self.manifest_file
+            ))
+        })?;
+        let bytes =
+            crate::safe_fs::read_regular(&path, sum.bytes, "this file (the size its manifest lists)").map_err(|e| {
+                match e {
+                    crate::safe_fs::FsError::TooLarge { len, .. } => damaged(format!(
+                        "{name} is {len} bytes, {} says {}",
+                        self.manifest_file, sum.bytes
+                    )),
+                    other => fs_error(other),
+                }
+            })?;
+        if bytes.len() as u64 != sum.bytes {
+            return Err(damaged(format!(
+                "{name} is {} bytes, {} says {}",
+                bytes.len(),
+                self.manifest_file,
+                sum.bytes
+            )));
+        }
+        if crc32fast::hash(&bytes) != sum.crc32 {
+            return Err(damaged(format!(
+                "{name}: its content does not match the checksum in {} (the file is damaged; re-bake)",
+                self.manifest_file
+            )));
+        }
+        Ok(bytes)
+    }
+
+    /// Decodes the PNG `name` and checks its size against `size` before decoding.
+    pub fn png(&self, name: &str, size: [u32; 2]) -> Result<image::RgbaImage, PackError> {
+        let bytes = self.read(name)?;
+        decode_png(name, &bytes, size)
+    }
+}
+
+/// Decodes PNG bytes that must hold an image of `size`; the header is checked before any
+/// pixel is decoded.
+pub(crate) fn decode_png(name: &str, bytes: &[u8], size: [u32; 2]) -> Result<image::RgbaImage, PackError> {
+    let reader = || image::ImageReader::with_format(std::io::Cursor::new(bytes), image::ImageFormat::Png);
+    let (w, h) = reader()
+        .into_dimensions()
+        .map_err(|e| damaged(format!("{name}: {e}")))?;
+    if [w, h] != size {
+        return Err(damaged(format!(
+            "{name}: {w}×{h} pixels, the manifest says {}×{}",
+            size[0], size[1]
+        )));
+    }
+    let mut r = reader();
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(size[0]);
+    limits.max_image_height = Some(size[1]);
+    // RGBA16 at most, plus the RGBA8 copy.
+    limits.max_alloc = Some(u64::from(w) * u64::from(h) * 8 + (1 << 20));
+    r.limits(limits);
+    let img = r.decode().map_err(|e| damaged(format!("{name}: {e}")))?.to_rgba8();
+    Ok(img)
+}
+
+/// Checks that decoding images of these sizes stays within [`MAX_LOADED_TEXTURE_BYTES`].
+pub(crate) fn check_texture_budget(file: &str, sizes: impl Iterator<Item = [u32; 2]>) -> Result<(), PackError> {
+    let mut total = 0u64;
+    for [w, h] in sizes {
+        total = total.saturating_add(u64::from(w).saturating_mul(u64::from(h)).saturating_mul(4));
+    }
+    if total > MAX_LOADED_TEXTURE_BYTES {
+        return Err(damaged(format!(
+            "{file}: its textures would take {} decoded, more than the limit of {}",
+            crate::limits::human_bytes(total),
+            crate::limits::human_bytes(MAX_LOADED_TEXTURE_BYTES)
+        )));
+    }
+    Ok(())
+}
+
 pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
-    let text = read(&dir.join("manifest.json"), 64 << 20)?;
-    let manifest: Manifest = serde_json::from_slice(&text).map_err(|e| PackError::Manifest(e.to_string()))?;
-    if manifest.format != FORMAT_NAME {
-        return Err(PackError::NotAPack(manifest.format.clone()));
-    }
-    if manifest.version != FORMAT_VERSION {
-        return Err(PackError::Version(manifest.version));
-    }
-    let damaged = |m: String| PackError::Damaged(m);
-    if manifest.frames == 0 || manifest.frames > 10_000 {
-        return Err(damaged(format!("frame count {} is out of range", manifest.frames)));
-    }
-    if manifest.key_frame >= manifest.frames {
+    const FILE: &str = "manifest.json";
+    let manifest: Manifest = parse_manifest(dir, FILE, FORMAT_NAME, FORMAT_VERSION)?;
+    check_timing(FILE, manifest.fps, manifest.frames, manifest.key_frame)?;
+    check_resolution_views(FILE, manifest.resolution, manifest.views.len())?;
+    let parts = manifest.parts.len();
+    if parts == 0 || parts > MAX_PARTS {
         return Err(damaged(format!(
-            "key frame {} is not below the frame count {}",
-            manifest.key_frame, manifest.frames
+            "{FILE}: {parts} parts, out of range (1 to {MAX_PARTS})"
         )));
     }
-    if !(manifest.fps.is_finite() && manifest.fps > 0.0) {
-        return Err(damaged(format!("frame rate {} is not a positive number", manifest.fps)));
-    }
-    if manifest.views.is_empty() {
-        return Err(damaged("the pack has no views".into()));
-    }
-    let vbytes = read(&member(dir, &manifest.vertex_file)?, MAX_FILE)?;
-    let ibytes = read(&member(dir, &manifest.index_file)?, MAX_FILE)?;
-    if vbytes.len() as u64 != manifest.vertex_bytes || vbytes.len() % 2 != 0 {
+    if manifest.vertex_bytes.saturating_add(manifest.index_bytes) > MAX_VERTEX_FILE_BYTES {
         return Err(damaged(format!(
-            "{} has {} bytes, the manifest says {}",
-            manifest.vertex_file,
-            vbytes.len(),
-            manifest.vertex_bytes
+            "{FILE}: {} bytes of vertex and index data, more than the limit of {}",
+            manifest.vertex_bytes.saturating_add(manifest.index_bytes),
+            crate::limits::human_bytes(MAX_VERTEX_FILE_BYTES)
         )));
     }
-    if ibytes.len() as u64 != manifest.index_bytes || ibytes.len() % 2 != 0 {
+    if manifest.vertex_bytes % 2 != 0 || manifest.index_bytes % 2 != 0 {
         return Err(damaged(format!(
-            "{} has {} bytes, the manifest says {}",
-            manifest.index_file,
-            ibytes.len(),
-            manifest.index_bytes
+            "{FILE}: vertex and index data must be whole 16-bit values"
         )));
+    }
+    let frames = u64::from(manifest.frames);
+    let vertex_values = manifest.vertex_bytes / 2;
+    let index_values = manifest.index_bytes / 2;
+    let r = u64::from(manifest.resolution);
+    let mut names = std::collections::BTreeSet::new();
+    // Everything the manifest says is checked before any data file is read.
+    for (v, view) in manifest.views.iter().enumerate() {
+        let what = format!("{FILE}: view {v}");
+        check_direction(&what, view.direction)?;
+        check_camera(&what, &view.camera, view.direction)?;
+        if view.parts.len() != parts {
+            return Err(damaged(format!(
+                "{what}: {} part entries for {parts} parts",
+                view.parts.len()
+            )));
+        }
+        if !crate::bake::overrides::valid_order(&view.order.iter().map(|&o| o as usize).collect::<Vec<_>>(), parts) {
+            return Err(damaged(format!(
+                "{what}: drawing order {:?} is not a permutation of the {parts} parts",
+                view.order
+            )));
+        }
+        for name in [&view.atlas, &view.normal_atlas] {
+            member(dir, name)?;
+            if !names.insert(name.clone()) {
+                return Err(damaged(format!("{what}: the file {name} is named twice")));
+            }
+        }
+        let [aw, ah] = view.atlas_size;
+        let present = view.parts.iter().flatten().count().max(1) as u64;
+        // The packer's own bound: no atlas is larger than the crops stacked in one column.
+        let most = (r + 2).saturating_mul(present.saturating_mul(r) + 2);
+        if aw < 2
+            || ah < 2
+            || aw > MAX_ATLAS_SIDE
+            || ah > MAX_ATLAS_SIDE
+            || aw % 2 != 0
+            || ah % 2 != 0
+            || u64::from(aw) * u64::from(ah) > most
+        {
+            return Err(damaged(format!(
+                "{what}: atlas size {aw}×{ah} is not valid for {present} parts of {r}² pixels"
+            )));
+        }
+        for (p, part) in view.parts.iter().enumerate() {
+            let Some(part) = part else { continue };
+            let w = format!("{what} part {p}");
+            let vc = u64::from(part.vertex_count);
+            if vc < 3 || part.vertex_count > MAX_PART_VERTICES || part.index_count == 0 || part.index_count % 3 != 0 {
+                return Err(damaged(format!("{w}: {vc} vertices and {} indices", part.index_count)));
+            }
+            let end = frames
+                .checked_add(1)
+                .and_then(|f| vc.checked_mul(2)?.checked_mul(f))
+                .and_then(|n| part.vertex_offset.checked_add(n))
+                .ok_or_else(|| damaged(format!("{w}: vertex range overflows")))?;
+            if end > vertex_values {
+                return Err(damaged(format!(
+                    "{w}: vertices {}..{end} lie past the end of the vertex data ({vertex_values})",
+                    part.vertex_offset
+                )));
+            }
+            let iend = part
+                .index_offset
+                .checked_add(u64::from(part.index_count))
+                .ok_or_else(|| damaged(format!("{w}: index range overflows")))?;
+            if iend > index_values {
+                return Err(damaged(format!(
+                    "{w}: indices {}..{iend} lie past the end of the index data ({index_values})",
+                    part.index_offset
+                )));
+            }
+            let [x, y, rw, rh] = part.atlas_rect;
+            if rw == 0
+                || rh == 0
+                || u64::from(x) + u64::from(rw) > u64::from(aw)
+                || u64::from(y) + u64::from(rh) > u64::from(ah)
+            {
+                return Err(damaged(format!(
+                    "{w}: atlas rectangle {:?} lies outside the {aw}×{ah} atlas",
+                    part.atlas_rect
+                )));
+            }
+        }
+    }
+    check_texture_budget(
+        FILE,
+        manifest
+            .views
+            .iter()
+            .flat_map(|v| [v.atlas_size, [v.atlas_size[0] / 2, v.atlas_size[1] / 2]]),
+    )?;
+    let files = FolderReader {
+        dir,
+        manifest_file: FILE,
+        checksums: &manifest.checksums,
+    };
+    for name in [&manifest.vertex_file, &manifest.index_file] {
+        member(dir, name)?;
+    }
+    if manifest.vertex_file == manifest.index_file {
+        return Err(damaged(format!("{FILE}: vertices and indices name the same file")));
+    }
+    let vbytes = files.read(&manifest.vertex_file)?;
+    let ibytes = files.read(&manifest.index_file)?;
+    for (name, got, want) in [
+        (&manifest.vertex_file, vbytes.len() as u64, manifest.vertex_bytes),
+        (&manifest.index_file, ibytes.len() as u64, manifest.index_bytes),
+    ] {
+        if got != want {
+            return Err(damaged(format!("{name} has {got} bytes, {FILE} says {want}")));
+        }
     }
     let vertices: Vec<f32> = vbytes
         .chunks_exact(2)
@@ -117,96 +444,23 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
         .chunks_exact(2)
         .map(|b| u16::from_le_bytes([b[0], b[1]]))
         .collect();
-    let parts = manifest.parts.len();
-    let frames = manifest.frames as u64;
-    let mut views = Vec::with_capacity(manifest.views.len());
     for (v, view) in manifest.views.iter().enumerate() {
-        let what = format!("view {v}");
-        let cam = &view.camera;
-        let finite = cam
-            .center
-            .iter()
-            .chain(&cam.right)
-            .chain(&cam.up)
-            .chain(&cam.forward)
-            .all(|x| x.is_finite());
-        if !finite || !(cam.half_size.is_finite() && cam.half_size > 0.0) {
-            return Err(damaged(format!("{what}: camera values are not valid")));
-        }
-        if view.parts.len() != parts {
-            return Err(damaged(format!(
-                "{what}: {} part entries for {parts} parts",
-                view.parts.len()
-            )));
-        }
-        let mut seen = vec![false; parts];
-        for &o in &view.order {
-            let o = o as usize;
-            if o >= parts || std::mem::replace(&mut seen[o], true) {
-                return Err(damaged(format!(
-                    "{what}: drawing order {:?} is not a permutation of the parts",
-                    view.order
-                )));
-            }
-        }
-        if view.order.len() != parts {
-            return Err(damaged(format!(
-                "{what}: drawing order lists {} of {parts} parts",
-                view.order.len()
-            )));
-        }
-        let [aw, ah] = view.atlas_size;
-        if aw < 2 || ah < 2 || aw > 16384 || ah > 16384 || aw % 2 != 0 || ah % 2 != 0 {
-            return Err(damaged(format!("{what}: atlas size {aw}×{ah} is not valid")));
-        }
         for (p, part) in view.parts.iter().enumerate() {
             let Some(part) = part else { continue };
-            let w = format!("{what} part {p}");
-            let vc = part.vertex_count as u64;
-            if vc < 3 || part.index_count == 0 || part.index_count % 3 != 0 {
-                return Err(damaged(format!("{w}: {vc} vertices and {} indices", part.index_count)));
-            }
-            let floats = vc
-                .checked_mul(2 * (1 + frames))
-                .ok_or_else(|| damaged(format!("{w}: vertex count overflows")))?;
-            let end = part
-                .vertex_offset
-                .checked_add(floats)
-                .ok_or_else(|| damaged(format!("{w}: vertex range overflows")))?;
-            if end > vertices.len() as u64 {
+            let range = part.index_offset as usize..(part.index_offset + u64::from(part.index_count)) as usize;
+            if let Some(bad) = indices[range].iter().find(|&&i| u32::from(i) >= part.vertex_count) {
                 return Err(damaged(format!(
-                    "{w}: vertices {}..{end} lie past the end of the vertex data ({})",
-                    part.vertex_offset,
-                    vertices.len()
-                )));
-            }
-            let iend = part
-                .index_offset
-                .checked_add(part.index_count as u64)
-                .ok_or_else(|| damaged(format!("{w}: index range overflows")))?;
-            if iend > indices.len() as u64 {
-                return Err(damaged(format!(
-                    "{w}: indices {}..{iend} lie past the end of the index data ({})",
-                    part.index_offset,
-                    indices.len()
-                )));
-            }
-            if let Some(bad) = indices[part.index_offset as usize..iend as usize]
-                .iter()
-                .find(|&&i| i as u64 >= vc)
-            {
-                return Err(damaged(format!("{w}: index {bad} refers past its {vc} vertices")));
-            }
-            let [x, y, rw, rh] = part.atlas_rect;
-            if rw == 0 || rh == 0 || x as u64 + rw as u64 > aw as u64 || y as u64 + rh as u64 > ah as u64 {
-                return Err(damaged(format!(
-                    "{w}: atlas rectangle {:?} lies outside the {aw}×{ah} atlas",
-                    part.atlas_rect
+                    "{}: view {v} part {p}: index {bad} refers past its {} vertices",
+                    manifest.index_file, part.vertex_count
                 )));
             }
         }
-        let atlas = png(dir, &view.atlas, [aw, ah])?;
-        let normals = png(dir, &view.normal_atlas, [aw / 2, ah / 2])?;
+    }
+    let mut views = Vec::with_capacity(manifest.views.len());
+    for view in &manifest.views {
+        let [aw, ah] = view.atlas_size;
+        let atlas = files.png(&view.atlas, [aw, ah])?;
+        let normals = files.png(&view.normal_atlas, [aw / 2, ah / 2])?;
         views.push(LoadedView { atlas, normals });
     }
     Ok(LoadedPack {
@@ -215,32 +469,6 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
         indices,
         views,
     })
-}
-
-/// Decodes the PNG `name` of the pack folder and checks its size.
-pub(crate) fn png(dir: &Path, name: &str, size: [u32; 2]) -> Result<image::RgbaImage, PackError> {
-    let path = member(dir, name)?;
-    let bytes = read(&path, 256 << 20)?;
-    let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), image::ImageFormat::Png);
-    let mut limits = image::Limits::default();
-    limits.max_image_width = Some(16384);
-    limits.max_image_height = Some(16384);
-    reader.limits(limits);
-    let img = reader
-        .decode()
-        .map_err(|e| PackError::Damaged(format!("{}: {e}", path.display())))?
-        .to_rgba8();
-    if [img.width(), img.height()] != size {
-        return Err(PackError::Damaged(format!(
-            "{}: {}×{} pixels, the manifest says {}×{}",
-            path.display(),
-            img.width(),
-            img.height(),
-            size[0],
-            size[1]
-        )));
-    }
-    Ok(img)
 }
 
 impl LoadedPack {

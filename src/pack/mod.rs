@@ -11,7 +11,11 @@ mod load;
 mod write;
 
 pub use atlas::{Atlas, AtlasRect, dilate, pack_atlas};
-pub use format::{FORMAT_NAME, FORMAT_VERSION, Manifest, ManifestPart, ManifestView, PackCamera};
-pub use load::{LoadedPack, LoadedView, PackError, load_pack};
-pub(crate) use load::{member, png, read};
+pub use format::{Checksums, FORMAT_NAME, FORMAT_VERSION, FileSum, Manifest, ManifestPart, ManifestView, PackCamera};
+pub(crate) use load::{
+    FolderReader, check_camera, check_direction, check_resolution_views, check_texture_budget, check_timing,
+    parse_manifest,
+};
+pub use load::{LoadedPack, LoadedView, MAX_ATLAS_SIDE, MAX_PART_VERTICES, PackError, load_pack};
+pub(crate) use write::put_file;
 pub use write::{PackStats, write_folder_atomic, write_pack, write_pack_with};

@@ -4,7 +4,9 @@
 use std::path::{Path, PathBuf};
 
 use super::atlas::pack_atlas;
-use super::format::{FORMAT_NAME, FORMAT_VERSION, Manifest, ManifestPart, ManifestView, PackCamera};
+use super::format::{
+    Checksums, FORMAT_NAME, FORMAT_VERSION, FileSum, Manifest, ManifestPart, ManifestView, PackCamera,
+};
 use crate::bake::pipeline::Bake;
 
 /// Sizes of a written pack.
@@ -50,31 +52,50 @@ pub fn write_pack_with(
 
 /// Writes a folder with `fill(temporary folder)` beside `out`, then moves it into place,
 /// replacing `out` only once `fill` succeeded (on failure nothing the user had is touched).
+///
+/// `out` must pass [`crate::safe_fs::check_bake_output`] (new, empty, or a folder this tool
+/// wrote), checked again right before the replacement. The staging folders are
+/// `.NAME.writing-PID` and `.NAME.old-PID` beside `out`; those that killed writers left are
+/// removed first.
 pub fn write_folder_atomic<T>(out: &Path, fill: &dyn Fn(&Path) -> Result<T, String>) -> Result<T, String> {
+    crate::safe_fs::check_bake_output(out, &[])?;
     let parent = out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .map(Path::to_owned)
         .unwrap_or_else(|| PathBuf::from("."));
     std::fs::create_dir_all(&parent).map_err(|e| io(&parent, e))?;
+    crate::safe_fs::clean_stale_staging(&parent);
     let name = out
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "pack".into());
-    let tmp = parent.join(format!(".{name}.writing-{}", std::process::id()));
+    let pid = std::process::id();
+    let tmp = parent.join(crate::safe_fs::staging_name(&name, "writing", pid));
     let _ = std::fs::remove_dir_all(&tmp);
     std::fs::create_dir_all(&tmp).map_err(|e| io(&tmp, e))?;
-    match fill(&tmp) {
+    let filled = fill(&tmp).and_then(|value| {
+        // The folder may have changed during a long bake: check again before replacing it.
+        crate::safe_fs::check_bake_output(out, &[])?;
+        Ok(value)
+    });
+    match filled {
         Ok(value) => {
-            let old = parent.join(format!(".{name}.old-{}", std::process::id()));
-            if out.exists() {
+            let old = parent.join(crate::safe_fs::staging_name(&name, "old", pid));
+            let had_old = std::fs::symlink_metadata(out).is_ok();
+            if had_old {
                 std::fs::rename(out, &old).map_err(|e| io(out, e))?;
             }
             if let Err(e) = std::fs::rename(&tmp, out) {
-                let _ = std::fs::rename(&old, out);
+                if had_old {
+                    let _ = std::fs::rename(&old, out);
+                }
+                let _ = std::fs::remove_dir_all(&tmp);
                 return Err(io(out, e));
             }
-            let _ = std::fs::remove_dir_all(&old);
+            if had_old {
+                let _ = std::fs::remove_dir_all(&old);
+            }
             Ok(value)
         }
         Err(e) => {
@@ -82,6 +103,14 @@ pub fn write_folder_atomic<T>(out: &Path, fill: &dyn Fn(&Path) -> Result<T, Stri
             Err(e)
         }
     }
+}
+
+/// Writes `bytes` as `name` into `dir` and records its checksum.
+pub(crate) fn put_file(dir: &Path, name: &str, bytes: &[u8], sums: &mut Checksums) -> Result<(), String> {
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).map_err(|e| io(&path, e))?;
+    sums.insert(name.to_string(), FileSum::of(bytes));
+    Ok(())
 }
 
 fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> Result<PackStats, String> {
@@ -93,6 +122,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
     let mut indices: Vec<u16> = Vec::new();
     let mut views = Vec::new();
     let mut stats = PackStats::default();
+    let mut sums = Checksums::new();
     let mut triangles = 0usize;
     for (v, view) in bake.views.iter().enumerate() {
         let items: Vec<_> = view
@@ -115,9 +145,8 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
         let atlas_name = format!("atlas_{v:03}.png");
         let normal_name = format!("normal_{v:03}.png");
         for (name, img) in [(&atlas_name, &atlas.color), (&normal_name, &atlas.normal)] {
-            let path = dir.join(name);
-            let bytes = bake.options.png.encode(img).map_err(|e| io(&path, &e))?;
-            std::fs::write(&path, bytes).map_err(|e| io(&path, &e))?;
+            let bytes = bake.options.png.encode(img).map_err(|e| io(&dir.join(name), &e))?;
+            put_file(dir, name, &bytes, &mut sums)?;
             stats.texture_bytes += img.width() as u64 * img.height() as u64 * 4;
         }
         let (aw, ah) = (atlas.width as f32, atlas.height as f32);
@@ -164,12 +193,10 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
             parts,
         });
     }
-    let vpath = dir.join("vertices.bin");
     let vbytes: Vec<u8> = vertices.iter().flat_map(|x| x.to_le_bytes()).collect();
-    std::fs::write(&vpath, &vbytes).map_err(|e| io(&vpath, e))?;
-    let ipath = dir.join("indices.bin");
+    put_file(dir, "vertices.bin", &vbytes, &mut sums)?;
     let ibytes: Vec<u8> = indices.iter().flat_map(|x| x.to_le_bytes()).collect();
-    std::fs::write(&ipath, &ibytes).map_err(|e| io(&ipath, e))?;
+    put_file(dir, "indices.bin", &ibytes, &mut sums)?;
     let manifest = Manifest {
         format: FORMAT_NAME.into(),
         version: FORMAT_VERSION,
@@ -185,6 +212,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
         vertex_bytes: vbytes.len() as u64,
         index_file: "indices.bin".into(),
         index_bytes: ibytes.len() as u64,
+        checksums: sums,
     };
     let mpath = dir.join("manifest.json");
     let text = serde_json::to_string_pretty(&manifest).map_err(|e| e.to_string())?;

@@ -200,6 +200,7 @@ pub fn bake_representations(
         rigid: rigid.as_ref().map(|r| RigidInfo {
             vertex_count: r.vertex_count as u32,
         }),
+        checksums: Default::default(),
     };
     Ok(Representations {
         manifest,
@@ -435,6 +436,8 @@ pub enum FolderError {
     Bake(#[from] BakeError),
     #[error("writing {path}: {message}")]
     Write { path: String, message: String },
+    #[error("{0}")]
+    Output(String),
 }
 
 /// Bakes every representation of `job.set` and writes them into one folder (the Polypostor
@@ -451,6 +454,16 @@ pub fn bake_folder(
     use crate::bake::pipeline::KeyFrame;
     let started = std::time::Instant::now();
     let o = job.options;
+    // Everything that can be known before the work: the settings, the output folder.
+    crate::bake::plan::check(
+        job.character,
+        job.segmentation,
+        o,
+        job.set,
+        ctx.device.limits().max_texture_dimension_2d,
+    )
+    .map_err(BakeError::from)?;
+    crate::safe_fs::check_bake_output(job.out, &[job.character_path]).map_err(FolderError::Output)?;
     let mut reuse = None;
     let bake = if job.set.polypostor {
         Some(match job.previous {

@@ -26,7 +26,8 @@ use crate::pack::{PackCamera, PackError};
 
 pub const REPS_FILE: &str = "representations.json";
 pub const REPS_FORMAT: &str = "polypostor-representations";
-pub const REPS_VERSION: u32 = 1;
+/// Version 2 added [`RepsManifest::checksums`]; older folders are refused with "re-bake".
+pub const REPS_VERSION: u32 = 2;
 
 /// Which representations a bake produces.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -43,6 +44,12 @@ impl RepSet {
         impostor: true,
         np3d: true,
         rigid: true,
+    };
+    pub const POLYPOSTOR: RepSet = RepSet {
+        polypostor: true,
+        impostor: false,
+        np3d: false,
+        rigid: false,
     };
 
     /// Parses `polypostor|impostor|np3d|rigid|all`, comma-separated.
@@ -126,6 +133,10 @@ pub struct RepsManifest {
     pub impostor: Option<ImpostorInfo>,
     pub np3d: Option<Np3dInfo>,
     pub rigid: Option<RigidInfo>,
+    /// Size and CRC-32 of every data file (filled in by [`write_representations`]); the
+    /// loader reads nothing that is not listed here.
+    #[serde(default)]
+    pub checksums: crate::pack::Checksums,
 }
 
 /// Per-frame vertex data of a mesh (frame-major: frame `f`, vertex `v` at `f·count + v`).
@@ -251,20 +262,34 @@ fn damaged(m: String) -> PackError {
     PackError::Damaged(m)
 }
 
+/// Bytes of `vertex_count × frames` (position, normal) records, if that fits the limit.
+fn frame_vertex_len(vertex_count: u32, frames: u32) -> Option<u64> {
+    u64::from(vertex_count)
+        .checked_mul(u64::from(frames))?
+        .checked_mul(24)
+        .filter(|&n| n <= MAX_FRAME_VERTEX_BYTES)
+}
+
+/// Most bytes of `np3d.bin` or `rigid.bin`.
+pub const MAX_FRAME_VERTEX_BYTES: u64 = 2 << 30;
+
 fn frame_vertices(bytes: &[u8], vertex_count: usize, frames: usize, what: &str) -> Result<FrameVertices, PackError> {
-    let want = vertex_count * frames * 24;
-    if bytes.len() != want {
+    let want = vertex_count.checked_mul(frames).and_then(|n| n.checked_mul(24));
+    if want != Some(bytes.len()) {
         return Err(damaged(format!(
-            "{what} has {} bytes of vertex data, {vertex_count} vertices × {frames} frames need {want}",
-            bytes.len()
+            "{what} has {} bytes of vertex data, {vertex_count} vertices × {frames} frames need {}",
+            bytes.len(),
+            want.map_or("more than can be stored".to_string(), |w| w.to_string())
         )));
     }
     let f: Vec<f32> = bytes
         .chunks_exact(4)
         .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
         .collect();
-    if let Some(bad) = f.iter().position(|x| !x.is_finite()) {
-        return Err(damaged(format!("{what}: value {bad} is not a finite number")));
+    if let Some(bad) = f.iter().position(|x| !x.is_finite() || x.abs() > 1e15) {
+        return Err(damaged(format!(
+            "{what}: value {bad} is not a finite number of sensible size"
+        )));
     }
     let mut out = FrameVertices {
         vertex_count,
@@ -294,47 +319,94 @@ pub fn sheet_tile(sheet: &image::RgbaImage, index: u32, columns: u32, size: u32)
     image::imageops::crop_imm(sheet, x, y, size, size).to_image()
 }
 
-/// Loads `representations.json` and every file it names, validating counts, sizes and
-/// indices (a damaged file gives a clear error, never a panic later).
+/// Loads `representations.json` and every file it names, validating every number, count,
+/// size, index and checksum (a damaged file gives a clear error naming it, never a panic
+/// later or an allocation beyond what the folder really holds).
 pub fn load_representations(dir: &Path) -> Result<Representations, PackError> {
-    use crate::pack::{member, png, read};
-    let text = read(&dir.join(REPS_FILE), 16 << 20)?;
-    let manifest: RepsManifest = serde_json::from_slice(&text).map_err(|e| PackError::Manifest(e.to_string()))?;
-    if manifest.format != REPS_FORMAT {
-        return Err(PackError::NotAPack(manifest.format.clone()));
-    }
-    if manifest.version != REPS_VERSION {
-        return Err(PackError::Version(manifest.version));
+    use crate::pack::{FolderReader, check_camera, check_direction, check_resolution_views, check_timing};
+    const FILE: &str = REPS_FILE;
+    let manifest: RepsManifest = crate::pack::parse_manifest(dir, FILE, REPS_FORMAT, REPS_VERSION)?;
+    check_timing(FILE, manifest.fps, manifest.frames, manifest.key_frame)?;
+    check_resolution_views(FILE, manifest.resolution, manifest.views.len())?;
+    for (v, view) in manifest.views.iter().enumerate() {
+        let what = format!("{FILE}: view {v}");
+        check_direction(&what, view.direction)?;
+        check_camera(&what, &view.camera, view.direction)?;
     }
     let (frames, r, views) = (
         manifest.frames as usize,
         manifest.resolution,
         manifest.views.len() as u32,
     );
-    if frames == 0 || frames > 10_000 || manifest.key_frame >= manifest.frames {
+    let side_ok = |tiles: u32| u64::from(tiles) * u64::from(r) <= u64::from(crate::pack::MAX_ATLAS_SIDE);
+    // Every size from the manifest first, then the texture budget, then the files.
+    let mut textures: Vec<[u32; 2]> = Vec::new();
+    if let Some(info) = &manifest.impostor {
+        let tiles = u64::from(info.columns) * u64::from(info.rows);
+        if info.columns == 0
+            || info.rows == 0
+            || tiles < u64::from(manifest.frames)
+            || tiles >= u64::from(manifest.frames) + u64::from(info.columns)
+            || !side_ok(info.columns)
+            || !side_ok(info.rows)
+        {
+            return Err(damaged(format!(
+                "{FILE}: impostor sheets of {}×{} tiles of {r}² do not fit {} frames",
+                info.columns, info.rows, manifest.frames
+            )));
+        }
+        let size = [info.columns * r, info.rows * r];
+        textures.extend(std::iter::repeat_n(size, 2 * views as usize));
+    }
+    let np3d_layout = match &manifest.np3d {
+        None => None,
+        Some(info) => {
+            let (vc, ic) = (info.vertex_count, info.index_count);
+            if vc < 3 || vc > u32::from(u16::MAX) || ic == 0 || ic % 3 != 0 || ic > 3 << 20 {
+                return Err(damaged(format!(
+                    "{FILE}: NP3D mesh of {vc} vertices / {ic} indices is out of range"
+                )));
+            }
+            let columns = info.columns;
+            if columns == 0 || columns > views || !side_ok(columns) || !side_ok(views.div_ceil(columns)) {
+                return Err(damaged(format!(
+                    "{FILE}: NP3D image sheet of {columns} columns does not fit {views} views of {r}²"
+                )));
+            }
+            let frame_bytes = frame_vertex_len(vc, manifest.frames).ok_or_else(|| {
+                damaged(format!(
+                    "{FILE}: NP3D mesh of {vc} vertices × {} frames is larger than the limit",
+                    manifest.frames
+                ))
+            })?;
+            let bytes = u64::from(ic) * 2 + u64::from(vc) * 4 + frame_bytes;
+            textures.push([columns * r, views.div_ceil(columns) * r]);
+            Some((vc as usize, ic as usize, columns, bytes))
+        }
+    };
+    if let Some(info) = &manifest.rigid
+        && (info.vertex_count < 3 || frame_vertex_len(info.vertex_count, manifest.frames).is_none())
+    {
         return Err(damaged(format!(
-            "frame count {} / key frame {} out of range",
-            manifest.frames, manifest.key_frame
+            "{FILE}: rigid mesh of {} vertices × {} frames is out of range",
+            info.vertex_count, manifest.frames
         )));
     }
-    if !(16..=2048).contains(&r) || views == 0 || views > 4096 {
-        return Err(damaged(format!("resolution {r} or view count {views} out of range")));
-    }
+    crate::pack::check_texture_budget(FILE, textures.into_iter())?;
+    let files = FolderReader {
+        dir,
+        manifest_file: FILE,
+        checksums: &manifest.checksums,
+    };
     let impostor = match &manifest.impostor {
         None => None,
         Some(info) => {
-            if info.columns == 0 || info.rows == 0 || (info.columns * info.rows) < manifest.frames {
-                return Err(damaged(format!(
-                    "impostor sheets of {}×{} tiles cannot hold {} frames",
-                    info.columns, info.rows, manifest.frames
-                )));
-            }
             let size = [info.columns * r, info.rows * r];
             let mut color = Vec::new();
             let mut normal = Vec::new();
             for v in 0..views {
-                color.push(png(dir, &impostor_file("color", v), size)?);
-                normal.push(png(dir, &impostor_file("normal", v), size)?);
+                color.push(files.png(&impostor_file("color", v), size)?);
+                normal.push(files.png(&impostor_file("normal", v), size)?);
             }
             Some(ImpostorData {
                 columns: info.columns,
@@ -344,13 +416,15 @@ pub fn load_representations(dir: &Path) -> Result<Representations, PackError> {
             })
         }
     };
-    let np3d = match &manifest.np3d {
+    let np3d = match np3d_layout {
         None => None,
-        Some(info) => {
-            let bytes = read(&member(dir, "np3d.bin")?, 1 << 30)?;
-            let (vc, ic) = (info.vertex_count as usize, info.index_count as usize);
-            if vc == 0 || vc > u16::MAX as usize || ic == 0 || ic % 3 != 0 || bytes.len() < ic * 2 {
-                return Err(damaged(format!("np3d.bin: {vc} vertices / {ic} indices out of range")));
+        Some((vc, ic, columns, want)) => {
+            let bytes = files.read("np3d.bin")?;
+            if bytes.len() as u64 != want {
+                return Err(damaged(format!(
+                    "np3d.bin has {} bytes, {vc} vertices and {ic} indices over {frames} frames need {want}",
+                    bytes.len()
+                )));
             }
             let indices: Vec<u16> = bytes[..ic * 2]
                 .chunks_exact(2)
@@ -360,17 +434,12 @@ pub fn load_representations(dir: &Path) -> Result<Representations, PackError> {
                 return Err(damaged(format!("np3d.bin: index {i} is past the {vc} vertices")));
             }
             let rest = &bytes[ic * 2..];
-            if rest.len() < vc * 4 {
-                return Err(damaged("np3d.bin is cut short".into()));
-            }
             let source: Vec<u32> = rest[..vc * 4]
                 .chunks_exact(4)
                 .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
                 .collect();
             let frames = frame_vertices(&rest[vc * 4..], vc, frames, "np3d.bin")?;
-            let columns = info.columns.max(1);
-            let rows = views.div_ceil(columns);
-            let sheet = png(dir, "np3d_color.png", [columns * r, rows * r])?;
+            let sheet = files.png("np3d_color.png", [columns * r, views.div_ceil(columns) * r])?;
             let images = (0..views).map(|v| sheet_tile(&sheet, v, columns, r)).collect();
             Some(Np3dData {
                 indices,
@@ -383,7 +452,7 @@ pub fn load_representations(dir: &Path) -> Result<Representations, PackError> {
     let rigid = match &manifest.rigid {
         None => None,
         Some(info) => {
-            let bytes = read(&member(dir, "rigid.bin")?, 1 << 32)?;
+            let bytes = files.read("rigid.bin")?;
             Some(frame_vertices(&bytes, info.vertex_count as usize, frames, "rigid.bin")?)
         }
     };
@@ -400,22 +469,12 @@ fn impostor_file(kind: &str, view: u32) -> String {
 }
 
 /// Writes the representations into `dir` (an existing folder, e.g. the pack's temporary
-/// folder before it is moved into place). Returns the bytes written.
+/// folder before it is moved into place), with the checksum of every file in the manifest.
+/// Returns the bytes written.
 pub fn write_representations(reps: &Representations, dir: &Path) -> Result<u64, String> {
-    let io = |p: &Path, e: &dyn std::fmt::Display| format!("{}: {e}", p.display());
-    let mut written = 0u64;
-    let mut put = |name: &str, bytes: &[u8]| -> Result<(), String> {
-        let p = dir.join(name);
-        std::fs::write(&p, bytes).map_err(|e| io(&p, &e))?;
-        written += bytes.len() as u64;
-        Ok(())
-    };
-    let png_bytes = |img: &image::RgbaImage| -> Result<Vec<u8>, String> {
-        let mut out = std::io::Cursor::new(Vec::new());
-        img.write_to(&mut out, image::ImageFormat::Png)
-            .map_err(|e| e.to_string())?;
-        Ok(out.into_inner())
-    };
+    let mut sums = crate::pack::Checksums::new();
+    let mut put = |name: &str, bytes: &[u8]| crate::pack::put_file(dir, name, bytes, &mut sums);
+    let png_bytes = |img: &image::RgbaImage| crate::safe_fs::encode_png(img, png::Compression::Balanced);
     if let Some(i) = &reps.impostor {
         for (v, (c, n)) in i.color.iter().zip(&i.normal).enumerate() {
             put(&impostor_file("color", v as u32), &png_bytes(c)?)?;
@@ -440,9 +499,13 @@ pub fn write_representations(reps: &Representations, dir: &Path) -> Result<u64, 
     if let Some(r) = &reps.rigid {
         put("rigid.bin", &frame_vertex_bytes(r))?;
     }
-    let text = serde_json::to_string_pretty(&reps.manifest).map_err(|e| e.to_string())?;
-    put(REPS_FILE, text.as_bytes())?;
-    Ok(written)
+    let mut manifest = reps.manifest.clone();
+    manifest.checksums = sums;
+    let written: u64 = manifest.checksums.values().map(|s| s.bytes).sum();
+    let text = serde_json::to_string_pretty(&manifest).map_err(|e| e.to_string())?;
+    let path = dir.join(REPS_FILE);
+    std::fs::write(&path, &text).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(written + text.len() as u64)
 }
 
 #[cfg(test)]

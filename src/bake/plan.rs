@@ -1,0 +1,331 @@
+//! What a bake will take, checked before any work starts: every setting against its
+//! documented limit ([`crate::limits`]), the clip's frame count, the segmentation's part
+//! count, the character's extent, the GPU's texture limit for the sheets the bake writes,
+//! and the estimated peak memory against a budget. A bake that would fail or exhaust the
+//! machine minutes in is refused at once with the limit it hits and what would fit.
+
+use crate::bake::pipeline::{BakeOptions, KeyFrame};
+use crate::bake::segment::Segmentation;
+use crate::character::Character;
+use crate::limits::{
+    BAKE_MEMORY_BUDGET, LimitError, MAX_FPS, MAX_PARTS, MAX_RESOLUTION, MAX_VIEWS, MIN_FPS, MIN_RESOLUTION, human_bytes,
+};
+use crate::reps::RepSet;
+
+/// Largest coordinate of a bakeable character over its clip, in scene units (beyond it the
+/// framing and the 16-bit vertex data lose all precision).
+pub const MAX_EXTENT: f32 = 1e12;
+/// Memory the part images of the views being fitted at once may take; fewer views are kept
+/// in flight when each is large.
+pub const VIEWS_IN_FLIGHT_BUDGET: u64 = 2 << 30;
+
+/// A checked bake: what it will produce and roughly what it needs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakePlan {
+    pub views: usize,
+    pub frames: usize,
+    pub parts: usize,
+    pub resolution: u32,
+    /// Views whose part images are held at once while fitting.
+    pub views_in_flight: usize,
+    /// Estimated peak memory of the bake.
+    pub estimated_bytes: u64,
+    /// The budget it was checked against.
+    pub budget_bytes: u64,
+}
+
+/// Bytes of one view's part images (colour, normal, depth, and the fitter's copy).
+pub fn view_image_bytes(parts: usize, frames: usize, resolution: u32) -> u64 {
+    let px = u64::from(resolution) * u64::from(resolution);
+    (parts as u64)
+        .saturating_mul(frames as u64)
+        .saturating_mul(px)
+        .saturating_mul(12 + 8)
+}
+
+/// How many views' images the bake keeps in flight: twice the worker threads, fewer when
+/// their images would pass [`VIEWS_IN_FLIGHT_BUDGET`], at least one.
+pub fn views_in_flight(parts: usize, frames: usize, resolution: u32, threads: usize) -> usize {
+    let per_view = view_image_bytes(parts, frames, resolution).max(1);
+    let by_memory = (VIEWS_IN_FLIGHT_BUDGET / per_view).max(1);
+    (2 * threads.max(1))
+        .min(by_memory.min(usize::MAX as u64) as usize)
+        .max(1)
+}
+
+/// The memory budget on this machine: [`BAKE_MEMORY_BUDGET`], or three quarters of the
+/// physical memory where that is less.
+pub fn memory_budget() -> u64 {
+    let physical = physical_memory().map_or(u64::MAX, |m| m / 4 * 3);
+    BAKE_MEMORY_BUDGET.min(physical)
+}
+
+fn physical_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Checks a bake of `set` before it starts. `max_texture_side`: the GPU's largest texture
+/// side (the sheets the crowd loads must fit it).
+pub fn check(
+    character: &Character,
+    segmentation: &Segmentation,
+    options: &BakeOptions,
+    set: RepSet,
+    max_texture_side: u32,
+) -> Result<BakePlan, LimitError> {
+    let fail = |m: String| Err(LimitError(m));
+    if options.views == 0 || options.views > MAX_VIEWS {
+        return fail(format!("{} views: choose 1 to {MAX_VIEWS}", options.views));
+    }
+    let r = options.resolution;
+    if !(MIN_RESOLUTION..=MAX_RESOLUTION).contains(&r) {
+        return fail(format!(
+            "resolution {r}: choose {MIN_RESOLUTION} to {MAX_RESOLUTION} pixels"
+        ));
+    }
+    if !(options.fps.is_finite() && options.fps >= MIN_FPS && options.fps <= MAX_FPS) {
+        return fail(format!(
+            "{} frames per second: choose {MIN_FPS} to {MAX_FPS}",
+            options.fps
+        ));
+    }
+    let clip = match options.clip {
+        Some(i) => Some(
+            character
+                .clips
+                .get(i)
+                .ok_or_else(|| LimitError(format!("clip {i} does not exist ({} clips)", character.clips.len())))?,
+        ),
+        None => None,
+    };
+    let duration = clip.map_or(0.0, |c| c.duration_secs);
+    let frames = crate::limits::frame_count(duration, options.fps).map_err(|e| {
+        LimitError(format!(
+            "clip '{}': {e}; bake a shorter clip or a lower --fps",
+            clip.map_or("(rest pose)", |c| c.name.as_str())
+        ))
+    })?;
+    if let KeyFrame::Frame(k) = options.key_frame
+        && k >= frames
+    {
+        return fail(format!(
+            "key frame {k} is out of range: the clip has {frames} frames (0 to {})",
+            frames - 1
+        ));
+    }
+    if segmentation.labels.len() != character.triangle_count() {
+        return fail(format!(
+            "the segmentation has {} labels but the character has {} triangles",
+            segmentation.labels.len(),
+            character.triangle_count()
+        ));
+    }
+    let parts = segmentation.parts.len();
+    if parts == 0 || parts > MAX_PARTS {
+        return fail(format!(
+            "the segmentation has {parts} parts; a bake takes 1 to {MAX_PARTS} (merge some parts)"
+        ));
+    }
+    if let Some(l) = segmentation.labels.iter().find(|&&l| l as usize >= parts) {
+        return fail(format!(
+            "the segmentation labels a triangle with part {l}, which does not exist"
+        ));
+    }
+    if character.triangle_count() == 0 {
+        return fail("the character has no triangles".into());
+    }
+    let (lo, hi) = crate::animation::clip_bounds(character, options.clip, 16);
+    let extent = hi - lo;
+    if !(lo.is_finite() && hi.is_finite() && extent.is_finite())
+        || lo.abs().max_element() > MAX_EXTENT
+        || hi.abs().max_element() > MAX_EXTENT
+    {
+        return fail(format!(
+            "the character's positions over the clip reach {:?}..{:?}, beyond the limit of {MAX_EXTENT:e} scene units",
+            lo.to_array(),
+            hi.to_array()
+        ));
+    }
+    if !(extent.max_element() > 0.0) {
+        return fail("the character has no extent (every vertex lies at one point)".into());
+    }
+
+    // Sheets the crowd loads as single textures.
+    let side = max_texture_side.min(crate::pack::MAX_ATLAS_SIDE);
+    if set.impostor {
+        let columns = crate::reps::bake::sheet_columns(frames);
+        let rows = (frames as u32).div_ceil(columns);
+        if u64::from(columns.max(rows)) * u64::from(r) > u64::from(side) {
+            return fail(format!(
+                "impostor sheets of {frames} frames at {r}² would be {}×{} pixels, more than the texture limit of {side}: lower --resolution or --fps, or bake a shorter clip",
+                u64::from(columns) * u64::from(r),
+                u64::from(rows) * u64::from(r)
+            ));
+        }
+    }
+    if set.np3d {
+        let columns = (options.views as f64).sqrt().ceil().max(1.0) as u64;
+        let rows = (options.views as u64).div_ceil(columns);
+        if columns.max(rows) * u64::from(r) > u64::from(side) {
+            return fail(format!(
+                "the NP3D image sheet of {} views at {r}² would be {}×{} pixels, more than the texture limit of {side}: fewer views or a lower resolution",
+                options.views,
+                columns * u64::from(r),
+                rows * u64::from(r)
+            ));
+        }
+    }
+
+    // Peak memory.
+    let px = u64::from(r) * u64::from(r);
+    let views = options.views as u64;
+    let f = frames as u64;
+    let threads = rayon::current_num_threads();
+    let in_flight = views_in_flight(parts, frames, r, threads);
+    let mut bytes = 0u64;
+    if set.polypostor {
+        // Images of the views in flight (+1 being rendered), the key-frame images every view
+        // keeps (colour + normal), and every frame's colour when debug images are asked for.
+        bytes = bytes
+            .saturating_add(view_image_bytes(parts, frames, r).saturating_mul(in_flight as u64 + 1))
+            .saturating_add(views.saturating_mul(parts as u64).saturating_mul(px).saturating_mul(8));
+        if options.keep_frame_images {
+            bytes = bytes.saturating_add(
+                views
+                    .saturating_mul(parts as u64)
+                    .saturating_mul(f)
+                    .saturating_mul(px)
+                    .saturating_mul(4),
+            );
+        }
+    }
+    if set.impostor {
+        // Colour + normal sheets of every view, and their PNG copies while writing.
+        bytes = bytes.saturating_add(views.saturating_mul(f).saturating_mul(px).saturating_mul(8 + 4));
+    }
+    if set.np3d {
+        bytes = bytes.saturating_add(views.saturating_mul(px).saturating_mul(8));
+    }
+    if set.rigid || set.np3d {
+        bytes = bytes.saturating_add(
+            (character.vertices.len() as u64)
+                .saturating_mul(f)
+                .saturating_mul(24 * 2),
+        );
+    }
+    let budget = memory_budget();
+    if bytes > budget {
+        return fail(format!(
+            "this bake would need about {} of memory, more than the budget of {} (the smaller of {} and three quarters of this machine's memory): lower --resolution, --views or --fps, or bake fewer representations",
+            human_bytes(bytes),
+            human_bytes(budget),
+            human_bytes(BAKE_MEMORY_BUDGET)
+        ));
+    }
+    Ok(BakePlan {
+        views: options.views,
+        frames,
+        parts,
+        resolution: r,
+        views_in_flight: in_flight,
+        estimated_bytes: bytes,
+        budget_bytes: budget,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn setup() -> (Character, Segmentation) {
+        let c = crate::default_character::generate();
+        let seg = crate::bake::segment::auto_segment(&c);
+        (c, seg)
+    }
+
+    #[test]
+    fn default_settings_pass_and_absurd_ones_are_refused_with_their_limit() {
+        let (c, seg) = setup();
+        let ok = check(&c, &seg, &BakeOptions::default(), RepSet::ALL, 16384).unwrap();
+        assert_eq!((ok.views, ok.frames, ok.parts), (137, 10, 5));
+        assert!(ok.estimated_bytes < 2 << 30, "{}", ok.estimated_bytes);
+        let refused = |o: BakeOptions, set: RepSet, want: &str| {
+            let e = check(&c, &seg, &o, set, 16384).unwrap_err();
+            assert!(e.0.contains(want), "{e}");
+        };
+        let d = BakeOptions::default;
+        refused(BakeOptions { views: 100_000, ..d() }, RepSet::ALL, "4096");
+        refused(BakeOptions { views: 0, ..d() }, RepSet::ALL, "views");
+        refused(
+            BakeOptions {
+                resolution: 4096,
+                ..d()
+            },
+            RepSet::ALL,
+            "2048",
+        );
+        refused(BakeOptions { fps: 0.0, ..d() }, RepSet::ALL, "frames per second");
+        refused(BakeOptions { fps: f32::NAN, ..d() }, RepSet::ALL, "frames per second");
+        refused(
+            BakeOptions {
+                key_frame: KeyFrame::Frame(10),
+                ..d()
+            },
+            RepSet::ALL,
+            "key frame",
+        );
+        // 2048² at 137 views: the key images alone pass the memory budget.
+        refused(
+            BakeOptions {
+                resolution: 2048,
+                ..d()
+            },
+            RepSet::ALL,
+            "memory",
+        );
+        // Impostor sheets past the texture limit.
+        refused(
+            BakeOptions {
+                resolution: 2048,
+                views: 2,
+                ..d()
+            },
+            RepSet::parse("impostor").unwrap(),
+            "texture limit",
+        );
+        // More parts than the visibility order takes.
+        let mut many = seg.clone();
+        for k in 0..20 {
+            crate::edit::paint::add_part(&mut many, &format!("extra {k}"));
+        }
+        let e = check(&c, &many, &d(), RepSet::ALL, 16384).unwrap_err();
+        assert!(e.0.contains("25 parts") && e.0.contains("20"), "{e}");
+    }
+
+    #[test]
+    fn long_clips_and_absurd_positions_are_refused_before_the_work() {
+        let (mut c, seg) = setup();
+        let mut long = c.clone();
+        long.clips[0].duration_secs = 1e30;
+        let e = check(&long, &seg, &BakeOptions::default(), RepSet::ALL, 16384).unwrap_err();
+        assert!(e.0.contains("10000") && e.0.contains(&long.clips[0].name), "{e}");
+        for v in &mut c.vertices {
+            v.position *= 3e38;
+        }
+        let e = check(&c, &seg, &BakeOptions::default(), RepSet::ALL, 16384).unwrap_err();
+        assert!(e.0.contains("beyond the limit"), "{e}");
+    }
+
+    #[test]
+    fn views_in_flight_shrink_with_their_images() {
+        assert_eq!(views_in_flight(5, 10, 128, 2), 4);
+        assert_eq!(views_in_flight(5, 10, 128, 64), 128);
+        let big = views_in_flight(20, 100, 2048, 64);
+        assert_eq!(big, 1);
+        let mid = views_in_flight(5, 10, 1024, 64);
+        assert!(mid < 128 && mid >= 1 && view_image_bytes(5, 10, 1024) * mid as u64 <= VIEWS_IN_FLIGHT_BUDGET);
+    }
+}

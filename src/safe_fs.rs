@@ -1,0 +1,707 @@
+//! File-system safety shared by every reader and writer of the tool:
+//!
+//! - **Bounded reads of regular files only** ([`read_regular`]): a symbolic link to
+//!   `/dev/zero`, a FIFO or a device is refused before it is opened for reading (and the
+//!   opened file is checked again), and no read goes past a stated limit, whatever the file
+//!   claims or grows to.
+//! - **Outputs that never clobber** ([`check_bake_output`], [`check_output_file`]): a bake may
+//!   replace only a folder this tool wrote (its manifest says so and it holds nothing else),
+//!   a file output may overwrite only a file this tool wrote (a PNG carrying the tool's
+//!   `Software` text, a JSON with its `generator` key, a GLB whose glTF names it as
+//!   generator).
+//! - **Staging folders** of writers killed before they finished (`.NAME.writing-PID`,
+//!   `.NAME.old-PID` beside the target) are removed by the next writer once their process is
+//!   gone ([`clean_stale_staging`]).
+//! - **Temporary folders removed on exit, Ctrl-C included** ([`TempDir`]).
+
+use std::io::Read;
+use std::path::{Component, Path, PathBuf};
+
+/// What the tool writes into PNGs (`Software` text chunk) and JSON (`generator`) to know
+/// them again.
+pub const GENERATOR: &str = concat!("Polypostor Studio ", env!("CARGO_PKG_VERSION"));
+/// The prefix every version's [`GENERATOR`] starts with.
+pub const GENERATOR_PREFIX: &str = "Polypostor Studio";
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FsError {
+    #[error("cannot read '{path}': {message}")]
+    Io { path: PathBuf, message: String },
+    #[error("'{path}' is {kind}, not a regular file")]
+    NotRegular { path: PathBuf, kind: &'static str },
+    #[error("'{path}' is {len} bytes, more than the limit of {limit} bytes for {what}")]
+    TooLarge {
+        path: PathBuf,
+        len: u64,
+        limit: u64,
+        what: &'static str,
+    },
+}
+
+/// What kind of thing a file-system entry is, in words.
+pub fn kind_of(ft: &std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if ft.is_fifo() {
+            return "a FIFO";
+        }
+        if ft.is_char_device() {
+            return "a character device";
+        }
+        if ft.is_block_device() {
+            return "a block device";
+        }
+        if ft.is_socket() {
+            return "a socket";
+        }
+    }
+    if ft.is_dir() {
+        "a folder"
+    } else if ft.is_symlink() {
+        "a symbolic link"
+    } else if ft.is_file() {
+        "a regular file"
+    } else {
+        "not a regular file"
+    }
+}
+
+/// Reads a whole regular file (symbolic links are followed to their target, which must be a
+/// regular file too) of at most `limit` bytes. `what` names the limit in the error.
+pub fn read_regular(path: &Path, limit: u64, what: &'static str) -> Result<Vec<u8>, FsError> {
+    let io = |e: std::io::Error| FsError::Io {
+        path: path.to_owned(),
+        message: e.to_string(),
+    };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        return Err(FsError::NotRegular {
+            path: path.to_owned(),
+            kind: kind_of(&meta.file_type()),
+        });
+    }
+    let too_large = |len: u64| FsError::TooLarge {
+        path: path.to_owned(),
+        len,
+        limit,
+        what,
+    };
+    if meta.len() > limit {
+        return Err(too_large(meta.len()));
+    }
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        // Never block on a FIFO swapped in after the check above.
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(libc::O_NONBLOCK);
+    }
+    let file = options.open(path).map_err(io)?;
+    let meta = file.metadata().map_err(io)?;
+    if !meta.is_file() {
+        return Err(FsError::NotRegular {
+            path: path.to_owned(),
+            kind: kind_of(&meta.file_type()),
+        });
+    }
+    let mut out = Vec::with_capacity(meta.len().min(limit) as usize);
+    file.take(limit.saturating_add(1)).read_to_end(&mut out).map_err(io)?;
+    if out.len() as u64 > limit {
+        return Err(too_large(out.len() as u64));
+    }
+    Ok(out)
+}
+
+/// [`read_regular`] as UTF-8 text.
+pub fn read_regular_string(path: &Path, limit: u64, what: &'static str) -> Result<String, FsError> {
+    let bytes = read_regular(path, limit, what)?;
+    String::from_utf8(bytes).map_err(|e| FsError::Io {
+        path: path.to_owned(),
+        message: format!("not UTF-8 text: {e}"),
+    })
+}
+
+/// `path` made absolute against the current folder, with `.` and `..` resolved lexically
+/// (no file-system access; symbolic links are not followed).
+pub fn absolute_lexical(path: &Path) -> PathBuf {
+    let joined = if path.is_absolute() {
+        path.to_owned()
+    } else {
+        std::env::current_dir()
+            .unwrap_or_else(|_| PathBuf::from("/"))
+            .join(path)
+    };
+    let mut out = PathBuf::new();
+    for c in joined.components() {
+        match c {
+            Component::ParentDir => {
+                out.pop();
+            }
+            Component::CurDir => {}
+            other => out.push(other),
+        }
+    }
+    out
+}
+
+/// The real location of `path`: its longest existing ancestor resolved through symbolic
+/// links, with the rest appended.
+pub fn resolved(path: &Path) -> PathBuf {
+    let abs = absolute_lexical(path);
+    let mut existing = abs.clone();
+    let mut rest = Vec::new();
+    loop {
+        if let Ok(real) = std::fs::canonicalize(&existing) {
+            let mut out = real;
+            for r in rest.iter().rev() {
+                out.push(r);
+            }
+            return out;
+        }
+        match (existing.file_name().map(|n| n.to_owned()), existing.parent()) {
+            (Some(name), Some(parent)) => {
+                rest.push(name);
+                existing = parent.to_owned();
+            }
+            _ => return abs,
+        }
+    }
+}
+
+/// The files a bake folder may hold: what the pack, the representations, the report, debug
+/// images and `compare` write. Anything else in a folder means it is not (only) ours.
+pub fn is_bake_file_name(name: &str) -> bool {
+    const EXACT: &[&str] = &[
+        "manifest.json",
+        "report.json",
+        "vertices.bin",
+        "indices.bin",
+        "representations.json",
+        "np3d.bin",
+        "np3d_color.png",
+        "rigid.bin",
+        "debug",
+        "compare",
+    ];
+    const PATTERNS: &[(&str, &str)] = &[
+        ("atlas_", ".png"),
+        ("normal_", ".png"),
+        ("impostor_color_", ".png"),
+        ("impostor_normal_", ".png"),
+    ];
+    EXACT.contains(&name)
+        || PATTERNS.iter().any(|(pre, suf)| {
+            name.strip_prefix(pre)
+                .and_then(|r| r.strip_suffix(suf))
+                .is_some_and(|num| !num.is_empty() && num.bytes().all(|b| b.is_ascii_digit()))
+        })
+}
+
+/// What a folder written by this tool says it is, from its manifest(s); `None` if neither
+/// `manifest.json` nor `representations.json` names one of the tool's formats.
+pub fn bake_folder_format(dir: &Path) -> Option<&'static str> {
+    #[derive(serde::Deserialize)]
+    struct Head {
+        format: String,
+    }
+    let says = |file: &str, format: &'static str| -> Option<&'static str> {
+        let bytes = read_regular(&dir.join(file), 64 << 20, "a manifest").ok()?;
+        let head: Head = serde_json::from_slice(&bytes).ok()?;
+        (head.format == format).then_some(format)
+    };
+    says("manifest.json", crate::pack::FORMAT_NAME).or_else(|| says(crate::reps::REPS_FILE, crate::reps::REPS_FORMAT))
+}
+
+/// Why `out` may not receive a bake, checked before any work starts:
+///
+/// - `out` must end in a plain folder name (not `.`, `..` or a root);
+/// - it may not be, or hold, the current folder or any of `protected` (the character file,
+///   the project file and its folder);
+/// - if it exists it must be a folder (not a file or a symbolic link) that is empty or was
+///   written by this tool: its `manifest.json` or `representations.json` names one of the
+///   tool's formats and it holds only files the tool writes there.
+///
+/// On success the folder may be replaced as a whole.
+pub fn check_bake_output(out: &Path, protected: &[&Path]) -> Result<(), String> {
+    let shown = out.display();
+    match out.components().next_back() {
+        Some(Component::Normal(_)) => {}
+        _ => {
+            return Err(format!(
+                "'{shown}' is not a folder name a bake can create (give a new folder, e.g. character.pack)"
+            ));
+        }
+    }
+    let real = resolved(out);
+    let cwd = std::env::current_dir().map(|d| resolved(&d)).unwrap_or_default();
+    if cwd.starts_with(&real) {
+        return Err(format!(
+            "'{shown}' is the current folder or holds it; a bake replaces its output folder as a whole, so give a new folder"
+        ));
+    }
+    for p in protected {
+        let p = resolved(p);
+        if p.starts_with(&real) {
+            return Err(format!(
+                "'{shown}' holds '{}', an input of this bake; a bake replaces its output folder as a whole, so give a new folder",
+                p.display()
+            ));
+        }
+    }
+    let meta = match std::fs::symlink_metadata(out) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(format!("cannot check '{shown}': {e}")),
+    };
+    if !meta.is_dir() {
+        return Err(format!(
+            "'{shown}' exists and is {}; a bake writes a folder and replaces only a folder it wrote",
+            kind_of(&meta.file_type())
+        ));
+    }
+    let entries: Vec<String> = std::fs::read_dir(out)
+        .map_err(|e| format!("cannot list '{shown}': {e}"))?
+        .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
+        .collect();
+    if entries.is_empty() {
+        return Ok(());
+    }
+    if bake_folder_format(out).is_none() {
+        return Err(format!(
+            "'{shown}' is a folder this tool did not write (no pack manifest.json or representations.json in it); it is left untouched: give a new or empty folder"
+        ));
+    }
+    let mut foreign: Vec<String> = entries.into_iter().filter(|n| !is_bake_file_name(n)).collect();
+    if !foreign.is_empty() {
+        foreign.sort();
+        let n = foreign.len();
+        foreign.truncate(5);
+        return Err(format!(
+            "'{shown}' holds {n} file(s) this tool did not write ({}{}); a bake replaces its output folder as a whole, so move them or give another folder",
+            foreign.join(", "),
+            if n > 5 { ", …" } else { "" }
+        ));
+    }
+    Ok(())
+}
+
+/// What a file output writes, to recognise an earlier one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputFile {
+    /// A PNG carrying this tool's `Software` text chunk ([`write_png`]).
+    Png,
+    /// A JSON object whose `generator` starts with [`GENERATOR_PREFIX`].
+    Json,
+    /// A GLB whose glTF `asset.generator` starts with [`GENERATOR_PREFIX`].
+    Glb,
+}
+
+/// Why `path` may not be written: it exists and is not a regular file this tool wrote as
+/// `kind` (a new path, or an earlier output of the tool, is fine).
+pub fn check_output_file(path: &Path, kind: OutputFile) -> Result<(), String> {
+    let shown = path.display();
+    if path.file_name().is_none() {
+        return Err(format!("'{shown}' is not a file name"));
+    }
+    let meta = match std::fs::symlink_metadata(path) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(format!("cannot check '{shown}': {e}")),
+    };
+    if !meta.is_file() {
+        return Err(format!(
+            "'{shown}' exists and is {}; only a file this tool wrote is replaced",
+            kind_of(&meta.file_type())
+        ));
+    }
+    let ours = match kind {
+        OutputFile::Png => read_regular(path, 1 << 30, "an image")
+            .ok()
+            .is_some_and(|b| png_software(&b).is_some_and(|s| s.starts_with(GENERATOR_PREFIX))),
+        OutputFile::Json => read_regular(path, 256 << 20, "a JSON file")
+            .ok()
+            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+            .is_some_and(|v| v["generator"].as_str().is_some_and(|g| g.starts_with(GENERATOR_PREFIX))),
+        OutputFile::Glb => read_regular(path, crate::import::MAX_FILE_BYTES, "a glTF file")
+            .ok()
+            .is_some_and(|b| glb_generator(&b).is_some_and(|g| g.starts_with(GENERATOR_PREFIX))),
+    };
+    if ours {
+        Ok(())
+    } else {
+        Err(format!(
+            "'{shown}' exists and was not written by this tool; it is left untouched: choose another path"
+        ))
+    }
+}
+
+/// The `Software` text of a PNG, if it has one.
+pub fn png_software(bytes: &[u8]) -> Option<String> {
+    let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    let reader = decoder.read_info().ok()?;
+    let info = reader.info();
+    info.uncompressed_latin1_text
+        .iter()
+        .find(|t| t.keyword == "Software")
+        .map(|t| t.text.clone())
+        .or_else(|| {
+            info.utf8_text
+                .iter()
+                .find(|t| t.keyword == "Software")
+                .and_then(|t| t.get_text().ok())
+        })
+}
+
+/// `asset.generator` of a GLB file's JSON chunk.
+fn glb_generator(bytes: &[u8]) -> Option<String> {
+    if bytes.len() < 20 || &bytes[0..4] != b"glTF" {
+        return None;
+    }
+    let len = u32::from_le_bytes(bytes[12..16].try_into().ok()?) as usize;
+    let json = bytes.get(20..20usize.checked_add(len)?)?;
+    let v: serde_json::Value = serde_json::from_slice(json).ok()?;
+    v["asset"]["generator"].as_str().map(String::from)
+}
+
+/// Encodes an RGBA8 image as PNG with this tool's `Software` text (so a later run knows it
+/// may overwrite it) at the given compression.
+pub fn encode_png(img: &image::RgbaImage, compression: png::Compression) -> Result<Vec<u8>, String> {
+    let mut out = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut out, img.width(), img.height());
+        enc.set_color(png::ColorType::Rgba);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_compression(compression);
+        enc.set_filter(png::Filter::Adaptive);
+        enc.add_text_chunk("Software".into(), GENERATOR.into())
+            .map_err(|e| e.to_string())?;
+        let mut w = enc.write_header().map_err(|e| e.to_string())?;
+        w.write_image_data(img.as_raw()).map_err(|e| e.to_string())?;
+        w.finish().map_err(|e| e.to_string())?;
+    }
+    Ok(out)
+}
+
+/// Writes `img` to `path` as a PNG marked as this tool's, after [`check_output_file`].
+pub fn write_png(path: &Path, img: &image::RgbaImage) -> Result<(), String> {
+    check_output_file(path, OutputFile::Png)?;
+    let bytes = encode_png(img, png::Compression::Balanced)?;
+    write_file_atomic(path, &bytes)
+}
+
+/// Writes `value` (a JSON object; a `generator` key is added) to `path`, after
+/// [`check_output_file`].
+pub fn write_json(path: &Path, mut value: serde_json::Value) -> Result<(), String> {
+    check_output_file(path, OutputFile::Json)?;
+    if let Some(map) = value.as_object_mut() {
+        map.insert("generator".into(), GENERATOR.into());
+    }
+    let text = serde_json::to_string_pretty(&value).map_err(|e| e.to_string())?;
+    write_file_atomic(path, text.as_bytes())
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same (existing) folder, renamed
+/// into place when complete.
+pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    if !dir.is_dir() {
+        return Err(format!(
+            "{}: the folder {} does not exist",
+            path.display(),
+            dir.display()
+        ));
+    }
+    crate::project::write_atomic(path, bytes).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Whether process `pid` is alive on this machine.
+pub fn process_alive(pid: u32) -> bool {
+    #[cfg(unix)]
+    {
+        let Ok(pid) = i32::try_from(pid) else {
+            return false;
+        };
+        if pid <= 0 {
+            return false;
+        }
+        // SAFETY: kill with signal 0 only checks whether the process exists.
+        let r = unsafe { libc::kill(pid, 0) };
+        r == 0 || std::io::Error::last_os_error().raw_os_error() == Some(libc::EPERM)
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = pid;
+        true
+    }
+}
+
+/// The staging name of a writer of `name` in process `pid`: `.NAME.KIND-PID`.
+pub fn staging_name(name: &str, kind: &str, pid: u32) -> String {
+    format!(".{name}.{kind}-{pid}")
+}
+
+/// Removes the staging folders and files (`.NAME.writing-PID`, `.NAME.old-PID`,
+/// `.NAME.PID.tmp`) that writers of any name left in `dir` when they were killed; only those
+/// whose process is gone. Returns what was removed.
+pub fn clean_stale_staging(dir: &Path) -> Vec<PathBuf> {
+    let mut removed = Vec::new();
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return removed;
+    };
+    for entry in entries.filter_map(Result::ok) {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let Some(pid) = staging_pid(&name) else { continue };
+        if pid == std::process::id() || process_alive(pid) {
+            continue;
+        }
+        let path = entry.path();
+        let ok = match entry.file_type() {
+            Ok(t) if t.is_dir() => std::fs::remove_dir_all(&path).is_ok(),
+            Ok(t) if t.is_file() => std::fs::remove_file(&path).is_ok(),
+            _ => false,
+        };
+        if ok {
+            log::info!("removed {} left by an interrupted run (process {pid})", path.display());
+            removed.push(path);
+        }
+    }
+    removed
+}
+
+/// The process number in a staging name this tool makes, if `name` is one.
+fn staging_pid(name: &str) -> Option<u32> {
+    let rest = name.strip_prefix('.')?;
+    if let Some(stem) = rest.strip_suffix(".tmp") {
+        // `.NAME.PID.tmp` (atomic file writes)
+        let (_, pid) = stem.rsplit_once('.')?;
+        return pid.parse().ok();
+    }
+    let (_, tail) = rest.rsplit_once('.')?;
+    let pid = tail.strip_prefix("writing-").or_else(|| tail.strip_prefix("old-"))?;
+    pid.parse().ok()
+}
+
+/// A temporary folder that is removed when dropped and when the process is interrupted
+/// (Ctrl-C / SIGTERM through [`install_interrupt_cleanup`]).
+pub struct TempDir {
+    path: PathBuf,
+}
+
+static TEMP_DIRS: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+impl TempDir {
+    /// A new folder `prefix-PID[-n]` in the system's temporary folder; stale ones of dead
+    /// processes with the same prefix are removed first.
+    pub fn new(prefix: &str) -> std::io::Result<Self> {
+        let base = std::env::temp_dir();
+        if let Ok(entries) = std::fs::read_dir(&base) {
+            for e in entries.filter_map(Result::ok) {
+                let name = e.file_name().to_string_lossy().into_owned();
+                let Some(rest) = name.strip_prefix(prefix).and_then(|r| r.strip_prefix('-')) else {
+                    continue;
+                };
+                let pid = rest.split('-').next().and_then(|p| p.parse::<u32>().ok());
+                if let Some(pid) = pid
+                    && pid != std::process::id()
+                    && !process_alive(pid)
+                    && e.file_type().is_ok_and(|t| t.is_dir())
+                {
+                    let _ = std::fs::remove_dir_all(e.path());
+                }
+            }
+        }
+        let mut n = 0u32;
+        loop {
+            let name = if n == 0 {
+                format!("{prefix}-{}", std::process::id())
+            } else {
+                format!("{prefix}-{}-{n}", std::process::id())
+            };
+            let path = base.join(name);
+            match std::fs::create_dir(&path) {
+                Ok(()) => {
+                    if let Ok(mut list) = TEMP_DIRS.lock() {
+                        list.push(path.clone());
+                    }
+                    return Ok(Self { path });
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && n < 1000 => n += 1,
+                Err(e) => return Err(e),
+            }
+        }
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.path);
+        if let Ok(mut list) = TEMP_DIRS.lock() {
+            list.retain(|p| p != &self.path);
+        }
+    }
+}
+
+/// Removes every live [`TempDir`] (for an interrupt handler that is about to exit).
+pub fn remove_temp_dirs() {
+    if let Ok(list) = TEMP_DIRS.lock() {
+        for p in list.iter() {
+            let _ = std::fs::remove_dir_all(p);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn temp(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("pp-safefs-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    #[test]
+    fn reads_are_bounded_and_take_regular_files_only() {
+        let d = temp("read");
+        let f = d.join("a.bin");
+        std::fs::write(&f, [7u8; 100]).unwrap();
+        assert_eq!(read_regular(&f, 100, "test").unwrap().len(), 100);
+        assert!(matches!(
+            read_regular(&f, 99, "test"),
+            Err(FsError::TooLarge { len: 100, .. })
+        ));
+        assert!(matches!(read_regular(&d, 99, "test"), Err(FsError::NotRegular { .. })));
+        #[cfg(unix)]
+        {
+            let link = d.join("zero.bin");
+            std::os::unix::fs::symlink("/dev/zero", &link).unwrap();
+            let e = read_regular(&link, 1 << 20, "test").unwrap_err();
+            assert!(e.to_string().contains("character device"), "{e}");
+            let fifo = d.join("fifo.png");
+            let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+            // SAFETY: a plain mkfifo on a path we own.
+            assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+            let e = read_regular(&fifo, 1 << 20, "test").unwrap_err();
+            assert!(e.to_string().contains("FIFO"), "{e}");
+        }
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn bake_outputs_replace_only_what_the_tool_wrote() {
+        let d = temp("out");
+        // New and empty folders are fine.
+        assert!(check_bake_output(&d.join("new.pack"), &[]).is_ok());
+        std::fs::create_dir(d.join("empty")).unwrap();
+        assert!(check_bake_output(&d.join("empty"), &[]).is_ok());
+        // A folder of the user's is refused.
+        let docs = d.join("mydocs");
+        std::fs::create_dir(&docs).unwrap();
+        std::fs::write(docs.join("notes.txt"), "x").unwrap();
+        let e = check_bake_output(&docs, &[]).unwrap_err();
+        assert!(e.contains("did not write"), "{e}");
+        // A file is refused.
+        std::fs::write(d.join("file.pack"), "x").unwrap();
+        assert!(
+            check_bake_output(&d.join("file.pack"), &[])
+                .unwrap_err()
+                .contains("regular file")
+        );
+        // A pack folder is fine, until the user puts a file of theirs in it.
+        let pack = d.join("a.pack");
+        std::fs::create_dir(&pack).unwrap();
+        std::fs::write(
+            pack.join("manifest.json"),
+            format!(r#"{{"format": "{}"}}"#, crate::pack::FORMAT_NAME),
+        )
+        .unwrap();
+        std::fs::write(pack.join("atlas_000.png"), "x").unwrap();
+        assert!(check_bake_output(&pack, &[]).is_ok());
+        std::fs::write(pack.join("notes.txt"), "x").unwrap();
+        assert!(check_bake_output(&pack, &[]).unwrap_err().contains("notes.txt"));
+        // Inputs and the current folder are protected.
+        let project = d.join("proj");
+        std::fs::create_dir(&project).unwrap();
+        let e = check_bake_output(&project, &[&project.join("project.json")]).unwrap_err();
+        assert!(e.contains("input"), "{e}");
+        assert!(check_bake_output(&d, &[&project.join("project.json")]).is_err());
+        assert!(check_bake_output(Path::new("."), &[]).is_err());
+        assert!(check_bake_output(Path::new(".."), &[]).is_err());
+        assert!(check_bake_output(Path::new("/"), &[]).is_err());
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn file_outputs_overwrite_only_their_own_files() {
+        let d = temp("files");
+        let png_path = d.join("a.png");
+        let img = image::RgbaImage::new(3, 2);
+        write_png(&png_path, &img).unwrap();
+        write_png(&png_path, &img).unwrap(); // ours: overwritten
+        let back = image::open(&png_path).unwrap();
+        assert_eq!((back.width(), back.height()), (3, 2));
+        let theirs = d.join("photo.png");
+        img.save(&theirs).unwrap();
+        assert!(
+            write_png(&theirs, &img)
+                .unwrap_err()
+                .contains("not written by this tool")
+        );
+        let json = d.join("a.json");
+        write_json(&json, serde_json::json!({"x": 1})).unwrap();
+        write_json(&json, serde_json::json!({"x": 2})).unwrap();
+        std::fs::write(d.join("b.json"), "{\"x\": 1}").unwrap();
+        assert!(write_json(&d.join("b.json"), serde_json::json!({})).is_err());
+        assert!(check_output_file(&d, OutputFile::Png).is_err());
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn stale_staging_of_dead_processes_is_removed_and_live_ones_kept() {
+        let d = temp("stale");
+        // A process number that cannot be alive (above the kernel's maximum).
+        let dead = 999_999_999u32;
+        let mine = std::process::id();
+        for n in [
+            staging_name("x.pack", "writing", dead),
+            staging_name("x.pack", "old", dead),
+            staging_name("x.pack", "writing", mine),
+        ] {
+            std::fs::create_dir(d.join(&n)).unwrap();
+        }
+        std::fs::write(d.join(format!(".project.json.{dead}.tmp")), "x").unwrap();
+        std::fs::create_dir(d.join(".user.writing-notanumber")).unwrap();
+        std::fs::create_dir(d.join("keep")).unwrap();
+        let removed = clean_stale_staging(&d);
+        assert_eq!(removed.len(), 3, "{removed:?}");
+        let left: Vec<String> = std::fs::read_dir(&d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert!(left.contains(&staging_name("x.pack", "writing", mine)));
+        assert!(left.contains(&".user.writing-notanumber".to_string()));
+        assert!(left.contains(&"keep".to_string()));
+        assert_eq!(left.len(), 3);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn temp_dirs_go_away_when_dropped() {
+        let t = TempDir::new("pp-safefs-tempdir").unwrap();
+        let p = t.path().to_owned();
+        std::fs::write(p.join("f"), "x").unwrap();
+        assert!(p.is_dir());
+        drop(t);
+        assert!(!p.exists());
+    }
+}
