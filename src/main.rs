@@ -470,8 +470,9 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
                 let (dir_real, out_real) = (polypostor::safe_fs::resolved(dir), polypostor::safe_fs::resolved(out));
                 if out_real.starts_with(&dir_real) {
                     anyhow::bail!(
-                        "--out '{}' lies inside the project folder '{}'; write packs beside the project, not into it",
+                        "--out '{}' {} the project folder '{}'; write packs beside the project, not into it",
                         out.display(),
+                        if out_real == dir_real { "is" } else { "lies inside" },
                         dir.display()
                     );
                 }
@@ -579,6 +580,16 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         options.fps,
         ctx.adapter_description()
     );
+    // Corrections that cannot apply are said before the bake, never dropped silently.
+    let basis = polypostor::bake::overrides::OverrideBasis {
+        views: options.views,
+        full_sphere: a.full_sphere,
+        frames: plan.frames,
+    };
+    let dropped_before = options.overrides.audit(basis, seg.parts.len());
+    for line in dropped_before.lines() {
+        eprintln!("warning: {line}");
+    }
     let bar = indicatif::ProgressBar::new(options.views as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
@@ -636,6 +647,15 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         );
         return Ok(());
     };
+    // Pins past the fitted polygons' vertices are known only now.
+    let late_pins = b.dropped_corrections().pins.saturating_sub(dropped_before.pins);
+    let late = polypostor::bake::overrides::DroppedCorrections {
+        pins: late_pins,
+        ..Default::default()
+    };
+    for line in late.lines() {
+        eprintln!("warning: {line}");
+    }
     let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json"))?)?;
     eprintln!(
         "wrote {} in {:.1} s: key frame {}, mean PSNR {:.2} dB (worst {:.2}), {} KiB vs {} KiB for impostors ({:.1}×), {:.0} triangles per view{}",

@@ -118,7 +118,7 @@ fn pack_round_trip_and_damage() {
             .unwrap_or_else(|| panic!("{name}: damaged pack loaded"))
     };
     let e = edit("version", &|v| v["version"] = 99.into());
-    assert!(matches!(e, PackError::Version(99)), "{e}");
+    assert!(matches!(e, PackError::Version { found: 99, .. }), "{e}");
     let e = edit("offset", &|v| {
         v["views"][0]["parts"][0]["vertex_offset"] = 1_000_000_000u64.into()
     });
@@ -144,21 +144,52 @@ fn pack_round_trip_and_damage() {
     assert!(matches!(load_pack(&d), Err(PackError::Damaged(_))));
     let d = copy("garbage");
     std::fs::write(d.join("manifest.json"), "{ nope").unwrap();
-    assert!(matches!(load_pack(&d), Err(PackError::Manifest(_))));
+    assert!(matches!(load_pack(&d), Err(PackError::Manifest { .. })));
     let d = copy("image");
     std::fs::write(d.join("atlas_001.png"), b"\x89PNG broken").unwrap();
     assert!(load_pack(&d).unwrap_err().to_string().contains("atlas_001.png"));
+    // A file replaced without updating the manifest: its checksum says so.
     let d = copy("normals");
     let small = image::RgbaImage::new(2, 2);
     small.save(d.join("normal_002.png")).unwrap();
     let e = load_pack(&d).unwrap_err().to_string();
+    assert!(e.contains("normal_002.png"), "{e}");
+    // Forged with matching checksums, the content checks still hold: the size of the image,
+    reseal(&d);
+    let e = load_pack(&d).unwrap_err().to_string();
     assert!(e.contains("normal_002.png") && e.contains("2×2"), "{e}");
-    // Bad index inside the index data.
+    // a bad index inside the index data.
     let d = copy("index");
     let mut bytes = std::fs::read(d.join("indices.bin")).unwrap();
     bytes[0] = 0xff;
     bytes[1] = 0x7f;
     std::fs::write(d.join("indices.bin"), &bytes).unwrap();
+    assert!(load_pack(&d).unwrap_err().to_string().contains("checksum"));
+    reseal(&d);
     assert!(load_pack(&d).unwrap_err().to_string().contains("refers past"));
     std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// Rewrites the manifest's checksums to match the files as they are now (a forged pack).
+fn reseal(dir: &std::path::Path) {
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("manifest.json")).unwrap()).unwrap();
+    let names: Vec<String> = v["checksums"].as_object().unwrap().keys().cloned().collect();
+    for n in names {
+        let bytes = std::fs::read(dir.join(&n)).unwrap();
+        v["checksums"][&n] = serde_json::json!({"bytes": bytes.len(), "crc32": crc32(&bytes)});
+    }
+    std::fs::write(dir.join("manifest.json"), serde_json::to_string(&v).unwrap()).unwrap();
+}
+
+/// CRC-32 (IEEE), bit by bit: an independent check of the writer's checksums.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = 0xffff_ffffu32;
+    for &b in bytes {
+        c ^= b as u32;
+        for _ in 0..8 {
+            c = if c & 1 != 0 { (c >> 1) ^ 0xedb8_8320 } else { c >> 1 };
+        }
+    }
+    !c
 }

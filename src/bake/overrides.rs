@@ -49,7 +49,7 @@ impl ViewOverride {
 }
 
 /// What the overrides' view numbers refer to.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct OverrideBasis {
     pub views: usize,
     pub full_sphere: bool,
@@ -89,6 +89,132 @@ impl BakeOverrides {
             o.pins.retain(|_, list| !list.is_empty());
         }
         self.views.retain(|_, o| !o.is_empty());
+    }
+}
+
+/// Corrections a bake could not apply, counted by kind, so none is dropped without a word
+/// (the command line prints [`DroppedCorrections::lines`], the editor logs them and shows a
+/// notice in the Views tab, `report.json` keeps them).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct DroppedCorrections {
+    /// Corrections made for another bake (other view count, coverage or frame count): none
+    /// of them applies.
+    pub other_basis: usize,
+    /// The bake they were made for, when `other_basis` is not zero.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub made_for: Option<OverrideBasis>,
+    /// Corrections of views the bake does not have.
+    pub views: usize,
+    /// Key frames past the clip's frames.
+    pub key_frames: usize,
+    /// Drawing orders that are not a permutation of the bake's parts.
+    pub orders: usize,
+    /// Pins on frames, parts or polygon vertices the bake does not have, or on parts not
+    /// fitted in their view.
+    pub pins: usize,
+}
+
+impl DroppedCorrections {
+    pub fn is_empty(&self) -> bool {
+        self.total() == 0
+    }
+
+    pub fn total(&self) -> usize {
+        self.other_basis + self.views + self.key_frames + self.orders + self.pins
+    }
+
+    /// Adds `other`'s counts.
+    pub fn add(&mut self, other: &DroppedCorrections) {
+        self.other_basis += other.other_basis;
+        if self.made_for.is_none() {
+            self.made_for = other.made_for;
+        }
+        self.views += other.views;
+        self.key_frames += other.key_frames;
+        self.orders += other.orders;
+        self.pins += other.pins;
+    }
+
+    /// One line per kind of dropped correction, with its count.
+    pub fn lines(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.other_basis > 0 {
+            let b = self.made_for.unwrap_or_default();
+            out.push(format!(
+                "{} correction(s) were made for a bake of {} views{} and {} frames and do not apply to this one; ignored (bake with those settings to use them)",
+                self.other_basis,
+                b.views,
+                if b.full_sphere { " on the whole sphere" } else { "" },
+                b.frames
+            ));
+        }
+        let mut line = |n: usize, what: &str| {
+            if n > 0 {
+                out.push(format!("{n} {what}; ignored"));
+            }
+        };
+        line(self.views, "correction(s) refer to views this bake does not have");
+        line(self.key_frames, "key frame(s) lie past the clip's frames");
+        line(self.orders, "drawing order(s) do not list each part of the bake once");
+        line(
+            self.pins,
+            "pin(s) refer to frames, parts or polygon vertices this bake does not have",
+        );
+        out
+    }
+}
+
+impl ViewOverride {
+    /// Pins in this view (all parts).
+    pub fn pin_count(&self) -> usize {
+        self.pins.values().map(Vec::len).sum()
+    }
+
+    /// Corrections in this view: its key frame, its order and its pins.
+    pub fn count(&self) -> usize {
+        usize::from(self.key_frame.is_some()) + usize::from(self.order.is_some()) + self.pin_count()
+    }
+}
+
+impl BakeOverrides {
+    /// Every correction: key frames, orders and pins.
+    pub fn count(&self) -> usize {
+        self.views.values().map(ViewOverride::count).sum()
+    }
+
+    /// What of these corrections a bake on `basis` with `parts` parts cannot apply, as far
+    /// as it can be told before fitting (pins past a polygon's vertices are counted by the
+    /// fit itself).
+    pub fn audit(&self, basis: OverrideBasis, parts: usize) -> DroppedCorrections {
+        let mut d = DroppedCorrections::default();
+        if self.is_empty() {
+            return d;
+        }
+        if self.basis != basis {
+            d.other_basis = self.count();
+            d.made_for = Some(self.basis);
+            return d;
+        }
+        for (&v, o) in &self.views {
+            if v >= basis.views {
+                d.views += o.count();
+                continue;
+            }
+            if o.key_frame.is_some_and(|k| k >= basis.frames) {
+                d.key_frames += 1;
+            }
+            if o.order.as_ref().is_some_and(|order| !valid_order(order, parts)) {
+                d.orders += 1;
+            }
+            for (&part, list) in &o.pins {
+                d.pins += list
+                    .iter()
+                    .filter(|p| part >= parts || p.frame >= basis.frames)
+                    .count();
+            }
+        }
+        d
     }
 }
 
@@ -139,6 +265,45 @@ mod tests {
         o2.views.get_mut(&0).unwrap().key_frame = None;
         o2.tidy();
         assert!(o2.is_empty() && o2.views.is_empty());
+    }
+
+    #[test]
+    fn every_dropped_correction_is_counted_by_kind() {
+        let basis = OverrideBasis {
+            views: 10,
+            full_sphere: false,
+            frames: 8,
+        };
+        let mut o = BakeOverrides::default();
+        let pin = |frame| Pin {
+            frame,
+            source: 1,
+            target: 2,
+        };
+        o.view_mut(basis, 2).key_frame = Some(3); // fine
+        o.view_mut(basis, 3).key_frame = Some(8); // past the frames
+        o.view_mut(basis, 4).order = Some(vec![0, 1, 2]); // 3 of 5 parts
+        o.view_mut(basis, 5).order = Some(vec![4, 3, 2, 1, 0]); // fine
+        o.view_mut(basis, 6).pins.insert(1, vec![pin(0), pin(9)]); // one past the frames
+        o.view_mut(basis, 6).pins.insert(7, vec![pin(0)]); // no part 7
+        o.view_mut(basis, 12).key_frame = Some(1); // no view 12
+        o.view_mut(basis, 12).pins.insert(0, vec![pin(0)]);
+        let d = o.audit(basis, 5);
+        assert_eq!(
+            (d.other_basis, d.views, d.key_frames, d.orders, d.pins),
+            (0, 2, 1, 1, 2),
+            "{d:?}"
+        );
+        assert_eq!(d.lines().len(), 4);
+        assert!(d.lines().iter().all(|l| l.contains("ignored")));
+        // Another bake: everything is dropped, and said so once.
+        let other = o.audit(OverrideBasis { views: 24, ..basis }, 5);
+        assert_eq!(other.other_basis, o.count());
+        assert_eq!(o.count(), 9);
+        let lines = other.lines();
+        assert_eq!(lines.len(), 1);
+        assert!(lines[0].contains("10 views") && lines[0].contains("8 frames"), "{lines:?}");
+        assert!(BakeOverrides::default().audit(basis, 5).is_empty());
     }
 
     #[test]

@@ -166,6 +166,47 @@ pub struct Bake {
     pub adapter: String,
 }
 
+impl Bake {
+    /// What the view numbers of this bake's corrections refer to.
+    pub fn basis(&self) -> OverrideBasis {
+        OverrideBasis {
+            views: self.views.len(),
+            full_sphere: self.options.coverage == Coverage::FullSphere,
+            frames: self.frame_times.len(),
+        }
+    }
+
+    /// The corrections in [`BakeOptions::overrides`] this bake could not apply, by kind:
+    /// those [`BakeOverrides::audit`] finds, and pins on polygon vertices the fitted part
+    /// does not have (or on a part not fitted in its view).
+    pub fn dropped_corrections(&self) -> super::overrides::DroppedCorrections {
+        let basis = self.basis();
+        let parts = self.segmentation.parts.len();
+        let overrides = &self.options.overrides;
+        let mut d = overrides.audit(basis, parts);
+        if overrides.basis != basis {
+            return d;
+        }
+        for (&v, o) in &overrides.views {
+            let Some(view) = self.views.get(v) else { continue };
+            for (&p, pins) in &o.pins {
+                let Some(part) = view.parts.get(p) else { continue };
+                d.pins += pins
+                    .iter()
+                    .filter(|pin| pin.frame < basis.frames)
+                    .filter(|pin| {
+                        part.fit.as_ref().is_none_or(|fit| {
+                            pin.source >= fit.key_polygon.len()
+                                || fit.targets.get(pin.frame).is_none_or(|t| pin.target >= t.len())
+                        })
+                    })
+                    .count();
+            }
+        }
+        d
+    }
+}
+
 /// Progress callback data.
 #[derive(Clone, Debug)]
 pub struct Progress {

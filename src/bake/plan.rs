@@ -283,14 +283,23 @@ mod tests {
                 resolution: 2048,
                 ..d()
             },
-            RepSet::ALL,
+            RepSet::POLYPOSTOR,
             "memory",
+        );
+        refused(
+            BakeOptions {
+                resolution: 2048,
+                ..d()
+            },
+            RepSet::ALL,
+            "texture limit",
         );
         // Impostor sheets past the texture limit.
         refused(
             BakeOptions {
                 resolution: 2048,
-                views: 2,
+                views: 1,
+                fps: 100.0,
                 ..d()
             },
             RepSet::parse("impostor").unwrap(),
@@ -299,7 +308,10 @@ mod tests {
         // More parts than the visibility order takes.
         let mut many = seg.clone();
         for k in 0..20 {
-            crate::edit::paint::add_part(&mut many, &format!("extra {k}"));
+            many.parts.push(crate::bake::segment::Part {
+                name: format!("extra {k}"),
+                color: [9, 9, 9],
+            });
         }
         let e = check(&c, &many, &d(), RepSet::ALL, 16384).unwrap_err();
         assert!(e.0.contains("25 parts") && e.0.contains("20"), "{e}");

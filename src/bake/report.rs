@@ -84,6 +84,9 @@ pub struct Report {
     /// The views with the lowest mean PSNR, worst first (where the artist should look).
     pub worst_views: Vec<WorstView>,
     pub views: Vec<ViewReport>,
+    /// The project's corrections this bake could not apply, by kind.
+    #[serde(default)]
+    pub dropped_corrections: super::overrides::DroppedCorrections,
 }
 
 impl Report {
@@ -184,6 +187,7 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
     Report {
         character: character.to_string(),
         adapter: bake.adapter.clone(),
+        dropped_corrections: bake.dropped_corrections(),
         settings: Settings {
             views: bake.views.len(),
             resolution: bake.options.resolution,

@@ -352,8 +352,12 @@ pub fn segmentation_display(c: &Character, seg: &Segmentation, topo: &Topology) 
     out
 }
 
-/// Adds a part with a fresh colour; returns its index.
-pub fn add_part(seg: &mut Segmentation, name: &str) -> u16 {
+/// Adds a part with a fresh colour; returns its index, or why not: a segmentation has at most
+/// [`crate::limits::MAX_PARTS`] parts (the bake's exact visibility order).
+pub fn add_part(seg: &mut Segmentation, name: &str) -> Result<u16, String> {
+    if seg.parts.len() >= crate::limits::MAX_PARTS {
+        return Err(part_limit_message());
+    }
     use crate::bake::segment::PALETTE as COLORS;
     let used: Vec<[u8; 3]> = seg.parts.iter().map(|p| p.color).collect();
     let color = COLORS
@@ -367,7 +371,15 @@ pub fn add_part(seg: &mut Segmentation, name: &str) -> u16 {
         name.trim().to_string()
     };
     seg.parts.push(Part { name, color });
-    (seg.parts.len() - 1) as u16
+    Ok((seg.parts.len() - 1) as u16)
+}
+
+/// Why no part can be added past [`crate::limits::MAX_PARTS`].
+pub fn part_limit_message() -> String {
+    format!(
+        "a segmentation has at most {} parts: the bake orders parts exactly over every subset of them",
+        crate::limits::MAX_PARTS
+    )
 }
 
 /// Removes part `p`, giving its triangles to `into` (an index before the removal); later
@@ -508,7 +520,7 @@ mod tests {
         let topo = Topology::new(&c);
         let mut seg = auto_segment(&c);
         let bone = (0..c.bones.len()).max_by_key(|&b| topo.bone_triangles[b]).unwrap() as u16;
-        let part = add_part(&mut seg, "Picked");
+        let part = add_part(&mut seg, "Picked").unwrap();
         let changed = fill_bone(&mut seg, &topo, bone, part);
         assert_eq!(changed, topo.bone_triangles[bone as usize]);
         for (t, &l) in seg.labels.iter().enumerate() {
@@ -606,7 +618,7 @@ mod tests {
         };
         assert!(remove_part(&mut one, &mut caps, 0, 0).is_err());
         // A new part gets a colour no other part has.
-        let p = add_part(&mut seg, "  ");
+        let p = add_part(&mut seg, "  ").unwrap();
         assert_eq!(seg.parts[p as usize].name, format!("Part {}", p + 1));
         let colors: Vec<_> = seg.parts.iter().map(|p| p.color).collect();
         assert!(!colors[..p as usize].contains(&colors[p as usize]));
@@ -650,7 +662,7 @@ mod tests {
         let c = character();
         let topo = Topology::new(&c);
         let mut seg = auto_segment(&c);
-        let part = add_part(&mut seg, "Sleeves");
+        let part = add_part(&mut seg, "Sleeves").unwrap();
         let t = (0..seg.labels.len())
             .find(|&t| topo.mirror[t] != NONE && topo.mirror[t] as usize != t)
             .unwrap();

@@ -208,6 +208,14 @@ pub struct EditorApp {
     pub export: super::export::ExportDialog,
 }
 
+/// An answer to the unsaved-changes prompt.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum UnsavedAnswer {
+    Save,
+    Discard,
+    Cancel,
+}
+
 /// The side panel's tabs besides the crowd preview.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SideTab {
@@ -223,6 +231,7 @@ impl EditorApp {
             super::set_software_rendering(&cc.egui_ctx, rs.adapter.get_info().device_type == wgpu::DeviceType::Cpu);
         }
         let settings = Settings::load(options.settings_path.as_deref());
+        remove_stale_temp_bakes();
         let mut app = Self {
             options,
             settings,
@@ -307,6 +316,14 @@ impl EditorApp {
     }
 
     fn apply(&mut self, ctx: &egui::Context, command: Command) {
+        // Replacing a document with unsaved changes asks first, as closing does.
+        if matches!(command, Command::NewFromGltf(_) | Command::Open(_))
+            && !std::mem::take(&mut self.safety.replace_confirmed)
+            && self.doc.as_ref().is_some_and(|d| d.dirty)
+        {
+            self.safety.replace_prompt = Some(command);
+            return;
+        }
         match command {
             Command::NewFromGltf(path) => self.start_load(ctx, LoadRequest::Gltf(path)),
             Command::Open(path) => {
@@ -456,6 +473,19 @@ impl EditorApp {
 
     fn save_to(&mut self, file: PathBuf) {
         let Some(doc) = &mut self.doc else { return };
+        // Save As never writes over a file that is not a project (a user's JSON, a folder).
+        if doc.project_file.as_ref() != Some(&file)
+            && std::fs::symlink_metadata(&file).is_ok()
+            && Project::load(&file).is_err()
+        {
+            self.safety.close_after_save = false;
+            self.safety.replace_after_save = None;
+            self.fail(format!(
+                "{} exists and is not a project file; it is left untouched: choose another place",
+                file.display()
+            ));
+            return;
+        }
         let old_autosave = super::safety::autosave_path(doc, self.options.recovery_dir.as_deref());
         let mut project = doc.project.clone();
         project.view.clip = self
@@ -488,9 +518,14 @@ impl EditorApp {
                     self.safety.allow_close = true;
                     self.closing = true;
                 }
+                if let Some(next) = self.safety.replace_after_save.take() {
+                    self.safety.replace_confirmed = true;
+                    self.send(next);
+                }
             }
             Err(e) => {
                 self.safety.close_after_save = false;
+                self.safety.replace_after_save = None;
                 self.fail(e.to_string())
             }
         }
@@ -686,6 +721,9 @@ impl EditorApp {
                 self.dialog = None;
                 if instant {
                     self.prompt = Some(PathPrompt::new(purpose));
+                } else if purpose == PathPurpose::SaveAs {
+                    self.safety.close_after_save = false;
+                    self.safety.replace_after_save = None;
                 }
             }
             Err(std::sync::mpsc::TryRecvError::Empty) => {}
@@ -1292,7 +1330,7 @@ impl EditorApp {
         );
     }
 
-    /// The recovery and close prompts.
+    /// The recovery prompt and the unsaved-changes prompts (closing, replacing the document).
     fn safety_dialogs(&mut self, ctx: &egui::Context) {
         if let Some((path, _, when)) = self.safety.recovery.clone() {
             let age = when
@@ -1334,39 +1372,13 @@ impl EditorApp {
             }
         }
         if self.safety.close_prompt {
-            let name = self.doc.as_ref().map_or(String::new(), |d| {
-                if d.project.name.is_empty() {
-                    "This project".to_owned()
-                } else {
-                    format!("Project “{}”", d.project.name)
-                }
-            });
-            let mut answer = None;
-            super::modal(ctx, "close prompt").show(ctx, |ui| {
-                ui.set_max_width(480.0);
-                ui.heading("Save changes before closing?");
-                ui.add_space(6.0);
-                ui.label(format!("{name} has unsaved changes."));
-                ui.add_space(8.0);
-                ui.horizontal(|ui| {
-                    if ui.button("Save").clicked() {
-                        answer = Some(0);
-                    }
-                    if ui.button("Don't save").clicked() {
-                        answer = Some(1);
-                    }
-                    if ui.button("Cancel").clicked() || ui.input(|i| i.key_pressed(egui::Key::Escape)) {
-                        answer = Some(2);
-                    }
-                });
-            });
-            match answer {
-                Some(0) => {
+            match self.unsaved_prompt(ctx, "close prompt", "Save changes before closing?") {
+                Some(UnsavedAnswer::Save) => {
                     self.safety.close_prompt = false;
                     self.safety.close_after_save = true;
                     self.send(Command::Save);
                 }
-                Some(1) => {
+                Some(UnsavedAnswer::Discard) => {
                     self.safety.close_prompt = false;
                     if let Some(doc) = &self.doc {
                         self.safety.clear(doc, self.options.recovery_dir.as_deref());
@@ -1374,13 +1386,67 @@ impl EditorApp {
                     self.safety.allow_close = true;
                     self.closing = true;
                 }
-                Some(_) => {
+                Some(UnsavedAnswer::Cancel) => {
                     self.safety.close_prompt = false;
                     self.safety.close_after_save = false;
                 }
                 None => {}
             }
+        } else if self.safety.replace_prompt.is_some() {
+            let heading = match &self.safety.replace_prompt {
+                Some(Command::NewFromGltf(_)) => "Save changes before starting a new project?",
+                _ => "Save changes before opening another project?",
+            };
+            match self.unsaved_prompt(ctx, "replace prompt", heading) {
+                Some(UnsavedAnswer::Save) => {
+                    self.safety.replace_after_save = self.safety.replace_prompt.take();
+                    self.send(Command::Save);
+                }
+                Some(UnsavedAnswer::Discard) => {
+                    if let Some(doc) = &self.doc {
+                        self.safety.clear(doc, self.options.recovery_dir.as_deref());
+                    }
+                    if let Some(next) = self.safety.replace_prompt.take() {
+                        self.safety.replace_confirmed = true;
+                        self.send(next);
+                    }
+                }
+                Some(UnsavedAnswer::Cancel) => self.safety.replace_prompt = None,
+                None => {}
+            }
         }
+    }
+
+    /// The unsaved-changes prompt (closing, or replacing the document): Save, Don't save or
+    /// Cancel (also Escape); `None` while unanswered.
+    fn unsaved_prompt(&mut self, ctx: &egui::Context, id: &'static str, heading: &str) -> Option<UnsavedAnswer> {
+        let name = self.doc.as_ref().map_or(String::new(), |d| {
+            if d.project.name.is_empty() {
+                "This project".to_owned()
+            } else {
+                format!("Project “{}”", d.project.name)
+            }
+        });
+        let mut answer = None;
+        super::modal(ctx, id).show(ctx, |ui| {
+            ui.set_max_width(480.0);
+            ui.heading(heading);
+            ui.add_space(6.0);
+            ui.label(format!("{name} has unsaved changes."));
+            ui.add_space(8.0);
+            ui.horizontal(|ui| {
+                if ui.button("Save").clicked() {
+                    answer = Some(UnsavedAnswer::Save);
+                }
+                if ui.button("Don't save").clicked() {
+                    answer = Some(UnsavedAnswer::Discard);
+                }
+                if ui.button("Cancel").clicked() || ui.input(|i| i.key_pressed(egui::Key::Escape)) {
+                    answer = Some(UnsavedAnswer::Cancel);
+                }
+            });
+        });
+        answer
     }
 
     fn dialogs(&mut self, ctx: &egui::Context) {
@@ -1435,6 +1501,10 @@ impl EditorApp {
             }
         }
         if cancel {
+            if self.prompt.as_ref().is_some_and(|p| p.purpose == PathPurpose::SaveAs) {
+                self.safety.close_after_save = false;
+                self.safety.replace_after_save = None;
+            }
             self.prompt = None;
         }
         if self.show_about {
@@ -1471,7 +1541,34 @@ impl EditorApp {
 fn bake_dir(doc: &Document) -> PathBuf {
     match &doc.project_file {
         Some(f) => f.parent().map(Path::to_owned).unwrap_or_default().join("crowd.pack"),
-        None => std::env::temp_dir().join(format!("polypostor-crowd-{}.pack", std::process::id())),
+        None => temp_bake_dir(std::process::id()),
+    }
+}
+
+/// Where an editor process bakes a project never saved; removed when the editor exits, and
+/// by the next editor if that one was killed.
+fn temp_bake_dir(pid: u32) -> PathBuf {
+    std::env::temp_dir().join(format!("polypostor-crowd-{pid}.pack"))
+}
+
+/// Removes the temporary bake folders of editors that are no longer running.
+fn remove_stale_temp_bakes() {
+    let Ok(entries) = std::fs::read_dir(std::env::temp_dir()) else {
+        return;
+    };
+    for e in entries.filter_map(Result::ok) {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let pid = name
+            .strip_prefix("polypostor-crowd-")
+            .and_then(|r| r.strip_suffix(".pack"))
+            .and_then(|p| p.parse::<u32>().ok());
+        if let Some(pid) = pid
+            && pid != std::process::id()
+            && !polypostor::safe_fs::process_alive(pid)
+            && e.file_type().is_ok_and(|t| t.is_dir())
+        {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
     }
 }
 
@@ -1553,6 +1650,11 @@ fn panel_frame(style: &egui::Style) -> egui::Frame {
 }
 
 impl eframe::App for EditorApp {
+    /// The temporary bake of a never-saved project goes with the editor.
+    fn on_exit(&mut self) {
+        let _ = std::fs::remove_dir_all(temp_bake_dir(std::process::id()));
+    }
+
     /// The panels' background: they leave it unpainted (see [`panel_frame`]).
     fn clear_color(&self, visuals: &egui::Visuals) -> [f32; 4] {
         visuals.panel_fill.to_normalized_gamma_f32()
@@ -1565,10 +1667,11 @@ impl eframe::App for EditorApp {
         self.poll_loading();
         self.poll_dialog();
         self.crowd.poll();
-        for m in std::mem::take(&mut self.crowd.messages) {
-            match m {
-                Ok(text) => self.info(text),
-                Err(text) => self.fail(text),
+        for (level, text) in std::mem::take(&mut self.crowd.messages) {
+            match level {
+                LogLevel::Info => self.info(text),
+                LogLevel::Warning => self.warn(text),
+                LogLevel::Error => self.fail(text),
             }
         }
         for m in std::mem::take(&mut self.segment.messages) {

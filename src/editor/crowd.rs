@@ -16,6 +16,7 @@ use polypostor::crowd::lod::{Level, LodDistances, LodPolicy};
 use polypostor::crowd::scene::{CrowdAssets, CrowdScene};
 use polypostor::gpu::{Camera, RenderTarget};
 
+use super::app::LogLevel;
 use super::viewport::{OrbitCamera, ViewportResources};
 
 /// Largest crowd the slider offers.
@@ -99,7 +100,8 @@ pub struct CrowdPanel {
     /// re-does what changed).
     pub last_bake: Option<(PathBuf, Arc<polypostor::bake::pipeline::Bake>)>,
     /// Messages for the editor's log (drained by the app).
-    pub messages: Vec<Result<String, String>>,
+    /// What the jobs have to say, for the log (errors also open the error dialog).
+    pub messages: Vec<(super::app::LogLevel, String)>,
 }
 
 impl Default for CrowdPanel {
@@ -240,11 +242,18 @@ impl CrowdPanel {
         match job.rx.try_recv() {
             Ok(Ok((folder, assets, bake))) => {
                 if let Some((b, what)) = bake {
-                    self.messages
-                        .push(Ok(format!("{what} in {:.1} s", job.started.elapsed().as_secs_f64())));
+                    self.messages.push((
+                        LogLevel::Info,
+                        format!("{what} in {:.1} s", job.started.elapsed().as_secs_f64()),
+                    ));
+                    // Corrections the bake could not apply are said, never dropped silently
+                    // (the Views tab shows them too, from the report).
+                    for line in b.dropped_corrections().lines() {
+                        self.messages.push((LogLevel::Warning, line));
+                    }
                     self.last_bake = Some((folder.clone(), b));
                 }
-                self.messages.push(Ok(format!(
+                self.messages.push((LogLevel::Info, format!(
                     "crowd preview: {} ({:.1} s)",
                     folder.display(),
                     job.started.elapsed().as_secs_f64()
@@ -257,18 +266,19 @@ impl CrowdPanel {
                 self.job = None;
             }
             Ok(Err(e)) => {
+                // A cancel is not an error: it is logged, no dialog.
                 let cancelled = job.cancel.load(Ordering::Relaxed);
-                self.messages.push(Err(if cancelled {
-                    "crowd bake cancelled: nothing was written".into()
+                self.messages.push(if cancelled {
+                    (LogLevel::Info, "bake cancelled: nothing was written".into())
                 } else {
-                    format!("crowd preview: {e}")
-                }));
+                    (LogLevel::Error, format!("crowd preview: {e}"))
+                });
                 self.job = None;
             }
             Err(std::sync::mpsc::TryRecvError::Empty) => {}
             Err(std::sync::mpsc::TryRecvError::Disconnected) => {
                 self.messages
-                    .push(Err("crowd preview: the background job stopped".into()));
+                    .push((LogLevel::Error, "crowd preview: the background job stopped".into()));
                 self.job = None;
             }
         }

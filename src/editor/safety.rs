@@ -47,6 +47,13 @@ pub struct Safety {
     pub allow_close: bool,
     /// Close once the pending save succeeds.
     pub close_after_save: bool,
+    /// A command that would replace the document (New from glTF, Open) while it has unsaved
+    /// changes: the same Save / Don't save / Cancel prompt shows first.
+    pub replace_prompt: Option<super::document::Command>,
+    /// Run this replacing command once the pending save succeeds.
+    pub replace_after_save: Option<super::document::Command>,
+    /// The next replacing command was confirmed (saved or discarded): no prompt for it.
+    pub replace_confirmed: bool,
 }
 
 impl Safety {

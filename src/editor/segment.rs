@@ -229,13 +229,21 @@ impl SegmentPanel {
             });
         }
         ui.horizontal(|ui| {
-            if ui.button("➕ Add part").clicked() {
-                let mut added = 0;
+            let can_add = n < polypostor::limits::MAX_PARTS;
+            let add = ui
+                .add_enabled(can_add, egui::Button::new("➕ Add part"))
+                .on_hover_text("Add a part with a fresh colour")
+                .on_disabled_hover_text(paint::part_limit_message());
+            if add.clicked() {
+                let mut added = Err(String::new());
                 doc.edit("Add part", |seg, _| {
                     added = paint::add_part(seg, "");
-                    true
+                    added.is_ok()
                 });
-                self.active = added;
+                match added {
+                    Ok(p) => self.active = p,
+                    Err(e) => self.messages.push(e),
+                }
             }
             let can_remove = n > 1;
             if self.remove_into as usize >= n || self.remove_into == self.active {
@@ -278,6 +286,13 @@ impl SegmentPanel {
                     }
                 });
         });
+        if doc.segmentation.parts.len() >= polypostor::limits::MAX_PARTS {
+            ui.label(
+                egui::RichText::new(format!("No more parts: {}", paint::part_limit_message()))
+                    .small()
+                    .color(ui.visuals().warn_fg_color),
+            );
+        }
     }
 
     fn tools(&mut self, ui: &mut egui::Ui, doc: &mut Document) {

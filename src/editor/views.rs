@@ -116,6 +116,19 @@ impl ViewsPanel {
             report.worst_psnr,
             report.key_frame
         ));
+        let dropped = report.dropped_corrections.lines();
+        if !dropped.is_empty() {
+            egui::Frame::group(ui.style()).show(ui, |ui| {
+                ui.label(
+                    egui::RichText::new("⚠ Corrections not applied by this bake")
+                        .strong()
+                        .color(ui.visuals().warn_fg_color),
+                );
+                for line in &dropped {
+                    ui.label(egui::RichText::new(line).small());
+                }
+            });
+        }
 
         // The hemisphere seen from above: the centre is straight up, the rim the horizon,
         // the character's front (+Z) at the bottom.
