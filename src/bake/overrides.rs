@@ -208,10 +208,7 @@ impl BakeOverrides {
                 d.orders += 1;
             }
             for (&part, list) in &o.pins {
-                d.pins += list
-                    .iter()
-                    .filter(|p| part >= parts || p.frame >= basis.frames)
-                    .count();
+                d.pins += list.iter().filter(|p| part >= parts || p.frame >= basis.frames).count();
             }
         }
         d
@@ -302,7 +299,10 @@ mod tests {
         assert_eq!(o.count(), 9);
         let lines = other.lines();
         assert_eq!(lines.len(), 1);
-        assert!(lines[0].contains("10 views") && lines[0].contains("8 frames"), "{lines:?}");
+        assert!(
+            lines[0].contains("10 views") && lines[0].contains("8 frames"),
+            "{lines:?}"
+        );
         assert!(BakeOverrides::default().audit(basis, 5).is_empty());
     }
 

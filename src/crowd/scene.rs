@@ -31,7 +31,8 @@ impl CrowdAssets {
     /// from (`character`, else the path the representations name). `labels`: the body part
     /// of each triangle (None: the automatic segmentation).
     pub fn load(dir: &Path, character: Option<&Path>, labels: Option<Vec<u32>>) -> Result<Self, String> {
-        let has = |name: &str| dir.join(name).is_file();
+        // Present at all (a link to a device is present, and refused by the loader).
+        let has = |name: &str| std::fs::symlink_metadata(dir.join(name)).is_ok();
         if !has("manifest.json") && !has(crate::reps::REPS_FILE) {
             return Err(format!(
                 "{} holds neither a pack (manifest.json) nor representations ({})",

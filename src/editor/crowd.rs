@@ -253,11 +253,14 @@ impl CrowdPanel {
                     }
                     self.last_bake = Some((folder.clone(), b));
                 }
-                self.messages.push((LogLevel::Info, format!(
-                    "crowd preview: {} ({:.1} s)",
-                    folder.display(),
-                    job.started.elapsed().as_secs_f64()
-                )));
+                self.messages.push((
+                    LogLevel::Info,
+                    format!(
+                        "crowd preview: {} ({:.1} s)",
+                        folder.display(),
+                        job.started.elapsed().as_secs_f64()
+                    ),
+                ));
                 self.lod.texels = assets.resolution() as f32;
                 self.assets = Some((self.next_generation, Arc::new(assets)));
                 self.next_generation += 1;

@@ -97,6 +97,33 @@ impl PartRenderer {
         poses: &[Pose],
         resolution: u32,
     ) -> Self {
+        let max_side = device.limits().max_texture_dimension_2d;
+        Self::with_max_side(
+            renderer,
+            device,
+            queue,
+            merged,
+            part_ranges,
+            poses,
+            resolution,
+            max_side,
+        )
+    }
+
+    /// [`PartRenderer::new`] as if the device's largest texture side were `max_side` (at
+    /// most the real one): a smaller side makes it draw in batches (tests of that path).
+    #[allow(clippy::too_many_arguments)]
+    pub fn with_max_side(
+        renderer: &CharacterRenderer,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        merged: &Character,
+        part_ranges: Vec<Vec<Submesh>>,
+        poses: &[Pose],
+        resolution: u32,
+        max_side: u32,
+    ) -> Self {
+        let max_side = max_side.min(device.limits().max_texture_dimension_2d);
         let gpu = GpuCharacter::new(renderer, device, queue, merged);
         let camera_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("bake camera"),
@@ -117,7 +144,7 @@ impl PartRenderer {
             .collect();
         let parts = part_ranges.len().max(1) as u32;
         let frames = poses.len().max(1) as u32;
-        let grid = tile_grid(parts, frames, resolution, device.limits().max_texture_dimension_2d);
+        let grid = tile_grid(parts, frames, resolution, max_side);
         let (cols, rows) = grid.unwrap_or((parts, frames));
         let target = RenderTarget::new(device, cols * resolution, rows * resolution);
         Self {

@@ -199,6 +199,9 @@ pub(crate) fn check_camera(what: &str, cam: &PackCamera, direction: [f32; 3]) ->
     if r.dot(u).abs() > 1e-3 || r.dot(f).abs() > 1e-3 || u.dot(f).abs() > 1e-3 {
         return Err(bad("axes are not perpendicular"));
     }
+    if (r.cross(u) - f).length() > 1e-3 {
+        return Err(bad("axes are not a right-handed frame"));
+    }
     if (f - glam::Vec3::from(direction)).length() > 1e-3 {
         return Err(bad("does not look along the view direction"));
     }

@@ -1,0 +1,907 @@
+//! Issue 16, reproduced first and kept closed: nothing a user has is lost or overwritten,
+//! documented settings bake or are refused up front, tiny inputs never cause unbounded work,
+//! damaged packs are refused with the file they concern, dropped corrections are reported,
+//! limits are checked before the work, nothing is left behind, URIs stay in the model's
+//! folder, and a closed pipe ends the command line quietly. (The editor's side — the
+//! unsaved-work prompt on New/Open, a cancelled bake that is not an error, the palette's part
+//! limit — is in `src/editor/tests.rs`; the generated-damage suite in `tests/mutations.rs`.)
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_polypostor"))
+}
+
+fn run_in(dir: &Path, args: &[&str]) -> Output {
+    bin().current_dir(dir).args(args).output().expect("run polypostor")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A refusal: exit 1, one clear error line containing `want`, no panic, and no work done (the
+/// bake's "baking …" line never printed).
+fn refused(o: &Output, want: &str) -> String {
+    let e = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "expected a refusal mentioning '{want}':\n{e}");
+    assert!(e.contains("error:") && e.contains(want), "expected '{want}' in:\n{e}");
+    assert!(!e.contains("panicked"), "{e}");
+    assert!(
+        !e.contains("\nbaking ") && !e.starts_with("baking "),
+        "work started before the refusal:\n{e}"
+    );
+    e
+}
+
+fn default_glb() -> PathBuf {
+    common::repo_path(polypostor::default_character::DEFAULT_CHARACTER_PATH)
+}
+
+/// A small bake of every representation of the default character, made once per test run.
+fn small_bake() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = common::temp_dir("hardening-bake");
+        let out = dir.join("small.pack");
+        let o = run_in(
+            &dir,
+            &[
+                "bake",
+                default_glb().to_str().unwrap(),
+                "--views",
+                "2",
+                "--resolution",
+                "32",
+                "--representation",
+                "all",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        out
+    })
+}
+
+/// A copy of a folder's plain files.
+fn copy_folder(from: &Path, to: &Path) {
+    let _ = std::fs::remove_dir_all(to);
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap().filter_map(|e| e.ok()) {
+        if e.file_type().unwrap().is_file() {
+            std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
+        }
+    }
+}
+
+fn edit_json(file: &Path, f: impl FnOnce(&mut serde_json::Value)) {
+    let mut v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(file).unwrap()).unwrap();
+    f(&mut v);
+    std::fs::write(file, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+}
+
+fn listing(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+// --- 1. Data loss -------------------------------------------------------------------
+
+#[test]
+fn bake_out_replaces_only_what_this_tool_wrote() {
+    let dir = common::temp_dir("hardening-out");
+    let glb = default_glb();
+    let glb = glb.to_str().unwrap();
+    let small = ["--views", "1", "--resolution", "32", "--fps", "5"];
+    let bake = |out: &str| {
+        let mut args = vec!["bake", glb, "--out", out];
+        args.extend(small);
+        run_in(&dir, &args)
+    };
+    // A folder of the user's.
+    std::fs::create_dir(dir.join("mydocs")).unwrap();
+    std::fs::write(dir.join("mydocs/notes.txt"), "mine").unwrap();
+    refused(&bake("mydocs"), "did not write");
+    assert_eq!(std::fs::read_to_string(dir.join("mydocs/notes.txt")).unwrap(), "mine");
+    // A file.
+    std::fs::write(dir.join("afile"), "mine").unwrap();
+    refused(&bake("afile"), "regular file");
+    assert_eq!(std::fs::read_to_string(dir.join("afile")).unwrap(), "mine");
+    // The current folder, and what holds it.
+    refused(&bake("."), "folder name");
+    refused(&bake(".."), "folder name");
+    refused(&bake(dir.parent().unwrap().to_str().unwrap()), "current folder");
+    // A project: its folder and anything inside it.
+    let project = dir.join("proj");
+    std::fs::create_dir(&project).unwrap();
+    let p = polypostor::project::Project::new_for_character("proj", &default_glb(), &project);
+    p.save(&project.join("project.json")).unwrap();
+    let before = std::fs::read(project.join("project.json")).unwrap();
+    for out in ["proj", "proj/sub.pack", "proj/."] {
+        let o = run_in(&dir, &["bake", "proj", "--out", out, "--views", "1"]);
+        refused(&o, "project folder");
+    }
+    // ... and the folder that holds the character.
+    let chars = dir.join("chars");
+    std::fs::create_dir(&chars).unwrap();
+    std::fs::copy(default_glb(), chars.join("c.glb")).unwrap();
+    let o = run_in(&dir, &["bake", "chars/c.glb", "--out", "chars", "--views", "1"]);
+    refused(&o, "input");
+    assert_eq!(std::fs::read(project.join("project.json")).unwrap(), before);
+    assert!(chars.join("c.glb").is_file());
+
+    // A folder this tool wrote is replaced; interrupted writers' staging is cleaned first.
+    let dead = 999_999_999u32;
+    for kind in ["writing", "old"] {
+        let s = dir.join(format!(".ok.pack.{kind}-{dead}"));
+        std::fs::create_dir(&s).unwrap();
+        std::fs::write(s.join("vertices.bin"), [0u8; 1000]).unwrap();
+    }
+    let first = bake("ok.pack");
+    assert!(first.status.success(), "{}", stderr(&first));
+    assert!(dir.join("ok.pack/manifest.json").is_file());
+    let second = bake("ok.pack");
+    assert!(
+        second.status.success(),
+        "re-baking over its own pack: {}",
+        stderr(&second)
+    );
+    let left: Vec<String> = listing(&dir)
+        .into_iter()
+        .filter(|n| n.starts_with(".ok.pack"))
+        .collect();
+    assert!(left.is_empty(), "staging left behind: {left:?}");
+    // Once the user keeps a file of theirs in it, it is no longer only ours.
+    std::fs::write(dir.join("ok.pack/notes.txt"), "mine").unwrap();
+    refused(&bake("ok.pack"), "notes.txt");
+    assert_eq!(std::fs::read_to_string(dir.join("ok.pack/notes.txt")).unwrap(), "mine");
+
+    // generate-default never renames over what it did not write.
+    std::fs::write(dir.join("mine.glb"), "mine").unwrap();
+    let o = run_in(&dir, &["generate-default", "-o", "mine.glb"]);
+    refused(&o, "not written by this tool");
+    assert_eq!(std::fs::read_to_string(dir.join("mine.glb")).unwrap(), "mine");
+    refused(
+        &run_in(&dir, &["generate-default", "-o", "/dev/null"]),
+        "character device",
+    );
+    let o = run_in(&dir, &["generate-default", "-o", "gen.glb"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run_in(&dir, &["generate-default", "-o", "gen.glb"]);
+    assert!(o.status.success(), "its own file is regenerated: {}", stderr(&o));
+    assert_eq!(
+        std::fs::read(dir.join("gen.glb")).unwrap(),
+        std::fs::read(default_glb()).unwrap()
+    );
+    // render -o: the same rule for images.
+    std::fs::write(dir.join("photo.png"), "mine").unwrap();
+    let o = run_in(&dir, &["render", glb, "-o", "photo.png", "--size", "32"]);
+    refused(&o, "not written by this tool");
+    let o = run_in(&dir, &["render", glb, "-o", "r.png", "--size", "32"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run_in(&dir, &["render", glb, "-o", "r.png", "--size", "32"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+// --- 2. Documented settings ---------------------------------------------------------
+
+#[test]
+fn documented_settings_bake_or_are_refused_up_front() {
+    let dir = common::temp_dir("hardening-settings");
+    let glb = default_glb();
+    let glb = glb.to_str().unwrap();
+    let t = Instant::now();
+    refused(&run_in(&dir, &["bake", glb, "--views", "100000"]), "4096");
+    refused(
+        &run_in(&dir, &["bake", glb, "--views", "4097", "--representation", "impostor"]),
+        "4096",
+    );
+    refused(&run_in(&dir, &["bake", glb, "--resolution", "4096"]), "2048");
+    refused(&run_in(&dir, &["bake", glb, "--fps", "1e-45"]), "--fps");
+    refused(&run_in(&dir, &["bake", glb, "--fps", "241"]), "--fps");
+    // Within the documented ranges but beyond this machine: refused before any rendering,
+    // with the limit named.
+    refused(&run_in(&dir, &["bake", glb, "--resolution", "2048"]), "memory");
+    refused(
+        &run_in(&dir, &["bake", glb, "--resolution", "2048", "--representation", "all"]),
+        "texture limit",
+    );
+    refused(
+        &run_in(&dir, &["render", glb, "-o", "x.png", "--size", "16384"]),
+        "megapixels",
+    );
+    refused(
+        &run_in(&dir, &["render", glb, "-o", "x.png", "--size", "100000"]),
+        "16384",
+    );
+    assert!(t.elapsed() < Duration::from_secs(60), "refusals took {:?}", t.elapsed());
+    assert!(!dir.join("x.png").exists());
+
+    let pack = small_bake();
+    let o = run_in(
+        &dir,
+        &[
+            "bench",
+            "crowd",
+            "--pack",
+            pack.to_str().unwrap(),
+            "--width",
+            "100000",
+            "--counts",
+            "10",
+        ],
+    );
+    refused(&o, "texture limit");
+    // compare on a pack whose resolution is past the limit: the loader names it.
+    let forged = dir.join("forged.pack");
+    copy_folder(pack, &forged);
+    edit_json(&forged.join("manifest.json"), |v| v["resolution"] = 4096.into());
+    let o = run_in(&dir, &["compare", forged.to_str().unwrap(), "--views", "1"]);
+    refused(&o, "resolution 4096");
+
+    // A clip longer than 12.8 s bakes (its frames no longer fit one render target at 128²
+    // on most GPUs): a 20 s clip at one view.
+    let mut c = polypostor::default_character::generate();
+    let walk = c.find_clip("Walk").unwrap();
+    let clip = &mut c.clips[walk];
+    for ch in &mut clip.channels {
+        for t in &mut ch.times {
+            *t *= 20.0;
+        }
+    }
+    clip.duration_secs *= 20.0;
+    let long = dir.join("long.glb");
+    std::fs::write(&long, polypostor::gltf_write::write_glb(&c).unwrap()).unwrap();
+    let o = run_in(
+        &dir,
+        &[
+            "bake",
+            long.to_str().unwrap(),
+            "--views",
+            "1",
+            "--resolution",
+            "16",
+            "--out",
+            "long.pack",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let p = polypostor::pack::load_pack(&dir.join("long.pack")).unwrap();
+    assert_eq!(p.manifest.frames, 200);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+// --- 3. Unbounded work from tiny inputs --------------------------------------------
+
+/// The default character with one clip whose key times are `[0, end]`.
+fn clip_until(end: f32) -> Vec<u8> {
+    let mut c = polypostor::default_character::generate();
+    let clip = &mut c.clips[0];
+    clip.channels.truncate(1);
+    let ch = &mut clip.channels[0];
+    ch.times = vec![0.0, end];
+    ch.interpolation = polypostor::character::Interpolation::Linear;
+    ch.values = match &ch.values {
+        polypostor::character::ChannelValues::Rotation(v) => {
+            polypostor::character::ChannelValues::Rotation(vec![v[0]; 2])
+        }
+        polypostor::character::ChannelValues::Translation(v) => {
+            polypostor::character::ChannelValues::Translation(vec![v[0]; 2])
+        }
+        polypostor::character::ChannelValues::Scale(v) => polypostor::character::ChannelValues::Scale(vec![v[0]; 2]),
+    };
+    clip.duration_secs = end;
+    let name = clip.name.clone();
+    c.clips.retain(|k| k.name == name);
+    polypostor::gltf_write::write_glb(&c).unwrap()
+}
+
+#[test]
+fn absurd_clip_lengths_are_refused_before_the_work() {
+    let dir = common::temp_dir("hardening-clips");
+    for (name, end) in [("e30.glb", 1e30f32), ("e6.glb", 1e6)] {
+        std::fs::write(dir.join(name), clip_until(end)).unwrap();
+        let o = run_in(&dir, &["inspect", name, "--json"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert!(v["clips"][0]["duration_secs"].as_f64().unwrap() >= end as f64 * 0.99);
+        let t = Instant::now();
+        refused(&run_in(&dir, &["bake", name, "--views", "1"]), "10000");
+        assert!(t.elapsed() < Duration::from_secs(30));
+        refused(
+            &run_in(&dir, &["bake", name, "--views", "1", "--representation", "rigid"]),
+            "10000",
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[cfg(unix)]
+#[test]
+fn special_files_are_never_read() {
+    use std::os::unix::fs::symlink;
+    let dir = common::temp_dir("hardening-special");
+    let pack = small_bake();
+    // inspect /dev/zero, and a .glb that is a link to it.
+    refused(&run_in(&dir, &["inspect", "/dev/zero"]), "not a regular file");
+    symlink("/dev/zero", dir.join("zero.glb")).unwrap();
+    refused(&run_in(&dir, &["inspect", "zero.glb"]), "not a regular file");
+    // Every data file of a baked folder, in turn.
+    for name in [
+        "vertices.bin",
+        "indices.bin",
+        "rigid.bin",
+        "np3d.bin",
+        "atlas_001.png",
+        "manifest.json",
+        "representations.json",
+    ] {
+        let d = dir.join(format!("link-{name}"));
+        copy_folder(pack, &d);
+        std::fs::remove_file(d.join(name)).unwrap();
+        symlink("/dev/zero", d.join(name)).unwrap();
+        let t = Instant::now();
+        let e = polypostor::crowd::scene::CrowdAssets::load(&d, Some(&default_glb()), None)
+            .err()
+            .unwrap_or_else(|| panic!("{name} linked to /dev/zero loaded"));
+        assert!(e.contains(name) && e.contains("character device"), "{name}: {e}");
+        assert!(t.elapsed() < Duration::from_secs(10));
+    }
+    // A FIFO where an atlas should be: refused at once, no hang.
+    let d = dir.join("fifo");
+    copy_folder(pack, &d);
+    std::fs::remove_file(d.join("atlas_001.png")).unwrap();
+    let c = std::ffi::CString::new(d.join("atlas_001.png").to_str().unwrap()).unwrap();
+    // SAFETY: mkfifo on a path inside the test's own folder.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+    let (tx, rx) = std::sync::mpsc::channel();
+    let dd = d.clone();
+    std::thread::spawn(move || {
+        let _ = tx.send(polypostor::pack::load_pack(&dd).err().map(|e| e.to_string()));
+    });
+    let e = rx
+        .recv_timeout(Duration::from_secs(20))
+        .expect("the loader hangs on a FIFO")
+        .expect("a FIFO atlas loaded");
+    assert!(e.contains("FIFO"), "{e}");
+    // A project file, and the character path a representations folder names.
+    let proj = dir.join("proj");
+    std::fs::create_dir(&proj).unwrap();
+    symlink("/dev/zero", proj.join("project.json")).unwrap();
+    let e = polypostor::project::Project::load(&proj).unwrap_err().to_string();
+    assert!(e.contains("character device"), "{e}");
+    let d = dir.join("charpath");
+    copy_folder(pack, &d);
+    edit_json(&d.join("representations.json"), |v| {
+        v["character_path"] = dir.join("zero.glb").to_str().unwrap().into()
+    });
+    let e = polypostor::crowd::scene::CrowdAssets::load(&d, None, None)
+        .err()
+        .unwrap();
+    assert!(e.contains("not a regular file"), "{e}");
+    // A glTF buffer URI naming a link to /dev/zero.
+    let model = dir.join("model");
+    std::fs::create_dir(&model).unwrap();
+    let files = polypostor::gltf_write::write_gltf(
+        &polypostor::default_character::generate(),
+        &polypostor::gltf_write::BufferStorage::External("data.bin".into()),
+    )
+    .unwrap();
+    std::fs::write(model.join("c.gltf"), &files.json).unwrap();
+    symlink("/dev/zero", model.join("data.bin")).unwrap();
+    let e = polypostor::import_path(&model.join("c.gltf")).unwrap_err().to_string();
+    assert!(
+        e.contains("/dev/zero") && e.contains("outside the model's folder"),
+        "{e}"
+    );
+    // ... and a FIFO in the model's own folder is not read either.
+    std::fs::remove_file(model.join("data.bin")).unwrap();
+    let c = std::ffi::CString::new(model.join("data.bin").to_str().unwrap()).unwrap();
+    // SAFETY: mkfifo on a path inside the test's own folder.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+    let e = polypostor::import_path(&model.join("c.gltf")).unwrap_err().to_string();
+    assert!(e.contains("FIFO"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn many_views_naming_one_image_and_huge_textures_are_refused() {
+    let dir = common::temp_dir("hardening-images");
+    let pack = small_bake();
+    // Every view names the first view's atlas (a few KB on disk, decoded once per view).
+    let d = dir.join("one-image");
+    copy_folder(pack, &d);
+    edit_json(&d.join("manifest.json"), |v| {
+        let first = v["views"][0]["atlas"].clone();
+        for view in v["views"].as_array_mut().unwrap() {
+            view["atlas"] = first.clone();
+        }
+    });
+    let e = polypostor::pack::load_pack(&d).unwrap_err().to_string();
+    assert!(e.contains("named twice"), "{e}");
+    // An atlas size far beyond what the packer makes for these parts.
+    let d = dir.join("big-atlas");
+    copy_folder(pack, &d);
+    edit_json(&d.join("manifest.json"), |v| {
+        v["views"][0]["atlas_size"] = serde_json::json!([8192, 8192])
+    });
+    let e = polypostor::pack::load_pack(&d).unwrap_err().to_string();
+    assert!(e.contains("atlas size 8192×8192"), "{e}");
+    // A .glb holding a 16384² texture (a 1 MB file): refused by its header, before decoding.
+    let mut c = polypostor::default_character::generate();
+    c.textures[0] = polypostor::character::Texture {
+        name: "huge".into(),
+        width: 1,
+        height: 1,
+        rgba8: vec![255; 4],
+    };
+    let glb = polypostor::gltf_write::write_glb(&c).unwrap();
+    let glb = replace_png(&glb, &huge_png(16384));
+    let t = Instant::now();
+    let imported = polypostor::import::import_slice(&glb, None, "huge").unwrap();
+    assert!(t.elapsed() < Duration::from_secs(5));
+    assert!(imported.textures.is_empty());
+    assert!(
+        imported
+            .warnings
+            .iter()
+            .any(|w| w.contains("16384×16384") && w.contains("8192")),
+        "{:?}",
+        imported.warnings
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A valid, all-black RGBA PNG of `side`² pixels, written row by row (about 1 MB at 16384²).
+pub fn huge_png(side: u32) -> Vec<u8> {
+    let mut out = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut out, side, side);
+        enc.set_color(png::ColorType::Rgba);
+        enc.set_compression(png::Compression::Fast);
+        let mut w = enc.write_header().unwrap();
+        let mut stream = w.stream_writer().unwrap();
+        let row = vec![0u8; side as usize * 4];
+        for _ in 0..side {
+            std::io::Write::write_all(&mut stream, &row).unwrap();
+        }
+        stream.finish().unwrap();
+    }
+    out
+}
+
+/// The GLB with its one embedded PNG replaced by `png` (buffer view and lengths updated).
+pub fn replace_png(glb: &[u8], png: &[u8]) -> Vec<u8> {
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let mut json: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+    let bin_start = 20 + json_len + 8;
+    let bin_len = u32::from_le_bytes(glb[20 + json_len..24 + json_len].try_into().unwrap()) as usize;
+    let mut bin = glb[bin_start..bin_start + bin_len].to_vec();
+    let view = json["images"][0]["bufferView"].as_u64().unwrap() as usize;
+    let offset = bin.len();
+    bin.extend_from_slice(png);
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    json["bufferViews"][view]["byteOffset"] = offset.into();
+    json["bufferViews"][view]["byteLength"] = png.len().into();
+    json["buffers"][0]["byteLength"] = bin.len().into();
+    let mut text = serde_json::to_vec(&json).unwrap();
+    while text.len() % 4 != 0 {
+        text.push(b' ');
+    }
+    let mut out = Vec::new();
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&((12 + 8 + text.len() + 8 + bin.len()) as u32).to_le_bytes());
+    out.extend_from_slice(&(text.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&text);
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(&bin);
+    out
+}
+
+#[test]
+fn long_node_chains_import_in_linear_time() {
+    // 300,000 nodes in one chain, a triangle on the deepest.
+    let n = 300_000usize;
+    let mut nodes: Vec<serde_json::Value> = (0..n - 1).map(|i| serde_json::json!({"children": [i + 1]})).collect();
+    nodes.push(serde_json::json!({"mesh": 0}));
+    let positions: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.]
+        .iter()
+        .flat_map(|x| x.to_le_bytes())
+        .collect();
+    use base64::Engine;
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&positions)
+    );
+    let gltf = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": nodes,
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                        "min": [0, 0, 0], "max": [1, 1, 0]}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "buffers": [{"byteLength": 36, "uri": uri}],
+    });
+    let bytes = serde_json::to_vec(&gltf).unwrap();
+    let t = Instant::now();
+    let c = polypostor::import::import_slice(&bytes, None, "chain").unwrap();
+    assert_eq!(c.triangle_count(), 1);
+    assert!(t.elapsed() < Duration::from_secs(20), "took {:?}", t.elapsed());
+    // A cycle is found without walking it once per node.
+    let mut gltf = gltf;
+    gltf["nodes"][n - 1]["children"] = serde_json::json!([0]);
+    gltf["scenes"][0]["nodes"] = serde_json::json!([1]);
+    let t = Instant::now();
+    let e = polypostor::import::import_slice(&serde_json::to_vec(&gltf).unwrap(), None, "cycle").unwrap_err();
+    assert!(
+        e.to_string().contains("cycle") || e.to_string().contains("two parents"),
+        "{e}"
+    );
+    assert!(t.elapsed() < Duration::from_secs(20), "took {:?}", t.elapsed());
+}
+
+// --- 4. Damaged packs -----------------------------------------------------------------
+
+#[test]
+fn damaged_numbers_and_disagreeing_manifests_are_named() {
+    let dir = common::temp_dir("hardening-damage");
+    let pack = small_bake();
+    let case = |name: &str, file: &str, f: &dyn Fn(&mut serde_json::Value)| -> String {
+        let d = dir.join(name);
+        copy_folder(pack, &d);
+        edit_json(&d.join(file), f);
+        polypostor::crowd::scene::CrowdAssets::load(&d, Some(&default_glb()), None)
+            .err()
+            .unwrap_or_else(|| panic!("{name}: a damaged folder loaded"))
+    };
+    let pack_cases: Vec<(&str, Box<dyn Fn(&mut serde_json::Value)>, &str)> = vec![
+        (
+            "zero-direction",
+            Box::new(|v| v["views"][0]["direction"] = serde_json::json!([0, 0, 0])),
+            "unit vector",
+        ),
+        (
+            "inf-direction",
+            Box::new(|v| v["views"][1]["direction"] = serde_json::json!([1e39, 0, 0])),
+            "unit vector",
+        ),
+        ("res-0", Box::new(|v| v["resolution"] = 0.into()), "resolution 0"),
+        (
+            "res-max",
+            Box::new(|v| v["resolution"] = u32::MAX.into()),
+            "resolution 4294967295",
+        ),
+        ("fps-tiny", Box::new(|v| v["fps"] = 1e-45.into()), "frame rate"),
+        ("fps-huge", Box::new(|v| v["fps"] = 3.4e38.into()), "frame rate"),
+        (
+            "camera",
+            Box::new(|v| v["views"][0]["camera"]["right"] = serde_json::json!([0, 0, 0])),
+            "camera",
+        ),
+        (
+            "camera-size",
+            Box::new(|v| v["views"][0]["camera"]["half_size"] = 0.into()),
+            "half size",
+        ),
+        ("old", Box::new(|v| v["version"] = 2.into()), "re-bake"),
+    ];
+    for (name, f, want) in &pack_cases {
+        let e = case(name, "manifest.json", f.as_ref());
+        assert!(e.contains(want) && e.contains("manifest.json"), "{name}: {e}");
+    }
+    let reps_cases: Vec<(&str, Box<dyn Fn(&mut serde_json::Value)>, &str)> = vec![
+        ("reps-res", Box::new(|v| v["resolution"] = 0.into()), "resolution 0"),
+        ("reps-fps", Box::new(|v| v["fps"] = 1e-45.into()), "frame rate"),
+        (
+            "reps-columns",
+            Box::new(|v| {
+                v["impostor"]["columns"] = (1u64 << 31).into();
+                v["impostor"]["rows"] = 2.into();
+            }),
+            "impostor sheets",
+        ),
+        (
+            "reps-camera",
+            Box::new(|v| v["views"][0]["camera"]["up"] = serde_json::json!([1, 0, 0])),
+            "camera",
+        ),
+        ("reps-old", Box::new(|v| v["version"] = 1.into()), "re-bake"),
+        (
+            "reps-garbage",
+            Box::new(|v| v["frames"] = "ten".into()),
+            "not a valid manifest",
+        ),
+    ];
+    for (name, f, want) in &reps_cases {
+        let e = case(name, "representations.json", f.as_ref());
+        assert!(e.contains(want) && e.contains("representations.json"), "{name}: {e}");
+        assert!(!e.contains("manifest.json"), "{name}: names the wrong file: {e}");
+    }
+    // The pack and the representations beside it disagree on the frame count (each
+    // consistent in itself: the representations carry their own vertex data).
+    let d = dir.join("frames");
+    copy_folder(pack, &d);
+    edit_json(&d.join("manifest.json"), |v| {
+        v["frames"] = 9.into();
+    });
+    let e = polypostor::crowd::scene::CrowdAssets::load(&d, Some(&default_glb()), None)
+        .err()
+        .unwrap();
+    assert!(
+        e.contains("frames") && (e.contains("disagree") || e.contains("past the end")),
+        "{e}"
+    );
+    // A byte flipped anywhere in the data: the checksum names the file.
+    for name in [
+        "vertices.bin",
+        "indices.bin",
+        "rigid.bin",
+        "np3d.bin",
+        "normal_000.png",
+        "impostor_color_001.png",
+    ] {
+        let d = dir.join(format!("flip-{name}"));
+        copy_folder(pack, &d);
+        let mut bytes = std::fs::read(d.join(name)).unwrap();
+        let k = bytes.len() / 2;
+        bytes[k] ^= 0x10;
+        std::fs::write(d.join(name), &bytes).unwrap();
+        let e = polypostor::crowd::scene::CrowdAssets::load(&d, Some(&default_glb()), None)
+            .err()
+            .unwrap_or_else(|| panic!("{name}: a flipped byte loaded"));
+        assert!(e.contains(name) && e.contains("checksum"), "{name}: {e}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+// --- 5. Dropped corrections, 6. late failures -------------------------------------------
+
+#[test]
+fn dropped_corrections_are_reported_by_kind() {
+    use polypostor::bake::overrides::{OverrideBasis, Pin};
+    let dir = common::temp_dir("hardening-corrections");
+    let project = dir.join("proj");
+    std::fs::create_dir(&project).unwrap();
+    let mut p = polypostor::project::Project::new_for_character("proj", &default_glb(), &project);
+    let basis = OverrideBasis {
+        views: 1,
+        full_sphere: false,
+        frames: 5,
+    };
+    let v = p.overrides.view_mut(basis, 0);
+    v.key_frame = Some(7); // past the 5 frames
+    v.order = Some(vec![0, 1]); // not every part
+    v.pins.insert(
+        0,
+        vec![
+            Pin {
+                frame: 1,
+                source: 500, // no such vertex
+                target: 0,
+            },
+            Pin {
+                frame: 9, // no such frame
+                source: 0,
+                target: 0,
+            },
+        ],
+    );
+    p.overrides.views.entry(3).or_default().key_frame = Some(1); // no view 3
+    p.save(&project.join("project.json")).unwrap();
+    let bake = |views: &str| {
+        run_in(
+            &dir,
+            &[
+                "bake",
+                "proj",
+                "--views",
+                views,
+                "--resolution",
+                "32",
+                "--fps",
+                "5",
+                "--out",
+                "out.pack",
+            ],
+        )
+    };
+    let o = bake("1");
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    for want in [
+        "warning: 1 key frame(s) lie past the clip's frames; ignored",
+        "warning: 1 drawing order(s) do not list each part of the bake once; ignored",
+        "warning: 1 correction(s) refer to views this bake does not have; ignored",
+    ] {
+        assert!(e.contains(want), "missing '{want}' in:\n{e}");
+    }
+    // One pin past the frames (said before the bake), one past the polygon (after it).
+    assert_eq!(
+        e.matches("pin(s) refer to frames, parts or polygon vertices").count(),
+        2,
+        "{e}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("out.pack/report.json")).unwrap()).unwrap();
+    assert_eq!(report["dropped_corrections"]["pins"], 2);
+    assert_eq!(report["dropped_corrections"]["key_frames"], 1);
+    // Another number of views: every correction is dropped, in one line that says why.
+    let o = bake("2");
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    assert!(
+        e.contains("warning: 5 correction(s) were made for a bake of 1 views and 5 frames"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn limits_that_can_be_checked_are_checked_before_the_work() {
+    let dir = common::temp_dir("hardening-late");
+    // A segmentation of 21 parts.
+    let project = dir.join("proj");
+    std::fs::create_dir(&project).unwrap();
+    let c = polypostor::import_path(&default_glb()).unwrap();
+    let mut seg = polypostor::bake::segment::auto_segment(&c);
+    while seg.parts.len() < 21 {
+        seg.parts.push(polypostor::bake::segment::Part {
+            name: format!("extra {}", seg.parts.len()),
+            color: [1, 2, 3],
+        });
+    }
+    let n = seg.labels.len();
+    for (t, l) in seg.labels.iter_mut().enumerate() {
+        *l = (t * 21 / n) as u16;
+    }
+    let mut p = polypostor::project::Project::new_for_character("proj", &default_glb(), &project);
+    p.segmentation = Some(polypostor::project::StoredSegmentation::from_segmentation(&seg));
+    p.save(&project.join("project.json")).unwrap();
+    let t = Instant::now();
+    refused(&run_in(&dir, &["bake", "proj", "--out", "a.pack"]), "21 parts");
+    // Positions up to 3e38 (finite, far past any sensible size).
+    let mut c = polypostor::default_character::generate();
+    for v in &mut c.vertices {
+        v.position *= 1e30;
+    }
+    c.vertices[0].position.x = 3e38;
+    std::fs::write(dir.join("huge.glb"), polypostor::gltf_write::write_glb(&c).unwrap()).unwrap();
+    refused(
+        &run_in(&dir, &["bake", "huge.glb", "--out", "b.pack"]),
+        "beyond the limit",
+    );
+    assert!(t.elapsed() < Duration::from_secs(60), "took {:?}", t.elapsed());
+    assert!(!dir.join("a.pack").exists() && !dir.join("b.pack").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+// --- 7. Leftovers ----------------------------------------------------------------------
+
+#[cfg(unix)]
+#[test]
+fn an_interrupted_benchmark_leaves_nothing_behind() {
+    let tmp = common::temp_dir("hardening-tmp");
+    // What a killed run left: removed by the next.
+    std::fs::create_dir(tmp.join("polypostor-bench-999999999")).unwrap();
+    std::fs::write(tmp.join("polypostor-bench-999999999/big.bin"), [0u8; 4096]).unwrap();
+    let mut child = bin()
+        .current_dir(&tmp)
+        .env("TMPDIR", &tmp)
+        .args(["bench", "crowd", "--counts", "10", "--out", "bench"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Wait until its temporary bake exists, then interrupt it.
+    let started = Instant::now();
+    let mine = format!("polypostor-bench-{}", child.id());
+    while !tmp.join(&mine).exists() && started.elapsed() < Duration::from_secs(60) {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert!(tmp.join(&mine).exists(), "the benchmark made no temporary folder");
+    std::thread::sleep(Duration::from_millis(1500));
+    // SAFETY: signalling our own child.
+    unsafe {
+        libc::kill(child.id() as i32, libc::SIGINT);
+    }
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(130), "{}", stderr(&out));
+    let left: Vec<String> = listing(&tmp)
+        .into_iter()
+        .filter(|n| n.starts_with("polypostor-bench"))
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+    std::fs::remove_dir_all(&tmp).unwrap();
+}
+
+// --- 8. Path escape ----------------------------------------------------------------------
+
+#[test]
+fn uris_stay_inside_the_models_folder() {
+    let dir = common::temp_dir("hardening-uris");
+    let model = dir.join("model");
+    std::fs::create_dir_all(model.join("sub")).unwrap();
+    let files = polypostor::gltf_write::write_gltf(
+        &polypostor::default_character::generate(),
+        &polypostor::gltf_write::BufferStorage::External("sub/data.bin".into()),
+    )
+    .unwrap();
+    let bin = files.bin.unwrap();
+    std::fs::write(model.join("sub/data.bin"), &bin).unwrap();
+    std::fs::write(dir.join("outside.bin"), &bin).unwrap();
+    let with_uri = |uri: &str| {
+        let mut v: serde_json::Value = serde_json::from_str(&files.json).unwrap();
+        v["buffers"][0]["uri"] = uri.into();
+        std::fs::write(model.join("c.gltf"), serde_json::to_string(&v).unwrap()).unwrap();
+        polypostor::import_path(&model.join("c.gltf")).map_err(|e| e.to_string())
+    };
+    assert!(
+        with_uri("sub/data.bin").is_ok(),
+        "a file below the model's folder is read"
+    );
+    assert!(with_uri("sub/../sub/data.bin").is_ok());
+    let e = with_uri("../outside.bin").unwrap_err();
+    assert!(e.contains("leaves the model's folder"), "{e}");
+    let e = with_uri("sub/../../outside.bin").unwrap_err();
+    assert!(e.contains("leaves the model's folder"), "{e}");
+    let e = with_uri("/etc/passwd").unwrap_err();
+    assert!(e.contains("absolute"), "{e}");
+    let e = with_uri("%2Fetc%2Fpasswd").unwrap_err();
+    assert!(e.contains("absolute"), "{e}");
+    let e = with_uri("file:///etc/passwd").unwrap_err();
+    assert!(e.contains("not a relative file reference"), "{e}");
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(dir.join("outside.bin"), model.join("link.bin")).unwrap();
+        let e = with_uri("link.bin").unwrap_err();
+        assert!(e.contains("leads outside the model's folder"), "{e}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+// --- 10. Broken pipe ---------------------------------------------------------------------
+
+#[cfg(unix)]
+#[test]
+fn a_closed_pipe_ends_the_command_quietly() {
+    for args in [
+        vec!["inspect", "--json", default_glb().to_str().unwrap().to_owned().leak()],
+        vec!["bench", "sim", "--agents", "200", "--frames", "5", "--json"],
+    ] {
+        let mut child = bin()
+            .args(&args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // The reader goes away before the first line is written (`| head -c 0`).
+        drop(child.stdout.take());
+        let out = child.wait_with_output().unwrap();
+        let e = stderr(&out);
+        assert!(!e.contains("panicked") && !e.contains("Broken pipe"), "{args:?}: {e}");
+        use std::os::unix::process::ExitStatusExt;
+        assert!(
+            out.status.signal() == Some(libc::SIGPIPE) || out.status.success(),
+            "{args:?}: {:?} {e}",
+            out.status
+        );
+    }
+}
