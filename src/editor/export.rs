@@ -3,7 +3,7 @@
 //! is written. Exporting bakes in the background (progress and cancel in the status bar)
 //! and opens the crowd preview on the new folder.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use polypostor::bake::overrides::OverrideBasis;
 use polypostor::bake::pipeline::PngCompression;
@@ -21,6 +21,8 @@ pub struct ExportDialog {
     pub resolution: u32,
     pub fps: f32,
     pub png: PngCompression,
+    /// Why the folder typed cannot receive the export (checked when the text changes).
+    folder_check: Option<(String, Option<String>)>,
 }
 
 impl Default for ExportDialog {
@@ -33,6 +35,7 @@ impl Default for ExportDialog {
             resolution: polypostor::bake::renders::DEFAULT_RESOLUTION,
             fps: polypostor::bake::renders::DEFAULT_FPS,
             png: PngCompression::default(),
+            folder_check: None,
         }
     }
 }
@@ -187,10 +190,22 @@ impl ExportDialog {
                     .color(ui.visuals().warn_fg_color),
                 );
             }
+            // The folder may not hold anything this tool did not write (checked as typed).
+            let folder = self.folder.trim().to_string();
+            if self.folder_check.as_ref().is_none_or(|(f, _)| *f != folder) {
+                let problem = (!folder.is_empty())
+                    .then(|| polypostor::safe_fs::check_bake_output(Path::new(&folder), &[&doc.character_path]).err())
+                    .flatten();
+                self.folder_check = Some((folder.clone(), problem));
+            }
+            let folder_problem = self.folder_check.as_ref().and_then(|(_, p)| p.clone());
+            if let Some(p) = &folder_problem {
+                ui.label(egui::RichText::new(format!("⚠ {p}")).color(ui.visuals().warn_fg_color));
+            }
             let nothing = !(self.set.polypostor || self.set.any_other());
             ui.add_space(6.0);
             ui.horizontal(|ui| {
-                let ok = !nothing && !self.folder.trim().is_empty();
+                let ok = !nothing && !folder.is_empty() && folder_problem.is_none();
                 if ui.add_enabled(ok, egui::Button::new("Export")).clicked() {
                     request = Some(ExportRequest {
                         folder: PathBuf::from(self.folder.trim()),

@@ -589,3 +589,140 @@ fn export_writes_the_chosen_representations_and_opens_the_preview() {
     );
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// New from glTF and Open on top of unsaved work ask first, as closing does: Cancel keeps
+/// the work, Don't save replaces it, Save writes it and then opens the other project.
+#[test]
+fn replacing_unsaved_work_asks_first() {
+    let a = temp_project("replace-a");
+    let b = temp_project("replace-b");
+    let mut h = harness(Some(a.clone()));
+    h.run_steps(3);
+    let make_dirty = |h: &mut Harness<'static, EditorApp>| {
+        h.get_by_label("Segment").click();
+        h.run_steps(2);
+        h.get_by_label("➕ Add part").click();
+        h.run_steps(2);
+        assert!(h.state().doc.as_ref().unwrap().dirty);
+    };
+    make_dirty(&mut h);
+    let glb = repo().join(polypostor::default_character::DEFAULT_CHARACTER_PATH);
+    h.state_mut().send(Command::NewFromGltf(glb));
+    h.run_steps(2);
+    assert!(h.state().safety.replace_prompt.is_some(), "the prompt shows");
+    h.get_by_label("Save changes before starting a new project?");
+    h.get_by_label("Cancel").click();
+    h.run_steps(2);
+    {
+        let doc = h.state().doc.as_ref().unwrap();
+        assert!(
+            doc.dirty && doc.project_file.as_ref().unwrap().starts_with(&a),
+            "the work is kept"
+        );
+    }
+    // Don't save: the other project opens, the changes are gone.
+    h.state_mut().send(Command::Open(b.clone()));
+    h.run_steps(2);
+    h.get_by_label("Save changes before opening another project?");
+    h.get_by_label("Don't save").click();
+    h.run_steps(4);
+    {
+        let doc = h.state().doc.as_ref().unwrap();
+        assert!(
+            doc.project_file.as_ref().unwrap().starts_with(&b),
+            "{:?}",
+            doc.project_file
+        );
+        assert!(!doc.dirty);
+    }
+    let (saved_a, _) = polypostor::project::Project::load(&a).unwrap();
+    assert!(
+        saved_a.segmentation.is_none(),
+        "nothing was written to the first project"
+    );
+    // Save: written first, then the other project opens.
+    make_dirty(&mut h);
+    h.state_mut().send(Command::Open(a.clone()));
+    h.run_steps(2);
+    h.get_by_label("Save").click();
+    h.run_steps(4);
+    {
+        let doc = h.state().doc.as_ref().unwrap();
+        assert!(
+            doc.project_file.as_ref().unwrap().starts_with(&a),
+            "{:?}",
+            doc.project_file
+        );
+    }
+    let (saved_b, _) = polypostor::project::Project::load(&b).unwrap();
+    assert!(saved_b.segmentation.is_some(), "the changes were saved before opening");
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    let _ = std::fs::remove_dir_all(a);
+    let _ = std::fs::remove_dir_all(b);
+}
+
+/// Cancelling a bake is not an error: no error dialog, a line in the log.
+#[test]
+fn a_cancelled_bake_is_not_an_error() {
+    let dir = temp_project("cancel");
+    let mut h = harness(Some(dir.clone()));
+    h.run_steps(3);
+    h.state_mut().send(Command::BakeCrowd);
+    h.run_steps(2);
+    assert!(h.state().crowd.busy());
+    h.get_by_label("Cancel").click();
+    let started = std::time::Instant::now();
+    while h.state().crowd.busy() && started.elapsed() < std::time::Duration::from_secs(120) {
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        h.run_steps(1);
+    }
+    h.run_steps(2);
+    let app = h.state();
+    assert!(!app.crowd.busy(), "the bake stopped");
+    assert!(app.error.is_none(), "a cancel opened the error dialog: {:?}", app.error);
+    assert!(
+        app.log
+            .iter()
+            .any(|l| l.text.contains("cancelled") && l.level == super::app::LogLevel::Info),
+        "{:?}",
+        app.log.iter().map(|l| &l.text).collect::<Vec<_>>()
+    );
+    assert!(!dir.join("crowd.pack").exists(), "nothing was written");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// The palette refuses a part past the bake's limit and says why.
+#[test]
+fn the_palette_stops_at_the_part_limit() {
+    let dir = temp_project("parts");
+    let mut h = harness(Some(dir.clone()));
+    h.run_steps(3);
+    h.get_by_label("Segment").click();
+    h.run_steps(2);
+    let limit = polypostor::limits::MAX_PARTS;
+    // All but the last through the library (the list grows past the window), the last by a
+    // click.
+    {
+        let doc = h.state_mut().doc.as_mut().unwrap();
+        while doc.segmentation.parts.len() < limit - 1 {
+            doc.edit("Add part", |seg, _| polypostor::edit::paint::add_part(seg, "").is_ok());
+        }
+    }
+    h.run_steps(2);
+    h.get_by_label("➕ Add part").click();
+    h.run_steps(2);
+    assert_eq!(h.state().doc.as_ref().unwrap().segmentation.parts.len(), limit);
+    h.get_by_label("➕ Add part").click();
+    h.run_steps(2);
+    assert_eq!(
+        h.state().doc.as_ref().unwrap().segmentation.parts.len(),
+        limit,
+        "no part past the limit"
+    );
+    let mut seg = h.state().doc.as_ref().unwrap().segmentation.clone();
+    assert!(polypostor::edit::paint::add_part(&mut seg, "").is_err());
+    let note = format!("No more parts: {}", polypostor::edit::paint::part_limit_message());
+    h.get_by_label(&note);
+    assert!(h.state().error.is_none());
+    let _ = std::fs::remove_dir_all(dir);
+}
