@@ -257,11 +257,18 @@ fn build(c: &Character) -> Result<(Value, Vec<u8>), String> {
 /// Writes a binary `.glb`.
 pub fn write_glb(c: &Character) -> Result<Vec<u8>, String> {
     let (root, bin) = build(c)?;
-    let mut json = serde_json::to_vec(&root).map_err(|e| e.to_string())?;
+    glb_container(&root, &bin)
+}
+
+/// A GLB container of a glTF JSON document and its binary chunk (each padded to four bytes:
+/// the JSON with spaces, the binary chunk with zeros).
+pub fn glb_container(root: &Value, bin: &[u8]) -> Result<Vec<u8>, String> {
+    let mut json = serde_json::to_vec(root).map_err(|e| e.to_string())?;
     while json.len() % 4 != 0 {
         json.push(b' ');
     }
-    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let pad = (4 - bin.len() % 4) % 4;
+    let total = 12 + 8 + json.len() + 8 + bin.len() + pad;
     let mut out = Vec::with_capacity(total);
     out.extend_from_slice(b"glTF");
     out.extend_from_slice(&2u32.to_le_bytes());
@@ -269,10 +276,27 @@ pub fn write_glb(c: &Character) -> Result<Vec<u8>, String> {
     out.extend_from_slice(&(json.len() as u32).to_le_bytes());
     out.extend_from_slice(b"JSON");
     out.extend_from_slice(&json);
-    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(&((bin.len() + pad) as u32).to_le_bytes());
     out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&bin);
+    out.extend_from_slice(bin);
+    out.resize(total, 0);
     Ok(out)
+}
+
+/// The JSON document and binary chunk of a GLB written by [`glb_container`] (a JSON chunk
+/// first, then an optional BIN chunk); `None` if it is not one.
+pub fn glb_parts(glb: &[u8]) -> Option<(Value, Vec<u8>)> {
+    let u32_at = |at: usize| Some(u32::from_le_bytes(glb.get(at..at + 4)?.try_into().ok()?) as usize);
+    if glb.get(0..4)? != b"glTF" || glb.get(16..20)? != b"JSON" {
+        return None;
+    }
+    let json_len = u32_at(12)?;
+    let json = serde_json::from_slice(glb.get(20..20 + json_len)?).ok()?;
+    let bin = match u32_at(20 + json_len) {
+        Some(n) => glb.get(28 + json_len..28 + json_len + n)?.to_vec(),
+        None => Vec::new(),
+    };
+    Some((json, bin))
 }
 
 /// Writes a text `.gltf` whose buffer is a data URI or an external file.

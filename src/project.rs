@@ -223,6 +223,8 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir)?;
+    // What killed writers left here (never anything this tool did not write).
+    crate::safe_fs::clean_stale_staging(dir);
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())

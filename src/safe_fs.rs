@@ -445,9 +445,10 @@ pub fn staging_name(name: &str, kind: &str, pid: u32) -> String {
     format!(".{name}.{kind}-{pid}")
 }
 
-/// Removes the staging folders and files (`.NAME.writing-PID`, `.NAME.old-PID`,
-/// `.NAME.PID.tmp`) that writers of any name left in `dir` when they were killed; only those
-/// whose process is gone. Returns what was removed.
+/// Removes the staging folders and files that this tool's writers left in `dir` when they
+/// were killed: `.NAME.writing-PID` and `.NAME.old-PID` folders holding only files a bake
+/// writes, and `.NAME.PID.tmp` files of the kinds written atomically (`.json`, `.autosave`,
+/// `.png`, `.glb`); only those whose process is gone. Returns what was removed.
 pub fn clean_stale_staging(dir: &Path) -> Vec<PathBuf> {
     let mut removed = Vec::new();
     let Ok(entries) = std::fs::read_dir(dir) else {
@@ -461,8 +462,20 @@ pub fn clean_stale_staging(dir: &Path) -> Vec<PathBuf> {
         }
         let path = entry.path();
         let ok = match entry.file_type() {
-            Ok(t) if t.is_dir() => std::fs::remove_dir_all(&path).is_ok(),
-            Ok(t) if t.is_file() => std::fs::remove_file(&path).is_ok(),
+            Ok(t) if t.is_dir() && !name.ends_with(".tmp") => {
+                let ours = std::fs::read_dir(&path).is_ok_and(|list| {
+                    list.filter_map(Result::ok)
+                        .all(|e| is_bake_file_name(&e.file_name().to_string_lossy()))
+                });
+                ours && std::fs::remove_dir_all(&path).is_ok()
+            }
+            Ok(t) if t.is_file() && name.ends_with(".tmp") => {
+                let stem = name.trim_end_matches(".tmp");
+                let kind_ok = [".json.", ".autosave.", ".png.", ".glb."]
+                    .iter()
+                    .any(|k| stem.contains(k));
+                kind_ok && std::fs::remove_file(&path).is_ok()
+            }
             _ => false,
         };
         if ok {
@@ -676,10 +689,15 @@ mod tests {
             staging_name("x.pack", "writing", dead),
             staging_name("x.pack", "old", dead),
             staging_name("x.pack", "writing", mine),
+            staging_name("y", "old", dead),
         ] {
             std::fs::create_dir(d.join(&n)).unwrap();
         }
+        std::fs::write(d.join(staging_name("x.pack", "old", dead)).join("atlas_000.png"), "x").unwrap();
+        // A folder of the same name pattern holding something else is not ours.
+        std::fs::write(d.join(staging_name("y", "old", dead)).join("thesis.tex"), "x").unwrap();
         std::fs::write(d.join(format!(".project.json.{dead}.tmp")), "x").unwrap();
+        std::fs::write(d.join(format!(".notes.{dead}.tmp")), "x").unwrap();
         std::fs::create_dir(d.join(".user.writing-notanumber")).unwrap();
         std::fs::create_dir(d.join("keep")).unwrap();
         let removed = clean_stale_staging(&d);
@@ -691,7 +709,9 @@ mod tests {
         assert!(left.contains(&staging_name("x.pack", "writing", mine)));
         assert!(left.contains(&".user.writing-notanumber".to_string()));
         assert!(left.contains(&"keep".to_string()));
-        assert_eq!(left.len(), 3);
+        assert!(left.contains(&staging_name("y", "old", dead)));
+        assert!(left.contains(&format!(".notes.{dead}.tmp")));
+        assert_eq!(left.len(), 5);
         std::fs::remove_dir_all(&d).unwrap();
     }
 

@@ -10,8 +10,20 @@ use polypostor::bake::segment::auto_segment;
 use polypostor::bake::viewpoints::{Coverage, directions};
 use polypostor::gpu::*;
 
-#[test]
-fn part_tiles_cover_the_character_exactly() {
+/// The default character's parts merged, its Walk frames and `views` cameras.
+struct Setup {
+    ctx: GpuContext,
+    c: polypostor::Character,
+    seg: polypostor::bake::segment::Segmentation,
+    merged: polypostor::Character,
+    ranges: Vec<Vec<polypostor::character::Submesh>>,
+    times: Vec<f32>,
+    poses: Vec<Pose>,
+    cameras: Vec<Camera>,
+    renderer: CharacterRenderer,
+}
+
+fn setup(views: usize) -> Setup {
     let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
     let c = polypostor::default_character::generate();
     let seg = auto_segment(&c);
@@ -19,9 +31,34 @@ fn part_tiles_cover_the_character_exactly() {
     let (merged, ranges) = merge_parts(&c, &seg, &caps, &CapOverrides::default());
     let times = frame_times(c.clips[0].duration_secs, 10.0);
     let (poses, points) = sample_frames(&merged, Some(0), &times);
-    let views = directions(5, Coverage::UpperHemisphere);
-    let cameras = view_cameras(&points, &views);
+    let cameras = view_cameras(&points, &directions(views, Coverage::UpperHemisphere));
     let renderer = CharacterRenderer::new(&ctx.device);
+    Setup {
+        ctx,
+        c,
+        seg,
+        merged,
+        ranges,
+        times,
+        poses,
+        cameras,
+        renderer,
+    }
+}
+
+#[test]
+fn part_tiles_cover_the_character_exactly() {
+    let Setup {
+        ctx,
+        c,
+        seg,
+        merged,
+        ranges,
+        times,
+        poses,
+        cameras,
+        renderer,
+    } = setup(5);
     let r = 96;
     let parts = PartRenderer::new(&renderer, &ctx.device, &ctx.queue, &merged, ranges, &poses, r);
     let mut whole = GpuCharacter::new(&renderer, &ctx.device, &ctx.queue, &c);
@@ -83,16 +120,15 @@ fn part_tiles_cover_the_character_exactly() {
 /// tiles are drawn in batches through a smaller one: the images are the same.
 #[test]
 fn batched_part_renders_equal_one_pass() {
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
-    let c = polypostor::default_character::generate();
-    let seg = auto_segment(&c);
-    let caps = find_caps(&c, &seg);
-    let (merged, ranges) = merge_parts(&c, &seg, &caps, &CapOverrides::default());
-    let times = frame_times(c.clips[0].duration_secs, 10.0);
-    let (poses, points) = sample_frames(&merged, Some(0), &times);
-    let views = directions(3, Coverage::UpperHemisphere);
-    let cameras = view_cameras(&points, &views);
-    let renderer = CharacterRenderer::new(&ctx.device);
+    let Setup {
+        ctx,
+        merged,
+        ranges,
+        poses,
+        cameras,
+        renderer,
+        ..
+    } = setup(3);
     let r = 64;
     let one = PartRenderer::new(&renderer, &ctx.device, &ctx.queue, &merged, ranges.clone(), &poses, r);
     // Three tiles per side: 5 parts × 10 frames in six batches, the last one partial.

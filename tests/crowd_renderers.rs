@@ -68,7 +68,16 @@ fn every_representation_draws_close_to_the_mesh() {
     std::fs::create_dir_all(&out).unwrap();
     write_representations(&reps, &out).unwrap();
     let loaded = load_representations(&out).unwrap();
-    assert_eq!(loaded.manifest, reps.manifest);
+    // The written manifest adds the checksum of every file it wrote; the rest is the same.
+    assert_eq!(
+        loaded.manifest.checksums.len(),
+        6 * 2 + 3,
+        "{:?}",
+        loaded.manifest.checksums.keys()
+    );
+    let mut without_sums = loaded.manifest.clone();
+    without_sums.checksums.clear();
+    assert_eq!(without_sums, reps.manifest);
     assert_eq!(loaded.rigid, reps.rigid);
     let (a, b) = (loaded.np3d.as_ref().unwrap(), np3d);
     assert_eq!((&a.indices, &a.source, &a.frames), (&b.indices, &b.source, &b.frames));
@@ -254,8 +263,15 @@ fn every_representation_draws_close_to_the_mesh() {
     forged[1] = 0xff;
     std::fs::write(&np3d_path, &forged).unwrap();
     let e = load_representations(&out).unwrap_err().to_string();
+    assert!(e.contains("np3d.bin") && e.contains("checksum"), "{e}");
+    // Forged with a matching checksum, the index check still holds.
+    common::reseal(&out.join("representations.json"));
+    let e = load_representations(&out).unwrap_err().to_string();
     assert!(e.contains("index 65535"), "{e}");
+    common::reseal(&out.join("representations.json"));
     std::fs::write(&np3d_path, &bytes).unwrap();
+    common::reseal(&out.join("representations.json"));
+    assert!(load_representations(&out).is_ok());
     std::fs::write(out.join("impostor_color_003.png"), b"not a png").unwrap();
     let e = load_representations(&out).unwrap_err().to_string();
     assert!(e.contains("impostor_color_003.png"), "{e}");

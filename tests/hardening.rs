@@ -69,17 +69,6 @@ fn small_bake() -> &'static Path {
     })
 }
 
-/// A copy of a folder's plain files.
-fn copy_folder(from: &Path, to: &Path) {
-    let _ = std::fs::remove_dir_all(to);
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap().filter_map(|e| e.ok()) {
-        if e.file_type().unwrap().is_file() {
-            std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
-        }
-    }
-}
-
 fn edit_json(file: &Path, f: impl FnOnce(&mut serde_json::Value)) {
     let mut v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(file).unwrap()).unwrap();
     f(&mut v);
@@ -245,7 +234,7 @@ fn documented_settings_bake_or_are_refused_up_front() {
     refused(&o, "texture limit");
     // compare on a pack whose resolution is past the limit: the loader names it.
     let forged = dir.join("forged.pack");
-    copy_folder(pack, &forged);
+    common::copy_folder(pack, &forged);
     edit_json(&forged.join("manifest.json"), |v| v["resolution"] = 4096.into());
     let o = run_in(&dir, &["compare", forged.to_str().unwrap(), "--views", "1"]);
     refused(&o, "resolution 4096");
@@ -348,7 +337,7 @@ fn special_files_are_never_read() {
         "representations.json",
     ] {
         let d = dir.join(format!("link-{name}"));
-        copy_folder(pack, &d);
+        common::copy_folder(pack, &d);
         std::fs::remove_file(d.join(name)).unwrap();
         symlink("/dev/zero", d.join(name)).unwrap();
         let t = Instant::now();
@@ -360,7 +349,7 @@ fn special_files_are_never_read() {
     }
     // A FIFO where an atlas should be: refused at once, no hang.
     let d = dir.join("fifo");
-    copy_folder(pack, &d);
+    common::copy_folder(pack, &d);
     std::fs::remove_file(d.join("atlas_001.png")).unwrap();
     let c = std::ffi::CString::new(d.join("atlas_001.png").to_str().unwrap()).unwrap();
     // SAFETY: mkfifo on a path inside the test's own folder.
@@ -382,7 +371,7 @@ fn special_files_are_never_read() {
     let e = polypostor::project::Project::load(&proj).unwrap_err().to_string();
     assert!(e.contains("character device"), "{e}");
     let d = dir.join("charpath");
-    copy_folder(pack, &d);
+    common::copy_folder(pack, &d);
     edit_json(&d.join("representations.json"), |v| {
         v["character_path"] = dir.join("zero.glb").to_str().unwrap().into()
     });
@@ -421,7 +410,7 @@ fn many_views_naming_one_image_and_huge_textures_are_refused() {
     let pack = small_bake();
     // Every view names the first view's atlas (a few KB on disk, decoded once per view).
     let d = dir.join("one-image");
-    copy_folder(pack, &d);
+    common::copy_folder(pack, &d);
     edit_json(&d.join("manifest.json"), |v| {
         let first = v["views"][0]["atlas"].clone();
         for view in v["views"].as_array_mut().unwrap() {
@@ -432,7 +421,7 @@ fn many_views_naming_one_image_and_huge_textures_are_refused() {
     assert!(e.contains("named twice"), "{e}");
     // An atlas size far beyond what the packer makes for these parts.
     let d = dir.join("big-atlas");
-    copy_folder(pack, &d);
+    common::copy_folder(pack, &d);
     edit_json(&d.join("manifest.json"), |v| {
         v["views"][0]["atlas_size"] = serde_json::json!([8192, 8192])
     });
@@ -483,35 +472,14 @@ pub fn huge_png(side: u32) -> Vec<u8> {
 
 /// The GLB with its one embedded PNG replaced by `png` (buffer view and lengths updated).
 pub fn replace_png(glb: &[u8], png: &[u8]) -> Vec<u8> {
-    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
-    let mut json: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
-    let bin_start = 20 + json_len + 8;
-    let bin_len = u32::from_le_bytes(glb[20 + json_len..24 + json_len].try_into().unwrap()) as usize;
-    let mut bin = glb[bin_start..bin_start + bin_len].to_vec();
+    let (mut json, mut bin) = polypostor::gltf_write::glb_parts(glb).unwrap();
     let view = json["images"][0]["bufferView"].as_u64().unwrap() as usize;
     let offset = bin.len();
     bin.extend_from_slice(png);
-    while bin.len() % 4 != 0 {
-        bin.push(0);
-    }
     json["bufferViews"][view]["byteOffset"] = offset.into();
     json["bufferViews"][view]["byteLength"] = png.len().into();
     json["buffers"][0]["byteLength"] = bin.len().into();
-    let mut text = serde_json::to_vec(&json).unwrap();
-    while text.len() % 4 != 0 {
-        text.push(b' ');
-    }
-    let mut out = Vec::new();
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&((12 + 8 + text.len() + 8 + bin.len()) as u32).to_le_bytes());
-    out.extend_from_slice(&(text.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&text);
-    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&bin);
-    out
+    polypostor::gltf_write::glb_container(&json, &bin).unwrap()
 }
 
 #[test]
@@ -566,7 +534,7 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
     let pack = small_bake();
     let case = |name: &str, file: &str, f: &dyn Fn(&mut serde_json::Value)| -> String {
         let d = dir.join(name);
-        copy_folder(pack, &d);
+        common::copy_folder(pack, &d);
         edit_json(&d.join(file), f);
         polypostor::crowd::scene::CrowdAssets::load(&d, Some(&default_glb()), None)
             .err()
@@ -638,7 +606,7 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
     // The pack and the representations beside it disagree on the frame count (each
     // consistent in itself: the representations carry their own vertex data).
     let d = dir.join("frames");
-    copy_folder(pack, &d);
+    common::copy_folder(pack, &d);
     edit_json(&d.join("manifest.json"), |v| {
         v["frames"] = 9.into();
     });
@@ -659,7 +627,7 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
         "impostor_color_001.png",
     ] {
         let d = dir.join(format!("flip-{name}"));
-        copy_folder(pack, &d);
+        common::copy_folder(pack, &d);
         let mut bytes = std::fs::read(d.join(name)).unwrap();
         let k = bytes.len() / 2;
         bytes[k] ^= 0x10;
@@ -802,7 +770,7 @@ fn an_interrupted_benchmark_leaves_nothing_behind() {
     // What a killed run left: removed by the next.
     std::fs::create_dir(tmp.join("polypostor-bench-999999999")).unwrap();
     std::fs::write(tmp.join("polypostor-bench-999999999/big.bin"), [0u8; 4096]).unwrap();
-    let mut child = bin()
+    let child = bin()
         .current_dir(&tmp)
         .env("TMPDIR", &tmp)
         .args(["bench", "crowd", "--counts", "10", "--out", "bench"])

@@ -347,44 +347,6 @@ fn special(rng: &mut Rng, file: &Path) -> String {
     }
 }
 
-/// Rewrites a manifest's checksums to match the files (a forged folder whose damage the
-/// content checks must find).
-fn reseal(manifest: &Path) {
-    if !std::fs::symlink_metadata(manifest).is_ok_and(|m| m.is_file()) {
-        return;
-    }
-    let Ok(text) = std::fs::read_to_string(manifest) else {
-        return;
-    };
-    let Ok(mut v) = serde_json::from_str::<serde_json::Value>(&text) else {
-        return;
-    };
-    let dir = manifest.parent().unwrap();
-    let names: Vec<String> = v["checksums"]
-        .as_object()
-        .map(|m| m.keys().cloned().collect())
-        .unwrap_or_default();
-    for n in names {
-        // Only plain files (a link to a device or a FIFO would never end).
-        if std::fs::symlink_metadata(dir.join(&n)).is_ok_and(|m| m.is_file())
-            && let Ok(bytes) = std::fs::read(dir.join(&n))
-        {
-            v["checksums"][&n] = serde_json::json!({"bytes": bytes.len(), "crc32": crc32fast::hash(&bytes)});
-        }
-    }
-    std::fs::write(manifest, serde_json::to_string(&v).unwrap()).unwrap();
-}
-
-fn copy_folder(from: &Path, to: &Path) {
-    let _ = std::fs::remove_dir_all(to);
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap().filter_map(|e| e.ok()) {
-        if e.file_type().unwrap().is_file() {
-            std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
-        }
-    }
-}
-
 fn default_glb() -> PathBuf {
     common::repo_path(polypostor::default_character::DEFAULT_CHARACTER_PATH)
 }
@@ -418,7 +380,7 @@ fn damaged_packs_and_representation_folders() {
     let (mut loaded, mut refused) = (0, 0);
     let case_dir = dir.join("case");
     for case in 0..cases() {
-        copy_folder(&good, &case_dir);
+        common::copy_folder(&good, &case_dir);
         let mut done = Vec::new();
         for _ in 0..1 + rng.below(3) {
             let name = &files[rng.below(files.len())];
@@ -455,8 +417,8 @@ fn damaged_packs_and_representation_folders() {
         }
         // Half the time the damage is forged past the checksums.
         if rng.chance(50) {
-            reseal(&case_dir.join("manifest.json"));
-            reseal(&case_dir.join("representations.json"));
+            common::reseal(&case_dir.join("manifest.json"));
+            common::reseal(&case_dir.join("representations.json"));
             done.push("resealed".into());
         }
         let what = format!("pack case {case} ({})", done.join("; "));
@@ -566,32 +528,12 @@ fn damaged_project_files() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// The GLB's JSON chunk, damaged as JSON, in a well-formed container.
-fn with_json(glb: &[u8], json: &serde_json::Value) -> Vec<u8> {
-    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
-    let rest = &glb[20 + json_len..];
-    let mut text = serde_json::to_vec(json).unwrap();
-    while text.len() % 4 != 0 {
-        text.push(b' ');
-    }
-    let mut out = Vec::new();
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&((20 + text.len() + rest.len()) as u32).to_le_bytes());
-    out.extend_from_slice(&(text.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&text);
-    out.extend_from_slice(rest);
-    out
-}
-
 #[test]
 fn damaged_gltf_and_glb_files() {
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let dir = common::temp_dir("mutations-gltf");
     let glb = std::fs::read(default_glb()).unwrap();
-    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
-    let json: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+    let (json, glb_bin) = polypostor::gltf_write::glb_parts(&glb).unwrap();
     // A .gltf with its buffer beside it, too.
     let files = polypostor::gltf_write::write_gltf(
         &polypostor::default_character::generate(),
@@ -619,7 +561,8 @@ fn damaged_gltf_and_glb_files() {
                 for _ in 0..1 + rng.below(3) {
                     w.push(damage_json(&mut rng, &mut v));
                 }
-                std::fs::write(case_dir.join("c.glb"), with_json(&glb, &v)).unwrap();
+                let container = polypostor::gltf_write::glb_container(&v, &glb_bin).unwrap();
+                std::fs::write(case_dir.join("c.glb"), container).unwrap();
                 (format!("GLB JSON: {}", w.join("; ")), case_dir.join("c.glb"))
             }
             2 => {
