@@ -534,15 +534,25 @@ impl Prepared {
                         restart_threshold: f64::INFINITY,
                         ..options.fit
                     };
+                    // Each part's fit checks the cancel flag first, so a cancel is not held
+                    // up by a whole probe view.
                     let per_key: Vec<f64> = candidates
                         .par_iter()
                         .map(|&k| {
                             data.tiles
                                 .iter()
-                                .map(|tiles| fit_part(tiles, k, &probe, &[]).map_or(0.0, |f| f.total_cost()))
+                                .map(|tiles| {
+                                    if cancel.load(Ordering::Relaxed) {
+                                        return 0.0;
+                                    }
+                                    fit_part(tiles, k, &probe, &[]).map_or(0.0, |f| f.total_cost())
+                                })
                                 .sum()
                         })
                         .collect();
+                    if cancel.load(Ordering::Relaxed) {
+                        return Err(BakeError::Cancelled);
+                    }
                     for (t, c) in totals.iter_mut().zip(per_key) {
                         *t += c;
                     }
