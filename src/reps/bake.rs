@@ -62,6 +62,30 @@ pub fn bake_representations(
     let cameras = view_cameras(&points, &dirs);
     let r = options.resolution;
     let set = options.set;
+    // The NP3D mesh first: if it cannot be made, say so before the renders.
+    let np3d_mesh = if set.np3d {
+        progress(Progress {
+            stage: "np3d",
+            done: 0,
+            total: 1,
+        });
+        let indices = simplify(character, &points[options.key_frame], options.np3d_triangles);
+        if indices.len() < 3 {
+            return Err(BakeError::Limit(crate::limits::LimitError(
+                "the character's mesh does not simplify to any NP3D triangle (is it degenerate at the key frame?)"
+                    .into(),
+            )));
+        }
+        let (kept, local) = compact(&indices).ok_or_else(|| {
+            BakeError::Limit(crate::limits::LimitError(format!(
+                "the NP3D mesh keeps more than {} vertices (16-bit indices)",
+                u16::MAX
+            )))
+        })?;
+        Some((kept, local))
+    } else {
+        None
+    };
 
     // Whole-character renders: every frame of every view for impostors, the key frame for
     // NP3D.
@@ -150,23 +174,12 @@ pub fn bake_representations(
         }
     }
 
-    let np3d = if set.np3d {
-        progress(Progress {
-            stage: "np3d",
-            done: 0,
-            total: 1,
-        });
-        let indices = simplify(character, &points[options.key_frame], options.np3d_triangles);
-        let (kept, local) = compact(&indices);
-        Some(Np3dData {
-            indices: local,
-            source: kept.clone(),
-            frames: frame_vertices(character, &poses, Some(&kept)),
-            images: np3d_images,
-        })
-    } else {
-        None
-    };
+    let np3d = np3d_mesh.map(|(kept, local)| Np3dData {
+        indices: local,
+        frames: frame_vertices(character, &poses, Some(&kept)),
+        source: kept,
+        images: np3d_images,
+    });
     let rigid = set.rigid.then(|| frame_vertices(character, &poses, None));
 
     let columns = (cameras.len() as f64).sqrt().ceil().max(1.0) as u32;
@@ -292,16 +305,18 @@ fn frame_vertices(character: &Character, poses: &[Pose], only: Option<&[u32]>) -
 
 /// The mesh simplified to about `triangles` triangles at the pose `positions` (indices into
 /// the character's vertices). Vertices split only by their attributes (UV seams) are welded
-/// first, so seams do not stop the simplification; where the quadric simplifier cannot reach
-/// the target within its error bound, the sloppy (clustering) one finishes the job.
+/// first (where they coincide at that pose, to a millionth of its size whatever the units),
+/// so seams do not stop the simplification; where the quadric simplifier cannot reach the
+/// target within its error bound, the sloppy (clustering) one finishes the job, and if that
+/// leaves nothing the welded mesh is kept whole.
 pub fn simplify(character: &Character, positions: &[Vec3], triangles: usize) -> Vec<u32> {
     let n = positions.len().min(character.vertices.len());
     let (lo, hi) = crate::character::bounds(positions.iter().copied());
-    let cell = ((hi - lo).max_element() * 1e-5).max(1e-9);
+    let cell = ((hi - lo).max_element() * 1e-6).max(f32::MIN_POSITIVE);
     let mut first: rustc_hash::FxHashMap<[i64; 3], u32> = Default::default();
     let weld: Vec<u32> = (0..n)
         .map(|i| {
-            let q = (character.vertices[i].position / cell).round().as_i64vec3().to_array();
+            let q = ((positions[i] - lo) / cell).round().as_i64vec3().to_array();
             *first.entry(q).or_insert(i as u32)
         })
         .collect();
@@ -319,26 +334,37 @@ pub fn simplify(character: &Character, positions: &[Vec3], triangles: usize) -> 
         return welded;
     }
     let mut out = meshopt::simplify_decoder(&welded, &pos, target, 1.0, meshopt::SimplifyOptions::None, None);
-    if out.len() > target + target / 10 {
+    if out.len() > target + target / 10 || out.is_empty() {
         out = meshopt::simplify_sloppy_decoder(&welded, &pos, target, 1.0, None);
+    }
+    if out.is_empty() {
+        out = welded;
     }
     out
 }
 
-/// The vertices `indices` use (in first-use order) and the indices renumbered into them.
-pub fn compact(indices: &[u32]) -> (Vec<u32>, Vec<u16>) {
+/// The vertices `indices` use (in first-use order) and the indices renumbered into them;
+/// `None` if they use more than 65,535 vertices (what the 16-bit format holds).
+pub fn compact(indices: &[u32]) -> Option<(Vec<u32>, Vec<u16>)> {
     let mut map: rustc_hash::FxHashMap<u32, u16> = Default::default();
     let mut kept = Vec::new();
-    let local = indices
-        .iter()
-        .map(|&i| {
-            *map.entry(i).or_insert_with(|| {
+    let mut local = Vec::with_capacity(indices.len());
+    for &i in indices {
+        let next = kept.len();
+        let k = match map.entry(i) {
+            std::collections::hash_map::Entry::Occupied(e) => *e.get(),
+            std::collections::hash_map::Entry::Vacant(e) => {
+                if next >= usize::from(u16::MAX) {
+                    return None;
+                }
+                let k = next as u16;
                 kept.push(i);
-                (kept.len() - 1) as u16
-            })
-        })
-        .collect();
-    (kept, local)
+                *e.insert(k)
+            }
+        };
+        local.push(k);
+    }
+    Some((kept, local))
 }
 
 #[cfg(test)]
@@ -380,6 +406,27 @@ mod tests {
         }
     }
 
+    /// The same mesh in other units (a node scaled in the file scales the skinned positions,
+    /// not the bind pose) simplifies the same way: welding follows the posed positions.
+    #[test]
+    fn simplification_does_not_depend_on_units() {
+        let c = crate::default_character::generate();
+        let pos: Vec<Vec3> = c.vertices.iter().map(|v| v.position).collect();
+        let base = simplify(&c, &pos, 400).len() / 3;
+        for scale in [1e-3f32, 100.0, 1000.0, 1e5] {
+            let scaled: Vec<Vec3> = pos.iter().map(|p| *p * scale + Vec3::splat(3.0 * scale)).collect();
+            let n = simplify(&c, &scaled, 400).len() / 3;
+            assert!(
+                n.abs_diff(base) <= base / 10,
+                "scale {scale}: {n} triangles, {base} at scale 1"
+            );
+        }
+        // Too many vertices for 16-bit indices is said, not wrapped.
+        let many: Vec<u32> = (0..70_000u32).collect();
+        assert!(compact(&many).is_none());
+        assert_eq!(compact(&[5, 9, 5]).unwrap(), (vec![5, 9], vec![0, 1, 0]));
+    }
+
     #[test]
     fn simplified_mesh_is_near_the_target_and_stays_on_the_surface() {
         let c = crate::default_character::generate();
@@ -392,7 +439,7 @@ mod tests {
         let (lo, hi) = crate::character::bounds(pos.iter().copied());
         let (klo, khi) = crate::character::bounds(idx.iter().map(|&i| pos[i as usize]));
         assert!((hi - lo).y * 0.9 < (khi - klo).y, "height kept");
-        let (kept, local) = compact(&idx);
+        let (kept, local) = compact(&idx).unwrap();
         assert_eq!(local.len(), idx.len());
         for (a, b) in idx.iter().zip(&local) {
             assert_eq!(*a, kept[*b as usize]);
