@@ -1063,10 +1063,10 @@ impl EditorApp {
             if ui.button(label).on_hover_text("Space").clicked() {
                 commands.push(Command::SetPlaying(!self.playback.playing));
             }
-            if ui.button("⏮").on_hover_text("Previous frame (←)").clicked() {
+            if ui.button("⏮").on_hover_text("Previous frame (Left arrow)").clicked() {
                 commands.push(Command::StepFrames(-1));
             }
-            if ui.button("⏭").on_hover_text("Next frame (→)").clicked() {
+            if ui.button("⏭").on_hover_text("Next frame (Right arrow)").clicked() {
                 commands.push(Command::StepFrames(1));
             }
             let mut t = self.playback.time_secs;
@@ -1255,7 +1255,7 @@ impl EditorApp {
             let text = if self.loading.is_some() {
                 "Loading…"
             } else {
-                "Drop a .glb/.gltf here, or use File ▸ New from glTF"
+                "Drop a .glb/.gltf here, or use File > New from glTF"
             };
             ui.painter().text(
                 rect.center(),
@@ -1522,7 +1522,7 @@ impl EditorApp {
                             ("Zoom", "mouse wheel"),
                             ("Frame character", "F, or double-click"),
                             ("Play / pause", "Space"),
-                            ("Step frame", "← / →"),
+                            ("Step frame", "Left / Right arrow"),
                             ("Go to start", "Home"),
                             ("New / Open / Save", "Ctrl+N / Ctrl+O / Ctrl+S"),
                         ] {

@@ -317,7 +317,7 @@ impl CrowdPanel {
     pub fn controls(&mut self, ui: &mut egui::Ui, ui_fps: f32) {
         ui.heading("Crowd preview");
         let Some((_, assets)) = &self.assets else {
-            ui.label("Bake the open character for the crowd (Crowd ▸ Bake for crowd preview), or open a baked folder.");
+            ui.label("Bake the open character for the crowd (Crowd > Bake for crowd preview), or open a baked folder.");
             return;
         };
         ui.label(
@@ -452,7 +452,7 @@ impl CrowdPanel {
             ui.painter().text(
                 rect.center(),
                 egui::Align2::CENTER_CENTER,
-                "No crowd yet: Crowd ▸ Bake for crowd preview",
+                "No crowd yet: Crowd > Bake for crowd preview",
                 egui::FontId::proportional(18.0),
                 ui.visuals().weak_text_color(),
             );

@@ -1,4 +1,4 @@
-//! The export dialog (File ▸ Export…, Ctrl+E): which representations, how many views, the
+//! The export dialog (File > Export…, Ctrl+E): which representations, how many views, the
 //! resolution, frame rate and texture compression, with a memory estimate before anything
 //! is written. Exporting bakes in the background (progress and cancel in the status bar)
 //! and opens the crowd preview on the new folder.
