@@ -33,6 +33,7 @@ pub mod gltf_write;
 pub mod gpu;
 pub mod import;
 pub mod limits;
+pub mod metrics;
 pub mod pack;
 pub mod plot;
 pub mod project;
