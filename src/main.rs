@@ -658,12 +658,13 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     }
     let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json"))?)?;
     eprintln!(
-        "wrote {} in {:.1} s: key frame {}, mean PSNR {:.2} dB (worst {:.2}), {} KiB vs {} KiB for impostors ({:.1}×), {:.0} triangles per view{}",
+        "wrote {} in {:.1} s: key frame {}, mean PSNR {:.2} dB (worst {:.2}), SSIM {:.3}, {} KiB vs {} KiB for impostors ({:.1}×), {:.0} triangles per view{}",
         out.display(),
         started.elapsed().as_secs_f64(),
         b.key_frame,
         report["mean_psnr"].as_f64().unwrap_or(0.0),
         report["worst_psnr"].as_f64().unwrap_or(0.0),
+        report["mean_ssim"].as_f64().unwrap_or(0.0),
         stats.pack_bytes / 1024,
         report["impostor_bytes"].as_u64().unwrap_or(0) / 1024,
         report["memory_ratio"].as_f64().unwrap_or(0.0),
@@ -695,7 +696,7 @@ fn compare_cmd(
 ) -> anyhow::Result<()> {
     use polypostor::reps::compare;
     let out = out.unwrap_or_else(|| dir.join("compare"));
-    check_output_files(&out, &["memory.png", "error.png", "compare.json"])?;
+    check_output_files(&out, &["memory.png", "error.png", "quality.png", "compare.json"])?;
     let assets = polypostor::crowd::scene::CrowdAssets::load(dir, character, None).map_err(|e| anyhow::anyhow!(e))?;
     let memory = compare::memory(&assets);
     let ctx = polypostor::gpu::GpuContext::from_env()?;
@@ -707,7 +708,15 @@ fn compare_cmd(
     }
     let errors = compare::errors(&ctx, &assets, &chosen, &|d, _| bar.set_position(d as u64))?;
     bar.finish_and_clear();
+    // The quality sheet: the Polypostor's worst views and a spread of others.
+    let rows = polypostor::reps::quality::sheet_rows(&errors, 3, 3);
+    let (sheet, _) = {
+        let mut renders = compare::Renders::new(&ctx, &assets)?;
+        let title = format!("{}: PSNR / SSIM against the real mesh", assets.character.name);
+        polypostor::reps::quality::render_sheet(&mut renders, &title, &rows, assets.resolution().min(256))?
+    };
     std::fs::create_dir_all(&out)?;
+    polypostor::safe_fs::write_png(&out.join("quality.png"), &sheet).map_err(anyhow::Error::msg)?;
     let names: Vec<String> = memory.iter().map(|m| m.representation.clone()).collect();
     let mb = |f: &dyn Fn(&compare::MemoryRow) -> u64| memory.iter().map(|m| f(m) as f64 / 1e6).collect::<Vec<f64>>();
     polypostor::plot::bar_chart(
@@ -752,7 +761,12 @@ fn compare_cmd(
         "views_baked": total_views,
         "memory": memory,
         "error": errors,
-        "plots": [out.join("memory.png").display().to_string(), out.join("error.png").display().to_string()],
+        "plots": [
+            out.join("memory.png").display().to_string(),
+            out.join("error.png").display().to_string(),
+            out.join("quality.png").display().to_string(),
+        ],
+        "quality_sheet_rows": rows.iter().map(|r| serde_json::json!({"view": r.view, "time_frames": r.time, "why": r.why})).collect::<Vec<_>>(),
     });
     polypostor::safe_fs::write_json(&out.join("compare.json"), report.clone()).map_err(anyhow::Error::msg)?;
     if json {
@@ -777,17 +791,31 @@ fn compare_cmd(
         );
     }
     println!(
-        "error against the real mesh, mean PSNR over {} views (higher is better)",
+        "error against the real mesh over {} views: mean PSNR and SSIM (higher is better)",
         chosen.len()
     );
-    println!("  {:<11} {:>10} {:>12} {:>10}", "", "all", "on frames", "between");
+    println!(
+        "  {:<11} {:>10} {:>12} {:>10}   {:>6} {:>9} {:>8}   worst view",
+        "", "all", "on frames", "between", "SSIM", "on frames", "between"
+    );
     for e in &errors {
         println!(
-            "  {:<11} {:>8.2} dB {:>9.2} dB {:>7.2} dB",
-            e.representation, e.mean_psnr, e.mean_psnr_on_frames, e.mean_psnr_between_frames
+            "  {:<11} {:>7.2} dB {:>9.2} dB {:>7.2} dB   {:>6.3} {:>9.3} {:>8.3}   {} ({:.1} dB)",
+            e.representation,
+            e.mean_psnr,
+            e.mean_psnr_on_frames,
+            e.mean_psnr_between_frames,
+            e.mean_ssim,
+            e.mean_ssim_on_frames,
+            e.mean_ssim_between_frames,
+            e.worst_view,
+            e.worst_view_psnr
         );
     }
-    println!("wrote memory.png, error.png and compare.json in {}", out.display());
+    println!(
+        "wrote memory.png, error.png, quality.png and compare.json in {}",
+        out.display()
+    );
     Ok(())
 }
 

@@ -91,7 +91,10 @@ fn blur(plane: &[f64], w: usize, h: usize, taps: &[f64], tmp: &mut Vec<f64>, out
 /// If the slices do not hold `w * h * channels` values.
 pub fn ssim_map(a: &[f32], b: &[f32], w: usize, h: usize, channels: usize) -> Vec<f64> {
     let n = w * h;
-    assert!(a.len() == n * channels && b.len() == n * channels, "ssim_map: image sizes disagree");
+    assert!(
+        a.len() == n * channels && b.len() == n * channels,
+        "ssim_map: image sizes disagree"
+    );
     let taps = gaussian_taps();
     let mut map = vec![0.0f64; n];
     if n == 0 || channels == 0 {
@@ -109,7 +112,10 @@ pub fn ssim_map(a: &[f32], b: &[f32], w: usize, h: usize, channels: usize) -> Ve
         blur(&plane, w, h, &taps, &mut tmp, &mut sxx);
         plane.iter_mut().zip(&y).for_each(|(p, v)| *p = v * v);
         blur(&plane, w, h, &taps, &mut tmp, &mut syy);
-        plane.iter_mut().zip(x.iter().zip(&y)).for_each(|(p, (u, v))| *p = u * v);
+        plane
+            .iter_mut()
+            .zip(x.iter().zip(&y))
+            .for_each(|(p, (u, v))| *p = u * v);
         blur(&plane, w, h, &taps, &mut tmp, &mut sxy);
         for i in 0..n {
             let (ux, uy) = (mx[i], my[i]);
@@ -135,6 +141,50 @@ pub fn masked_mean(map: &[f64], mask: &[bool]) -> Option<f64> {
     (n > 0).then(|| sum / n as f64)
 }
 
+/// Mean SSIM over `mask` of two `w × h` RGB images (3 values a pixel, 0..1): the map is
+/// computed only over the mask's bounding box grown by the window radius (clamped to the
+/// image), which gives exactly the full map's values on the mask (every window around a
+/// masked pixel lies inside that box, and where the box meets the image border the mirror
+/// is the same). 1 when the mask is empty.
+pub fn masked_ssim(a: &[f32], b: &[f32], mask: &[bool], w: usize, h: usize) -> f64 {
+    assert!(
+        a.len() == w * h * 3 && b.len() == w * h * 3 && mask.len() == w * h,
+        "masked_ssim: sizes disagree"
+    );
+    let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            if mask[y * w + x] {
+                x0 = x0.min(x);
+                y0 = y0.min(y);
+                x1 = x1.max(x + 1);
+                y1 = y1.max(y + 1);
+            }
+        }
+    }
+    if x0 == usize::MAX {
+        return 1.0;
+    }
+    let r = SSIM_RADIUS;
+    let (x0, y0, x1, y1) = (
+        x0.saturating_sub(r),
+        y0.saturating_sub(r),
+        (x1 + r).min(w),
+        (y1 + r).min(h),
+    );
+    let (cw, ch) = (x1 - x0, y1 - y0);
+    let crop = |img: &[f32]| -> Vec<f32> {
+        (y0..y1)
+            .flat_map(|y| img[(y * w + x0) * 3..(y * w + x1) * 3].iter().copied())
+            .collect()
+    };
+    let m: Vec<bool> = (y0..y1)
+        .flat_map(|y| mask[y * w + x0..y * w + x1].iter().copied())
+        .collect();
+    let map = ssim_map(&crop(a), &crop(b), cw, ch, 3);
+    masked_mean(&map, &m).unwrap_or(1.0)
+}
+
 /// SSIM of two RGBA8 images as the bake and `compare` measure them: colour × coverage (a
 /// pixel is covered when its alpha is over half), mean over the pixels either image covers.
 /// 1 when neither covers anything; `None` when the sizes differ.
@@ -158,24 +208,20 @@ pub fn ssim_rgba8(a: &image::RgbaImage, b: &image::RgbaImage) -> Option<f64> {
     let (va, ma) = rgb(a);
     let (vb, mb) = rgb(b);
     let mask: Vec<bool> = ma.iter().zip(&mb).map(|(x, y)| *x || *y).collect();
-    if !mask.iter().any(|&m| m) {
-        return Some(1.0);
-    }
-    let map = ssim_map(&va, &vb, w, h, 3);
-    masked_mean(&map, &mask)
+    Some(masked_ssim(&va, &vb, &mask, w, h))
 }
 
-/// SSIM of two square RGBA float canvases (colour in 0..1 un-premultiplied, alpha =
-/// coverage), as [`crate::bake::raster::Canvas::rmse`] measures: colour × coverage, mean over
-/// the pixels either covers (alpha ≥ ½). 1 when neither covers anything.
+/// SSIM of two RGBA float images (colour in 0..1 un-premultiplied, alpha = coverage), as
+/// [`crate::bake::raster::Canvas::rmse`] measures: colour × coverage, mean over the pixels
+/// either covers (alpha ≥ ½). 1 when neither covers anything.
 pub fn ssim_rgba_f32(a: &[[f32; 4]], b: &[[f32; 4]], w: usize, h: usize) -> f64 {
-    let flat = |px: &[[f32; 4]]| -> Vec<f32> { px.iter().flat_map(|p| [p[0] * p[3], p[1] * p[3], p[2] * p[3]]).collect() };
+    let flat = |px: &[[f32; 4]]| -> Vec<f32> {
+        px.iter()
+            .flat_map(|p| [p[0] * p[3], p[1] * p[3], p[2] * p[3]])
+            .collect()
+    };
     let mask: Vec<bool> = a.iter().zip(b).map(|(p, q)| p[3] >= 0.5 || q[3] >= 0.5).collect();
-    if !mask.iter().any(|&m| m) {
-        return 1.0;
-    }
-    let map = ssim_map(&flat(a), &flat(b), w, h, 3);
-    masked_mean(&map, &mask).unwrap_or(1.0)
+    masked_ssim(&flat(a), &flat(b), &mask, w, h)
 }
 
 #[cfg(test)]
@@ -246,5 +292,30 @@ mod tests {
         let masked = ssim_rgba8(&a, &b).unwrap();
         assert!(masked < 0.7, "{masked}");
         assert_eq!(ssim_rgba8(&a, &image::RgbaImage::new(3, 3)), None);
+    }
+
+    #[test]
+    fn the_cropped_computation_equals_the_full_map() {
+        let (w, h) = (37, 29);
+        let a = pattern(w, h, 3);
+        let b = pattern(w, h, 4);
+        let full = ssim_map(&a, &b, w, h, 3);
+        // Masks in the middle, touching each border, a single pixel, everything.
+        let boxes = [
+            (10, 8, 20, 15),
+            (0, 0, 6, 4),
+            (30, 20, 37, 29),
+            (18, 14, 19, 15),
+            (0, 0, 37, 29),
+        ];
+        for (x0, y0, x1, y1) in boxes {
+            let mask: Vec<bool> = (0..w * h)
+                .map(|i| (x0..x1).contains(&(i % w)) && (y0..y1).contains(&(i / w)))
+                .collect();
+            let fast = masked_ssim(&a, &b, &mask, w, h);
+            let slow = masked_mean(&full, &mask).unwrap();
+            assert!((fast - slow).abs() < 1e-12, "box {x0},{y0}-{x1},{y1}: {fast} vs {slow}");
+        }
+        assert_eq!(masked_ssim(&a, &b, &vec![false; w * h], w, h), 1.0);
     }
 }

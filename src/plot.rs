@@ -272,6 +272,36 @@ fn ui_font() -> Option<&'static ab_glyph::FontRef<'static>> {
         .as_ref()
 }
 
+/// Draws `text` in one line on `img` with its top-left corner at (`x`, `y`), `size` pixels
+/// high, in `rgb` blended over what is there (the bundled font; clipped at the image's
+/// edges). Returns the text's width in pixels (0 when the font cannot be read).
+pub fn draw_label(img: &mut image::RgbaImage, x: i32, y: i32, size: f32, text: &str, rgb: [u8; 3]) -> f32 {
+    use ab_glyph::Font;
+    let Some(font) = ui_font() else { return 0.0 };
+    let (glyphs, w, _) = layout_line(font, size as f64, text);
+    let (iw, ih) = (img.width() as i32, img.height() as i32);
+    for glyph in glyphs {
+        let Some(outline) = font.outline_glyph(glyph) else {
+            continue;
+        };
+        let b = outline.px_bounds();
+        let (x0, y0) = (x + b.min.x.round() as i32, y + b.min.y.round() as i32);
+        outline.draw(|gx, gy, coverage| {
+            let (px, py) = (x0 + gx as i32, y0 + gy as i32);
+            if px < 0 || py < 0 || px >= iw || py >= ih {
+                return;
+            }
+            let a = coverage.clamp(0.0, 1.0);
+            let p = img.get_pixel_mut(px as u32, py as u32);
+            for k in 0..3 {
+                p[k] = (p[k] as f32 * (1.0 - a) + rgb[k] as f32 * a).round() as u8;
+            }
+            p[3] = p[3].max((a * 255.0) as u8);
+        });
+    }
+    w
+}
+
 /// Glyphs of `text` laid out on one line at pixel `size`, the line's top at y = 0, with the
 /// line's width and height.
 fn layout_line(font: &ab_glyph::FontRef<'static>, size: f64, text: &str) -> (Vec<ab_glyph::Glyph>, f32, f32) {

@@ -118,9 +118,21 @@ fn smallest_image_with_noise_added() {
     let (w, h) = (13, 11);
     let a = smooth(w, h, 0.0);
     let noise = pattern(w, h, 5);
-    let b: Vec<f32> = a.iter().zip(&noise).map(|(x, n)| (x + 0.1 * (n - 0.5)).clamp(0.0, 1.0)).collect();
+    let b: Vec<f32> = a
+        .iter()
+        .zip(&noise)
+        .map(|(x, n)| (x + 0.1 * (n - 0.5)).clamp(0.0, 1.0))
+        .collect();
     let mask = vec![true; w * h];
-    check("small13x11", &a, &b, w, h, &mask, [0.9685383719, 0.9629075622, 0.9772282838]);
+    check(
+        "small13x11",
+        &a,
+        &b,
+        w,
+        h,
+        &mask,
+        [0.9685383719, 0.9629075622, 0.9772282838],
+    );
 }
 
 #[test]

@@ -157,6 +157,7 @@ mod tests {
             fit: Some(fit),
             problem: None,
             psnr: vec![],
+            ssim: vec![],
             key_color: image::RgbaImage::new(1, 1),
             key_normal: image::RgbaImage::new(1, 1),
         };

@@ -126,6 +126,8 @@ pub struct PartResult {
     pub problem: Option<String>,
     /// PSNR of the part's polypostor against its own render, per frame.
     pub psnr: Vec<f64>,
+    /// SSIM of the same ([`crate::metrics`]), per frame.
+    pub ssim: Vec<f64>,
     /// The key-frame colour and normal images of the part (RGBA8, `resolution²`).
     pub key_color: image::RgbaImage,
     pub key_normal: image::RgbaImage,
@@ -148,6 +150,8 @@ pub struct ViewResult {
     /// The same for the key-frame polygons left still (what fitting gains over a static
     /// textured polygon).
     pub psnr_static: Vec<f64>,
+    /// Composited character SSIM per frame ([`crate::metrics`]).
+    pub ssim: Vec<f64>,
     /// Every part's colour image per frame, when [`BakeOptions::keep_frame_images`] is set.
     pub frame_colors: Vec<Vec<image::RgbaImage>>,
 }
@@ -323,7 +327,7 @@ pub fn fit_view_part(
         Ok(f) => (Some(f), None),
         Err(e) => (None, Some(e.to_string())),
     };
-    let psnr_per_frame = (0..frames)
+    let (psnr_per_frame, ssim_per_frame) = (0..frames)
         .map(|f| match &fit {
             Some(fit) => {
                 let mut c = Canvas::new(tiles[f].size);
@@ -332,34 +336,53 @@ pub fn fit_view_part(
                 for t in &fit.triangles {
                     c.draw_textured(t.map(|i| pos[i]), t.map(|i| uv[i]), &tiles[key]);
                 }
-                psnr(c.rmse(&tile_canvas(&tiles[f])).0)
+                let truth = tile_canvas(&tiles[f]);
+                (psnr(c.rmse(&truth).0), c.ssim(&truth))
             }
-            None => 0.0,
+            None => (0.0, 0.0),
         })
-        .collect();
+        .unzip();
     PartResult {
         fit,
         problem,
         psnr: psnr_per_frame,
+        ssim: ssim_per_frame,
         key_color: images.tile(&images.color, p, key),
         key_normal: images.tile(&images.normal, p, key),
     }
 }
 
-/// The composite's PSNR per frame against the ground truth, with the polygons moving and
-/// left still at the key frame.
-pub fn composite_psnr(data: &ViewData, parts: &[PartResult], order: &[usize], key: usize) -> (Vec<f64>, Vec<f64>) {
+/// The composite's error per frame against the ground truth.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CompositeError {
+    /// PSNR with the polygons moving (dB).
+    pub psnr: Vec<f64>,
+    /// PSNR with the polygons left still at the key frame (what fitting gains).
+    pub psnr_static: Vec<f64>,
+    /// SSIM with the polygons moving.
+    pub ssim: Vec<f64>,
+}
+
+/// The composite's PSNR and SSIM per frame against the ground truth, with the polygons
+/// moving, and its PSNR left still at the key frame. Frames are measured in parallel.
+pub fn composite_error(data: &ViewData, parts: &[PartResult], order: &[usize], key: usize) -> CompositeError {
     let images = &data.depth_order_tiles;
     let frames = data.tiles.first().map_or(0, |t| t.len());
     let key_tiles: Vec<PartTile> = data.tiles.iter().map(|t| t[key].clone()).collect();
     let still = render_polypostor(parts, &key_tiles, order, key, images.resolution);
-    (0..frames)
+    let per_frame: Vec<(f64, f64, f64)> = (0..frames)
+        .into_par_iter()
         .map(|f| {
             let gt = ground_truth(images, f);
             let poly = render_polypostor(parts, &key_tiles, order, f, images.resolution);
-            (psnr(poly.rmse(&gt).0), psnr(still.rmse(&gt).0))
+            (psnr(poly.rmse(&gt).0), psnr(still.rmse(&gt).0), poly.ssim(&gt))
         })
-        .unzip()
+        .collect();
+    CompositeError {
+        psnr: per_frame.iter().map(|e| e.0).collect(),
+        psnr_static: per_frame.iter().map(|e| e.1).collect(),
+        ssim: per_frame.iter().map(|e| e.2).collect(),
+    }
 }
 
 /// The drawing order of a view: the override when it is a valid permutation, else the
@@ -371,7 +394,90 @@ pub fn view_order(hidden: &[Vec<f64>], ov: Option<&ViewOverride>) -> Vec<usize> 
     }
 }
 
-/// Fits a whole view: every part (with the view's pins), the order, the composite error.
+/// The key frame a view is fitted with: its override when it is a frame of the bake, else
+/// the bake's key frame (clamped to the frames).
+pub fn view_key(ov: Option<&ViewOverride>, bake_key: usize, frames: usize) -> usize {
+    ov.and_then(|o| o.key_frame)
+        .filter(|&k| k < frames)
+        .unwrap_or(bake_key.min(frames.saturating_sub(1)))
+}
+
+/// A view fitted before, whose parts a re-fit may keep.
+#[derive(Clone, Copy)]
+pub struct PreviousFit<'a> {
+    pub key: usize,
+    pub parts: &'a [PartResult],
+    /// The corrections it was fitted with.
+    pub ov: &'a ViewOverride,
+}
+
+/// One view fitted by [`refit_view`].
+#[derive(Clone, Debug)]
+pub struct ViewFit {
+    pub key: usize,
+    pub parts: Vec<PartResult>,
+    /// The parts fitted now (the others were kept from the previous fit).
+    pub refit: Vec<usize>,
+    pub order: Vec<usize>,
+    pub error: CompositeError,
+}
+
+/// Fits one view, or re-fits it after its corrections changed: the one way the bake, the
+/// incremental re-bake and the editor's inspector fit a view, so the inspector shows exactly
+/// what a bake writes.
+///
+/// The key frame is [`view_key`]. Without `prev` every part is fitted. With it, every part is
+/// fitted again when the key frame differs from the previous one, else only the parts whose
+/// pins changed; the others are kept. The order is the override when valid, else computed
+/// ([`view_order`]); the composite error is measured last.
+pub fn refit_view(
+    data: &ViewData,
+    bake_key: usize,
+    options: &PartFitOptions,
+    ov: Option<&ViewOverride>,
+    prev: Option<PreviousFit<'_>>,
+) -> ViewFit {
+    let parts_n = data.tiles.len();
+    let frames = data.tiles.first().map_or(0, |t| t.len());
+    let key = view_key(ov, bake_key, frames);
+    let no_pins = std::collections::BTreeMap::new();
+    let pins_now = ov.map_or(&no_pins, |o| &o.pins);
+    let refit: Vec<usize> = match prev {
+        Some(prev) if prev.key == key && prev.parts.len() == parts_n => (0..parts_n)
+            .filter(|p| pins_now.get(p) != prev.ov.pins.get(p))
+            .collect(),
+        _ => (0..parts_n).collect(),
+    };
+    let fitted: Vec<PartResult> = refit
+        .par_iter()
+        .map(|&p| {
+            let pins = ov.map_or_else(Vec::new, |o| o.pins_per_frame(p, frames));
+            fit_view_part(data, p, key, options, &pins)
+        })
+        .collect();
+    let mut parts: Vec<Option<PartResult>> = match prev {
+        Some(prev) if prev.parts.len() == parts_n => prev.parts.iter().cloned().map(Some).collect(),
+        _ => vec![None; parts_n],
+    };
+    for (&p, r) in refit.iter().zip(fitted) {
+        parts[p] = Some(r);
+    }
+    let parts: Vec<PartResult> = parts
+        .into_iter()
+        .map(|p| p.expect("every part fitted or kept"))
+        .collect();
+    let order = view_order(&data.hidden, ov);
+    let error = composite_error(data, &parts, &order, key);
+    ViewFit {
+        key,
+        parts,
+        refit,
+        order,
+        error,
+    }
+}
+
+/// Fits a whole view ([`refit_view`] from scratch) and keeps what the bake writes.
 pub fn fit_view(
     direction: Vec3,
     camera: Camera,
@@ -381,21 +487,11 @@ pub fn fit_view(
     keep: bool,
     ov: Option<&ViewOverride>,
 ) -> ViewResult {
-    let parts_n = data.tiles.len();
+    let fit = refit_view(&data, key, options, ov, None);
     let frames = data.tiles.first().map_or(0, |t| t.len());
-    let key = ov.and_then(|o| o.key_frame).filter(|&k| k < frames).unwrap_or(key);
-    let parts: Vec<PartResult> = (0..parts_n)
-        .into_par_iter()
-        .map(|p| {
-            let pins = ov.map_or_else(Vec::new, |o| o.pins_per_frame(p, frames));
-            fit_view_part(&data, p, key, options, &pins)
-        })
-        .collect();
-    let order = view_order(&data.hidden, ov);
-    let (psnr_frames, psnr_static) = composite_psnr(&data, &parts, &order, key);
     let images = &data.depth_order_tiles;
     let frame_colors = if keep {
-        (0..parts_n)
+        (0..data.tiles.len())
             .map(|p| (0..frames).map(|f| images.tile(&images.color, p, f)).collect())
             .collect()
     } else {
@@ -404,12 +500,13 @@ pub fn fit_view(
     ViewResult {
         direction,
         camera,
-        key_frame: key,
-        parts,
+        key_frame: fit.key,
+        parts: fit.parts,
         hidden: data.hidden,
-        order,
-        psnr: psnr_frames,
-        psnr_static,
+        order: fit.order,
+        psnr: fit.error.psnr,
+        psnr_static: fit.error.psnr_static,
+        ssim: fit.error.ssim,
         frame_colors,
     }
 }
@@ -738,30 +835,23 @@ pub fn rebake(
             let old = prev.options.overrides.view(basis, v).cloned().unwrap_or_default();
             let new = options.overrides.view(basis, v).cloned().unwrap_or_default();
             let data = prepared.render(ctx, v)?;
-            let frames = prepared.times.len();
-            let key = new.key_frame.filter(|&k| k < frames).unwrap_or(prev.key_frame);
-            let redo: Vec<usize> = (0..data.tiles.len())
-                .filter(|&p| key != prev.views[v].key_frame || old.pins.get(&p) != new.pins.get(&p))
-                .collect();
-            reuse.parts_refit += redo.len();
-            let refit: Vec<(usize, PartResult)> = redo
-                .par_iter()
-                .map(|&p| {
-                    (
-                        p,
-                        fit_view_part(&data, p, key, &options.fit, &new.pins_per_frame(p, frames)),
-                    )
-                })
-                .collect();
+            let fit = {
+                let view = &prev.views[v];
+                let prev_fit = PreviousFit {
+                    key: view.key_frame,
+                    parts: &view.parts,
+                    ov: &old,
+                };
+                refit_view(&data, prev.key_frame, &options.fit, Some(&new), Some(prev_fit))
+            };
+            reuse.parts_refit += fit.refit.len();
             let view = &mut views[v];
-            for (p, r) in refit {
-                view.parts[p] = r;
-            }
-            view.key_frame = key;
-            view.order = view_order(&data.hidden, Some(&new));
-            let (psnr_frames, psnr_static) = composite_psnr(&data, &view.parts, &view.order, key);
-            view.psnr = psnr_frames;
-            view.psnr_static = psnr_static;
+            view.parts = fit.parts;
+            view.key_frame = fit.key;
+            view.order = fit.order;
+            view.psnr = fit.error.psnr;
+            view.psnr_static = fit.error.psnr_static;
+            view.ssim = fit.error.ssim;
             view.hidden = data.hidden;
         }
     }

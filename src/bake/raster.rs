@@ -85,6 +85,16 @@ impl Canvas {
         }
     }
 
+    /// SSIM against `other` over the pixels covered in either image (colour × coverage), as
+    /// [`Canvas::rmse`] measures; see [`crate::metrics`]. 1 when neither covers anything.
+    pub fn ssim(&self, other: &Canvas) -> f64 {
+        let n = self.size as usize;
+        if other.size != self.size {
+            return 0.0;
+        }
+        crate::metrics::ssim_rgba_f32(&self.px, &other.px, n, n)
+    }
+
     pub fn to_image(&self) -> image::RgbaImage {
         let mut img = image::RgbaImage::new(self.size, self.size);
         for (p, q) in img.pixels_mut().zip(&self.px) {

@@ -10,6 +10,9 @@ pub struct PartReport {
     pub name: String,
     /// PSNR of the part against its own render, per frame (dB).
     pub psnr: Vec<f64>,
+    /// SSIM of the same, per frame ([`crate::metrics`]).
+    #[serde(default)]
+    pub ssim: Vec<f64>,
     /// Fit error (the DP objective) per frame.
     pub fit_cost: Vec<f64>,
     pub vertices: usize,
@@ -26,6 +29,11 @@ pub struct ViewReport {
     /// The same for still key-frame polygons (what fitting gains).
     pub psnr_static: Vec<f64>,
     pub mean_psnr: f64,
+    /// Composited character SSIM per frame, and its mean.
+    #[serde(default)]
+    pub ssim: Vec<f64>,
+    #[serde(default)]
+    pub mean_ssim: f64,
     pub order: Vec<usize>,
     pub parts: Vec<PartReport>,
     /// This view's texture key frame.
@@ -41,6 +49,8 @@ pub struct ViewReport {
 pub struct WorstView {
     pub view: usize,
     pub mean_psnr: f64,
+    #[serde(default)]
+    pub mean_ssim: f64,
     pub direction: [f32; 3],
 }
 
@@ -72,6 +82,11 @@ pub struct Report {
     pub mean_psnr: f64,
     pub worst_psnr: f64,
     pub mean_psnr_static: f64,
+    /// Mean and lowest composited SSIM over every view and frame.
+    #[serde(default)]
+    pub mean_ssim: f64,
+    #[serde(default)]
+    pub worst_ssim: f64,
     pub pack_bytes: u64,
     pub pack_bytes_bc: u64,
     pub pack_file_bytes: u64,
@@ -154,6 +169,8 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
             psnr: v.psnr.clone(),
             psnr_static: v.psnr_static.clone(),
             mean_psnr: mean(&v.psnr),
+            ssim: v.ssim.clone(),
+            mean_ssim: mean(&v.ssim),
             order: v.order.clone(),
             key_frame: v.key_frame,
             hidden: v.hidden.clone(),
@@ -164,6 +181,7 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
                 .map(|(p, part)| PartReport {
                     name: bake.segmentation.parts.get(p).map_or(String::new(), |x| x.name.clone()),
                     psnr: part.psnr.clone(),
+                    ssim: part.ssim.clone(),
                     fit_cost: part.fit.as_ref().map_or(Vec::new(), |f| f.costs.clone()),
                     vertices: part.fit.as_ref().map_or(0, |f| f.kept.len()),
                     triangles: part.fit.as_ref().map_or(0, |f| f.triangles.len()),
@@ -174,11 +192,13 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
         .collect();
     let all: Vec<f64> = views.iter().flat_map(|v| v.psnr.iter().copied()).collect();
     let all_static: Vec<f64> = views.iter().flat_map(|v| v.psnr_static.iter().copied()).collect();
+    let all_ssim: Vec<f64> = views.iter().flat_map(|v| v.ssim.iter().copied()).collect();
     let mut worst: Vec<WorstView> = views
         .iter()
         .map(|v| WorstView {
             view: v.index,
             mean_psnr: v.mean_psnr,
+            mean_ssim: v.mean_ssim,
             direction: v.direction,
         })
         .collect();
@@ -207,6 +227,8 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
         mean_psnr: mean(&all),
         worst_psnr: all.iter().copied().fold(f64::INFINITY, f64::min),
         mean_psnr_static: mean(&all_static),
+        mean_ssim: mean(&all_ssim),
+        worst_ssim: all_ssim.iter().copied().fold(f64::INFINITY, f64::min).min(1.0),
         pack_bytes: stats.pack_bytes,
         pack_bytes_bc: stats.pack_bytes_bc,
         pack_file_bytes: stats.file_bytes,

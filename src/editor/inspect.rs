@@ -15,13 +15,10 @@ use std::time::Instant;
 use polypostor::bake::inspect::{composite_at, error_map, positions_at, tile_image};
 use polypostor::bake::overrides::{OverrideBasis, Pin, ViewOverride};
 use polypostor::bake::part_fit::PartFitOptions;
-use polypostor::bake::pipeline::{
-    PartResult, Prepared, ViewData, composite_psnr, fit_view_part, ground_truth, view_order,
-};
+use polypostor::bake::pipeline::{PartResult, Prepared, PreviousFit, ViewData, ground_truth, refit_view};
 use polypostor::bake::raster::psnr;
 use polypostor::bake::report::Report;
 use polypostor::project::StoredSegmentation;
-use rayon::prelude::*;
 
 use super::document::Document;
 
@@ -38,6 +35,7 @@ pub struct Session {
     pub order: Vec<usize>,
     pub psnr: Vec<f64>,
     pub psnr_static: Vec<f64>,
+    pub ssim: Vec<f64>,
     pub names: Vec<String>,
     /// The corrections it was fitted with.
     pub ov: ViewOverride,
@@ -56,11 +54,7 @@ impl Session {
 /// A finished re-fit.
 struct Refit {
     view: usize,
-    key: usize,
-    parts: Vec<(usize, PartResult)>,
-    order: Vec<usize>,
-    psnr: Vec<f64>,
-    psnr_static: Vec<f64>,
+    fit: polypostor::bake::pipeline::ViewFit,
     ov: ViewOverride,
     ms: f32,
 }
@@ -188,28 +182,19 @@ impl Inspector {
                 .view(prepared.basis, view)
                 .cloned()
                 .unwrap_or_default();
-            let frames = prepared.times.len();
-            let key = ov
-                .key_frame
-                .filter(|&k| k < frames)
-                .unwrap_or(bake_key.min(frames.saturating_sub(1)));
-            let parts: Vec<PartResult> = (0..data.tiles.len())
-                .into_par_iter()
-                .map(|p| fit_view_part(&data, p, key, &options.fit, &ov.pins_per_frame(p, frames)))
-                .collect();
-            let order = view_order(&data.hidden, Some(&ov));
-            let (psnr, psnr_static) = composite_psnr(&data, &parts, &order, key);
+            let fit = refit_view(&data, bake_key, &options.fit, Some(&ov), None);
             Ok(Session {
                 view,
                 basis: prepared.basis,
                 bake_key,
-                key,
+                key: fit.key,
                 options: options.fit,
                 data,
-                parts,
-                order,
-                psnr,
-                psnr_static,
+                parts: fit.parts,
+                order: fit.order,
+                psnr: fit.error.psnr,
+                psnr_static: fit.error.psnr_static,
+                ssim: fit.error.ssim,
                 names,
                 ov,
                 made_for,
@@ -244,13 +229,12 @@ impl Inspector {
         {
             self.refit = None;
             if let Some(s) = self.session.as_mut().filter(|s| s.view == r.view) {
-                for (p, result) in r.parts {
-                    s.parts[p] = result;
-                }
-                s.key = r.key;
-                s.order = r.order;
-                s.psnr = r.psnr;
-                s.psnr_static = r.psnr_static;
+                s.parts = r.fit.parts;
+                s.key = r.fit.key;
+                s.order = r.fit.order;
+                s.psnr = r.fit.error.psnr;
+                s.psnr_static = r.fit.error.psnr_static;
+                s.ssim = r.fit.error.ssim;
                 s.ov = r.ov;
                 s.version += 1;
                 self.last_refit_ms = Some(r.ms);
@@ -264,48 +248,23 @@ impl Inspector {
         if want == s.ov {
             return;
         }
-        // What changed: the key frame re-fits every part; pins re-fit their parts; the order
-        // only re-composites.
-        let frames = s.frames();
-        let redo: Vec<usize> = if want.key_frame != s.ov.key_frame {
-            (0..s.parts.len()).collect()
-        } else {
-            (0..s.parts.len())
-                .filter(|p| want.pins.get(p) != s.ov.pins.get(p))
-                .collect()
-        };
-        let key = want
-            .key_frame
-            .filter(|&k| k < frames)
-            .unwrap_or(s.bake_key.min(frames.saturating_sub(1)));
-        let (data, options, view) = (s.data.clone(), s.options, s.view);
-        let mut parts_now = s.parts.clone();
+        // The library decides what to re-fit (the key frame: every part; pins: their parts;
+        // the order only re-composites), exactly as a re-bake does.
+        let (data, options, view, bake_key) = (s.data.clone(), s.options, s.view, s.bake_key);
+        let (parts_now, key_now, ov_now) = (s.parts.clone(), s.key, s.ov.clone());
         let job = move || {
             let t = Instant::now();
-            let parts: Vec<(usize, PartResult)> = redo
-                .par_iter()
-                .map(|&p| {
-                    (
-                        p,
-                        fit_view_part(&data, p, key, &options, &want.pins_per_frame(p, frames)),
-                    )
-                })
-                .collect();
-            let ms = t.elapsed().as_secs_f32() * 1000.0;
-            for (p, r) in &parts {
-                parts_now[*p] = r.clone();
-            }
-            let order = view_order(&data.hidden, Some(&want));
-            let (psnr, psnr_static) = composite_psnr(&data, &parts_now, &order, key);
+            let prev = PreviousFit {
+                key: key_now,
+                parts: &parts_now,
+                ov: &ov_now,
+            };
+            let fit = refit_view(&data, bake_key, &options, Some(&want), Some(prev));
             Refit {
                 view,
-                key,
-                parts,
-                order,
-                psnr,
-                psnr_static,
+                fit,
                 ov: want,
-                ms,
+                ms: t.elapsed().as_secs_f32() * 1000.0,
             }
         };
         self.refit = Some(run(sync, job));
@@ -566,8 +525,9 @@ impl Inspector {
                 painter.image(truth_id, right, full, egui::Color32::WHITE);
                 ui.label(
                     egui::RichText::new(format!(
-                        "view PSNR at frame {f}: {:.1} dB (still: {:.1})",
+                        "view at frame {f}: {:.1} dB, SSIM {:.3} (still: {:.1} dB)",
                         s.psnr.get(f).copied().unwrap_or(0.0),
+                        s.ssim.get(f).copied().unwrap_or(0.0),
                         s.psnr_static.get(f).copied().unwrap_or(0.0)
                     ))
                     .small(),

@@ -21,6 +21,8 @@ pub struct ViewsPanel {
     pub error: Option<String>,
     /// Where the report is looked for (the project's bake folder).
     pub source: Option<PathBuf>,
+    /// The error plot shows SSIM instead of PSNR.
+    pub plot_ssim: bool,
 }
 
 /// Yaw and pitch of an orbit camera looking from `dir` (from the character towards the
@@ -110,10 +112,12 @@ impl ViewsPanel {
         });
         let span = (hi - lo).max(1e-6);
         ui.label(format!(
-            "{} views · mean {:.2} dB · worst {:.2} dB · key frame {}",
+            "{} views · mean {:.2} dB, SSIM {:.3} · worst {:.2} dB, SSIM {:.3} · key frame {}",
             report.views.len(),
             report.mean_psnr,
+            report.mean_ssim,
             report.worst_psnr,
+            report.worst_ssim,
             report.key_frame
         ));
         let dropped = report.dropped_corrections.lines();
@@ -178,7 +182,7 @@ impl ViewsPanel {
             let v = &report.views[i];
             response
                 .clone()
-                .on_hover_text(format!("view {i}: {:.2} dB", v.mean_psnr));
+                .on_hover_text(format!("view {i}: {:.2} dB, SSIM {:.3}", v.mean_psnr, v.mean_ssim));
             if response.clicked() {
                 pick = Some(i);
             }
@@ -197,7 +201,7 @@ impl ViewsPanel {
                     ui.horizontal(|ui| {
                         let (dot, _) = ui.allocate_exact_size(egui::vec2(10.0, 10.0), egui::Sense::hover());
                         ui.painter().circle_filled(dot.center(), 4.0, heat(t));
-                        let text = format!("view {i:>3}   {:.2} dB", v.mean_psnr);
+                        let text = format!("view {i:>3}   {:.2} dB   SSIM {:.3}", v.mean_psnr, v.mean_ssim);
                         if ui.selectable_label(self.selected == Some(i), text).clicked() {
                             pick = Some(i);
                         }
@@ -226,31 +230,48 @@ impl ViewsPanel {
         self.inspector.ui(ui, doc, &report, dt);
     }
 
-    /// PSNR per frame of the chosen view: the character (fitted and still key-frame polygons)
-    /// and every part.
-    fn error_plot(&self, ui: &mut egui::Ui) {
+    /// PSNR (or SSIM) per frame of the chosen view: the character (fitted, and for PSNR the
+    /// still key-frame polygons) and every part.
+    fn error_plot(&mut self, ui: &mut egui::Ui) {
         let (Some((_, _, report)), Some(sel)) = (&self.report, self.selected) else {
             ui.label(egui::RichText::new("Pick a view to see its error per frame.").weak());
             return;
         };
         let v = &report.views[sel];
+        let ssim = self.plot_ssim;
         // After corrections the inspector's re-fit is newer than the report.
         let live = self.inspector.session.as_ref().filter(|s| s.view == sel);
-        let (overall, still): (Vec<f64>, Vec<f64>) = match live {
-            Some(s) => (s.psnr.clone(), s.psnr_static.clone()),
-            None => (v.psnr.clone(), v.psnr_static.clone()),
+        let (overall, still): (Vec<f64>, Vec<f64>) = match (live, ssim) {
+            (Some(s), false) => (s.psnr.clone(), s.psnr_static.clone()),
+            (Some(s), true) => (s.ssim.clone(), Vec::new()),
+            (None, false) => (v.psnr.clone(), v.psnr_static.clone()),
+            (None, true) => (v.ssim.clone(), Vec::new()),
         };
+        let pick = |psnr: &Vec<f64>, ssim_values: &Vec<f64>| if ssim { ssim_values.clone() } else { psnr.clone() };
         let per_part: Vec<(String, Vec<f64>)> = match live {
             Some(s) => s
                 .names
                 .iter()
                 .cloned()
-                .zip(s.parts.iter().map(|p| p.psnr.clone()))
+                .zip(s.parts.iter().map(|p| pick(&p.psnr, &p.ssim)))
                 .collect(),
-            None => v.parts.iter().map(|p| (p.name.clone(), p.psnr.clone())).collect(),
+            None => v
+                .parts
+                .iter()
+                .map(|p| (p.name.clone(), pick(&p.psnr, &p.ssim)))
+                .collect(),
         };
         ui.separator();
-        ui.label(egui::RichText::new(format!("View {sel}: PSNR per frame (dB)")).strong());
+        let mut plot_ssim = self.plot_ssim;
+        ui.horizontal(|ui| {
+            let what = if ssim { "SSIM" } else { "PSNR (dB)" };
+            ui.label(egui::RichText::new(format!("View {sel}: {what} per frame")).strong());
+            ui.selectable_value(&mut plot_ssim, false, "PSNR")
+                .on_hover_text("Peak signal-to-noise ratio over the pixels either image covers (higher is better)");
+            ui.selectable_value(&mut plot_ssim, true, "SSIM").on_hover_text(
+                "Structural similarity (11×11 Gaussian window, σ 1.5) over the pixels either image covers: 1 is identical",
+            );
+        });
         use egui_plot::{Legend, Line, Plot, PlotPoints};
         let series = |values: &[f64]| -> PlotPoints<'static> {
             values
@@ -260,7 +281,7 @@ impl ViewsPanel {
                 .map(|(f, &y)| [f as f64, y])
                 .collect()
         };
-        Plot::new(("view error", sel))
+        Plot::new(("view error", sel, ssim))
             .height(180.0)
             .legend(Legend::default())
             .x_axis_label("frame")
@@ -271,15 +292,18 @@ impl ViewsPanel {
                         .width(2.5)
                         .color(egui::Color32::WHITE),
                 );
-                plot.line(
-                    Line::new("still key frame", series(&still))
-                        .style(egui_plot::LineStyle::dashed_dense())
-                        .color(egui::Color32::GRAY),
-                );
+                if !still.is_empty() {
+                    plot.line(
+                        Line::new("still key frame", series(&still))
+                            .style(egui_plot::LineStyle::dashed_dense())
+                            .color(egui::Color32::GRAY),
+                    );
+                }
                 for (name, values) in &per_part {
                     plot.line(Line::new(name.clone(), series(values)));
                 }
             });
+        self.plot_ssim = plot_ssim;
     }
 }
 

@@ -35,17 +35,37 @@ pub struct ErrorSample {
     /// Mean RMSE over the compared views (0..1), and its PSNR.
     pub rmse: f64,
     pub psnr: f64,
+    /// Mean SSIM over the compared views ([`crate::metrics`]).
+    pub ssim: f64,
 }
 
 /// Error of one representation. Means are of the RMSE (then shown as PSNR), so a few
-/// pixel-exact samples do not dominate them.
+/// pixel-exact samples do not dominate them; SSIM means are plain means.
 #[derive(Clone, Debug, Serialize)]
 pub struct ErrorRow {
     pub representation: String,
     pub mean_psnr: f64,
     pub mean_psnr_on_frames: f64,
     pub mean_psnr_between_frames: f64,
+    pub mean_ssim: f64,
+    pub mean_ssim_on_frames: f64,
+    pub mean_ssim_between_frames: f64,
+    /// The compared view with the lowest mean PSNR, and that PSNR.
+    pub worst_view: usize,
+    pub worst_view_psnr: f64,
     pub samples: Vec<ErrorSample>,
+    /// Per compared view (in the order given): mean PSNR and SSIM over all display times.
+    pub per_view: Vec<ViewError>,
+}
+
+/// One representation's error from one view, over every display time.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct ViewError {
+    pub view: usize,
+    pub psnr: f64,
+    pub ssim: f64,
+    /// The baked frame where this representation is worst from this view (by RMSE).
+    pub worst_frame: u32,
 }
 
 /// Memory of every representation the folder holds (and the skinned mesh, always).
@@ -108,89 +128,171 @@ pub fn chosen_views(total: usize, count: usize) -> Vec<usize> {
     (0..count).map(|i| i * total / count).collect()
 }
 
+/// Renders the ground truth and every representation a folder holds, from its baked views.
+pub struct Renders<'a> {
+    ctx: &'a GpuContext,
+    assets: &'a CrowdAssets,
+    scene: crate::crowd::scene::CrowdScene,
+    /// The representations drawn by the crowd renderers (no skinned: that is the truth).
+    pub levels: Vec<Level>,
+    cameras: Vec<crate::pack::PackCamera>,
+    target: RenderTarget,
+    renderer: CharacterRenderer,
+    mesh: GpuCharacter,
+    style: PolypostorStyle,
+}
+
+impl<'a> Renders<'a> {
+    pub fn new(ctx: &'a GpuContext, assets: &'a CrowdAssets) -> Result<Self, GpuError> {
+        let (device, queue) = (&ctx.device, &ctx.queue);
+        let scene = crate::crowd::scene::CrowdScene::new(
+            device,
+            queue,
+            assets,
+            crate::crowd::CrowdParams {
+                count: 0,
+                ..Default::default()
+            },
+        )?;
+        let levels: Vec<Level> = Level::ALL.iter().copied().filter(|l| scene.renderers.has(*l)).collect();
+        let cameras: Vec<crate::pack::PackCamera> = match (&assets.pack, &assets.reps) {
+            (Some(p), _) => p.manifest.views.iter().map(|v| v.camera.clone()).collect(),
+            (None, Some(r)) => r.manifest.views.iter().map(|v| v.camera.clone()).collect(),
+            _ => Vec::new(),
+        };
+        let r = assets.resolution();
+        let target = RenderTarget::new(device, r, r);
+        let renderer = CharacterRenderer::new(device);
+        let mesh = GpuCharacter::new(&renderer, device, queue, &assets.character);
+        Ok(Self {
+            ctx,
+            assets,
+            scene,
+            levels,
+            cameras,
+            target,
+            renderer,
+            mesh,
+            style: PolypostorStyle {
+                lit: false,
+                tint: 0.0,
+                ..Default::default()
+            },
+        })
+    }
+
+    pub fn views(&self) -> usize {
+        self.cameras.len()
+    }
+
+    fn camera(&self, view: usize) -> Option<crate::gpu::Camera> {
+        let cam = self.cameras.get(view)?;
+        Some(cam.to_camera(cam.half_size * 4.0, cam.half_size * 0.5, cam.half_size * 8.0))
+    }
+
+    /// The real mesh from `view` at time `t` (in frames; fractional between baked frames).
+    pub fn truth(&mut self, view: usize, t: f32) -> Result<Option<image::RgbaImage>, GpuError> {
+        let Some(camera) = self.camera(view) else {
+            return Ok(None);
+        };
+        let (device, queue) = (&self.ctx.device, &self.ctx.queue);
+        let fps = self.assets.timing().fps.max(1e-3);
+        let pose = Pose::sample_index(&self.assets.character, self.assets.clip, t / fps);
+        self.renderer.render(
+            device,
+            queue,
+            &self.target,
+            &mut self.mesh,
+            &self.assets.character,
+            &pose,
+            SkinningMode::Gpu,
+            &camera,
+            &DrawOptions {
+                shading: Shading::Unlit,
+                ..Default::default()
+            },
+        );
+        Ok(Some(self.target.read_color(device, queue)?))
+    }
+
+    /// `level` from `view` at time `t`, as the crowd draws it.
+    pub fn level(&mut self, level: Level, view: usize, t: f32) -> Result<Option<image::RgbaImage>, GpuError> {
+        let Some(camera) = self.camera(view) else {
+            return Ok(None);
+        };
+        let (device, queue) = (&self.ctx.device, &self.ctx.queue);
+        let mut instances: [Vec<Instance>; Level::COUNT] = Default::default();
+        instances[level as usize].push(Instance {
+            pos: [0.0, 0.0],
+            facing: [0.0, 1.0],
+            view: view as u32,
+            frame: t.floor() as u32,
+            blend: t.fract(),
+            variant: 0,
+        });
+        self.scene.renderers.render(
+            device,
+            queue,
+            &self.target,
+            camera.clip_from_world(1.0),
+            &self.style,
+            &instances,
+            wgpu::Color::TRANSPARENT,
+        );
+        Ok(Some(self.target.read_color(device, queue)?))
+    }
+}
+
 /// Renders every representation and the ground truth from `views` at every baked frame and
-/// half-way between, and measures the error. `progress(done, total)` per view.
+/// half-way between, and measures the error (PSNR and SSIM). `progress(done, total)` per view.
 pub fn errors(
     ctx: &GpuContext,
     assets: &CrowdAssets,
     views: &[usize],
     progress: &dyn Fn(usize, usize),
 ) -> Result<Vec<ErrorRow>, GpuError> {
-    let (device, queue) = (&ctx.device, &ctx.queue);
-    let timing = assets.timing();
-    let mut scene = crate::crowd::scene::CrowdScene::new(
-        device,
-        queue,
-        assets,
-        crate::crowd::CrowdParams {
-            count: 0,
-            ..Default::default()
-        },
-    )?;
-    let crowd = &mut scene.renderers;
-    let levels: Vec<Level> = Level::ALL.iter().copied().filter(|l| crowd.has(*l)).collect();
-    let cameras: Vec<crate::pack::PackCamera> = match (&assets.pack, &assets.reps) {
-        (Some(p), _) => p.manifest.views.iter().map(|v| v.camera.clone()).collect(),
-        (None, Some(r)) => r.manifest.views.iter().map(|v| v.camera.clone()).collect(),
-        _ => Vec::new(),
-    };
-    let r = assets.resolution();
-    let target = RenderTarget::new(device, r, r);
-    let renderer = CharacterRenderer::new(device);
-    let mut mesh = GpuCharacter::new(&renderer, device, queue, &assets.character);
-    let style = PolypostorStyle {
-        lit: false,
-        tint: 0.0,
-        ..Default::default()
-    };
-    let frames = timing.frames.max(1);
+    let mut renders = Renders::new(ctx, assets)?;
+    let levels = renders.levels.clone();
+    let frames = assets.timing().frames.max(1);
     let times: Vec<f32> = (0..frames * 2).map(|k| k as f32 * 0.5).collect();
-    // sums[level][time]: RMSE summed over views.
-    let mut sums = vec![vec![0.0f64; times.len()]; levels.len()];
+    // sums[level][time]: RMSE and SSIM summed over views.
+    let mut sums = vec![vec![(0.0f64, 0.0f64); times.len()]; levels.len()];
+    let mut per_view: Vec<Vec<ViewError>> = vec![Vec::new(); levels.len()];
     let mut counted = 0usize;
     for (n, &v) in views.iter().enumerate() {
         progress(n, views.len());
-        let Some(cam) = cameras.get(v) else { continue };
-        let camera = cam.to_camera(cam.half_size * 4.0, cam.half_size * 0.5, cam.half_size * 8.0);
+        if v >= renders.views() {
+            continue;
+        }
+        // this view: per level, (rmse sum, ssim sum, worst baked frame, its rmse)
+        let mut here = vec![(0.0f64, 0.0f64, 0u32, -1.0f64); levels.len()];
         for (k, &t) in times.iter().enumerate() {
-            let pose = Pose::sample_index(&assets.character, assets.clip, t / timing.fps.max(1e-3));
-            renderer.render(
-                device,
-                queue,
-                &target,
-                &mut mesh,
-                &assets.character,
-                &pose,
-                SkinningMode::Gpu,
-                &camera,
-                &DrawOptions {
-                    shading: Shading::Unlit,
-                    ..Default::default()
-                },
-            );
-            let truth = target.read_color(device, queue)?;
+            let Some(truth) = renders.truth(v, t)? else { continue };
             for (li, &level) in levels.iter().enumerate() {
-                let mut instances: [Vec<Instance>; Level::COUNT] = Default::default();
-                instances[level as usize].push(Instance {
-                    pos: [0.0, 0.0],
-                    facing: [0.0, 1.0],
-                    view: v as u32,
-                    frame: t.floor() as u32,
-                    blend: t.fract(),
-                    variant: 0,
-                });
-                crowd.render(
-                    device,
-                    queue,
-                    &target,
-                    camera.clip_from_world(1.0),
-                    &style,
-                    &instances,
-                    wgpu::Color::TRANSPARENT,
-                );
-                let img = target.read_color(device, queue)?;
-                sums[li][k] += masked_rmse(&truth, &img);
+                let Some(img) = renders.level(level, v, t)? else {
+                    continue;
+                };
+                let rmse = masked_rmse(&truth, &img);
+                let ssim = crate::metrics::ssim_rgba8(&truth, &img).unwrap_or(0.0);
+                sums[li][k].0 += rmse;
+                sums[li][k].1 += ssim;
+                let h = &mut here[li];
+                h.0 += rmse;
+                h.1 += ssim;
+                if t.fract() == 0.0 && rmse > h.3 {
+                    h.2 = t as u32;
+                    h.3 = rmse;
+                }
             }
+        }
+        for (li, h) in here.iter().enumerate() {
+            let m = times.len().max(1) as f64;
+            per_view[li].push(ViewError {
+                view: v,
+                psnr: psnr(h.0 / m),
+                ssim: h.1 / m,
+                worst_frame: h.2,
+            });
         }
         counted += 1;
     }
@@ -199,26 +301,44 @@ pub fn errors(
     Ok(levels
         .iter()
         .zip(&sums)
-        .map(|(level, s)| {
+        .zip(per_view)
+        .map(|((level, s), per_view)| {
             let samples: Vec<ErrorSample> = times
                 .iter()
                 .zip(s)
-                .map(|(&t, &sum)| ErrorSample {
+                .map(|(&t, &(rmse, ssim))| ErrorSample {
                     time_frames: t,
-                    rmse: sum / n,
-                    psnr: psnr(sum / n),
+                    rmse: rmse / n,
+                    psnr: psnr(rmse / n),
+                    ssim: ssim / n,
                 })
                 .collect();
             let mean = |f: &dyn Fn(&ErrorSample) -> bool| {
-                let v: Vec<f64> = samples.iter().filter(|s| f(s)).map(|s| s.rmse).collect();
-                psnr(v.iter().sum::<f64>() / v.len().max(1) as f64)
+                let v: Vec<&ErrorSample> = samples.iter().filter(|s| f(s)).collect();
+                let k = v.len().max(1) as f64;
+                (
+                    psnr(v.iter().map(|s| s.rmse).sum::<f64>() / k),
+                    v.iter().map(|s| s.ssim).sum::<f64>() / k,
+                )
             };
+            let (all, on, between) = (
+                mean(&|_| true),
+                mean(&|s| s.time_frames.fract() == 0.0),
+                mean(&|s| s.time_frames.fract() != 0.0),
+            );
+            let worst = per_view.iter().min_by(|a, b| a.psnr.total_cmp(&b.psnr)).copied();
             ErrorRow {
                 representation: level.name().into(),
-                mean_psnr: mean(&|_| true),
-                mean_psnr_on_frames: mean(&|s| s.time_frames.fract() == 0.0),
-                mean_psnr_between_frames: mean(&|s| s.time_frames.fract() != 0.0),
+                mean_psnr: all.0,
+                mean_psnr_on_frames: on.0,
+                mean_psnr_between_frames: between.0,
+                mean_ssim: all.1,
+                mean_ssim_on_frames: on.1,
+                mean_ssim_between_frames: between.1,
+                worst_view: worst.map_or(0, |w| w.view),
+                worst_view_psnr: worst.map_or(0.0, |w| w.psnr),
                 samples,
+                per_view,
             }
         })
         .collect())

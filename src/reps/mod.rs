@@ -17,6 +17,7 @@
 
 pub mod bake;
 pub mod compare;
+pub mod quality;
 
 use std::path::Path;
 
