@@ -226,6 +226,31 @@ fn overrides_change_only_their_view() {
     )
     .unwrap();
     assert_eq!((reuse.views_refit, reuse.parts_refit), (1, 1));
+    // Every correction of view 1 removed: the re-bake goes back to the bake's key frame and
+    // gives exactly the plain bake's view (one rule for the key frame everywhere).
+    let (back, reuse) = polypostor::bake::pipeline::rebake(
+        &ctx,
+        &again,
+        &c,
+        &seg,
+        &CapOverrides::default(),
+        &base,
+        &|_| {},
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    assert_eq!((reuse.views_refit, reuse.parts_refit), (1, seg.parts.len()));
+    let (a, b) = (&back.views[1], &plain.views[1]);
+    assert_eq!(a.key_frame, b.key_frame);
+    assert_eq!(a.order, b.order);
+    assert_eq!(a.psnr, b.psnr);
+    assert_eq!(a.ssim, b.ssim);
+    for (pa, pb) in a.parts.iter().zip(&b.parts) {
+        assert_eq!(
+            pa.fit.as_ref().map(|f| &f.mappings),
+            pb.fit.as_ref().map(|f| &f.mappings)
+        );
+    }
     // A different segmentation bakes everything.
     let mut seg2 = seg.clone();
     seg2.labels[0] = (seg2.labels[0] + 1) % seg2.parts.len() as u16;

@@ -440,7 +440,10 @@ fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
     let worst = (0..report.views.len())
         .min_by(|&a, &b| report.views[a].mean_psnr.total_cmp(&report.views[b].mean_psnr))
         .unwrap();
-    let label = format!("view {worst:>3}   {:.2} dB", report.views[worst].mean_psnr);
+    let label = format!(
+        "view {worst:>3}   {:.2} dB   SSIM {:.3}",
+        report.views[worst].mean_psnr, report.views[worst].mean_ssim
+    );
     h.get_by_label(&label).click();
     h.run_steps(2);
     let app = h.state();
@@ -465,6 +468,12 @@ fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
             .as_ref()
             .expect("the inspector opened the view");
         assert_eq!(s.view, worst);
+        // The same error the bake wrote, frame by frame (one refit path).
+        let baked = &report.views[worst];
+        assert_eq!(s.psnr.len(), baked.psnr.len());
+        for (a, b) in s.psnr.iter().zip(&baked.psnr).chain(s.ssim.iter().zip(&baked.ssim)) {
+            assert!((a - b).abs() < 1e-9, "inspector {a} vs bake {b}");
+        }
         for (p, r) in s.parts.iter().enumerate() {
             let baked = &report.views[worst].parts[p];
             assert_eq!(r.fit.as_ref().map_or(0, |f| f.kept.len()), baked.vertices, "part {p}");

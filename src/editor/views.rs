@@ -264,8 +264,8 @@ impl ViewsPanel {
         ui.separator();
         let mut plot_ssim = self.plot_ssim;
         ui.horizontal(|ui| {
-            let what = if ssim { "SSIM" } else { "PSNR (dB)" };
-            ui.label(egui::RichText::new(format!("View {sel}: {what} per frame")).strong());
+            let what = if ssim { "SSIM per frame" } else { "PSNR per frame (dB)" };
+            ui.label(egui::RichText::new(format!("View {sel}: {what}")).strong());
             ui.selectable_value(&mut plot_ssim, false, "PSNR")
                 .on_hover_text("Peak signal-to-noise ratio over the pixels either image covers (higher is better)");
             ui.selectable_value(&mut plot_ssim, true, "SSIM").on_hover_text(
