@@ -83,7 +83,7 @@ pub struct Inspector {
 /// Its parallel work runs in a pool of its own at normal priority: the global pool's threads
 /// are lowered for bakes (`lower_thread_priority`), and a pin the user is waiting on must not
 /// wait behind the window's drawing or a bake.
-fn run<T: Send + 'static>(sync: bool, job: impl FnOnce() -> T + Send + 'static) -> Receiver<T> {
+pub(super) fn run<T: Send + 'static>(sync: bool, job: impl FnOnce() -> T + Send + 'static) -> Receiver<T> {
     static POOL: std::sync::OnceLock<Option<rayon::ThreadPool>> = std::sync::OnceLock::new();
     let (tx, rx) = channel();
     if sync {
@@ -145,7 +145,7 @@ fn on_tile_background(mut img: image::RgbaImage) -> image::RgbaImage {
     img
 }
 
-fn to_color_image(img: &image::RgbaImage) -> egui::ColorImage {
+pub(super) fn to_color_image(img: &image::RgbaImage) -> egui::ColorImage {
     egui::ColorImage::from_rgba_unmultiplied([img.width() as usize, img.height() as usize], img.as_raw())
 }
 

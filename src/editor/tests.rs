@@ -543,6 +543,31 @@ fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
         assert_eq!(s.parts[part].fit.as_ref().unwrap().mappings, fit0.mappings);
         assert!(h.state().doc.as_ref().unwrap().project.overrides.is_empty());
     }
+    // The quality sheet of the chosen view: the real mesh beside the Polypostor (the only
+    // representation this folder holds), at the inspector's frame and half-way after it.
+    let frame = h.state().views.inspector.time.round() as u32;
+    h.get_by_label(&format!("Quality sheet of view {worst} at frame {frame}"))
+        .click();
+    h.run_steps(3);
+    {
+        let sheet = &h.state().views.sheet;
+        assert!(sheet.error.is_none(), "{:?}", sheet.error);
+        let (view, at, img, _) = sheet.shown.as_ref().expect("the sheet was made");
+        assert_eq!((*view, *at), (worst, frame));
+        // Two tiles a row (real mesh, polypostor), two rows: wider than two tiles, taller
+        // than two rows, and not mostly paper.
+        assert!(
+            img.width() >= 2 * 160 && img.height() >= 2 * 160,
+            "{:?}",
+            img.dimensions()
+        );
+        let ink = img.pixels().filter(|p| p[0] < 200).count();
+        assert!(
+            ink > (img.width() * img.height() / 4) as usize,
+            "{ink} non-paper pixels"
+        );
+    }
+    h.get_by_label(&format!("Quality sheet: view {worst}, frame {frame}"));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

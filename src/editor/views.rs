@@ -23,6 +23,112 @@ pub struct ViewsPanel {
     pub source: Option<PathBuf>,
     /// The error plot shows SSIM instead of PSNR.
     pub plot_ssim: bool,
+    /// The quality sheet of one view (the real mesh beside every representation).
+    pub sheet: QualitySheet,
+}
+
+/// The quality sheet of the chosen view at a frame and half-way to the next, made in the
+/// background from the bake folder (every representation it holds).
+#[derive(Default)]
+pub struct QualitySheet {
+    /// (view, frame) shown, its image, its texture.
+    pub shown: Option<(usize, u32, image::RgbaImage, Option<egui::TextureHandle>)>,
+    job: Option<(usize, u32, std::sync::mpsc::Receiver<Result<image::RgbaImage, String>>)>,
+    pub error: Option<String>,
+    pub open: bool,
+}
+
+impl QualitySheet {
+    pub fn busy(&self) -> bool {
+        self.job.is_some()
+    }
+
+    /// Starts making the sheet of `view` at baked `frame` from the bake in `dir` of the
+    /// character at `character` (the open document's).
+    pub fn start(&mut self, dir: &Path, character: Option<PathBuf>, view: usize, frame: u32, sync: bool) {
+        let dir = dir.to_owned();
+        let job = move || -> Result<image::RgbaImage, String> {
+            let assets = polypostor::crowd::scene::CrowdAssets::load(&dir, character.as_deref(), None)?;
+            let ctx = polypostor::gpu::GpuContext::from_env().map_err(|e| e.to_string())?;
+            let mut renders = polypostor::reps::compare::Renders::new(&ctx, &assets).map_err(|e| e.to_string())?;
+            let rows = [frame as f32, frame as f32 + 0.5].map(|time| polypostor::reps::quality::SheetRow {
+                view,
+                time,
+                why: "chosen in the editor".into(),
+            });
+            let title = format!(
+                "{}: view {view}, PSNR / SSIM against the real mesh",
+                assets.character.name
+            );
+            let (img, _) =
+                polypostor::reps::quality::render_sheet(&mut renders, &title, &rows, assets.resolution().min(256))
+                    .map_err(|e| e.to_string())?;
+            Ok(img)
+        };
+        self.error = None;
+        self.open = true;
+        self.job = Some((view, frame, super::inspect::run(sync, job)));
+    }
+
+    /// Collects a finished sheet.
+    pub fn poll(&mut self) {
+        if let Some((view, frame, rx)) = &self.job
+            && let Ok(result) = rx.try_recv()
+        {
+            let (view, frame) = (*view, *frame);
+            self.job = None;
+            match result {
+                Ok(img) => self.shown = Some((view, frame, img, None)),
+                Err(e) => self.error = Some(format!("quality sheet: {e}")),
+            }
+        }
+    }
+
+    /// The sheet's window (when open).
+    pub fn window(&mut self, ctx: &egui::Context) {
+        if !self.open {
+            return;
+        }
+        let mut open = self.open;
+        let title = match &self.shown {
+            Some((v, f, _, _)) => format!("Quality sheet: view {v}, frame {f}"),
+            None => "Quality sheet".to_string(),
+        };
+        egui::Window::new(title)
+            .id(egui::Id::unique("quality sheet window"))
+            .open(&mut open)
+            .default_size(egui::vec2(720.0, 640.0))
+            .default_pos(egui::pos2(320.0, 60.0))
+            .resizable(true)
+            .show(ctx, |ui| {
+                if self.job.is_some() {
+                    ui.horizontal(|ui| {
+                        ui.spinner();
+                        ui.label("Rendering every representation …");
+                    });
+                }
+                if let Some(e) = &self.error {
+                    ui.label(egui::RichText::new(e).color(ui.visuals().error_fg_color));
+                }
+                if let Some((_, _, img, tex)) = &mut self.shown {
+                    let handle = tex.get_or_insert_with(|| {
+                        ui.ctx().load_texture(
+                            "quality sheet",
+                            super::inspect::to_color_image(img),
+                            egui::TextureOptions::LINEAR,
+                        )
+                    });
+                    let size = handle.size_vec2();
+                    egui::ScrollArea::both().show(ui, |ui| {
+                        let w = ui.available_width().min(size.x).max(100.0);
+                        ui.add(
+                            egui::Image::new((handle.id(), size)).fit_to_exact_size(egui::vec2(w, w * size.y / size.x)),
+                        );
+                    });
+                }
+            });
+        self.open = open;
+    }
 }
 
 /// Yaw and pitch of an orbit camera looking from `dir` (from the character towards the
@@ -212,6 +318,22 @@ impl ViewsPanel {
             self.select(i, camera);
         }
         self.error_plot(ui);
+        self.sheet.poll();
+        if let (Some(sel), Some(dir)) = (self.selected, self.source.clone()) {
+            let frame = self.inspector.time.round().max(0.0) as u32;
+            let busy = self.sheet.busy();
+            let label = format!("Quality sheet of view {sel} at frame {frame}");
+            let response = ui
+                .add_enabled(!busy, egui::Button::new(label))
+                .on_hover_text(
+                    "The real mesh beside the Polypostor, impostor and NP3D from this view, at this frame and half-way to the next, each with its PSNR and SSIM",
+                );
+            if response.clicked() {
+                let character = doc.as_deref().map(|d| d.character_path.clone());
+                self.sheet.start(&dir, character, sel, frame, sync);
+            }
+        }
+        self.sheet.window(ui.ctx());
         if let (Some(sel), Some(d)) = (self.selected, doc.as_deref_mut()) {
             let report = self.report.as_ref().map(|r| r.2.clone()).unwrap();
             if !self.inspector.is_for(sel) {
