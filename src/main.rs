@@ -696,7 +696,7 @@ fn compare_cmd(
 ) -> anyhow::Result<()> {
     use polypostor::reps::compare;
     let out = out.unwrap_or_else(|| dir.join("compare"));
-    check_output_files(&out, &["memory.png", "error.png", "quality.png", "compare.json"])?;
+    check_output_files(&out, &["memory.png", "error.png", "ssim.png", "quality.png", "compare.json"])?;
     let assets = polypostor::crowd::scene::CrowdAssets::load(dir, character, None).map_err(|e| anyhow::anyhow!(e))?;
     let memory = compare::memory(&assets);
     let ctx = polypostor::gpu::GpuContext::from_env()?;
@@ -754,6 +754,26 @@ fn compare_cmd(
         &series,
     )
     .map_err(|e| anyhow::anyhow!(e))?;
+    let ssim_series: Vec<(String, Vec<(f64, f64)>)> = errors
+        .iter()
+        .map(|e| {
+            (
+                e.representation.clone(),
+                e.samples.iter().map(|s| (s.time_frames as f64, s.ssim)).collect(),
+            )
+        })
+        .collect();
+    polypostor::plot::line_chart(
+        &out.join("ssim.png"),
+        &format!(
+            "Structural similarity to the real mesh ({} views; x.5 = between baked frames)",
+            chosen.len()
+        ),
+        "time (frames)",
+        "SSIM (1 = identical)",
+        &ssim_series,
+    )
+    .map_err(|e| anyhow::anyhow!(e))?;
     let report = serde_json::json!({
         "folder": dir.display().to_string(),
         "character": assets.character.name,
@@ -764,6 +784,7 @@ fn compare_cmd(
         "plots": [
             out.join("memory.png").display().to_string(),
             out.join("error.png").display().to_string(),
+            out.join("ssim.png").display().to_string(),
             out.join("quality.png").display().to_string(),
         ],
         "quality_sheet_rows": rows.iter().map(|r| serde_json::json!({"view": r.view, "time_frames": r.time, "why": r.why})).collect::<Vec<_>>(),
@@ -813,7 +834,7 @@ fn compare_cmd(
         );
     }
     println!(
-        "wrote memory.png, error.png, quality.png and compare.json in {}",
+        "wrote memory.png, error.png, ssim.png, quality.png and compare.json in {}",
         out.display()
     );
     Ok(())
