@@ -276,10 +276,81 @@ pub fn signed_area2(poly: &[[f32; 2]]) -> f64 {
         .sum()
 }
 
+/// `poly` (a simple polygon, either orientation) grown outwards by `d`: every vertex moves
+/// along the bisector of its two edges' outward normals so that both edges move by `d`
+/// (mitred, the move limited to `2 d` at sharp spikes).
+///
+/// Traced contours run through the centres of the boundary pixels, so a polygon drawn from
+/// them leaves out the outer half of every boundary pixel: on a limb four pixels wide, a
+/// quarter of its width. Grown by half a pixel, the polygon covers the pixels it was traced
+/// from.
+pub fn offset_outward(poly: &[[f32; 2]], d: f32) -> Vec<[f32; 2]> {
+    let n = poly.len();
+    if n < 3 || d == 0.0 {
+        return poly.to_vec();
+    }
+    let sign = if signed_area2(poly) >= 0.0 { 1.0f32 } else { -1.0 };
+    // Outward unit normal of edge i (from vertex i to i + 1).
+    let normal = |i: usize| -> Option<[f32; 2]> {
+        let (a, b) = (poly[i], poly[(i + 1) % n]);
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let len = (dx * dx + dy * dy).sqrt();
+        (len > 1e-6).then(|| [sign * dy / len, -sign * dx / len])
+    };
+    (0..n)
+        .map(|i| {
+            let p = poly[i];
+            let (Some(n0), Some(n1)) = (normal((i + n - 1) % n), normal(i)) else {
+                return p;
+            };
+            let (mx, my) = (n0[0] + n1[0], n0[1] + n1[1]);
+            let len = (mx * mx + my * my).sqrt();
+            let (ox, oy) = if len < 1e-3 {
+                // A spike back on itself: push along the incoming edge's normal.
+                (n0[0] * d, n0[1] * d)
+            } else {
+                let (ux, uy) = (mx / len, my / len);
+                let cos = (ux * n1[0] + uy * n1[1]).max(0.5);
+                (ux * d / cos, uy * d / cos)
+            };
+            [p[0] + ox, p[1] + oy]
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use std::collections::HashSet;
+
+    #[test]
+    fn offsetting_pixel_centres_by_half_a_pixel_reaches_the_pixel_edges() {
+        // The 3 × 2 block of pixels at (2..5, 4..6): centres (2.5..4.5, 4.5..5.5).
+        let centres = [[2.5, 4.5], [4.5, 4.5], [4.5, 5.5], [2.5, 5.5]];
+        for poly in [centres.to_vec(), centres.iter().rev().copied().collect()] {
+            let grown = offset_outward(&poly, 0.5);
+            let mut got: Vec<[f32; 2]> = grown.clone();
+            got.sort_by(|a, b| a.partial_cmp(b).unwrap());
+            let mut want = vec![[2.0, 4.0], [5.0, 4.0], [5.0, 6.0], [2.0, 6.0]];
+            want.sort_by(|a, b| a.partial_cmp(b).unwrap());
+            for (g, w) in got.iter().zip(&want) {
+                assert!((g[0] - w[0]).abs() < 1e-5 && (g[1] - w[1]).abs() < 1e-5, "{got:?}");
+            }
+            assert!((signed_area2(&grown).abs() - 12.0).abs() < 1e-4);
+        }
+        // Rotation and translation invariance: the grown polygon of a moved polygon is the
+        // moved grown polygon.
+        let poly = vec![[0.0f32, 0.0], [10.0, 1.0], [12.0, 8.0], [5.0, 5.0], [-1.0, 9.0]];
+        let (c, s) = (0.6f32, 0.8f32);
+        let mv = |p: [f32; 2]| [c * p[0] - s * p[1] + 3.0, s * p[0] + c * p[1] - 7.0];
+        let a: Vec<[f32; 2]> = offset_outward(&poly, 0.5).into_iter().map(mv).collect();
+        let b = offset_outward(&poly.iter().copied().map(mv).collect::<Vec<_>>(), 0.5);
+        for (p, q) in a.iter().zip(&b) {
+            assert!((p[0] - q[0]).abs() < 1e-4 && (p[1] - q[1]).abs() < 1e-4);
+        }
+        // Grown means larger, and every edge moved out by d (area grows by about d × perimeter).
+        assert!(signed_area2(&offset_outward(&poly, 0.5)).abs() > signed_area2(&poly).abs());
+    }
 
     fn pixels(c: &[[f32; 2]]) -> HashSet<(i64, i64)> {
         c.iter().map(|p| ((p[0] - 0.5) as i64, (p[1] - 0.5) as i64)).collect()

@@ -3,7 +3,7 @@
 //! `T` (exact DP, or the fast candidate-window mode), then simplify `S` with the deformation
 //! in mind to the final polygon (20 vertices, 18 triangles).
 
-use super::contour::{bridge_pieces, trace_simple};
+use super::contour::{bridge_pieces, offset_outward, trace_simple};
 use super::fit::{Fit, FitError, Plan};
 use super::image_cost::{FOLD_COST, PartTile, SourceSamples, TargetGrid};
 use super::simplify::{SimplifyOptions, is_simple, simplify};
@@ -126,8 +126,18 @@ fn polygon_of(tile: &PartTile, vertices: usize, frame: usize) -> Result<Vec<[f32
     if out.len() < 3 {
         return Err(PartFitError::Empty(frame));
     }
+    // Cover the boundary pixels the contour runs through (see `offset_outward`), unless
+    // growing makes the outline cross itself (two arms a pixel apart): then as traced.
+    let grown = offset_outward(&out, CONTOUR_OFFSET);
+    if crate::bake::simplify::is_simple(&grown) {
+        return Ok(grown);
+    }
     Ok(out)
 }
+
+/// How far traced outlines are grown outwards, in pixels: half a pixel takes them from the
+/// boundary pixels' centres to their outer edges.
+pub const CONTOUR_OFFSET: f32 = 0.5;
 
 /// Candidate targets of each source vertex: the `window` target vertices nearest to its
 /// predicted position.
