@@ -91,6 +91,8 @@ pub const SAMPLES: [[f32; 3]; 10] = [
 pub struct TargetGrid {
     stride: usize,
     px: Vec<[Vec4; 2]>,
+    /// The target outline's missed-coverage table, when the objective charges it.
+    missed: Option<MissedCoverage>,
 }
 
 use glam::Vec4;
@@ -117,7 +119,20 @@ impl TargetGrid {
                 px[(y + 1) * stride + x + 1] = lanes(weighted(tile.px[y * s + x]));
             }
         }
-        Self { stride, px }
+        Self {
+            stride,
+            px,
+            missed: None,
+        }
+    }
+
+    /// The grid of a target whose outline is `outline` (the polygon the fit maps onto), with
+    /// the table that charges target coverage the mapped polygon leaves out
+    /// ([`MissedCoverage`]).
+    pub fn with_outline(tile: &PartTile, outline: &[[f32; 2]]) -> Self {
+        let mut g = Self::new(tile);
+        g.missed = Some(MissedCoverage::new(tile, outline));
+        g
     }
 
     /// Bilinear sample at pixel coordinates of the tile (as [`PartTile::sample`], weighted).
@@ -165,6 +180,9 @@ pub struct SourceSamples {
     weights: Vec<f64>,
     /// Sign of each source triangle's signed area (+1, -1, or 0 when degenerate).
     orientation: Vec<f32>,
+    /// Per triangle: its edges on the source polygon's outline, as pairs of corner slots
+    /// (0..3) in outline order (from vertex `i` to vertex `i + 1`).
+    outline_edges: Vec<Vec<(usize, usize)>>,
 }
 
 impl SourceSamples {
@@ -175,6 +193,19 @@ impl SourceSamples {
         let mut values = Vec::with_capacity(triangles.len());
         let mut weights = Vec::with_capacity(triangles.len());
         let mut orientation = Vec::with_capacity(triangles.len());
+        let n = vertices.len();
+        let outline_edges = triangles
+            .iter()
+            .map(|t| {
+                let mut e = Vec::new();
+                for (u, v) in [(0, 1), (1, 2), (2, 0), (1, 0), (2, 1), (0, 2)] {
+                    if n >= 3 && t[v] == (t[u] + 1) % n {
+                        e.push((u, v));
+                    }
+                }
+                e
+            })
+            .collect();
         for t in triangles {
             let [a, b, c] = t.map(|i| vertices[i]);
             let mut v = [[Vec4::ZERO; 2]; SAMPLES.len()];
@@ -196,12 +227,32 @@ impl SourceSamples {
             values,
             weights,
             orientation,
+            outline_edges,
         }
     }
 
     /// Area of the source polygon in pixels (the sum of the triangle weights).
     pub fn area(&self) -> f64 {
         self.weights.iter().sum()
+    }
+
+    /// Error of mapping source triangle `t` onto the target vertices `p` of `outline` (the
+    /// target polygon `target` was made for): [`SourceSamples::cost_bounded`] plus, when the
+    /// grid has a [`MissedCoverage`] table, the target coverage cut off by the triangle's
+    /// outline edges. Gives up (infinity) once the sum reaches `limit`.
+    #[inline]
+    pub fn cost_indexed(&self, t: usize, target: &TargetGrid, outline: &[[f32; 2]], p: [usize; 3], limit: f64) -> f64 {
+        let mut missed = 0.0;
+        if let Some(table) = &target.missed {
+            for &(u, v) in &self.outline_edges[t] {
+                missed += table.get(p[u], p[v]);
+            }
+            if missed >= limit {
+                return f64::INFINITY;
+            }
+        }
+        let c = self.cost_bounded(t, target, p.map(|j| outline[j]), limit - missed);
+        if c.is_finite() { c + missed } else { c }
     }
 
     /// Error of mapping source triangle `t` onto the target triangle with corners `p`.
@@ -238,9 +289,224 @@ impl SourceSamples {
     }
 }
 
+/// What the fit's colour + normal + coverage SSD, sampled on the source, cannot see: target
+/// coverage the mapped polygon leaves out.
+///
+/// The fit maps every source vertex onto a target outline vertex, so the mapped polygon's
+/// outline is a chain of chords of the target outline. A source outline edge mapped from
+/// target vertex `j` to `k` cuts off the piece of the target between the chord and the
+/// outline from `j` forward to `k`; where that piece lies inside the target, its pixels are
+/// left uncovered. `get(j, k)` is the target's energy in that piece (the sum over its pixels
+/// of the squared, channel-weighted target value: what drawing nothing there costs in the
+/// same units as the SSD), 0 where the piece lies outside. The pieces of all outline edges
+/// of a fit that goes once round the outline, forwards, are disjoint and together make up
+/// what it leaves out, so the table turns "target coverage missed" into a sum over source
+/// outline edges: per triangle, and the DP stays exact.
+///
+/// Integrals are by the trapezoid rule over pixel columns of a per-column prefix sum, so a
+/// piece costs O(its width); the table is `m²` entries.
+#[derive(Clone, Debug)]
+pub struct MissedCoverage {
+    m: usize,
+    table: Vec<f32>,
+}
+
+impl MissedCoverage {
+    pub fn new(tile: &PartTile, outline: &[[f32; 2]]) -> Self {
+        let m = outline.len();
+        let s = tile.size as usize;
+        // prefix[x * (s + 1) + y]: energy of column x above row y.
+        let mut prefix = vec![0.0f64; s * (s + 1)];
+        for x in 0..s {
+            for y in 0..s {
+                let p = tile.px[y * s + x];
+                let e: f64 = (0..7).map(|c| (CHANNEL_WEIGHTS[c] * p[c] * p[c]) as f64).sum();
+                prefix[x * (s + 1) + y + 1] = prefix[x * (s + 1) + y] + e;
+            }
+        }
+        // Energy of column x above the continuous height y (pixel y spans [y, y + 1)).
+        let above = |x: usize, y: f32| -> f64 {
+            let y = y.clamp(0.0, s as f32);
+            let yi = (y.floor() as usize).min(s);
+            let base = prefix[x * (s + 1) + yi];
+            if yi >= s {
+                return base;
+            }
+            let next = prefix[x * (s + 1) + yi + 1];
+            base + (next - base) * (y - yi as f32) as f64
+        };
+        // Signed integral for the edge a -> b: the energy above the edge over the columns
+        // whose centres it spans, + going right, − going left. Summed round a closed
+        // polygon, it is ± the energy inside.
+        let edge = |a: [f32; 2], b: [f32; 2]| -> f64 {
+            let (x0, x1) = (a[0].min(b[0]), a[0].max(b[0]));
+            if x1 - x0 < 1e-6 {
+                return 0.0;
+            }
+            let first = (x0 - 0.5).ceil().max(0.0) as i64;
+            let last = ((x1 - 0.5).ceil() as i64 - 1).min(s as i64 - 1);
+            let mut sum = 0.0;
+            for x in first..=last {
+                let cx = x as f32 + 0.5;
+                let t = (cx - a[0]) / (b[0] - a[0]);
+                sum += above(x as usize, a[1] + t * (b[1] - a[1]));
+            }
+            if b[0] > a[0] { sum } else { -sum }
+        };
+        // Orientation: the whole outline's signed integral with energy ≡ area has the sign
+        // a piece inside the target gets (`signed_area2` is positive clockwise on screen;
+        // this integral of "height above" is then negative).
+        let sign = if super::contour::signed_area2(outline) >= 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
+        // Running sums of the outline edges from vertex 0.
+        let mut along = vec![0.0f64; m + 1];
+        for i in 0..m {
+            along[i + 1] = along[i] + edge(outline[i], outline[(i + 1) % m]);
+        }
+        let mut table = vec![0.0f32; m * m];
+        for j in 0..m {
+            for k in 0..m {
+                if j == k {
+                    continue;
+                }
+                let chain = if k > j {
+                    along[k] - along[j]
+                } else {
+                    along[m] - along[j] + along[k]
+                };
+                let piece = sign * (chain + edge(outline[k], outline[j]));
+                table[j * m + k] = piece.max(0.0) as f32;
+            }
+        }
+        Self { m, table }
+    }
+
+    /// Target energy cut off by a source outline edge mapped from target vertex `j` to `k`.
+    #[inline]
+    pub fn get(&self, j: usize, k: usize) -> f64 {
+        self.table[j * self.m + k] as f64
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A brute-force answer: the target energy inside the polygon, each pixel's energy
+    /// weighted by the share of its 8 × 8 sub-samples inside (even-odd rule).
+    fn energy_inside(tile: &PartTile, poly: &[[f32; 2]]) -> f64 {
+        let s = tile.size as usize;
+        let mut sum = 0.0;
+        for y in 0..s {
+            for x in 0..s {
+                let p = tile.px[y * s + x];
+                let e = (0..7).map(|c| (CHANNEL_WEIGHTS[c] * p[c] * p[c]) as f64).sum::<f64>();
+                if e == 0.0 {
+                    continue;
+                }
+                let mut hits = 0;
+                for sy in 0..8 {
+                    for sx in 0..8 {
+                        let (px, py) = (x as f32 + (sx as f32 + 0.5) / 8.0, y as f32 + (sy as f32 + 0.5) / 8.0);
+                        let mut inside = false;
+                        for i in 0..poly.len() {
+                            let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+                            if (a[1] > py) != (b[1] > py) && px < a[0] + (py - a[1]) / (b[1] - a[1]) * (b[0] - a[0]) {
+                                inside = !inside;
+                            }
+                        }
+                        hits += inside as u32;
+                    }
+                }
+                sum += e * hits as f64 / 64.0;
+            }
+        }
+        sum
+    }
+
+    #[test]
+    fn missed_coverage_is_the_energy_of_the_cut_off_piece() {
+        // A textured disc (radius 26 in a 64-pixel tile); its outline clockwise on screen,
+        // then reversed.
+        let size = 64u32;
+        let t = PartTile {
+            size,
+            px: (0..size * size)
+                .map(|i| {
+                    let (dx, dy) = ((i % size) as f32 + 0.5 - 32.0, (i / size) as f32 + 0.5 - 32.0);
+                    if dx * dx + dy * dy < 26.0 * 26.0 {
+                        [0.3 + dx / 80.0, 0.5, 0.2, 0.5, 0.5, 1.0, 1.0]
+                    } else {
+                        [0.0; 7]
+                    }
+                })
+                .collect(),
+        };
+        let ring: Vec<[f32; 2]> = (0..12)
+            .map(|i| {
+                let a = i as f32 / 12.0 * std::f32::consts::TAU;
+                [32.0 + 26.0 * a.cos(), 32.0 + 26.0 * a.sin()]
+            })
+            .collect();
+        for outline in [ring.clone(), ring.iter().rev().copied().collect::<Vec<_>>()] {
+            let table = MissedCoverage::new(&t, &outline);
+            let m = outline.len();
+            for (j, k) in [(0, 3), (2, 7), (10, 1), (5, 6), (11, 5)] {
+                // The piece: outline from j forward to k, closed by the chord.
+                let mut piece = Vec::new();
+                let mut i = j;
+                loop {
+                    piece.push(outline[i]);
+                    if i == k {
+                        break;
+                    }
+                    i = (i + 1) % m;
+                }
+                let want = energy_inside(&t, &piece);
+                let got = table.get(j, k);
+                assert!(
+                    (got - want).abs() <= 0.02 * want.max(1.0) + 2.0,
+                    "({j}, {k}): {got} vs {want}"
+                );
+            }
+            // A chord between neighbours cuts off (almost) nothing; going all the way round
+            // but one step cuts off (almost) everything.
+            assert!(table.get(0, 1) < 0.02 * energy_inside(&t, &outline));
+            let all = energy_inside(&t, &outline);
+            assert!(table.get(1, 0) > 0.8 * all, "{} vs {all}", table.get(1, 0));
+        }
+    }
+
+    #[test]
+    fn the_indexed_cost_adds_the_cut_off_coverage_of_outline_edges_only() {
+        let t = tile(|x, y| [x as f32 / 16.0, y as f32 / 16.0, 0.5, 0.5, 0.5, 1.0, 1.0]);
+        // Source: a quad split into two triangles; outline edges 0-1, 1-2 (triangle 0) and
+        // 2-3, 3-0 (triangle 1); the diagonal 0-2 is inside.
+        let verts = [[2.0, 2.0], [14.0, 2.0], [14.0, 14.0], [2.0, 14.0]];
+        let tris = [[0, 1, 2], [0, 2, 3]];
+        let s = SourceSamples::new(&t, &verts, &tris, false);
+        assert_eq!(s.outline_edges[0].len(), 2);
+        assert_eq!(s.outline_edges[1].len(), 2);
+        let target: Vec<[f32; 2]> = vec![[2.0, 2.0], [8.0, 1.0], [14.0, 2.0], [14.0, 14.0], [2.0, 14.0]];
+        let plain = TargetGrid::new(&t);
+        let charged = TargetGrid::with_outline(&t, &target);
+        // Triangle 0 mapped to target vertices 0, 2, 3: the edge 0 -> 2 skips vertex 1.
+        let p = [0, 2, 3];
+        let base = s.cost_indexed(0, &plain, &target, p, f64::INFINITY);
+        let with = s.cost_indexed(0, &charged, &target, p, f64::INFINITY);
+        let table = MissedCoverage::new(&t, &target);
+        let expect = table.get(0, 2) + table.get(2, 3);
+        assert!(expect > 0.0);
+        assert!(
+            (with - base - expect).abs() < 1e-6 * with.max(1.0),
+            "{with} {base} {expect}"
+        );
+        // Bounded: gives up below the missed part alone.
+        assert_eq!(s.cost_indexed(0, &charged, &target, p, expect * 0.5), f64::INFINITY);
+    }
 
     fn tile(f: impl Fn(u32, u32) -> [f32; 7]) -> PartTile {
         let size = 16;

@@ -35,6 +35,12 @@ pub struct PartFitOptions {
     /// Fast mode: the coarse solution of a restart is exact over every `restart_step`-th
     /// target vertex. Default value: [`DEFAULT_RESTART_STEP`].
     pub restart_step: usize,
+    /// Charge target coverage the mapped polygon leaves out ([`MissedCoverage`]), so that the
+    /// fit's cost and the rendered error agree. Off gives the paper's objective (source
+    /// samples only). Default value: true.
+    ///
+    /// [`MissedCoverage`]: crate::bake::image_cost::MissedCoverage
+    pub charge_missed_coverage: bool,
 }
 
 /// Error per source pixel above which the fast mode restarts from a coarse global solution.
@@ -57,6 +63,7 @@ impl Default for PartFitOptions {
             window: DEFAULT_WINDOW,
             restart_threshold: DEFAULT_RESTART_THRESHOLD,
             restart_step: DEFAULT_RESTART_STEP,
+            charge_missed_coverage: true,
         }
     }
 }
@@ -176,7 +183,7 @@ pub fn fit_frame(
     options: &PartFitOptions,
     pins: &[(usize, usize)],
 ) -> Result<Fit, FitError> {
-    let cost = |t: usize, p: [usize; 3], limit: f64| samples.cost_bounded(t, target_tile, p.map(|j| target[j]), limit);
+    let cost = |t: usize, p: [usize; 3], limit: f64| samples.cost_indexed(t, target_tile, target, p, limit);
     let pin = |cands: &mut Vec<Vec<usize>>| apply_pins(cands, pins, target.len());
     if options.exhaustive {
         let exact = exact_below(plan, samples, target_tile, target, pins, f64::INFINITY)?;
@@ -314,8 +321,7 @@ pub fn fit_frame(
         let mut cands = vec![every; n];
         pin(&mut cands);
         // Most of these triples are never seen again: no memo.
-        let raw =
-            |t: usize, p: [usize; 3], limit: f64| samples.cost_bounded(t, target_tile, p.map(|j| target[j]), limit);
+        let raw = |t: usize, p: [usize; 3], limit: f64| samples.cost_indexed(t, target_tile, target, p, limit);
         let coarse = plan.solve_bounded(&cands, raw)?;
         let at: Vec<[f32; 2]> = coarse.mapping.iter().map(|&j| target[j]).collect();
         let start = plan.solve_bounded(&windows(&at, Some(&coarse.mapping), &near, win), &cost)?;
@@ -357,8 +363,17 @@ fn exact_below(
 ) -> Result<Option<Fit>, FitError> {
     let mut cands = vec![(0..target.len()).collect::<Vec<_>>(); plan.vertex_count()];
     apply_pins(&mut cands, pins, target.len());
-    let cost = |t: usize, p: [usize; 3], limit: f64| samples.cost_bounded(t, target_tile, p.map(|j| target[j]), limit);
+    let cost = |t: usize, p: [usize; 3], limit: f64| samples.cost_indexed(t, target_tile, target, p, limit);
     plan.solve_below(&cands, cost, upper)
+}
+
+/// The target grid of a frame: with the missed-coverage table when the objective charges it.
+pub fn target_grid(tile: &PartTile, outline: &[[f32; 2]], options: &PartFitOptions) -> TargetGrid {
+    if options.charge_missed_coverage {
+        TargetGrid::with_outline(tile, outline)
+    } else {
+        TargetGrid::new(tile)
+    }
 }
 
 /// Fast mode: how far along the target contour around the carried-over index to look.
@@ -495,7 +510,7 @@ pub fn fit_part(
         let fit = fit_frame(
             &plan,
             &samples,
-            &TargetGrid::new(&tiles[f]),
+            &target_grid(&tiles[f], &targets[f], options),
             &targets[f],
             &seeds,
             options,
@@ -636,13 +651,15 @@ mod tests {
                     "frame {f}: {areas:?}"
                 );
                 // The reported cost is the sum of the triangle costs of the mapping.
-                let grid = TargetGrid::new(&t[f]);
+                let grid = target_grid(&t[f], &fit.targets[f], &options);
                 let sum: f64 = (0..fit.key_triangles.len())
                     .map(|k| {
-                        samples.cost(
+                        samples.cost_indexed(
                             k,
                             &grid,
-                            fit.key_triangles[k].map(|i| fit.targets[f][fit.mappings[f][i]]),
+                            &fit.targets[f],
+                            fit.key_triangles[k].map(|i| fit.mappings[f][i]),
+                            f64::INFINITY,
                         )
                     })
                     .sum();
@@ -651,6 +668,43 @@ mod tests {
                     "{sum} vs {}",
                     fit.costs[f]
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn the_exact_dp_is_exact_for_the_objective_with_missed_coverage() {
+        // Small polygons of a real moving shape, so every mapping can be tried: S with 5
+        // vertices onto T with 7 (7⁵ mappings), the full objective (source SSD + folds +
+        // missed target coverage) against brute force, for several frames.
+        let t = tiles(4);
+        for fold_free in [true, false] {
+            let key = polygon_of(&t[0], 5, 0).unwrap();
+            let tris = triangulate(&key).unwrap();
+            let plan = Plan::new(key.len(), &tris).unwrap();
+            let samples = SourceSamples::new(&t[0], &key, &tris, fold_free);
+            for f in 1..4 {
+                let target = polygon_of(&t[f], 7, f).unwrap();
+                let grid = TargetGrid::with_outline(&t[f], &target);
+                let exact = exact_below(&plan, &samples, &grid, &target, &[], f64::INFINITY)
+                    .unwrap()
+                    .unwrap();
+                let bf = crate::bake::fit::brute_force(key.len(), &tris, target.len(), |k, p| {
+                    samples.cost_indexed(k, &grid, &target, p, f64::INFINITY)
+                });
+                assert!(
+                    (exact.cost - bf.cost).abs() <= 1e-9 * bf.cost.max(1.0),
+                    "frame {f}: DP {} vs brute force {}",
+                    exact.cost,
+                    bf.cost
+                );
+                // The missed-coverage term is really in play: the plain objective's optimum
+                // costs less under the plain objective than under the full one.
+                let plain = TargetGrid::new(&t[f]);
+                let bf_plain = crate::bake::fit::brute_force(key.len(), &tris, target.len(), |k, p| {
+                    samples.cost_indexed(k, &plain, &target, p, f64::INFINITY)
+                });
+                assert!(bf_plain.cost < bf.cost, "{} vs {}", bf_plain.cost, bf.cost);
             }
         }
     }

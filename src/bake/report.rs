@@ -63,6 +63,10 @@ pub struct Settings {
     pub clip: Option<String>,
     pub exhaustive: bool,
     pub fold_free: bool,
+    /// The objective charges target coverage the mapped polygon leaves out (false in
+    /// reports written before it did).
+    #[serde(default)]
+    pub charge_missed_coverage: bool,
     /// Fast mode: error per source pixel above which a frame is searched again from a
     /// coarse global solution (`null`: restarts off).
     pub restart_threshold: Option<f64>,
@@ -127,6 +131,7 @@ impl Report {
                 final_vertices: s.final_vertices,
                 exhaustive: s.exhaustive,
                 fold_free: s.fold_free,
+                charge_missed_coverage: s.charge_missed_coverage,
                 restart_threshold: s.restart_threshold.unwrap_or(f64::INFINITY),
                 ..Default::default()
             },
@@ -216,6 +221,7 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
             clip: clip.map(String::from),
             exhaustive: bake.options.fit.exhaustive,
             fold_free: bake.options.fit.fold_free,
+            charge_missed_coverage: bake.options.fit.charge_missed_coverage,
             restart_threshold: Some(bake.options.fit.restart_threshold).filter(|t| t.is_finite()),
             key_vertices: bake.options.fit.key_vertices,
             frame_vertices: bake.options.fit.frame_vertices,
