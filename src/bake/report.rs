@@ -15,6 +15,10 @@ pub struct PartReport {
     pub ssim: Vec<f64>,
     /// Fit error (the DP objective) per frame.
     pub fit_cost: Vec<f64>,
+    /// The same per pixel of the frame's target outline (comparable across parts and frames
+    /// of different sizes, as PSNR is).
+    #[serde(default)]
+    pub fit_cost_per_pixel: Vec<f64>,
     pub vertices: usize,
     pub triangles: usize,
     pub problem: Option<String>,
@@ -188,6 +192,13 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
                     psnr: part.psnr.clone(),
                     ssim: part.ssim.clone(),
                     fit_cost: part.fit.as_ref().map_or(Vec::new(), |f| f.costs.clone()),
+                    fit_cost_per_pixel: part.fit.as_ref().map_or(Vec::new(), |f| {
+                        f.costs
+                            .iter()
+                            .zip(&f.targets)
+                            .map(|(c, t)| c / (super::contour::signed_area2(t).abs() / 2.0).max(1.0))
+                            .collect()
+                    }),
                     vertices: part.fit.as_ref().map_or(0, |f| f.kept.len()),
                     triangles: part.fit.as_ref().map_or(0, |f| f.triangles.len()),
                     problem: part.problem.clone(),
