@@ -108,6 +108,14 @@ pub(super) fn run<T: Send + 'static>(sync: bool, job: impl FnOnce() -> T + Send 
 
 type Textures = HashMap<&'static str, (u64, egui::TextureHandle)>;
 
+/// A version no session has had: every session and every re-fit takes a new one, so a
+/// cached texture (keyed by name and version) can never show another view's or another
+/// character's images.
+fn fresh_version() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+}
+
 /// A texture for `name`, rebuilt only when `version` changes.
 fn texture(
     textures: &mut Textures,
@@ -150,6 +158,11 @@ pub(super) fn to_color_image(img: &image::RgbaImage) -> egui::ColorImage {
 }
 
 impl Inspector {
+    /// The version of the cached texture `name` ("key", "composite", …), if it was drawn.
+    pub fn texture_version(&self, name: &str) -> Option<u64> {
+        self.textures.get(name).map(|(v, _)| *v)
+    }
+
     /// Whether a session or an opening is for `view`.
     pub fn is_for(&self, view: usize) -> bool {
         self.session.as_ref().is_some_and(|s| s.view == view) || self.opening.as_ref().is_some_and(|o| o.0 == view)
@@ -198,7 +211,7 @@ impl Inspector {
                 names,
                 ov,
                 made_for,
-                version: 0,
+                version: fresh_version(),
             })
         };
         self.session = None;
@@ -236,7 +249,7 @@ impl Inspector {
                 s.psnr_static = r.fit.error.psnr_static;
                 s.ssim = r.fit.error.ssim;
                 s.ov = r.ov;
-                s.version += 1;
+                s.version = fresh_version();
                 self.last_refit_ms = Some(r.ms);
             }
         }

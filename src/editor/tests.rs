@@ -209,10 +209,12 @@ fn bake_small(
     let dir = std::env::temp_dir().join(format!("polypostor-editor-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let out = dir.join(name);
-    let c = polypostor::default_character::generate();
+    // The character as the editor opens it (imported from its file), so the bake and the
+    // editor's re-fits see the same vertices to the last bit.
+    let character_path = repo().join(polypostor::default_character::DEFAULT_CHARACTER_PATH);
+    let c = polypostor::import_path(&character_path).unwrap();
     let seg = polypostor::bake::segment::auto_segment(&c);
     let ctx = polypostor::gpu::GpuContext::new(&polypostor::gpu::AdapterPreference::SoftwareFirst).unwrap();
-    let character_path = repo().join(polypostor::default_character::DEFAULT_CHARACTER_PATH);
     let job = polypostor::reps::bake::FolderBake {
         character: &c,
         character_path: &character_path,
@@ -568,6 +570,21 @@ fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
         );
     }
     h.get_by_label(&format!("Quality sheet: view {worst}, frame {frame}"));
+    // Another view: the inspector's images are that view's, never the previous one's
+    // cached under the same name.
+    let key_before = h.state().views.inspector.texture_version("key");
+    let composite_before = h.state().views.inspector.texture_version("composite");
+    assert!(key_before.is_some() && composite_before.is_some());
+    let other = (worst + 1) % report.views.len();
+    let label = format!(
+        "view {other:>3}   {:.2} dB   SSIM {:.3}",
+        report.views[other].mean_psnr, report.views[other].mean_ssim
+    );
+    h.get_by_label(&label).click();
+    h.run_steps(4);
+    assert_eq!(h.state().views.inspector.session.as_ref().map(|s| s.view), Some(other));
+    assert_ne!(h.state().views.inspector.texture_version("key"), key_before);
+    assert_ne!(h.state().views.inspector.texture_version("composite"), composite_before);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
