@@ -233,7 +233,10 @@ pub fn auto_segment(c: &Character) -> Segmentation {
             .max_by(|&a, &b| tree.mass[a].total_cmp(&tree.mass[b]).then(b.cmp(&a)));
         let mut at = root;
         let mut limb_roots: Vec<usize> = Vec::new();
+        // The trunk's joints, root first (the head end last).
+        let mut trunk: Vec<usize> = Vec::new();
         while let Some(j) = at {
+            trunk.push(j);
             let kids = &tree.children[j];
             let mut paired = vec![false; kids.len()];
             for x in 0..kids.len() {
@@ -262,7 +265,7 @@ pub fn auto_segment(c: &Character) -> Segmentation {
                 .map(|(_, &c)| c);
             // Other long unpaired branches (a tail) become parts of their own.
             for (k, &child) in kids.iter().enumerate() {
-                if !paired[k] && Some(child) != next && tree.size[child] >= 3 && tree.parent[j].is_some() {
+                if !paired[k] && Some(child) != next && tree.size[child] >= 3 {
                     limb_roots.push(child);
                 }
             }
@@ -338,6 +341,26 @@ pub fn auto_segment(c: &Character) -> Segmentation {
                 .min_by(|a, b| a.1.total_cmp(&b.1))
                 .map(|(k, _)| k);
         }
+        // A limb that carries no mesh (an IK target chain, a pole, a control: rigs keep them
+        // among the skin's joints) is no part: it names nothing and decides nothing — when
+        // the character has a mesh at all.
+        let any_mesh = carried.iter().any(|v| !v.is_empty());
+        let meshless: Vec<bool> = (0..limbs.len())
+            .map(|i| {
+                any_mesh
+                    && target[i] == Some(i)
+                    && (0..limbs.len())
+                        .filter(|&k| target[k] == Some(i))
+                        .all(|k| limbs[k].1.iter().all(|&j| carried[j].is_empty()))
+            })
+            .collect();
+        for k in 0..limbs.len() {
+            if let Some(t) = target[k]
+                && meshless[t]
+            {
+                target[k] = None;
+            }
+        }
         // What each real limb covers, its joined single joints included.
         let reach: Vec<(f32, bool)> = (0..limbs.len())
             .map(|i| {
@@ -359,6 +382,35 @@ pub fn auto_segment(c: &Character) -> Segmentation {
             .filter(|(i, r)| target[*i] == Some(*i) && r.1)
             .map(|(_, r)| r.0)
             .fold(f32::INFINITY, f32::min);
+        let is_leg = |i: usize| {
+            let (hip, grounded) = reach[i];
+            target[i] == Some(i)
+                && side_free_name(&tree.name[limbs[i].0]).1.is_some()
+                && grounded
+                && hip <= lowest_hip + 0.15 * span
+        };
+        // Several pairs of legs (a quadruped, an insect): front and hind by where they hang
+        // along the trunk, the head's end being the front.
+        let legs: Vec<usize> = (0..limbs.len()).filter(|&i| is_leg(i)).collect();
+        let along = |j: usize| -> f32 {
+            match (trunk.first(), trunk.last()) {
+                (Some(&a), Some(&b)) if a != b => {
+                    let axis = (tree.pos[b] - tree.pos[a]).normalize_or_zero();
+                    (tree.pos[j] - tree.pos[a]).dot(axis)
+                }
+                _ => 0.0,
+            }
+        };
+        let leg_pairs = legs.len() / 2;
+        let (front_cut, hind_cut) = if leg_pairs >= 2 {
+            let mut at: Vec<f32> = legs.iter().map(|&i| along(limbs[i].0)).collect();
+            at.sort_by(f32::total_cmp);
+            // The foremost pair is the front, the hindmost the hind, any between the middle.
+            let n = at.len();
+            (at[n - 2], at[1])
+        } else {
+            (f32::INFINITY, f32::NEG_INFINITY)
+        };
         let mut part_of_limb = vec![0usize; limbs.len()];
         for (i, (r, _)) in limbs.iter().enumerate() {
             if target[i] != Some(i) {
@@ -370,19 +422,34 @@ pub fn auto_segment(c: &Character) -> Segmentation {
                 Some('r') => "Right ",
                 _ => "",
             };
-            let (hip, grounded) = reach[i];
             let kind = if side.is_none() {
-                pretty(&base)
-            } else if grounded && hip <= lowest_hip + 0.15 * span {
+                if base.to_ascii_lowercase().contains("tail") {
+                    "Tail".to_string()
+                } else {
+                    pretty(&base)
+                }
+            } else if is_leg(i) {
                 "Leg".to_string()
             } else {
                 "Arm".to_string()
             };
             let kind = if kind.is_empty() { "Part".to_string() } else { kind };
-            let mut label = format!("{side_word}{kind}");
+            let end_word = if kind == "Leg" && leg_pairs >= 2 {
+                let a = along(*r);
+                if a > front_cut - 1e-6 * span && a >= hind_cut + 0.05 * span {
+                    "Front "
+                } else if a <= hind_cut + 1e-6 * span {
+                    "Hind "
+                } else {
+                    "Middle "
+                }
+            } else {
+                ""
+            };
+            let mut label = format!("{end_word}{side_word}{kind}");
             let mut k = 2;
             while parts.iter().any(|p| p.name == label) {
-                label = format!("{side_word}{kind} {k}");
+                label = format!("{end_word}{side_word}{kind} {k}");
                 k += 1;
             }
             part_of_limb[i] = parts.len();
@@ -440,9 +507,15 @@ pub fn auto_segment(c: &Character) -> Segmentation {
 }
 
 fn pretty(base: &str) -> String {
-    base.split('_')
+    base.split(['_', '.', ' ', '-'])
+        .map(|t| t.trim_end_matches(|c: char| c.is_ascii_digit()))
         .filter(|t| {
-            !t.chars().all(|c| c.is_ascii_digit()) && !matches!(*t, "mixamorig" | "joint" | "bone" | "def" | "jnt")
+            // Rig prefixes ("b_", "c_", "DEF", "mixamorig") and numbering say nothing.
+            t.len() > 1
+                && !matches!(
+                    t.to_ascii_lowercase().as_str(),
+                    "mixamorig" | "joint" | "bone" | "def" | "jnt" | "ctrl" | "org" | "mch"
+                )
         })
         .map(|t| {
             let mut c = t.chars();
