@@ -1,27 +1,40 @@
 // Polypostor crowd: instances sorted by view, one indexed instanced draw per view in use.
-// Each index names a part record (high 16 bits: view × parts + drawing slot) and a vertex of
-// that part (low 16 bits); the vertex is pulled from the pack's 16-bit data at two frames
-// and interpolated. Indexed draws let the GPU reuse each vertex across its triangles. Parts
-// later in the view's order are moved slightly towards the camera, so the depth test draws
-// them in front.
-// Frame.counts: y parts per view, z frames, w depth offset per slot (world units). Shared
-// structs and functions: crowd_common.wgsl. Keep the structs in sync with
+// Each index names a part record (high 16 bits) and a vertex of that part (low 16 bits); the
+// vertex is pulled from the pack's 16-bit data at two frames and interpolated. Indexed draws
+// let the GPU reuse each vertex across its triangles. Parts later in the view's order are
+// moved slightly towards the camera, so the depth test draws them in front.
+//
+// Several key images: a part with k keys has k records, one per key image, each with its own
+// polygon. Per frame the pack says which key draws the part (a table of u8 in `geometry`).
+// Over an interval whose two frames use different keys, both records are drawn and the
+// pixels are split between them by an ordered-dither threshold that moves with the blend:
+// a cross-fade without transparency (no sorting, the depth test still works), no pop.
+// Frame.counts: z frames, w depth offset per slot (world units). Shared structs and
+// functions: crowd_common.wgsl. Keep the structs in sync with
 // `src/gpu/polypostor_renderer.rs`.
 
 struct Part {
-    // First u32 of the part's block (each u32 holds one x, y pair of unorm16 values).
+    // First u32 of the key's block: UVs, then `frame_count` frames of positions (each u32
+    // holds one x, y pair of unorm16 values).
     vertex_word: u32,
     // Low 16 bits: vertices; high 16 bits: the body part (for the per-part tint).
     vertex_count: u32,
-    // First u16 index, and how many.
-    index_offset: u32,
-    index_count: u32,
+    // The view.
+    view: u32,
+    // Bits 0-7: drawing slot; 8-15: this record's key; 16-23: the part's keys.
+    slot_key: u32,
+    // Low 16 bits: first frame of the block; high 16 bits: frames in it.
+    frames: u32,
+    // First u32 of the part's per-frame key table in `geometry` (4 frames a word; keys > 1).
+    key_table: u32,
+    pad0: u32,
+    pad1: u32,
 };
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<storage, read> views: array<View>;
 @group(0) @binding(2) var<storage, read> parts: array<Part>;
-// Vertex data (u32 words, each an x, y pair of unorm16 values).
+// Vertex data (u32 words, each an x, y pair of unorm16 values), then the key tables.
 @group(0) @binding(3) var<storage, read> geometry: array<u32>;
 @group(0) @binding(4) var<storage, read> instances: array<Instance>;
 @group(0) @binding(5) var atlas: texture_2d_array<f32>;
@@ -34,26 +47,61 @@ struct VertexOut {
     @location(1) @interpolate(flat) layer: u32,
     @location(2) light_view: vec3<f32>,
     @location(3) tint: vec3<f32>,
+    // x: 0 draw every pixel, 1 the pixels whose threshold is at least the blend (the
+    // interval's first key), 2 those below it (its second key); y: the blend.
+    @location(4) @interpolate(flat) fade: vec2<f32>,
 };
+
+// The key drawing frame `f` of a part whose table starts at word `table`.
+fn key_of(table: u32, f: u32) -> u32 {
+    return (geometry[table + f / 4u] >> (8u * (f % 4u))) & 0xffu;
+}
+
+// Ordered-dither threshold of a pixel in (0, 1): the 4×4 Bayer matrix, (v + 0.5) / 16. Keep
+// in sync with `crossfade_threshold` in `src/bake/raster.rs`.
+fn crossfade_threshold(p: vec2<f32>) -> f32 {
+    let x = u32(p.x) & 3u;
+    let y = u32(p.y) & 3u;
+    var m = array<u32, 16>(0u, 8u, 2u, 10u, 12u, 4u, 14u, 6u, 3u, 11u, 1u, 9u, 15u, 7u, 13u, 5u);
+    return (f32(m[y * 4u + x]) + 0.5) / 16.0;
+}
 
 @vertex
 fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> VertexOut {
     var out: VertexOut;
     let inst = instances[ii];
-    let per_view = u32(frame.counts.y);
     let frames = max(u32(frame.counts.z), 1u);
-    let record = vi >> 16u;
-    let slot = record % max(per_view, 1u);
-    let part = parts[record];
+    let part = parts[vi >> 16u];
+    let slot = part.slot_key & 0xffu;
+    let key = (part.slot_key >> 8u) & 0xffu;
+    let keys = max((part.slot_key >> 16u) & 0xffu, 1u);
     let vc = max(part.vertex_count & 0xffffu, 1u);
     let local = min(vi & 0xffffu, vc - 1u);
     let f0 = inst.frame % frames;
     let f1 = (f0 + 1u) % frames;
-    let a = unpack2x16unorm(geometry[part.vertex_word + vc * (1u + f0) + local]) * 2.0 - 1.0;
-    let b = unpack2x16unorm(geometry[part.vertex_word + vc * (1u + f1) + local]) * 2.0 - 1.0;
-    let xy = mix(a, b, clamp(inst.blend, 0.0, 1.0));
-    let view_index = record / max(per_view, 1u);
-    let view = views[view_index];
+    let blend = clamp(inst.blend, 0.0, 1.0);
+    var mode = 0.0;
+    if (keys > 1u) {
+        let k0 = key_of(part.key_table, f0);
+        let k1 = key_of(part.key_table, f1);
+        if (k0 != key && k1 != key) {
+            // This key draws neither end of the interval: no triangle.
+            out.clip_position = vec4<f32>(0.0, 0.0, 2.0, 0.0);
+            return out;
+        }
+        if (k0 != k1) {
+            mode = select(2.0, 1.0, k0 == key);
+        }
+    }
+    // The block's frames, from its first one round the loop.
+    let start = part.frames & 0xffffu;
+    let count = max(part.frames >> 16u, 1u);
+    let g0 = min((f0 + frames - start % frames) % frames, count - 1u);
+    let g1 = min((f1 + frames - start % frames) % frames, count - 1u);
+    let a = unpack2x16unorm(geometry[part.vertex_word + vc * (1u + g0) + local]) * 2.0 - 1.0;
+    let b = unpack2x16unorm(geometry[part.vertex_word + vc * (1u + g1) + local]) * 2.0 - 1.0;
+    let xy = mix(a, b, blend);
+    let view = views[part.view];
     let model = view.center.xyz
         + (xy.x * view.right.xyz + xy.y * view.up.xyz) * view.center.w
         + view.forward.xyz * (f32(slot) * frame.counts.w);
@@ -64,11 +112,18 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> 
     // The light in the view's camera frame (the normal atlas is in that frame).
     out.light_view = light_in_view(frame.light_dir.xyz, inst.facing, view);
     out.tint = part_tint(inst.variant, part.vertex_count >> 16u, frame.params.z);
+    out.fade = vec2<f32>(mode, blend);
     return out;
 }
 
 @fragment
 fn fs_main(in: VertexOut) -> FragmentOut {
+    if (in.fade.x > 0.5) {
+        let later = crossfade_threshold(in.clip_position.xy) < in.fade.y;
+        if (later != (in.fade.x > 1.5)) {
+            discard;
+        }
+    }
     let albedo = textureSample(atlas, atlas_sampler, in.uv, in.layer);
     if (albedo.a < 0.5) {
         discard;

@@ -409,6 +409,15 @@ struct BakeArgs {
     /// characters with thin limbs, about 3 % further from the exact optimum.
     #[arg(long, conflicts_with = "exhaustive")]
     no_restarts: bool,
+    /// Most key images per part and view (1: the paper's single key; up to 8).
+    #[arg(long, default_value_t = 4)]
+    max_keys: usize,
+    /// Least cut (dB) of a part's error over all frames an added key image must buy.
+    #[arg(long, default_value_t = 0.5)]
+    key_gain_db: f64,
+    /// Bytes of added key images a view may spend, as a fraction of its first key images'.
+    #[arg(long, default_value_t = 0.5)]
+    key_budget: f64,
     /// Views on the whole sphere instead of the upper hemisphere.
     #[arg(long)]
     full_sphere: bool,
@@ -438,6 +447,15 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     }
     if !(a.fps.is_finite() && a.fps >= MIN_FPS && a.fps <= MAX_FPS) {
         anyhow::bail!("--fps {}: choose {MIN_FPS} to {MAX_FPS}", a.fps);
+    }
+    if a.max_keys == 0 || a.max_keys > polypostor::bake::keys::MAX_KEYS {
+        anyhow::bail!("--max-keys {}: choose 1 to {}", a.max_keys, polypostor::bake::keys::MAX_KEYS);
+    }
+    if !(a.key_gain_db.is_finite() && a.key_gain_db >= 0.0 && a.key_gain_db <= 100.0) {
+        anyhow::bail!("--key-gain-db {}: choose 0 to 100", a.key_gain_db);
+    }
+    if !(a.key_budget.is_finite() && a.key_budget >= 0.0 && a.key_budget <= 16.0) {
+        anyhow::bail!("--key-budget {}: choose 0 to 16", a.key_budget);
     }
     let set =
         polypostor::reps::RepSet::parse(&a.representation).map_err(|e| anyhow::anyhow!("--representation: {e}"))?;
@@ -552,6 +570,11 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         },
         overrides,
         keep_frame_images: a.debug_images,
+        keys: polypostor::bake::keys::KeyOptions {
+            max_keys: a.max_keys,
+            min_gain_db: a.key_gain_db,
+            budget: a.key_budget,
+        },
         ..Default::default()
     };
     let out = match &a.out {
@@ -892,6 +915,9 @@ fn bake_default_all(out: &Path) -> anyhow::Result<()> {
         allow_folds: false,
         paper_objective: false,
         no_restarts: false,
+        max_keys: 4,
+        key_gain_db: 0.5,
+        key_budget: 0.5,
         full_sphere: false,
         debug_images: false,
         representation: "all".into(),

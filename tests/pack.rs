@@ -169,3 +169,102 @@ fn pack_round_trip_and_damage() {
     assert!(load_pack(&d).unwrap_err().to_string().contains("refers past"));
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn several_key_images_round_trip_and_damaged_key_tables_are_refused() {
+    use polypostor::bake::keys::KeyOptions;
+    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let c = polypostor::default_character::generate();
+    let seg = auto_segment(&c);
+    // Keys at no cost, so parts get several.
+    let options = BakeOptions {
+        views: 3,
+        resolution: 64,
+        key_frame: KeyFrame::Frame(0),
+        keys: KeyOptions {
+            max_keys: 4,
+            min_gain_db: 0.0,
+            budget: 4.0,
+        },
+        ..Default::default()
+    };
+    let b = bake(&ctx, &c, &seg, &CapOverrides::default(), &options, &|_| {}, &AtomicBool::new(false)).unwrap();
+    let dir = common::temp_dir("pack-keys");
+    let out = dir.join("walk.pack");
+    let stats = write_pack(&b, &c.name, Some("Walk"), &out).unwrap();
+    let p = load_pack(&out).unwrap();
+    let frames = p.manifest.frames as usize;
+    let mut extra = 0;
+    let mut checked = 0;
+    for (v, view) in b.views.iter().enumerate() {
+        for (pi, part) in view.parts.iter().enumerate() {
+            let Some(m) = p.manifest.views[v].parts[pi].as_ref() else {
+                assert!(part.fit.is_none());
+                continue;
+            };
+            assert_eq!(m.extra_keys.len(), part.extra.len(), "view {v} part {pi}");
+            assert_eq!(m.frame_keys, part.frame_key, "view {v} part {pi}");
+            extra += part.extra.len();
+            for (k, e) in part.extra.iter().enumerate() {
+                assert_eq!(m.extra_keys[k].key_frame as usize, e.frame);
+                // Every frame of the key's span is stored, as fitted.
+                for f in 0..frames {
+                    let got = p.key_vertices(v, pi, k + 1, f);
+                    assert_eq!(got.is_some(), e.span.contains(f, frames), "view {v} part {pi} key {k} frame {f}");
+                    let Some((_, pos)) = got else { continue };
+                    for (i, q) in e.fit.positions(f).iter().enumerate() {
+                        assert!((pos[2 * i] - (q[0] / 64.0 * 2.0 - 1.0)).abs() < 4e-5);
+                        assert!((pos[2 * i + 1] - (1.0 - q[1] / 64.0 * 2.0)).abs() < 4e-5);
+                    }
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert!(extra > 0, "no part got a second key");
+    assert!(checked > 0);
+    assert!(stats.extra_key_bytes > 0);
+    // A part with several keys to damage.
+    let (v, pi) = p
+        .manifest
+        .views
+        .iter()
+        .enumerate()
+        .find_map(|(v, view)| view.parts.iter().position(|q| q.as_ref().is_some_and(|q| !q.extra_keys.is_empty())).map(|pi| (v, pi)))
+        .unwrap();
+    let manifest_text = std::fs::read_to_string(out.join("manifest.json")).unwrap();
+    let damage = |name: &str, f: &dyn Fn(&mut serde_json::Value)| -> String {
+        let d = dir.join(name);
+        common::copy_folder(&out, &d);
+        let mut m: serde_json::Value = serde_json::from_str(&manifest_text).unwrap();
+        f(&mut m["views"][v]["parts"][pi]);
+        std::fs::write(d.join("manifest.json"), serde_json::to_string(&m).unwrap()).unwrap();
+        load_pack(&d).err().unwrap_or_else(|| panic!("{name}: damaged pack loaded")).to_string()
+    };
+    let e = damage("key-missing", &|q| q["frame_keys"][0] = 9.into());
+    assert!(e.contains("does not have"), "{e}");
+    let e = damage("key-table-short", &|q| {
+        q["frame_keys"].as_array_mut().unwrap().pop();
+    });
+    assert!(e.contains("frame keys"), "{e}");
+    let e = damage("key-table-gone", &|q| q["frame_keys"] = serde_json::json!([]));
+    assert!(e.contains("extra keys"), "{e}");
+    let e = damage("key-span-empty", &|q| q["extra_keys"][0]["frame_count"] = 0.into());
+    assert!(e.contains("do not fit"), "{e}");
+    let e = damage("key-offset", &|q| q["extra_keys"][0]["vertex_offset"] = 4_000_000_000u64.into());
+    assert!(e.contains("past the end"), "{e}");
+    // The key table names the key for a frame its polygon was not fitted to.
+    let e = damage("key-uncovered", &|q| {
+        let key = q["extra_keys"][0].clone();
+        let (start, count) = (key["frame_start"].as_u64().unwrap() as usize, key["frame_count"].as_u64().unwrap() as usize);
+        if count < frames {
+            let outside = (start + count) % frames;
+            q["frame_keys"][outside] = 1.into();
+        } else {
+            q["extra_keys"][0]["frame_count"] = 1.into();
+            q["frame_keys"][start] = 1.into();
+        }
+    });
+    assert!(e.contains("does not cover"), "{e}");
+    std::fs::remove_dir_all(dir).unwrap();
+}

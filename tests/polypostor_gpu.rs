@@ -208,3 +208,158 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
     }
     gpu.coarse_below = default_below;
 }
+
+/// Mean absolute difference per channel (RGBA, 0..255) over every pixel.
+fn mean_diff(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
+    let sum: u64 = a
+        .as_raw()
+        .iter()
+        .zip(b.as_raw())
+        .map(|(&x, &y)| (x as i32 - y as i32).unsigned_abs() as u64)
+        .sum();
+    sum as f64 / a.as_raw().len() as f64
+}
+
+#[test]
+fn a_change_of_key_image_is_cross_faded_without_a_pop() {
+    use polypostor::bake::keys::KeyOptions;
+    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let c = polypostor::default_character::generate();
+    let seg = auto_segment(&c);
+    // Keys are cheap here (any gain, a large budget), so views get several.
+    let options = BakeOptions {
+        views: 4,
+        resolution: 96,
+        key_frame: KeyFrame::Frame(0),
+        keys: KeyOptions {
+            max_keys: 4,
+            min_gain_db: 0.0,
+            budget: 4.0,
+        },
+        ..Default::default()
+    };
+    let b = bake(
+        &ctx,
+        &c,
+        &seg,
+        &CapOverrides::default(),
+        &options,
+        &|_| {},
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    let dir = common::temp_dir("polypostor-crossfade");
+    let out = dir.join("walk.pack");
+    write_pack(&b, &c.name, Some("Walk"), &out).unwrap();
+    let pack = load_pack(&out).unwrap();
+    let frames = pack.manifest.frames as usize;
+    // A view with a part whose key changes between two consecutive frames.
+    let change = pack
+        .manifest
+        .views
+        .iter()
+        .enumerate()
+        .find_map(|(v, view)| {
+            view.parts.iter().flatten().find_map(|p| {
+                (0..frames)
+                    .find(|&f| !p.frame_keys.is_empty() && p.frame_keys[f] != p.frame_keys[(f + 1) % frames])
+                    .map(|f| (v, f))
+            })
+        });
+    let (v, f) = change.expect("a view whose parts change key (several keys were allowed at no cost)");
+    let changing: Vec<usize> = (0..frames)
+        .filter(|&g| {
+            pack.manifest.views[v].parts.iter().flatten().any(|p| {
+                !p.frame_keys.is_empty() && p.frame_keys[g] != p.frame_keys[(g + 1) % frames]
+            })
+        })
+        .collect();
+    let size = 192u32;
+    let target = RenderTarget::new(device, size, size);
+    let style = PolypostorStyle {
+        lit: false,
+        tint: 0.0,
+        ..Default::default()
+    };
+    let cam = pack.manifest.views[v].camera.clone();
+    let camera = cam.to_camera(cam.half_size * 4.0, cam.half_size, cam.half_size * 8.0);
+    let draw = |gpu: &mut GpuPolypostors, frame: usize, blend: f32| {
+        let instance = Instance {
+            pos: [0.0, 0.0],
+            facing: [0.0, 1.0],
+            view: v as u32,
+            frame: frame as u32,
+            blend,
+            variant: 3,
+        };
+        gpu.render(device, queue, &target, camera.clip_from_world(1.0), &style, &[instance])
+            .unwrap();
+        target.read_color(device, queue).unwrap()
+    };
+    // The pack as written, and as if interval `g` were drawn from one key only: each
+    // changing part's key at the interval's start (`first`) or end kept over both frames
+    // (each key's polygon covers both frames of an interval it draws an end of).
+    let mut gpu = GpuPolypostors::new(device, queue, &pack).unwrap();
+    let one_key = |g: usize, first: bool| {
+        let mut p = load_pack(&out).unwrap();
+        for part in p.manifest.views[v].parts.iter_mut().flatten() {
+            if part.frame_keys.is_empty() {
+                continue;
+            }
+            let (a, b) = (g, (g + 1) % frames);
+            if first {
+                part.frame_keys[b] = part.frame_keys[a];
+            } else {
+                part.frame_keys[a] = part.frame_keys[b];
+            }
+        }
+        GpuPolypostors::new(device, queue, &p).unwrap()
+    };
+    // Eight display times per interval over the whole loop.
+    const STEPS: usize = 8;
+    let mut worst_ratio = 0.0f64;
+    for g in 0..frames {
+        let images: Vec<image::RgbaImage> = (0..=STEPS).map(|s| draw(&mut gpu, g, s as f32 / STEPS as f32)).collect();
+        let steps: Vec<f64> = images.windows(2).map(|w| mean_diff(&w[0], &w[1])).collect();
+        let largest = steps.iter().copied().fold(0.0, f64::max);
+        // The end of one interval is the start of the next: no jump between them.
+        let next = draw(&mut gpu, (g + 1) % frames, 0.0);
+        let seam = mean_diff(&images[STEPS], &next);
+        assert!(seam < 0.05, "frame {g}: the interval's end and the next start differ by {seam}");
+        if !changing.contains(&g) {
+            continue;
+        }
+        // The interpolation's own steps (one key over the interval, either one) and how far
+        // apart the two keys' images are.
+        let (mut own, mut apart) = (0.0f64, 0.0f64);
+        let mut singles: Vec<Vec<image::RgbaImage>> = Vec::new();
+        for first in [true, false] {
+            let mut single = one_key(g, first);
+            let imgs: Vec<image::RgbaImage> = (0..=STEPS).map(|s| draw(&mut single, g, s as f32 / STEPS as f32)).collect();
+            own = own.max(imgs.windows(2).map(|w| mean_diff(&w[0], &w[1])).fold(0.0, f64::max));
+            singles.push(imgs);
+        }
+        for s in 0..=STEPS {
+            apart = apart.max(mean_diff(&singles[0][s], &singles[1][s]));
+        }
+        // Faded, a step changes the picture by the interpolation's own step plus its share of
+        // the difference between the keys (a hard switch would put all of it into one step).
+        let allowed = own + 2.0 * apart / STEPS as f64 + 0.05;
+        eprintln!(
+            "interval {g}: largest step {largest:.3}; one key's own {own:.3}; keys {apart:.3} apart; allowed {allowed:.3}"
+        );
+        assert!(largest <= allowed, "interval {g}: a step of {largest} (own {own}, keys {apart} apart)");
+        if apart > 0.5 {
+            // Where the keys differ visibly, no step carries the whole switch.
+            assert!(largest < own + 0.5 * apart, "interval {g}: a pop of {largest}");
+        }
+        worst_ratio = worst_ratio.max(largest / allowed);
+        if std::env::var_os("POLYPOSTOR_TEST_IMAGES").is_some() && g == f {
+            for (s, img) in images.iter().enumerate() {
+                img.save(dir.join(format!("crossfade_{s}.png"))).unwrap();
+            }
+        }
+    }
+    eprintln!("view {v}: key changes after frames {changing:?}; largest step at most {worst_ratio:.2} of what is allowed");
+}

@@ -115,7 +115,7 @@ fn quadruped() -> polypostor::Character {
         ("b_Head".into(), Some(3), Vec3::new(0.0, 1.15, 0.9)),
         ("b_HeadEnd".into(), Some(4), Vec3::new(0.0, 1.15, 1.15)),
     ];
-    let mut add = |joints: &mut Vec<(String, Option<usize>, Vec3)>, name: String, parent: usize, p: Vec3| {
+    let add = |joints: &mut Vec<(String, Option<usize>, Vec3)>, name: String, parent: usize, p: Vec3| {
         joints.push((name, Some(parent), p));
         joints.len() - 1
     };

@@ -5,7 +5,7 @@
 use super::image_cost::PartTile;
 use super::part_fit::PartFit;
 use super::pipeline::PartResult;
-use super::raster::{Canvas, tile_canvas};
+use super::raster::{Canvas, crossfade_threshold, tile_canvas};
 
 /// The fitted polygon's vertices at time `t` (in frames; wraps around the clip), linearly
 /// interpolated between the two frames around it.
@@ -33,17 +33,33 @@ pub fn part_canvas(fit: &PartFit, key_tile: &PartTile, t: f32) -> Canvas {
     c
 }
 
-/// Every part drawn in `order` at time `t`.
-pub fn composite_at(parts: &[PartResult], key_tiles: &[PartTile], order: &[usize], t: f32, size: u32) -> Canvas {
+/// Every part drawn in `order` at time `t`, each from the key that draws the frames around
+/// `t` (`tiles[p][f]`: part `p`'s tile at frame `f`): where the two frames are drawn from
+/// different keys, both keys' polygons are drawn, each on its share of the pixels
+/// ([`crossfade_threshold`]), as the run time does.
+pub fn composite_at(parts: &[PartResult], tiles: &[Vec<PartTile>], order: &[usize], t: f32, size: u32) -> Canvas {
     let mut c = Canvas::new(size);
     for &p in order {
-        let (Some(fit), Some(tile)) = (parts.get(p).and_then(|r| r.fit.as_ref()), key_tiles.get(p)) else {
-            continue;
-        };
-        let pos = positions_at(fit, t);
-        let uv = fit.uvs();
-        for tri in &fit.triangles {
-            c.draw_textured(tri.map(|i| pos[i]), tri.map(|i| uv[i]), tile);
+        let Some(part) = parts.get(p) else { continue };
+        let Some(fit) = part.fit.as_ref() else { continue };
+        let frames = fit.targets.len().max(1);
+        let tt = t.rem_euclid(frames as f32);
+        let f0 = (tt.floor() as usize).min(frames - 1);
+        let f1 = (f0 + 1) % frames;
+        let a = tt - f0 as f32;
+        let (Some(k0), Some(k1)) = (part.fit_at(f0), part.fit_at(f1)) else { continue };
+        let same = std::ptr::eq(k0.0, k1.0);
+        for (n, (fit, key)) in [k0, k1].into_iter().enumerate() {
+            if same && n == 1 {
+                break;
+            }
+            let Some(tile) = tiles.get(p).and_then(|t| t.get(key)) else { continue };
+            let pos = positions_at(fit, t);
+            let uv = fit.uvs();
+            let keep = |x: u32, y: u32| same || ((crossfade_threshold(x, y) < a) == (n == 1));
+            for tri in &fit.triangles {
+                c.draw_textured_where(tri.map(|i| pos[i]), tri.map(|i| uv[i]), tile, &keep);
+            }
         }
     }
     c
@@ -160,11 +176,15 @@ mod tests {
             ssim: vec![],
             key_color: image::RgbaImage::new(1, 1),
             key_normal: image::RgbaImage::new(1, 1),
+            sse: vec![],
+            extra: vec![],
+            frame_key: vec![],
         };
         let parts = vec![part];
         let keys = vec![tiles[0].clone()];
+        let all = vec![tiles.clone()];
         for f in 0..3 {
-            let a = composite_at(&parts, &keys, &[0], f as f32, 48);
+            let a = composite_at(&parts, &all, &[0], f as f32, 48);
             let b = crate::bake::pipeline::render_polypostor(&parts, &keys, &[0], f, 48);
             assert_eq!(a.px, b.px);
         }

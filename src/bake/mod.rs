@@ -20,6 +20,7 @@ pub mod contour;
 pub mod fit;
 pub mod image_cost;
 pub mod inspect;
+pub mod keys;
 pub mod overrides;
 pub mod part_fit;
 pub mod pipeline;

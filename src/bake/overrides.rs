@@ -29,11 +29,15 @@ pub struct ViewOverride {
     /// Pins per part number.
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub pins: BTreeMap<usize, Vec<Pin>>,
+    /// The view's key frames after the first, as the artist set them (absent: chosen by the
+    /// bake, see [`crate::bake::keys`]; empty: one key).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub keys: Option<Vec<usize>>,
 }
 
 impl ViewOverride {
     pub fn is_empty(&self) -> bool {
-        self.key_frame.is_none() && self.order.is_none() && self.pins.values().all(Vec::is_empty)
+        self.key_frame.is_none() && self.order.is_none() && self.pins.values().all(Vec::is_empty) && self.keys.is_none()
     }
 
     /// The pins of `part` as the fitter takes them: per frame, `(source, target)` pairs.
@@ -173,7 +177,10 @@ impl ViewOverride {
 
     /// Corrections in this view: its key frame, its order and its pins.
     pub fn count(&self) -> usize {
-        usize::from(self.key_frame.is_some()) + usize::from(self.order.is_some()) + self.pin_count()
+        usize::from(self.key_frame.is_some())
+            + usize::from(self.order.is_some())
+            + self.pin_count()
+            + usize::from(self.keys.is_some())
     }
 }
 
@@ -203,6 +210,9 @@ impl BakeOverrides {
             }
             if o.key_frame.is_some_and(|k| k >= basis.frames) {
                 d.key_frames += 1;
+            }
+            if let Some(keys) = &o.keys {
+                d.key_frames += keys.iter().filter(|&&k| k >= basis.frames).count();
             }
             if o.order.as_ref().is_some_and(|order| !valid_order(order, parts)) {
                 d.orders += 1;

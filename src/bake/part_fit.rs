@@ -475,19 +475,75 @@ pub fn fit_part(
     options: &PartFitOptions,
     pins: &[Vec<(usize, usize)>],
 ) -> Result<PartFit, PartFitError> {
+    let targets = frame_targets(tiles, options)?;
+    Ok(fit_part_span(tiles, &targets, key, options, pins, None)?.0)
+}
+
+/// Every frame's target polygon T ([`PartFitOptions::frame_vertices`] vertices): the same
+/// whichever key frame is fitted onto it, so a part's several keys share them.
+pub fn frame_targets(tiles: &[PartTile], options: &PartFitOptions) -> Result<Vec<Vec<[f32; 2]>>, PartFitError> {
+    (0..tiles.len())
+        .map(|f| polygon_of(&tiles[f], options.frame_vertices, f))
+        .collect()
+}
+
+/// The frames a key's fit covers: `count` frames from `start`, round the loop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Span {
+    pub start: usize,
+    pub count: usize,
+}
+
+impl Span {
+    pub fn contains(&self, f: usize, frames: usize) -> bool {
+        frames > 0 && (f + frames - self.start % frames) % frames < self.count
+    }
+
+    /// The frame of the span nearest to `f` round the loop (`f` itself inside it).
+    pub fn nearest(&self, f: usize, frames: usize) -> usize {
+        if self.contains(f, frames) || self.count == 0 {
+            return f;
+        }
+        let end = (self.start + self.count - 1) % frames;
+        let after_end = (f + frames - end) % frames;
+        let before_start = (self.start + frames - f) % frames;
+        if after_end <= before_start { end } else { self.start % frames }
+    }
+}
+
+/// Fits one part from key frame `key` onto the targets, walking the loop out from the key
+/// both ways alternately (each frame seeded by its fitted neighbours, as [`walk_order`]).
+/// With `losing`, each direction stops after the first frame `losing(frame, cost)` calls a
+/// loss (that frame is kept, so every frame the key wins has both neighbours fitted): a
+/// second key is fitted only as far as it can win. Frames outside the returned span take the
+/// nearest fitted frame's polygon and cost `f64::INFINITY`. Without `losing` every frame is
+/// fitted, in exactly [`walk_order`]'s order.
+pub fn fit_part_span(
+    tiles: &[PartTile],
+    targets: &[Vec<[f32; 2]>],
+    key: usize,
+    options: &PartFitOptions,
+    pins: &[Vec<(usize, usize)>],
+    losing: Option<&dyn Fn(usize, f64) -> bool>,
+) -> Result<(PartFit, Span), PartFitError> {
     let frames = tiles.len();
-    let key_polygon = polygon_of(&tiles[key], options.key_vertices, key)?;
+    let key_polygon = targets_key_polygon(tiles, key, options)?;
     let key_triangles = triangulate(&key_polygon)?;
     let plan = Plan::new(key_polygon.len(), &key_triangles)?;
     let samples = SourceSamples::new(&tiles[key], &key_polygon, &key_triangles, options.fold_free);
-    let targets: Vec<Vec<[f32; 2]>> = (0..frames)
-        .map(|f| polygon_of(&tiles[f], options.frame_vertices, f))
-        .collect::<Result<_, _>>()?;
     let mut mappings = vec![Vec::new(); frames];
-    let mut costs = vec![0.0; frames];
-    // A seed holds a fitted neighbour's positions and its contour indices carried over by
-    // the cyclic shift between the two target polygons.
-    for (f, neighbours) in walk_order(frames, key) {
+    let mut costs = vec![f64::INFINITY; frames];
+    let mut fitted = vec![false; frames];
+    // Distance walked each way; `None` once that way has stopped.
+    let (mut forward, mut backward) = (Some(0usize), Some(0usize));
+    let fit_one = |f: usize, fitted: &mut Vec<bool>, mappings: &mut Vec<Vec<usize>>| -> Result<f64, PartFitError> {
+        let mut neighbours: Vec<usize> = [(f + frames - 1) % frames, (f + 1) % frames]
+            .into_iter()
+            .filter(|&g| fitted[g])
+            .collect();
+        neighbours.dedup();
+        // A seed holds a fitted neighbour's positions and its contour indices carried over
+        // by the cyclic shift between the two target polygons.
         let mut seeds: Vec<Seed> = neighbours
             .into_iter()
             .map(|pf| Seed {
@@ -516,25 +572,82 @@ pub fn fit_part(
             options,
             pins_f,
         )?;
+        fitted[f] = true;
         mappings[f] = fit.mapping;
-        costs[f] = fit.cost;
+        Ok(fit.cost)
+    };
+    costs[key] = fit_one(key, &mut fitted, &mut mappings)?;
+    let mut turn_forward = true;
+    let mut done = 1;
+    while done < frames && (forward.is_some() || backward.is_some()) {
+        let go_forward = forward.is_some() && (turn_forward || backward.is_none());
+        turn_forward = !turn_forward;
+        let (way, f) = if go_forward {
+            let d = forward.as_mut().expect("forward walk") ;
+            *d += 1;
+            (true, (key + *d) % frames)
+        } else {
+            let d = backward.as_mut().expect("backward walk");
+            *d += 1;
+            (false, (key + frames - *d % frames) % frames)
+        };
+        if fitted[f] {
+            break;
+        }
+        let cost = fit_one(f, &mut fitted, &mut mappings)?;
+        costs[f] = cost;
+        done += 1;
+        if losing.is_some_and(|l| l(f, cost)) {
+            if way {
+                forward = None;
+            } else {
+                backward = None;
+            }
+        }
+    }
+    let back = (1..frames).take_while(|&d| fitted[(key + frames - d) % frames]).count();
+    let span = if done == frames {
+        Span { start: 0, count: frames }
+    } else {
+        Span {
+            start: (key + frames - back) % frames,
+            count: done,
+        }
+    };
+    // Frames outside the span borrow the nearest fitted frame's mapping and polygon.
+    let mut targets: Vec<Vec<[f32; 2]>> = targets.to_vec();
+    for f in 0..frames {
+        if !fitted[f] {
+            let g = span.nearest(f, frames);
+            mappings[f] = mappings[g].clone();
+            targets[f] = targets[g].clone();
+        }
     }
     let positions: Vec<Vec<[f32; 2]>> = (0..frames)
+        .filter(|&f| fitted[f])
         .map(|f| mappings[f].iter().map(|&j| targets[f][j]).collect())
         .collect();
     let kept = deformation_aware_simplify(&positions, &key_polygon, options.final_vertices);
     let final_poly: Vec<[f32; 2]> = kept.iter().map(|&i| key_polygon[i]).collect();
     let triangles = triangulate(&final_poly)?;
-    Ok(PartFit {
-        key_frame: key,
-        key_polygon,
-        key_triangles,
-        targets,
-        mappings,
-        costs,
-        kept,
-        triangles,
-    })
+    Ok((
+        PartFit {
+            key_frame: key,
+            key_polygon,
+            key_triangles,
+            targets,
+            mappings,
+            costs,
+            kept,
+            triangles,
+        },
+        span,
+    ))
+}
+
+/// S: the key frame's outline simplified to [`PartFitOptions::key_vertices`].
+fn targets_key_polygon(tiles: &[PartTile], key: usize, options: &PartFitOptions) -> Result<Vec<[f32; 2]>, PartFitError> {
+    polygon_of(&tiles[key], options.key_vertices, key)
 }
 
 #[cfg(test)]
@@ -771,5 +884,56 @@ mod tests {
         let pinned = fit_part(&t, 0, &PartFitOptions::default(), &[vec![], vec![(0, j)], vec![]]).unwrap();
         assert_eq!(pinned.mappings[1][0], j);
         assert!(pinned.costs[1] >= free.costs[1] - 1e-9);
+    }
+
+    #[test]
+    fn span_membership_and_nearest_frame_match_brute_force() {
+        for frames in 1..9usize {
+            for start in 0..frames {
+                for count in 0..=frames {
+                    let span = Span { start, count };
+                    let members: Vec<usize> = (0..count).map(|d| (start + d) % frames).collect();
+                    for f in 0..frames {
+                        assert_eq!(span.contains(f, frames), members.contains(&f), "{span:?} of {frames}: {f}");
+                        if count == 0 {
+                            continue;
+                        }
+                        // Nearest member round the loop (ties either way are fine).
+                        let dist = |a: usize, b: usize| ((a + frames - b) % frames).min((b + frames - a) % frames);
+                        let best = members.iter().map(|&m| dist(m, f)).min().unwrap();
+                        let got = span.nearest(f, frames);
+                        assert!(members.contains(&got), "{span:?}: nearest of {f} is {got}, outside");
+                        assert_eq!(dist(got, f), best, "{span:?} of {frames}: nearest of {f} is {got}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_span_fit_stops_each_way_after_its_first_loss() {
+        let t = tiles(8);
+        let options = PartFitOptions::default();
+        let targets = frame_targets(&t, &options).unwrap();
+        let key = 5;
+        // Never losing: every frame, exactly as the whole fit.
+        let whole = fit_part(&t, key, &options, &[]).unwrap();
+        let (all, span) = fit_part_span(&t, &targets, key, &options, &[], Some(&|_, _| false)).unwrap();
+        assert_eq!(span.count, 8);
+        assert_eq!(all.mappings, whole.mappings);
+        assert_eq!(all.costs, whole.costs);
+        // Always losing: the key and one frame each way, the rest borrowed and infinite.
+        let (few, span) = fit_part_span(&t, &targets, key, &options, &[], Some(&|_, _| true)).unwrap();
+        assert_eq!(span, Span { start: 4, count: 3 });
+        for f in 0..8 {
+            assert_eq!(few.costs[f].is_finite(), span.contains(f, 8), "frame {f}");
+            if !span.contains(f, 8) {
+                let g = span.nearest(f, 8);
+                assert_eq!(few.positions(f), few.positions(g), "frame {f} borrows frame {g}");
+            }
+        }
+        // Losing from frame 7 on: forward stops at 7 (kept), backward runs until it meets it.
+        let (_, span) = fit_part_span(&t, &targets, key, &options, &[], Some(&|f, _| f == 7 || f == 1)).unwrap();
+        assert_eq!(span, Span { start: 1, count: 7 }, "frames 1..=7");
     }
 }

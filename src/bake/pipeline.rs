@@ -11,6 +11,7 @@ use rayon::prelude::*;
 
 use super::caps::{CapOverrides, find_caps};
 use super::image_cost::PartTile;
+use super::keys::{self, ExtraKey, KeyOptions};
 use super::overrides::{BakeOverrides, OverrideBasis, ViewOverride, valid_order};
 use super::part_fit::{PartFit, PartFitOptions, fit_part};
 use super::raster::{Canvas, psnr, tile_canvas};
@@ -52,6 +53,8 @@ pub struct BakeOptions {
     pub overrides: BakeOverrides,
     /// How hard the pack's PNG atlases are compressed (lossless either way).
     pub png: PngCompression,
+    /// How many key images each view's parts get, and which ([`keys`]).
+    pub keys: KeyOptions,
 }
 
 /// PNG compression of the written textures: lossless at every level, trading write time for
@@ -100,6 +103,7 @@ impl Default for BakeOptions {
             keep_frame_images: false,
             overrides: BakeOverrides::default(),
             png: PngCompression::default(),
+            keys: KeyOptions::default(),
         }
     }
 }
@@ -131,6 +135,32 @@ pub struct PartResult {
     /// The key-frame colour and normal images of the part (RGBA8, `resolution²`).
     pub key_color: image::RgbaImage,
     pub key_normal: image::RgbaImage,
+    /// Rendered squared colour error per frame of the first key's fit ([`keys::sse`]).
+    pub sse: Vec<f64>,
+    /// Key images after the first ([`keys`]).
+    pub extra: Vec<ExtraKey>,
+    /// Per frame, the key it is drawn from: 0 the first, `k` `extra[k - 1]` (empty: all 0).
+    pub frame_key: Vec<u8>,
+}
+
+impl PartResult {
+    /// The fit and key frame drawing frame `f`.
+    pub fn fit_at(&self, f: usize) -> Option<(&PartFit, usize)> {
+        let k = self.frame_key.get(f).copied().unwrap_or(0) as usize;
+        match k {
+            0 => self.fit.as_ref().map(|fit| (fit, fit.key_frame)),
+            k => self.extra.get(k - 1).map(|e| (&e.fit, e.frame)),
+        }
+    }
+
+    /// Every key frame of the part, the first one first.
+    pub fn key_frames(&self) -> Vec<usize> {
+        self.fit
+            .iter()
+            .map(|f| f.key_frame)
+            .chain(self.extra.iter().map(|e| e.frame))
+            .collect()
+    }
 }
 
 /// The result for one view.
@@ -311,6 +341,21 @@ pub fn render_polypostor(
     c
 }
 
+/// Draws the polypostor of one view at one frame as the bake wrote it: each part from the
+/// key that draws that frame. `tiles[p][f]`: part `p`'s tile at frame `f`.
+pub fn render_view_frame(parts: &[PartResult], tiles: &[Vec<PartTile>], order: &[usize], frame: usize, size: u32) -> Canvas {
+    let mut c = Canvas::new(size);
+    for &p in order {
+        let Some((fit, key)) = parts[p].fit_at(frame) else { continue };
+        let pos = fit.positions(frame);
+        let uv = fit.uvs();
+        for t in &fit.triangles {
+            c.draw_textured(t.map(|i| pos[i]), t.map(|i| uv[i]), &tiles[p][key]);
+        }
+    }
+    c
+}
+
 /// Fits one part of a view (with its pins) and measures it against its own render per
 /// frame.
 pub fn fit_view_part(
@@ -327,29 +372,82 @@ pub fn fit_view_part(
         Ok(f) => (Some(f), None),
         Err(e) => (None, Some(e.to_string())),
     };
-    let (psnr_per_frame, ssim_per_frame) = (0..frames)
+    let truths: Vec<Canvas> = tiles.iter().map(tile_canvas).collect();
+    let per_frame: Vec<(f64, f64, f64)> = (0..frames)
         .map(|f| match &fit {
             Some(fit) => {
-                let mut c = Canvas::new(tiles[f].size);
-                let pos = fit.positions(f);
-                let uv = fit.uvs();
-                for t in &fit.triangles {
-                    c.draw_textured(t.map(|i| pos[i]), t.map(|i| uv[i]), &tiles[key]);
-                }
-                let truth = tile_canvas(&tiles[f]);
-                (psnr(c.rmse(&truth).0), c.ssim(&truth))
+                let c = keys::draw_part(fit, &tiles[key], f, tiles[f].size);
+                let truth = &truths[f];
+                (psnr(c.rmse(truth).0), c.ssim(truth), keys::sse(&c, truth))
             }
-            None => (0.0, 0.0),
+            None => (0.0, 0.0, 0.0),
         })
-        .unzip();
+        .collect();
     PartResult {
         fit,
         problem,
-        psnr: psnr_per_frame,
-        ssim: ssim_per_frame,
+        psnr: per_frame.iter().map(|e| e.0).collect(),
+        ssim: per_frame.iter().map(|e| e.1).collect(),
         key_color: images.tile(&images.color, p, key),
         key_normal: images.tile(&images.normal, p, key),
+        sse: per_frame.iter().map(|e| e.2).collect(),
+        extra: Vec::new(),
+        frame_key: Vec::new(),
     }
+}
+
+/// Gives the parts of a view their key images after the first ([`keys::choose`]; `manual`:
+/// the artist's extra key frames), then each frame's key and its PSNR and SSIM.
+pub fn add_view_keys(
+    data: &ViewData,
+    parts: &mut [PartResult],
+    options: &PartFitOptions,
+    key_options: &KeyOptions,
+    manual: Option<&[usize]>,
+) {
+    let frames = data.tiles.first().map_or(0, |t| t.len());
+    let images = &data.depth_order_tiles;
+    {
+        let mut state: Vec<Option<keys::PartKeys<'_>>> = parts
+            .iter()
+            .enumerate()
+            .map(|(p, r)| {
+                r.fit.as_ref().map(|fit| keys::PartKeys {
+                    tiles: &data.tiles[p],
+                    targets: &fit.targets,
+                    primary: fit,
+                    primary_sse: &r.sse,
+                    extra: Vec::new(),
+                })
+            })
+            .collect();
+        let grab = |p: usize, f: usize| (images.tile(&images.color, p, f), images.tile(&images.normal, p, f));
+        keys::choose(&mut state, options, key_options, manual, &grab);
+        let chosen: Vec<Vec<ExtraKey>> = state
+            .into_iter()
+            .map(|s| s.map(|s| s.extra).unwrap_or_default())
+            .collect();
+        for (r, extra) in parts.iter_mut().zip(chosen) {
+            r.extra = extra;
+        }
+    }
+    parts.par_iter_mut().enumerate().for_each(|(p, r)| {
+        if r.extra.is_empty() {
+            r.frame_key.clear();
+            return;
+        }
+        r.frame_key = keys::assign(&r.sse, &r.extra, frames);
+        for f in 0..frames {
+            let k = r.frame_key[f] as usize;
+            if k == 0 {
+                continue;
+            }
+            let e = &r.extra[k - 1];
+            let (q, s) = keys::frame_quality(&e.fit, &data.tiles[p][e.frame], &data.tiles[p][f], f);
+            r.psnr[f] = q;
+            r.ssim[f] = s;
+        }
+    });
 }
 
 /// The composite's error per frame against the ground truth.
@@ -374,7 +472,7 @@ pub fn composite_error(data: &ViewData, parts: &[PartResult], order: &[usize], k
         .into_par_iter()
         .map(|f| {
             let gt = ground_truth(images, f);
-            let poly = render_polypostor(parts, &key_tiles, order, f, images.resolution);
+            let poly = render_view_frame(parts, &data.tiles, order, f, images.resolution);
             (psnr(poly.rmse(&gt).0), psnr(still.rmse(&gt).0), poly.ssim(&gt))
         })
         .collect();
@@ -434,6 +532,7 @@ pub fn refit_view(
     data: &ViewData,
     bake_key: usize,
     options: &PartFitOptions,
+    key_options: &KeyOptions,
     ov: Option<&ViewOverride>,
     prev: Option<PreviousFit<'_>>,
 ) -> ViewFit {
@@ -442,12 +541,14 @@ pub fn refit_view(
     let key = view_key(ov, bake_key, frames);
     let no_pins = std::collections::BTreeMap::new();
     let pins_now = ov.map_or(&no_pins, |o| &o.pins);
+    let manual = ov.and_then(|o| o.keys.as_deref());
     let refit: Vec<usize> = match prev {
         Some(prev) if prev.key == key && prev.parts.len() == parts_n => (0..parts_n)
             .filter(|p| pins_now.get(p) != prev.ov.pins.get(p))
             .collect(),
         _ => (0..parts_n).collect(),
     };
+    let same_keys = prev.is_some_and(|prev| prev.ov.keys.as_deref() == manual);
     let fitted: Vec<PartResult> = refit
         .par_iter()
         .map(|&p| {
@@ -462,10 +563,30 @@ pub fn refit_view(
     for (&p, r) in refit.iter().zip(fitted) {
         parts[p] = Some(r);
     }
-    let parts: Vec<PartResult> = parts
+    let mut parts: Vec<PartResult> = parts
         .into_iter()
         .map(|p| p.expect("every part fitted or kept"))
         .collect();
+    // The extra keys depend on every part of the view (one budget): chosen again whenever
+    // a part was re-fitted or the artist's keys changed, exactly as a bake would.
+    if !refit.is_empty() || !same_keys {
+        if refit.len() < parts_n {
+            // Kept parts go back to their first key's PSNR and SSIM before the choice.
+            for p in (0..parts_n).filter(|p| !refit.contains(p)) {
+                let r = &mut parts[p];
+                if let Some(fit) = &r.fit {
+                    for f in (0..frames).filter(|&f| r.frame_key.get(f).is_some_and(|&k| k != 0)) {
+                        let (q, s) = keys::frame_quality(fit, &data.tiles[p][key], &data.tiles[p][f], f);
+                        r.psnr[f] = q;
+                        r.ssim[f] = s;
+                    }
+                }
+                r.extra.clear();
+                r.frame_key.clear();
+            }
+        }
+        add_view_keys(data, &mut parts, options, key_options, manual);
+    }
     let order = view_order(&data.hidden, ov);
     let error = composite_error(data, &parts, &order, key);
     ViewFit {
@@ -478,16 +599,18 @@ pub fn refit_view(
 }
 
 /// Fits a whole view ([`refit_view`] from scratch) and keeps what the bake writes.
+#[allow(clippy::too_many_arguments)]
 pub fn fit_view(
     direction: Vec3,
     camera: Camera,
     data: ViewData,
     key: usize,
     options: &PartFitOptions,
+    key_options: &KeyOptions,
     keep: bool,
     ov: Option<&ViewOverride>,
 ) -> ViewResult {
-    let fit = refit_view(&data, key, options, ov, None);
+    let fit = refit_view(&data, key, options, key_options, ov, None);
     let frames = data.tiles.first().map_or(0, |t| t.len());
     let images = &data.depth_order_tiles;
     let frame_colors = if keep {
@@ -718,10 +841,11 @@ pub fn bake(
         let images = prepared.render_images(ctx, v)?;
         render_secs += tr.elapsed().as_secs_f64();
         let tx = tx.clone();
-        let (dir, cam, fit_options, keep) = (dirs[v], *cam, options.fit, options.keep_frame_images);
+        let (dir, cam, fit_options, key_options, keep) =
+            (dirs[v], *cam, options.fit, options.keys, options.keep_frame_images);
         let ov = options.overrides.view(prepared.basis, v).cloned();
         rayon::spawn(move || {
-            let r = fit_view(dir, cam, extract(images), key, &fit_options, keep, ov.as_ref());
+            let r = fit_view(dir, cam, extract(images), key, &fit_options, &key_options, keep, ov.as_ref());
             let _ = tx.send((v, r));
         });
     }
@@ -842,7 +966,7 @@ pub fn rebake(
                     parts: &view.parts,
                     ov: &old,
                 };
-                refit_view(&data, prev.key_frame, &options.fit, Some(&new), Some(prev_fit))
+                refit_view(&data, prev.key_frame, &options.fit, &options.keys, Some(&new), Some(prev_fit))
             };
             reuse.parts_refit += fit.refit.len();
             let view = &mut views[v];

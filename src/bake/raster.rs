@@ -22,6 +22,17 @@ impl Canvas {
 
     /// Draws triangle `pos` textured from `texture` at `uv` (both in pixels).
     pub fn draw_textured(&mut self, pos: [[f32; 2]; 3], uv: [[f32; 2]; 3], texture: &PartTile) {
+        self.draw_textured_where(pos, uv, texture, &|_, _| true);
+    }
+
+    /// [`Canvas::draw_textured`] on the pixels `keep(x, y)` accepts (a cross-fade's share).
+    pub fn draw_textured_where(
+        &mut self,
+        pos: [[f32; 2]; 3],
+        uv: [[f32; 2]; 3],
+        texture: &PartTile,
+        keep: &dyn Fn(u32, u32) -> bool,
+    ) {
         let area =
             (pos[1][0] - pos[0][0]) * (pos[2][1] - pos[0][1]) - (pos[1][1] - pos[0][1]) * (pos[2][0] - pos[0][0]);
         if area.abs() < 1e-9 {
@@ -43,6 +54,9 @@ impl Canvas {
             .min(self.size as f32) as i64;
         for y in min_y..max_y {
             for x in min_x..max_x {
+                if !keep(x as u32, y as u32) {
+                    continue;
+                }
                 let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
                 let w0 = ((pos[1][0] - px) * (pos[2][1] - py) - (pos[1][1] - py) * (pos[2][0] - px)) / area;
                 let w1 = ((pos[2][0] - px) * (pos[0][1] - py) - (pos[2][1] - py) * (pos[0][0] - px)) / area;
@@ -102,6 +116,16 @@ impl Canvas {
         }
         img
     }
+}
+
+/// The cross-fade between two key images of a part: the pixel at `(x, y)` shows the key the
+/// interval ends with when `crossfade_threshold(x, y) < a` (`a`: how far into the interval),
+/// else the key it starts with. A 4×4 ordered-dither (Bayer) matrix, the same in
+/// `shaders/polypostor.wgsl`: no blending order to get right, no background showing through
+/// where the two keys overlap, and on average exactly `(1 − a)·first + a·second`.
+pub fn crossfade_threshold(x: u32, y: u32) -> f32 {
+    const BAYER: [u32; 16] = [0, 8, 2, 10, 12, 4, 14, 6, 3, 11, 1, 9, 15, 7, 13, 5];
+    (BAYER[((y & 3) * 4 + (x & 3)) as usize] as f32 + 0.5) / 16.0
 }
 
 /// PSNR in dB for an RMSE on a 0..1 scale (capped at 99 dB for a perfect match).

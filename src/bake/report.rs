@@ -22,6 +22,15 @@ pub struct PartReport {
     pub vertices: usize,
     pub triangles: usize,
     pub problem: Option<String>,
+    /// The part's key frames, its first (the view's) first.
+    #[serde(default)]
+    pub key_frames: Vec<usize>,
+    /// Per frame, the index into `key_frames` it is drawn from (empty: all from the first).
+    #[serde(default)]
+    pub frame_key: Vec<u8>,
+    /// How much the extra keys cut the part's error over all frames (dB).
+    #[serde(default)]
+    pub keys_gain_db: f64,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -43,6 +52,9 @@ pub struct ViewReport {
     /// This view's texture key frame.
     #[serde(default)]
     pub key_frame: usize,
+    /// Every key frame of the view (the first first), with its bytes and what it buys.
+    #[serde(default)]
+    pub keys: Vec<super::keys::ViewKey>,
     /// `hidden[a][b]`: pixels of part b hidden by part a, averaged over frames (the
     /// occlusion graph the order comes from).
     #[serde(default)]
@@ -77,6 +89,9 @@ pub struct Settings {
     pub key_vertices: usize,
     pub frame_vertices: usize,
     pub final_vertices: usize,
+    /// How key images were chosen (absent in reports from before several keys: one key).
+    #[serde(default)]
+    pub keys: Option<super::keys::KeyOptions>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -103,6 +118,12 @@ pub struct Report {
     pub impostor_bytes_bc: u64,
     /// `impostor_bytes / pack_bytes`.
     pub memory_ratio: f64,
+    /// Key images after each view's first: how many (over parts and views) and their bytes
+    /// (included in `pack_bytes`).
+    #[serde(default)]
+    pub extra_keys: usize,
+    #[serde(default)]
+    pub extra_key_bytes: u64,
     pub triangles_per_view: f64,
     /// The views with the lowest mean PSNR, worst first (where the artist should look).
     pub worst_views: Vec<WorstView>,
@@ -139,6 +160,7 @@ impl Report {
                 restart_threshold: s.restart_threshold.unwrap_or(f64::INFINITY),
                 ..Default::default()
             },
+            keys: s.keys.unwrap_or(super::keys::KeyOptions::SINGLE),
             ..Default::default()
         }
     }
@@ -153,6 +175,20 @@ pub fn read_report(path: &std::path::Path) -> Result<Report, String> {
     };
     let bytes = crate::safe_fs::read_regular(&file, 256 << 20, "a bake report").map_err(|e| e.to_string())?;
     serde_json::from_slice(&bytes).map_err(|e| format!("{} is not a bake report: {e}", file.display()))
+}
+
+/// A view's key table ([`super::keys::view_keys`]).
+pub fn view_keys_of(v: &super::pipeline::ViewResult) -> Vec<super::keys::ViewKey> {
+    view_keys_of_parts(&v.parts)
+}
+
+/// The key table of a view's fitted parts ([`super::keys::view_keys`]).
+pub fn view_keys_of_parts(parts: &[super::pipeline::PartResult]) -> Vec<super::keys::ViewKey> {
+    let parts: Vec<_> = parts
+        .iter()
+        .filter_map(|p| p.fit.as_ref().map(|f| (f, &p.sse[..], &p.extra[..], &p.frame_key[..])))
+        .collect();
+    super::keys::view_keys(&parts)
 }
 
 fn mean(v: &[f64]) -> f64 {
@@ -182,6 +218,7 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
             mean_ssim: mean(&v.ssim),
             order: v.order.clone(),
             key_frame: v.key_frame,
+            keys: view_keys_of(v),
             hidden: v.hidden.clone(),
             parts: v
                 .parts
@@ -202,6 +239,9 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
                     vertices: part.fit.as_ref().map_or(0, |f| f.kept.len()),
                     triangles: part.fit.as_ref().map_or(0, |f| f.triangles.len()),
                     problem: part.problem.clone(),
+                    key_frames: part.key_frames(),
+                    frame_key: part.frame_key.clone(),
+                    keys_gain_db: super::keys::key_gains(&part.sse, &part.extra).0,
                 })
                 .collect(),
         })
@@ -237,6 +277,7 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
             key_vertices: bake.options.fit.key_vertices,
             frame_vertices: bake.options.fit.frame_vertices,
             final_vertices: bake.options.fit.final_vertices,
+            keys: Some(bake.options.keys),
         },
         seconds_total,
         stage_seconds: bake.stage_secs.clone(),
@@ -252,6 +293,8 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
         impostor_bytes,
         impostor_bytes_bc: impostor_bytes / 4,
         memory_ratio: impostor_bytes as f64 / stats.pack_bytes.max(1) as f64,
+        extra_keys: bake.views.iter().flat_map(|v| &v.parts).map(|p| p.extra.len()).sum(),
+        extra_key_bytes: stats.extra_key_bytes,
         triangles_per_view: stats.triangles_per_view,
         worst_views: worst,
         views,

@@ -17,7 +17,8 @@ use polypostor::bake::overrides::{OverrideBasis, Pin, ViewOverride};
 use polypostor::bake::part_fit::PartFitOptions;
 use polypostor::bake::pipeline::{PartResult, Prepared, PreviousFit, ViewData, ground_truth, refit_view};
 use polypostor::bake::raster::psnr;
-use polypostor::bake::report::Report;
+use polypostor::bake::keys::{KeyOptions, MAX_KEYS};
+use polypostor::bake::report::{Report, view_keys_of_parts};
 use polypostor::project::StoredSegmentation;
 
 use super::document::Document;
@@ -30,6 +31,7 @@ pub struct Session {
     pub bake_key: usize,
     pub key: usize,
     pub options: PartFitOptions,
+    pub keys: KeyOptions,
     pub data: Arc<ViewData>,
     pub parts: Vec<PartResult>,
     pub order: Vec<usize>,
@@ -159,6 +161,7 @@ pub(super) fn to_color_image(img: &image::RgbaImage) -> egui::ColorImage {
 
 impl Inspector {
     /// The version of the cached texture `name` ("key", "composite", …), if it was drawn.
+    #[cfg_attr(not(test), allow(dead_code))]
     pub fn texture_version(&self, name: &str) -> Option<u64> {
         self.textures.get(name).map(|(v, _)| *v)
     }
@@ -195,13 +198,14 @@ impl Inspector {
                 .view(prepared.basis, view)
                 .cloned()
                 .unwrap_or_default();
-            let fit = refit_view(&data, bake_key, &options.fit, Some(&ov), None);
+            let fit = refit_view(&data, bake_key, &options.fit, &options.keys, Some(&ov), None);
             Ok(Session {
                 view,
                 basis: prepared.basis,
                 bake_key,
                 key: fit.key,
                 options: options.fit,
+                keys: options.keys,
                 data,
                 parts: fit.parts,
                 order: fit.order,
@@ -263,7 +267,7 @@ impl Inspector {
         }
         // The library decides what to re-fit (the key frame: every part; pins: their parts;
         // the order only re-composites), exactly as a re-bake does.
-        let (data, options, view, bake_key) = (s.data.clone(), s.options, s.view, s.bake_key);
+        let (data, options, keys, view, bake_key) = (s.data.clone(), s.options, s.keys, s.view, s.bake_key);
         let (parts_now, key_now, ov_now) = (s.parts.clone(), s.key, s.ov.clone());
         let job = move || {
             let t = Instant::now();
@@ -272,7 +276,7 @@ impl Inspector {
                 parts: &parts_now,
                 ov: &ov_now,
             };
-            let fit = refit_view(&data, bake_key, &options, Some(&want), Some(prev));
+            let fit = refit_view(&data, bake_key, &options, &keys, Some(&want), Some(prev));
             Refit {
                 view,
                 fit,
@@ -350,7 +354,8 @@ impl Inspector {
         let f = (t.round() as usize).min(frames.saturating_sub(1));
         let s = self.session.as_ref().unwrap();
         let result = &s.parts[part];
-        let Some(fit) = result.fit.clone() else {
+        // The key that draws this frame: pins correct the first key's polygon only.
+        let Some((fit, key)) = result.fit_at(f).map(|(fit, key)| (fit.clone(), key)) else {
             ui.label(format!(
                 "{} is not fitted in this view: {}",
                 s.names[part],
@@ -358,8 +363,8 @@ impl Inspector {
             ));
             return;
         };
+        let first_key = result.fit.as_ref().is_some_and(|first| first.key_frame == key);
         let data = s.data.clone();
-        let key = s.key;
         let tiles = &data.tiles[part];
         let w = ((ui.available_width() - 8.0) / 2.0).clamp(80.0, 220.0);
         let size = tiles[f].size as f32;
@@ -390,15 +395,25 @@ impl Inspector {
             version * 1_000_003 + (part * 1000 + f) as u64,
             || on_tile_background(tile_image(&tiles[f])),
         );
-        let key_id = texture(&mut self.textures, ui, "key", version * 1_000_003 + part as u64, || {
-            on_tile_background(tile_image(&tiles[key]))
-        });
+        let key_id = texture(
+            &mut self.textures,
+            ui,
+            "key",
+            version * 1_000_003 + (part * 1000 + key) as u64,
+            || on_tile_background(tile_image(&tiles[key])),
+        );
         let mut pin_made: Option<Pin> = None;
         let pins_here: Vec<Pin> = s.ov.pins.get(&part).cloned().unwrap_or_default();
         ui.horizontal(|ui| {
             ui.vertical(|ui| {
-                ui.label(egui::RichText::new("target + fit (drag a vertex to pin)").small());
-                let (rect, response) = ui.allocate_exact_size(egui::vec2(w, w), egui::Sense::drag());
+                let hint = if first_key {
+                    "target + fit (drag a vertex to pin)"
+                } else {
+                    "target + fit (pins: frames of the first key)"
+                };
+                ui.label(egui::RichText::new(hint).small());
+                let sense = if first_key { egui::Sense::drag() } else { egui::Sense::hover() };
+                let (rect, response) = ui.allocate_exact_size(egui::vec2(w, w), sense);
                 let painter = ui.painter_at(rect);
                 painter.image(target_id, rect, crop_uv, egui::Color32::WHITE);
                 let to_screen = |p: [f32; 2]| rect.min + (egui::pos2(p[0], p[1]) - crop_min) * scale;
@@ -510,12 +525,11 @@ impl Inspector {
         let rmse = self.rmse;
         let quant = (t * 8.0).round() as u64;
         let s = self.session.as_ref().unwrap();
-        let key_tiles: Vec<_> = data.tiles.iter().map(|tl| tl[key].clone()).collect();
         let order = s.order.clone();
         let parts = s.parts.clone();
         let res = data.depth_order_tiles.resolution;
         let poly_id = texture(&mut self.textures, ui, "composite", version * 1_000_003 + quant, || {
-            on_tile_background(composite_at(&parts, &key_tiles, &order, t, res).to_image())
+            on_tile_background(composite_at(&parts, &data.tiles, &order, t, res).to_image())
         });
         let truth_id = texture(&mut self.textures, ui, "truth", version * 1_000_003 + f as u64, || {
             on_tile_background(ground_truth(&data.depth_order_tiles, f).to_image())
@@ -569,7 +583,116 @@ impl Inspector {
         }
         self.pins_ui(ui, doc, basis, view, part);
         self.key_frame_ui(ui, doc, report, basis, view, frames);
+        self.keys_ui(ui, doc, basis, view, f);
         self.order_ui(ui, doc, report, basis, view);
+    }
+
+    /// The view's key images: each with the parts that have it, the frames it draws, its
+    /// bytes and what it buys; add one at the current frame, remove one, or go back to the
+    /// bake's choice. Every edit is a correction (undoable, saved, respected by every bake).
+    fn keys_ui(&mut self, ui: &mut egui::Ui, doc: &mut Document, basis: OverrideBasis, view: usize, f: usize) {
+        let Some(s) = &self.session else { return };
+        let list = view_keys_of_parts(&s.parts);
+        let manual = doc.project.overrides.view(basis, view).and_then(|o| o.keys.clone());
+        // The extra key frames as the artist sees them: the hand-set list when there is one.
+        let extras: Vec<usize> = match &manual {
+            Some(l) => l.clone(),
+            None => list.iter().filter(|k| !k.first).map(|k| k.frame).collect(),
+        };
+        let cap = s.keys.max_keys.clamp(1, MAX_KEYS);
+        let heading = match &manual {
+            Some(_) => format!("Key images ({}, set by hand)", list.len()),
+            None => format!("Key images ({}, chosen by the bake)", list.len()),
+        };
+        egui::CollapsingHeader::new(heading)
+            .id_salt("key images")
+            .default_open(true)
+            .show(ui, |ui| {
+                let mut set: Option<Option<Vec<usize>>> = None;
+                egui::Grid::new("key list").striped(true).show(ui, |ui| {
+                    ui.label(egui::RichText::new("frame").small().strong());
+                    ui.label(egui::RichText::new("parts").small().strong());
+                    ui.label(egui::RichText::new("draws").small().strong());
+                    ui.label(egui::RichText::new("buys").small().strong());
+                    ui.label(egui::RichText::new("bytes").small().strong());
+                    ui.end_row();
+                    for k in &list {
+                        ui.label(if k.first {
+                            format!("{} (first)", k.frame)
+                        } else {
+                            k.frame.to_string()
+                        });
+                        ui.label(k.parts.to_string());
+                        ui.label(format!("{} part-frames", k.frames_drawn));
+                        ui.label(if k.first { "-".to_string() } else { format!("{:.2} dB", k.buys_db) });
+                        ui.label(polypostor::limits::human_bytes(k.bytes));
+                        if !k.first
+                            && ui
+                                .small_button("Remove")
+                                .on_hover_text("Draw this view without this key image (undoable)")
+                                .clicked()
+                        {
+                            set = Some(Some(extras.iter().copied().filter(|&x| x != k.frame).collect()));
+                        }
+                        ui.end_row();
+                    }
+                    // Frames the artist named that no part draws better from: listed, so
+                    // the edit is seen and can be taken back.
+                    let unused: Vec<usize> = manual
+                        .iter()
+                        .flatten()
+                        .copied()
+                        .filter(|m| !list.iter().any(|k| k.frame == *m))
+                        .collect();
+                    for m in unused {
+                        ui.label(format!("{m} (unused)"));
+                        ui.label("0");
+                        ui.label("no part draws better from it");
+                        ui.label("-");
+                        ui.label("-");
+                        if ui.small_button("Remove").on_hover_text("Remove this key frame (undoable)").clicked() {
+                            set = Some(Some(manual.iter().flatten().copied().filter(|&x| x != m).collect()));
+                        }
+                        ui.end_row();
+                    }
+                });
+                ui.horizontal(|ui| {
+                    let is_key = list.iter().any(|k| k.frame == f) || manual.as_ref().is_some_and(|l| l.contains(&f));
+                    let room = list.len() < cap.max(2);
+                    if ui
+                        .add_enabled(!is_key && room, egui::Button::new(format!("Add key at frame {f}")))
+                        .on_hover_text(if room {
+                            "Every part of this view gets a key image of this frame where it draws a frame better"
+                        } else {
+                            "This view has as many key images as the bake allows"
+                        })
+                        .clicked()
+                    {
+                        let mut l = extras.clone();
+                        l.push(f);
+                        l.sort_unstable();
+                        set = Some(Some(l));
+                    }
+                    if ui
+                        .add_enabled(manual.is_some(), egui::Button::new("Reset to auto"))
+                        .on_hover_text("Let the bake choose this view's key images again")
+                        .clicked()
+                    {
+                        set = Some(None);
+                    }
+                });
+                if let Some(keys) = set {
+                    let label = match &keys {
+                        None => "Key images: auto",
+                        Some(l) if l.len() > extras.len() => "Add key image",
+                        Some(_) => "Remove key image",
+                    };
+                    doc.edit_overrides(label, |o| {
+                        o.view_mut(basis, view).keys = keys;
+                        true
+                    });
+                }
+            });
     }
 
     fn pins_ui(&mut self, ui: &mut egui::Ui, doc: &mut Document, basis: OverrideBasis, view: usize, part: usize) {

@@ -545,6 +545,78 @@ fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
         assert_eq!(s.parts[part].fit.as_ref().unwrap().mappings, fit0.mappings);
         assert!(h.state().doc.as_ref().unwrap().project.overrides.is_empty());
     }
+    // Key images: add one at the inspector's frame, remove it, go back to auto; each an
+    // undo step, saved in the project's overrides, and the session re-fitted to match.
+    let keys_now = |h: &Harness<'static, EditorApp>| {
+        h.state()
+            .doc
+            .as_ref()
+            .unwrap()
+            .project
+            .overrides
+            .view(basis, worst)
+            .and_then(|o| o.keys.clone())
+    };
+    let key_frames: Vec<usize> = {
+        let s = h.state().views.inspector.session.as_ref().unwrap();
+        s.parts.iter().flat_map(|r| r.key_frames()).collect()
+    };
+    let at = (0..frames).find(|f| !key_frames.contains(f)).expect("a frame that is no key");
+    h.state_mut().views.inspector.time = at as f32;
+    h.run_steps(2);
+    h.get_by_label(&format!("Add key at frame {at}")).click();
+    h.run_steps(4);
+    let auto_extras: Vec<usize> = {
+        let mut l: Vec<usize> = key_frames.iter().copied().filter(|&k| k != key_frames[0]).collect();
+        l.sort_unstable();
+        l.dedup();
+        l
+    };
+    let mut with = auto_extras.clone();
+    with.push(at);
+    with.sort_unstable();
+    assert_eq!(keys_now(&h), Some(with.clone()));
+    {
+        // The re-fitted session has exactly the artist's frames as its keys (each part those
+        // that draw a frame better).
+        let s = h.state().views.inspector.session.as_ref().unwrap();
+        for r in &s.parts {
+            for e in &r.extra {
+                assert!(with.contains(&e.frame), "key {} not asked for", e.frame);
+            }
+        }
+    }
+    // Remove it again with its row's button (rows: the first key, the others in frame order,
+    // then the unused ones; every row but the first has a Remove).
+    let index = {
+        let s = h.state().views.inspector.session.as_ref().unwrap();
+        let listed: Vec<usize> = polypostor::bake::report::view_keys_of_parts(&s.parts)
+            .iter()
+            .filter(|k| !k.first)
+            .map(|k| k.frame)
+            .collect();
+        listed.iter().position(|&k| k == at).unwrap_or_else(|| {
+            listed.len() + with.iter().filter(|k| !listed.contains(k)).position(|&k| k == at).unwrap()
+        })
+    };
+    h.get_all_by_label("Remove").nth(index).unwrap().click();
+    h.run_steps(3);
+    assert_eq!(keys_now(&h), Some(auto_extras.clone()), "removed");
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(3);
+    assert_eq!(keys_now(&h), Some(with.clone()), "undo puts it back");
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(3);
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(3);
+    assert_eq!(keys_now(&h), None, "undo takes the added key back");
+    h.key_press_modifiers(egui::Modifiers::COMMAND | egui::Modifiers::SHIFT, egui::Key::Z);
+    h.run_steps(3);
+    assert_eq!(keys_now(&h), Some(with.clone()), "redo adds it again");
+    h.get_by_label("Reset to auto").click();
+    h.run_steps(3);
+    assert_eq!(keys_now(&h), None);
+    assert!(h.state().doc.as_ref().unwrap().project.overrides.is_empty());
     // The quality sheet of the chosen view: the real mesh beside the Polypostor (the only
     // representation this folder holds), at the inspector's frame and half-way after it.
     let frame = h.state().views.inspector.time.round() as u32;

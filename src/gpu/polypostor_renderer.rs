@@ -33,10 +33,18 @@ struct ViewGpu {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct PartGpu {
+    /// First u32 of the key's vertex block.
     vertex_word: u32,
+    /// Low 16 bits vertices, high 16 bits the body part.
     vertex_count: u32,
-    index_offset: u32,
-    index_count: u32,
+    view: u32,
+    /// Bits 0-7 drawing slot, 8-15 this record's key, 16-23 the part's keys.
+    slot_key: u32,
+    /// Low 16 bits the block's first frame, high 16 bits its frames.
+    frames: u32,
+    /// First u32 of the part's per-frame key table in the geometry buffer.
+    key_table: u32,
+    pad: [u32; 2],
 }
 
 /// How a frame of polypostors is drawn.
@@ -141,10 +149,29 @@ impl GpuPolypostors {
                 "view {v} has a part whose vertex block starts at an odd value (packs written by this tool never do)"
             )));
         }
+        if let Some(v) = m.views.iter().position(|v| {
+            v.parts
+                .iter()
+                .flatten()
+                .any(|p| p.extra_keys.iter().any(|k| k.vertex_offset % 2 != 0))
+        }) {
+            return Err(GpuError::Unsupported(format!(
+                "view {v} has a key whose vertex block starts at an odd value (packs written by this tool never do)"
+            )));
+        }
+        if parts_per_view > 255 {
+            return Err(GpuError::Unsupported(format!(
+                "the pack has {parts_per_view} parts; this renderer draws at most 255"
+            )));
+        }
+        let frames = m.frames.max(1);
+        // Per-frame key tables (4 frames a word) follow the vertex data.
+        let table_base = geometry.len() as u32;
+        let mut tables: Vec<u32> = Vec::new();
         let mut views = Vec::with_capacity(m.views.len());
-        let mut parts = Vec::with_capacity(m.views.len() * parts_per_view as usize);
-        // Per view, its parts' triangles in drawing order; each index is the part record
-        // (high 16 bits) and the vertex in the part (low 16 bits).
+        let mut parts: Vec<PartGpu> = Vec::with_capacity(m.views.len() * parts_per_view as usize);
+        // Per view, its parts' triangles in drawing order (every key image of a part in turn);
+        // each index is the part record (high 16 bits) and the vertex in it (low 16 bits).
         let mut index_words: Vec<u32> = Vec::new();
         let mut view_ranges: Vec<std::ops::Range<u32>> = Vec::with_capacity(m.views.len());
         // The same with every other polygon vertex (about half the triangles), for characters
@@ -170,25 +197,41 @@ impl GpuPolypostors {
             });
             let view_start = index_words.len() as u32;
             let coarse_start = coarse_words.each_ref().map(|w| w.len() as u32);
-            for s in 0..parts_per_view as usize {
-                let id = v.order.get(s).copied().unwrap_or(0);
-                let record = v
-                    .parts
-                    .get(id as usize)
-                    .and_then(|p| p.as_ref())
-                    .map_or(PartGpu::zeroed(), |p| PartGpu {
-                        vertex_word: (p.vertex_offset / 2) as u32,
-                        vertex_count: p.vertex_count.clamp(1, 0xffff) | (id.min(0xffff) << 16),
-                        index_offset: p.index_offset as u32,
-                        index_count: p.index_count,
-                    });
-                let id_record = parts.len() as u32;
-                if record.index_count > 0 {
-                    let start = record.index_offset as usize;
-                    let list = pack
-                        .indices
-                        .get(start..start + record.index_count as usize)
-                        .unwrap_or(&[]);
+            for (s, &id) in v.order.iter().enumerate().take(parts_per_view as usize) {
+                let Some(p) = v.parts.get(id as usize).and_then(|p| p.as_ref()) else {
+                    continue;
+                };
+                // The part's key images: its first (every frame), then the extra ones.
+                let mut blocks = vec![(p.vertex_offset, p.vertex_count, p.index_offset, p.index_count, 0, frames)];
+                blocks.extend(
+                    p.extra_keys
+                        .iter()
+                        .map(|k| (k.vertex_offset, k.vertex_count, k.index_offset, k.index_count, k.frame_start, k.frame_count)),
+                );
+                let keys = if p.frame_keys.len() == frames as usize { blocks.len().min(255) } else { 1 };
+                let key_table = table_base + tables.len() as u32;
+                if keys > 1 {
+                    tables.extend(p.frame_keys.chunks(4).map(|c| {
+                        c.iter().enumerate().fold(0u32, |w, (i, &k)| w | (k as u32) << (8 * i))
+                    }));
+                }
+                for (k, &(offset, count, index_offset, index_count, start, block_frames)) in blocks.iter().enumerate().take(keys) {
+                    let record = PartGpu {
+                        vertex_word: (offset / 2) as u32,
+                        vertex_count: count.clamp(1, 0xffff) | (id.min(0xffff) << 16),
+                        view: vi as u32,
+                        slot_key: s as u32 | (k as u32) << 8 | (keys as u32) << 16,
+                        frames: start.min(0xffff) | block_frames.clamp(1, 0xffff) << 16,
+                        key_table,
+                        pad: [0; 2],
+                    };
+                    let id_record = parts.len() as u32;
+                    parts.push(record);
+                    if index_count == 0 || id_record > 0xffff {
+                        continue;
+                    }
+                    let start = index_offset as usize;
+                    let list = pack.indices.get(start..start + index_count as usize).unwrap_or(&[]);
                     index_words.extend(list.iter().map(|&i| id_record << 16 | i as u32));
                     let base = (record.vertex_word * 2) as usize;
                     let vc = (record.vertex_count & 0xffff) as usize;
@@ -203,12 +246,16 @@ impl GpuPolypostors {
                         words.extend(previous.iter().map(|&i| id_record << 16 | i));
                     }
                 }
-                parts.push(record);
             }
             view_ranges.push(view_start..index_words.len() as u32);
             for level in 0..2 {
                 coarse_ranges[level].push(coarse_start[level]..coarse_words[level].len() as u32);
             }
+        }
+        geometry.extend_from_slice(&tables);
+        geometry.push(0);
+        if parts.is_empty() {
+            parts.push(bytemuck::Zeroable::zeroed());
         }
         // One index buffer: the full lists, then the coarse ones.
         for level in 0..2 {
@@ -218,9 +265,9 @@ impl GpuPolypostors {
                 *r = r.start + shift..r.end + shift;
             }
         }
-        if parts.len() > 0xffff {
+        if parts.len() > 0x10000 {
             return Err(GpuError::Unsupported(format!(
-                "the pack has {} part records; this renderer addresses at most 65535",
+                "the pack has {} part records (one per key image); this renderer addresses at most 65536",
                 parts.len()
             )));
         }
@@ -501,8 +548,6 @@ impl GpuPolypostors {
         Ok(())
     }
 }
-
-use bytemuck::Zeroable;
 
 /// Index levels per view: the full triangles and two coarser lists.
 const LEVELS: u32 = 3;

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 pub const FORMAT_NAME: &str = "polypostor-pack";
 /// Version 3 added [`Manifest::checksums`]; older packs are refused with "re-bake".
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 
 /// Size and CRC-32 (IEEE, as zlib and PNG compute it) of one file of a pack or
 /// representations folder.
@@ -92,6 +92,35 @@ pub struct ManifestPart {
     /// The part's image is stored transposed in the atlas (for tools; the UVs already say so).
     #[serde(default)]
     pub transposed: bool,
+    /// The frame this key image is of (the view's key frame).
+    #[serde(default)]
+    pub key_frame: u32,
+    /// The part's further key images in this view ([`crate::bake::keys`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub extra_keys: Vec<ManifestKey>,
+    /// Per frame, the key it is drawn from: 0 this entry's image, `k` `extra_keys[k - 1]`.
+    /// Empty when the part has one key. Where two consecutive frames differ, the run time
+    /// cross-fades the two keys' warped images over the interval.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub frame_keys: Vec<u8>,
+}
+
+/// A part's key image after its first, and its polygon.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ManifestKey {
+    pub key_frame: u32,
+    /// As [`ManifestPart::vertex_offset`], but the block holds `frame_count` frames of
+    /// positions, from `frame_start` round the loop (the frames this key's polygon was fitted
+    /// to; every frame it draws and their neighbours).
+    pub vertex_offset: u64,
+    pub vertex_count: u32,
+    pub index_offset: u64,
+    pub index_count: u32,
+    pub atlas_rect: [u32; 4],
+    #[serde(default)]
+    pub transposed: bool,
+    pub frame_start: u32,
+    pub frame_count: u32,
 }
 
 /// One view.

@@ -303,6 +303,56 @@ pub(crate) fn check_texture_budget(file: &str, sizes: impl Iterator<Item = [u32;
     Ok(())
 }
 
+/// One key's vertex, index and atlas ranges, checked against the data they point into.
+struct KeyBlock {
+    vertex_offset: u64,
+    vertex_count: u32,
+    index_offset: u64,
+    index_count: u32,
+    atlas_rect: [u32; 4],
+    /// Frames of positions the block holds.
+    frames: u64,
+}
+
+impl KeyBlock {
+    fn check(&self, w: &str, vertex_values: u64, index_values: u64, [aw, ah]: [u32; 2]) -> Result<(), PackError> {
+        let vc = u64::from(self.vertex_count);
+        if vc < 3 || self.vertex_count > MAX_PART_VERTICES || self.index_count == 0 || self.index_count % 3 != 0 {
+            return Err(damaged(format!("{w}: {vc} vertices and {} indices", self.index_count)));
+        }
+        let end = self
+            .frames
+            .checked_add(1)
+            .and_then(|f| vc.checked_mul(2)?.checked_mul(f))
+            .and_then(|n| self.vertex_offset.checked_add(n))
+            .ok_or_else(|| damaged(format!("{w}: vertex range overflows")))?;
+        if end > vertex_values {
+            return Err(damaged(format!(
+                "{w}: vertices {}..{end} lie past the end of the vertex data ({vertex_values})",
+                self.vertex_offset
+            )));
+        }
+        let iend = self
+            .index_offset
+            .checked_add(u64::from(self.index_count))
+            .ok_or_else(|| damaged(format!("{w}: index range overflows")))?;
+        if iend > index_values {
+            return Err(damaged(format!(
+                "{w}: indices {}..{iend} lie past the end of the index data ({index_values})",
+                self.index_offset
+            )));
+        }
+        let [x, y, rw, rh] = self.atlas_rect;
+        if rw == 0 || rh == 0 || u64::from(x) + u64::from(rw) > u64::from(aw) || u64::from(y) + u64::from(rh) > u64::from(ah) {
+            return Err(damaged(format!(
+                "{w}: atlas rectangle {:?} lies outside the {aw}×{ah} atlas",
+                self.atlas_rect
+            )));
+        }
+        Ok(())
+    }
+}
+
 pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
     const FILE: &str = "manifest.json";
     let manifest: Manifest = parse_manifest(dir, FILE, FORMAT_NAME, FORMAT_VERSION)?;
@@ -355,7 +405,13 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
             }
         }
         let [aw, ah] = view.atlas_size;
-        let present = view.parts.iter().flatten().count().max(1) as u64;
+        let present = view
+            .parts
+            .iter()
+            .flatten()
+            .map(|p| 1 + p.extra_keys.len())
+            .sum::<usize>()
+            .max(1) as u64;
         // The packer's own bound: no atlas is larger than the crops stacked in one column.
         let most = (r + 2).saturating_mul(present.saturating_mul(r) + 2);
         if aw < 2
@@ -373,41 +429,79 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
         for (p, part) in view.parts.iter().enumerate() {
             let Some(part) = part else { continue };
             let w = format!("{what} part {p}");
-            let vc = u64::from(part.vertex_count);
-            if vc < 3 || part.vertex_count > MAX_PART_VERTICES || part.index_count == 0 || part.index_count % 3 != 0 {
-                return Err(damaged(format!("{w}: {vc} vertices and {} indices", part.index_count)));
-            }
-            let end = frames
-                .checked_add(1)
-                .and_then(|f| vc.checked_mul(2)?.checked_mul(f))
-                .and_then(|n| part.vertex_offset.checked_add(n))
-                .ok_or_else(|| damaged(format!("{w}: vertex range overflows")))?;
-            if end > vertex_values {
+            if u64::from(part.key_frame) >= frames {
                 return Err(damaged(format!(
-                    "{w}: vertices {}..{end} lie past the end of the vertex data ({vertex_values})",
-                    part.vertex_offset
+                    "{w}: key frame {} is past the {frames} frames",
+                    part.key_frame
                 )));
             }
-            let iend = part
-                .index_offset
-                .checked_add(u64::from(part.index_count))
-                .ok_or_else(|| damaged(format!("{w}: index range overflows")))?;
-            if iend > index_values {
+            let first = KeyBlock {
+                vertex_offset: part.vertex_offset,
+                vertex_count: part.vertex_count,
+                index_offset: part.index_offset,
+                index_count: part.index_count,
+                atlas_rect: part.atlas_rect,
+                frames,
+            };
+            first.check(&w, vertex_values, index_values, [aw, ah])?;
+            if part.extra_keys.len() + 1 > crate::bake::keys::MAX_KEYS {
                 return Err(damaged(format!(
-                    "{w}: indices {}..{iend} lie past the end of the index data ({index_values})",
-                    part.index_offset
+                    "{w}: {} key images, more than {}",
+                    part.extra_keys.len() + 1,
+                    crate::bake::keys::MAX_KEYS
                 )));
             }
-            let [x, y, rw, rh] = part.atlas_rect;
-            if rw == 0
-                || rh == 0
-                || u64::from(x) + u64::from(rw) > u64::from(aw)
-                || u64::from(y) + u64::from(rh) > u64::from(ah)
-            {
+            if part.extra_keys.is_empty() != part.frame_keys.is_empty() {
                 return Err(damaged(format!(
-                    "{w}: atlas rectangle {:?} lies outside the {aw}×{ah} atlas",
-                    part.atlas_rect
+                    "{w}: {} extra keys but {} frame keys",
+                    part.extra_keys.len(),
+                    part.frame_keys.len()
                 )));
+            }
+            if !part.frame_keys.is_empty() && part.frame_keys.len() as u64 != frames {
+                return Err(damaged(format!(
+                    "{w}: {} frame keys for {frames} frames",
+                    part.frame_keys.len()
+                )));
+            }
+            for (k, key) in part.extra_keys.iter().enumerate() {
+                let wk = format!("{w} key {}", k + 1);
+                if u64::from(key.key_frame) >= frames
+                    || u64::from(key.frame_start) >= frames
+                    || key.frame_count == 0
+                    || u64::from(key.frame_count) > frames
+                {
+                    return Err(damaged(format!(
+                        "{wk}: key frame {}, frames {} from {} do not fit the {frames} frames",
+                        key.key_frame, key.frame_count, key.frame_start
+                    )));
+                }
+                KeyBlock {
+                    vertex_offset: key.vertex_offset,
+                    vertex_count: key.vertex_count,
+                    index_offset: key.index_offset,
+                    index_count: key.index_count,
+                    atlas_rect: key.atlas_rect,
+                    frames: u64::from(key.frame_count),
+                }
+                .check(&wk, vertex_values, index_values, [aw, ah])?;
+            }
+            for (f, &k) in part.frame_keys.iter().enumerate() {
+                let k = k as usize;
+                if k > part.extra_keys.len() {
+                    return Err(damaged(format!("{w}: frame {f} names key {k}, which it does not have")));
+                }
+                if k > 0 {
+                    // The run time interpolates each frame's polygon towards both neighbours.
+                    let key = &part.extra_keys[k - 1];
+                    let inside = |g: u64| (g + frames - u64::from(key.frame_start)) % frames < u64::from(key.frame_count);
+                    let f = f as u64;
+                    if !inside(f) || !inside((f + 1) % frames) || !inside((f + frames - 1) % frames) {
+                        return Err(damaged(format!(
+                            "{w}: frame {f} is drawn from key {k}, whose polygon does not cover it and both its neighbours"
+                        )));
+                    }
+                }
             }
         }
     }
@@ -450,12 +544,16 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
     for (v, view) in manifest.views.iter().enumerate() {
         for (p, part) in view.parts.iter().enumerate() {
             let Some(part) = part else { continue };
-            let range = part.index_offset as usize..(part.index_offset + u64::from(part.index_count)) as usize;
-            if let Some(bad) = indices[range].iter().find(|&&i| u32::from(i) >= part.vertex_count) {
-                return Err(damaged(format!(
-                    "{}: view {v} part {p}: index {bad} refers past its {} vertices",
-                    manifest.index_file, part.vertex_count
-                )));
+            let blocks = std::iter::once((part.index_offset, part.index_count, part.vertex_count))
+                .chain(part.extra_keys.iter().map(|k| (k.index_offset, k.index_count, k.vertex_count)));
+            for (offset, count, vc) in blocks {
+                let range = offset as usize..(offset + u64::from(count)) as usize;
+                if let Some(bad) = indices[range].iter().find(|&&i| u32::from(i) >= vc) {
+                    return Err(damaged(format!(
+                        "{}: view {v} part {p}: index {bad} refers past its {vc} vertices",
+                        manifest.index_file
+                    )));
+                }
             }
         }
     }
@@ -477,6 +575,27 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
 impl LoadedPack {
     /// Part `p` of view `v`: UVs (atlas-normalised) and the positions at `frame` (view-plane
     /// coordinates in [-1, 1]), as interleaved x, y values.
+    /// As [`LoadedPack::part_vertices`] for the part's key image `key` (0 its first, `k` its
+    /// `extra_keys[k - 1]`); `None` where that key's polygon was not fitted to `frame`.
+    pub fn key_vertices(&self, v: usize, p: usize, key: usize, frame: usize) -> Option<(Vec<f32>, Vec<f32>)> {
+        if key == 0 {
+            return self.part_vertices(v, p, frame);
+        }
+        let part = self.manifest.views.get(v)?.parts.get(p)?.as_ref()?;
+        let k = part.extra_keys.get(key - 1)?;
+        let frames = self.manifest.frames as usize;
+        let g = (frame + frames - k.frame_start as usize % frames.max(1)) % frames.max(1);
+        if frame >= frames || g >= k.frame_count as usize {
+            return None;
+        }
+        let vc = k.vertex_count as usize;
+        let base = k.vertex_offset as usize;
+        let uv = self.vertices.get(base..base + vc * 2)?;
+        let start = base + vc * 2 * (1 + g);
+        let pos = self.vertices.get(start..start + vc * 2)?;
+        Some((uv.to_vec(), pos.iter().map(|x| x * 2.0 - 1.0).collect()))
+    }
+
     pub fn part_vertices(&self, v: usize, p: usize, frame: usize) -> Option<(Vec<f32>, Vec<f32>)> {
         let part = self.manifest.views.get(v)?.parts.get(p)?.as_ref()?;
         let vc = part.vertex_count as usize;

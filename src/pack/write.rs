@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use super::atlas::pack_atlas;
 use super::format::{
-    Checksums, FORMAT_NAME, FORMAT_VERSION, FileSum, Manifest, ManifestPart, ManifestView, PackCamera,
+    Checksums, FORMAT_NAME, FORMAT_VERSION, FileSum, Manifest, ManifestKey, ManifestPart, ManifestView, PackCamera,
 };
 use crate::bake::pipeline::Bake;
 
@@ -22,6 +22,9 @@ pub struct PackStats {
     /// Bytes on disk (PNG-compressed atlases).
     pub file_bytes: u64,
     pub triangles_per_view: f64,
+    /// What the key images after each view's first take of `pack_bytes` (their atlas crops,
+    /// colour and half-resolution normals, and their vertices and indices).
+    pub extra_key_bytes: u64,
 }
 
 fn io(path: &Path, e: impl std::fmt::Display) -> String {
@@ -125,22 +128,30 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
     let mut sums = Checksums::new();
     let mut triangles = 0usize;
     for (v, view) in bake.views.iter().enumerate() {
-        let items: Vec<_> = view
+        let bounds = |fit: &crate::bake::part_fit::PartFit| {
+            let uv = fit.uvs();
+            [
+                uv.iter().map(|q| q[0]).fold(f32::INFINITY, f32::min),
+                uv.iter().map(|q| q[1]).fold(f32::INFINITY, f32::min),
+                uv.iter().map(|q| q[0]).fold(f32::NEG_INFINITY, f32::max),
+                uv.iter().map(|q| q[1]).fold(f32::NEG_INFINITY, f32::max),
+            ]
+        };
+        // Atlas items: every part's first key, then every extra key (part by part).
+        let mut items: Vec<_> = view
             .parts
             .iter()
-            .map(|p| {
-                p.fit.as_ref().map(|f| {
-                    let uv = f.uvs();
-                    let b = [
-                        uv.iter().map(|q| q[0]).fold(f32::INFINITY, f32::min),
-                        uv.iter().map(|q| q[1]).fold(f32::INFINITY, f32::min),
-                        uv.iter().map(|q| q[0]).fold(f32::NEG_INFINITY, f32::max),
-                        uv.iter().map(|q| q[1]).fold(f32::NEG_INFINITY, f32::max),
-                    ];
-                    (&p.key_color, &p.key_normal, b)
-                })
-            })
+            .map(|p| p.fit.as_ref().map(|f| (&p.key_color, &p.key_normal, bounds(f))))
             .collect();
+        let mut extra_item: Vec<Vec<usize>> = Vec::with_capacity(view.parts.len());
+        for p in &view.parts {
+            let mut list = Vec::new();
+            for e in p.extra.iter().filter(|_| p.fit.is_some()) {
+                list.push(items.len());
+                items.push(Some((&e.key_color, &e.key_normal, bounds(&e.fit))));
+            }
+            extra_item.push(list);
+        }
         let atlas = pack_atlas(&items);
         let atlas_name = format!("atlas_{v:03}.png");
         let normal_name = format!("normal_{v:03}.png");
@@ -150,12 +161,14 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
             stats.texture_bytes += img.width() as u64 * img.height() as u64 * 4;
         }
         let (aw, ah) = (atlas.width as f32, atlas.height as f32);
-        let mut parts = Vec::new();
-        for (p, part) in view.parts.iter().enumerate() {
-            let (Some(fit), Some(rect)) = (&part.fit, atlas.rects[p]) else {
-                parts.push(None);
-                continue;
-            };
+        // One key's block: UVs, then the positions of `span` frames from `start`.
+        let write_key = |fit: &crate::bake::part_fit::PartFit,
+                             rect: &crate::pack::atlas::AtlasRect,
+                             start: usize,
+                             count: usize,
+                             vertices: &mut Vec<u16>,
+                             indices: &mut Vec<u16>|
+         -> (u64, u64) {
             let vertex_offset = vertices.len() as u64;
             for q in fit.uvs() {
                 let t = rect.to_atlas(q);
@@ -163,8 +176,8 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                 vertices.push(unorm(t[1] / ah));
             }
             // Positions as (x + 1) / 2, (y + 1) / 2 of view-plane coordinates.
-            for f in 0..frames {
-                for q in fit.positions(f) {
+            for s in 0..count {
+                for q in fit.positions((start + s) % frames) {
                     vertices.push(unorm(q[0] / r));
                     vertices.push(unorm(1.0 - q[1] / r));
                 }
@@ -173,7 +186,44 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
             for t in &fit.triangles {
                 indices.extend(t.iter().map(|&i| i as u16));
             }
+            (vertex_offset, index_offset)
+        };
+        let mut parts = Vec::new();
+        for (p, part) in view.parts.iter().enumerate() {
+            let (Some(fit), Some(rect)) = (&part.fit, atlas.rects[p]) else {
+                parts.push(None);
+                continue;
+            };
+            let (vertex_offset, index_offset) = write_key(fit, &rect, 0, frames, &mut vertices, &mut indices);
+            // Triangles drawn per character (a part's other keys draw instead of its first).
             triangles += fit.triangles.len();
+            let mut extra_keys = Vec::new();
+            for (e, &item) in part.extra.iter().zip(&extra_item[p]) {
+                let Some(er) = atlas.rects[item] else { continue };
+                let (vo, io_) = write_key(&e.fit, &er, e.span.start, e.span.count, &mut vertices, &mut indices);
+                stats.extra_key_bytes += 5 * u64::from(er.w) * u64::from(er.h)
+                    + 4 * (e.fit.kept.len() * (1 + e.span.count)) as u64
+                    + 6 * e.fit.triangles.len() as u64;
+                extra_keys.push(ManifestKey {
+                    key_frame: e.frame as u32,
+                    vertex_offset: vo,
+                    vertex_count: e.fit.kept.len() as u32,
+                    index_offset: io_,
+                    index_count: (e.fit.triangles.len() * 3) as u32,
+                    atlas_rect: [er.x, er.y, er.w, er.h],
+                    transposed: er.transposed,
+                    frame_start: e.span.start as u32,
+                    frame_count: e.span.count as u32,
+                });
+            }
+            let frame_keys = if extra_keys.len() == part.extra.len() && !extra_keys.is_empty() {
+                part.frame_key.clone()
+            } else {
+                Vec::new()
+            };
+            if frame_keys.is_empty() {
+                extra_keys.clear();
+            }
             parts.push(Some(ManifestPart {
                 vertex_offset,
                 vertex_count: fit.kept.len() as u32,
@@ -181,6 +231,9 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                 index_count: (fit.triangles.len() * 3) as u32,
                 atlas_rect: [rect.x, rect.y, rect.w, rect.h],
                 transposed: rect.transposed,
+                key_frame: fit.key_frame as u32,
+                extra_keys,
+                frame_keys,
             }));
         }
         views.push(ManifestView {

@@ -388,7 +388,8 @@ mod tests {
 /// Memory of each representation estimated before baking (uncompressed bytes, textures and
 /// geometry): exact for classic impostors (a colour and a normal image per view per frame);
 /// for Polypostors and NP3D from densities measured on the default character (atlas texels
-/// per view ≈ 0.47 r² colour + a quarter for normals; 20 vertices per part and frame);
+/// per view ≈ 0.47 r² colour + a quarter for normals; 20 vertices per part and frame; extra
+/// key images up to the default budget);
 /// skinned and rigid from the mesh (the character's textures with their mipmaps).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Estimate {
@@ -418,8 +419,11 @@ pub fn estimate(
     let atlas = v * r2 * 47 / 100 * 4 * 5 / 4;
     let texture_bytes = texture_bytes * 4 / 3;
     let poly_geometry = v * p * f * 20 * 4 + v * p * 18 * 3 * 2;
+    // Extra key images (`bake::keys`): the default budget lets a view's added images spend
+    // half again its first ones, each with its own polygon.
+    let keys = 1.0 + crate::bake::keys::KeyOptions::default().budget;
     Estimate {
-        polypostor: atlas + poly_geometry,
+        polypostor: ((atlas + poly_geometry) as f64 * keys) as u64,
         impostor: v * f * r2 * 4 * 2,
         np3d: v * r2 * 4 + f * 220 * 24 + 400 * 3 * 2,
         rigid: f * n * 24 + n * 8 + texture_bytes,

@@ -1,0 +1,581 @@
+//! Several key textures per view and part (the paper's future work).
+//!
+//! One key image per part and view stretches a texture over frames where the part turns or
+//! foreshortens (a leg seen from above, a head that turns). Here each part of a view may get
+//! up to [`KeyOptions::max_keys`] key images. The bake adds them greedily: for every part it
+//! tries the frame its current keys fit worst, fitted from that frame only as far round the
+//! loop as it can win ([`fit_part_span`]), and keeps the additions that cut the part's
+//! rendered error over all frames most per byte of texture, while each cuts it by at least
+//! [`KeyOptions::min_gain_db`] and the view's extra key images stay within
+//! [`KeyOptions::budget`] of its first ones. Each frame is then drawn from the key whose
+//! warped image is closest to the frame's render (a key is only given frames whose two
+//! neighbours it also fits, so the run time can cross-fade between keys). The artist may
+//! instead name a view's extra key frames ([`super::overrides::ViewOverride::keys`]).
+
+use rayon::prelude::*;
+
+use super::image_cost::PartTile;
+use super::part_fit::{PartFit, PartFitOptions, Span, fit_part_span};
+use super::raster::{Canvas, psnr, tile_canvas};
+
+
+/// Most key images per part and view the format and the renderer take.
+pub const MAX_KEYS: usize = 8;
+
+/// How a bake chooses each view's key images.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct KeyOptions {
+    /// Most key images per part and view (1: the paper's single key). Default value: 4.
+    pub max_keys: usize,
+    /// Least cut of a part's error over all frames (dB) an added key must buy. Default value:
+    /// 0.5.
+    pub min_gain_db: f64,
+    /// Bytes of added key images a view may spend, as a fraction of its first key images'.
+    /// Default value: 0.5 (packs at most about 1.5× the single-key size).
+    pub budget: f64,
+}
+
+impl Default for KeyOptions {
+    fn default() -> Self {
+        Self {
+            max_keys: 4,
+            min_gain_db: 0.5,
+            budget: 0.5,
+        }
+    }
+}
+
+impl KeyOptions {
+    /// One key per part and view: the paper's Polypostors.
+    pub const SINGLE: KeyOptions = KeyOptions {
+        max_keys: 1,
+        min_gain_db: 0.5,
+        budget: 0.0,
+    };
+}
+
+/// A part's key image after the first, and its fit.
+#[derive(Clone, Debug)]
+pub struct ExtraKey {
+    /// The frame the image is of.
+    pub frame: usize,
+    /// The key's polygon fitted over `span` (frames outside borrow the nearest span frame).
+    pub fit: PartFit,
+    pub span: Span,
+    pub key_color: image::RgbaImage,
+    pub key_normal: image::RgbaImage,
+    /// Rendered squared colour error per frame (infinite outside the span).
+    pub sse: Vec<f64>,
+}
+
+/// Draws one part at frame `f` from its fit, textured from `key_tile`.
+pub fn draw_part(fit: &PartFit, key_tile: &PartTile, f: usize, size: u32) -> Canvas {
+    let mut c = Canvas::new(size);
+    let pos = fit.positions(f);
+    let uv = fit.uvs();
+    for t in &fit.triangles {
+        c.draw_textured(t.map(|i| pos[i]), t.map(|i| uv[i]), key_tile);
+    }
+    c
+}
+
+/// Sum of squared colour errors (over the three channels) of `c` against `truth`.
+pub fn sse(c: &Canvas, truth: &Canvas) -> f64 {
+    let (rmse, n) = c.rmse(truth);
+    rmse * rmse * (3 * n) as f64
+}
+
+/// PSNR and SSIM of a part drawn at frame `f` against its render.
+pub fn frame_quality(fit: &PartFit, key_tile: &PartTile, tile: &PartTile, f: usize) -> (f64, f64) {
+    let c = draw_part(fit, key_tile, f, tile.size);
+    let truth = tile_canvas(tile);
+    (psnr(c.rmse(&truth).0), c.ssim(&truth))
+}
+
+/// The key drawing frame `f` of a part: 0 the first key, `k` its `extra[k - 1]`.
+pub fn assign(primary_sse: &[f64], extra: &[ExtraKey], frames: usize) -> Vec<u8> {
+    (0..frames)
+        .map(|f| {
+            let mut best = (primary_sse.get(f).copied().unwrap_or(f64::INFINITY), 0u8);
+            for (k, e) in extra.iter().enumerate() {
+                if !usable(e, f, frames) {
+                    continue;
+                }
+                if e.sse[f] < best.0 {
+                    best = (e.sse[f], (k + 1) as u8);
+                }
+            }
+            best.1
+        })
+        .collect()
+}
+
+/// Whether `key` may draw frame `f`: it fits `f` and both its neighbours (so the run time
+/// has its polygon at either end of both intervals around `f`).
+fn usable(key: &ExtraKey, f: usize, frames: usize) -> bool {
+    let s = key.span;
+    if s.count >= frames {
+        return true;
+    }
+    [f, (f + frames - 1) % frames, (f + 1) % frames]
+        .iter()
+        .all(|&g| s.contains(g, frames))
+}
+
+/// Per frame, the least error of the keys as assigned.
+fn current(primary_sse: &[f64], extra: &[ExtraKey], assignment: &[u8]) -> Vec<f64> {
+    assignment
+        .iter()
+        .enumerate()
+        .map(|(f, &k)| if k == 0 { primary_sse[f] } else { extra[k as usize - 1].sse[f] })
+        .collect()
+}
+
+/// The error a part's keys reach over all frames, in dB relative to its first key alone (how
+/// much the extra keys buy), and per extra key the dB its removal would cost.
+pub fn key_gains(primary_sse: &[f64], extra: &[ExtraKey]) -> (f64, Vec<f64>) {
+    let frames = primary_sse.len();
+    let total = |ex: &[ExtraKey]| -> f64 { current(primary_sse, ex, &assign(primary_sse, ex, frames)).iter().sum() };
+    let all = total(extra);
+    let alone: f64 = primary_sse.iter().sum();
+    let per = (0..extra.len())
+        .map(|k| {
+            let mut rest = extra.to_vec();
+            rest.remove(k);
+            db_ratio(total(&rest), all)
+        })
+        .collect();
+    (db_ratio(alone, all), per)
+}
+
+/// `10 log10(before / after)`, 0 where either is 0 or not finite.
+pub fn db_ratio(before: f64, after: f64) -> f64 {
+    if before > 0.0 && after > 0.0 && before.is_finite() && after.is_finite() {
+        10.0 * (before / after).log10()
+    } else {
+        0.0
+    }
+}
+
+/// Bytes a key image of this polygon costs in the pack: its crop (the polygon's bounds) in
+/// the colour atlas (4 bytes a pixel) and the half-resolution normal atlas (1 a pixel).
+pub fn key_bytes(fit: &PartFit) -> f64 {
+    let uv = fit.uvs();
+    let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
+    for q in &uv {
+        for c in 0..2 {
+            lo[c] = lo[c].min(q[c]);
+            hi[c] = hi[c].max(q[c]);
+        }
+    }
+    if uv.is_empty() {
+        return 0.0;
+    }
+    ((hi[0] - lo[0]).ceil() + 2.0).max(1.0) as f64 * ((hi[1] - lo[1]).ceil() + 2.0).max(1.0) as f64 * 5.0
+}
+
+/// One key frame of a view, over its parts.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ViewKey {
+    pub frame: usize,
+    /// Whether it is the view's first key (every part has it).
+    pub first: bool,
+    /// Parts that have a key image of this frame.
+    pub parts: usize,
+    /// Frames (summed over parts) drawn from it.
+    pub frames_drawn: usize,
+    /// Pack bytes of its key images (uncompressed colour + half-resolution normals).
+    pub bytes: u64,
+    /// How much worse the view's parts would fit over all frames without it (dB of their
+    /// summed squared error); 0 for the first key.
+    pub buys_db: f64,
+}
+
+/// A view's key frames, the first one first, each with what it costs and buys. `parts`: per
+/// part with a fit, its first key's fit and squared errors and its extra keys, and the frame
+/// each frame is drawn from.
+pub fn view_keys(parts: &[(&PartFit, &[f64], &[ExtraKey], &[u8])]) -> Vec<ViewKey> {
+    let Some(first) = parts.first().map(|p| p.0.key_frame) else {
+        return Vec::new();
+    };
+    let total = |skip: Option<usize>| -> f64 {
+        parts
+            .iter()
+            .map(|(_, sse, extra, _)| {
+                let kept: Vec<ExtraKey> = extra.iter().filter(|e| Some(e.frame) != skip).cloned().collect();
+                current(sse, &kept, &assign(sse, &kept, sse.len())).iter().sum::<f64>()
+            })
+            .sum()
+    };
+    let all = total(None);
+    let mut frames: Vec<usize> = parts.iter().flat_map(|p| p.2.iter().map(|e| e.frame)).collect();
+    frames.sort_unstable();
+    frames.dedup();
+    let drawn = |frame: usize| -> usize {
+        parts
+            .iter()
+            .map(|(fit, _, extra, fk)| {
+                let k = if fit.key_frame == frame {
+                    Some(0)
+                } else {
+                    extra.iter().position(|e| e.frame == frame).map(|i| i + 1)
+                };
+                match k {
+                    Some(k) if fk.is_empty() => usize::from(k == 0) * fit.costs.len(),
+                    Some(k) => fk.iter().filter(|&&x| x as usize == k).count(),
+                    None => 0,
+                }
+            })
+            .sum()
+    };
+    let mut out = vec![ViewKey {
+        frame: first,
+        first: true,
+        parts: parts.len(),
+        frames_drawn: drawn(first),
+        bytes: parts.iter().map(|p| key_bytes(p.0) as u64).sum(),
+        buys_db: 0.0,
+    }];
+    for f in frames {
+        let with: Vec<&ExtraKey> = parts.iter().flat_map(|p| p.2.iter()).filter(|e| e.frame == f).collect();
+        out.push(ViewKey {
+            frame: f,
+            first: false,
+            parts: with.len(),
+            frames_drawn: drawn(f),
+            bytes: with.iter().map(|e| key_bytes(&e.fit) as u64).sum(),
+            buys_db: db_ratio(total(Some(f)), all),
+        });
+    }
+    out
+}
+
+/// One part's state during the choice: its first key's fit and error, and the keys so far.
+pub struct PartKeys<'a> {
+    pub tiles: &'a [PartTile],
+    pub targets: &'a [Vec<[f32; 2]>],
+    pub primary: &'a PartFit,
+    pub primary_sse: &'a [f64],
+    pub extra: Vec<ExtraKey>,
+}
+
+impl PartKeys<'_> {
+    /// Fits a key at `frame`, as far round the loop as it beats the keys so far (by fit cost).
+    fn try_key(&self, frame: usize, options: &PartFitOptions, images: &dyn Fn(usize) -> (image::RgbaImage, image::RgbaImage)) -> Option<ExtraKey> {
+        let frames = self.tiles.len();
+        let best_cost: Vec<f64> = (0..frames)
+            .map(|f| {
+                self.extra
+                    .iter()
+                    .filter(|e| e.span.contains(f, frames))
+                    .map(|e| e.fit.costs[f])
+                    .fold(self.primary.costs[f], f64::min)
+            })
+            .collect();
+        let losing = |f: usize, cost: f64| cost > best_cost[f];
+        // A key is fitted near its own frame, where local search suffices: no restarts
+        // (they search frames far from the key again from a global solution).
+        let options = PartFitOptions {
+            restart_threshold: f64::INFINITY,
+            ..*options
+        };
+        let (fit, span) = fit_part_span(self.tiles, self.targets, frame, &options, &[], Some(&losing)).ok()?;
+        let key_tile = &self.tiles[frame];
+        let sse = (0..frames)
+            .map(|f| {
+                if span.contains(f, frames) {
+                    sse(&draw_part(&fit, key_tile, f, key_tile.size), &tile_canvas(&self.tiles[f]))
+                } else {
+                    f64::INFINITY
+                }
+            })
+            .collect();
+        let (key_color, key_normal) = images(frame);
+        Some(ExtraKey {
+            frame,
+            fit,
+            span,
+            key_color,
+            key_normal,
+            sse,
+        })
+    }
+
+    fn used(&self, f: usize) -> bool {
+        self.primary.key_frame == f || self.extra.iter().any(|e| e.frame == f)
+    }
+
+    /// Drops extra keys that draw no frame.
+    fn prune(&mut self) {
+        let frames = self.tiles.len();
+        loop {
+            let a = assign(self.primary_sse, &self.extra, frames);
+            let unused = (0..self.extra.len()).find(|&k| !a.contains(&((k + 1) as u8)));
+            match unused {
+                Some(k) => {
+                    self.extra.remove(k);
+                }
+                None => return,
+            }
+        }
+    }
+}
+
+/// A candidate key for one part.
+struct Candidate {
+    part: usize,
+    key: ExtraKey,
+    /// Cut in squared error over all frames.
+    gain: f64,
+    bytes: f64,
+}
+
+/// Chooses the extra keys of every part of a view (see the module's documentation). `images(p,
+/// f)` gives part `p`'s colour and normal images at frame `f`; `manual`: the artist's extra
+/// key frames for the view, used as they are (each part keeps those that draw a frame).
+pub fn choose(
+    parts: &mut [Option<PartKeys<'_>>],
+    options: &PartFitOptions,
+    keys: &KeyOptions,
+    manual: Option<&[usize]>,
+    images: &(dyn Fn(usize, usize) -> (image::RgbaImage, image::RgbaImage) + Sync),
+) {
+    let frames = parts.iter().flatten().map(|p| p.tiles.len()).next().unwrap_or(0);
+    if frames < 2 {
+        return;
+    }
+    if let Some(list) = manual {
+        let mut list: Vec<usize> = list.iter().copied().filter(|&f| f < frames).collect();
+        list.sort_unstable();
+        list.dedup();
+        parts.par_iter_mut().enumerate().for_each(|(p, part)| {
+            let Some(part) = part else { return };
+            for &f in &list {
+                if part.used(f) || part.extra.len() + 1 >= MAX_KEYS {
+                    continue;
+                }
+                if let Some(k) = part.try_key(f, options, &|f| images(p, f)) {
+                    part.extra.push(k);
+                }
+            }
+            part.prune();
+        });
+        return;
+    }
+    let max_keys = keys.max_keys.clamp(1, MAX_KEYS);
+    if max_keys < 2 || keys.budget <= 0.0 {
+        return;
+    }
+    let mut budget: f64 = keys.budget * parts.iter().flatten().map(|p| key_bytes(p.primary)).sum::<f64>();
+    let mut active: Vec<bool> = parts.iter().map(Option::is_some).collect();
+    let threshold = 10f64.powf(keys.min_gain_db / 10.0);
+    for _round in 1..max_keys {
+        let candidates: Vec<Option<Candidate>> = parts
+            .par_iter()
+            .enumerate()
+            .map(|(p, part)| {
+                let part = part.as_ref()?;
+                if !active[p] || part.extra.len() + 1 >= max_keys {
+                    return None;
+                }
+                let a = assign(part.primary_sse, &part.extra, frames);
+                let cur = current(part.primary_sse, &part.extra, &a);
+                let total: f64 = cur.iter().sum();
+                // No key does better at a frame than the first key does at its own: if even
+                // that level everywhere would not buy the threshold, stop here.
+                let floor = part.primary_sse[part.primary.key_frame];
+                let best_case: f64 = cur.iter().map(|&e| e.min(floor)).sum();
+                if !(total > 0.0) || total <= best_case * threshold {
+                    return None;
+                }
+                let frame = (0..frames)
+                    .filter(|&f| !part.used(f))
+                    .max_by(|&x, &y| cur[x].total_cmp(&cur[y]))?;
+                let key = part.try_key(frame, options, &|f| images(p, f))?;
+                let mut extra = part.extra.clone();
+                extra.push(key);
+                let after: f64 = current(part.primary_sse, &extra, &assign(part.primary_sse, &extra, frames))
+                    .iter()
+                    .sum();
+                if total < after * threshold {
+                    return None;
+                }
+                let key = extra.pop().expect("just pushed");
+                let bytes = key_bytes(&key.fit);
+                Some(Candidate {
+                    part: p,
+                    key,
+                    gain: total - after,
+                    bytes,
+                })
+            })
+            .collect();
+        let mut candidates: Vec<Candidate> = candidates.into_iter().flatten().collect();
+        for (p, a) in active.iter_mut().enumerate() {
+            *a = *a && candidates.iter().any(|c| c.part == p);
+        }
+        if candidates.is_empty() {
+            break;
+        }
+        candidates.sort_by(|a, b| (b.gain / b.bytes.max(1.0)).total_cmp(&(a.gain / a.bytes.max(1.0))));
+        for c in candidates {
+            if c.bytes > budget {
+                active[c.part] = false;
+                continue;
+            }
+            budget -= c.bytes;
+            if let Some(part) = parts[c.part].as_mut() {
+                part.extra.push(c.key);
+                part.prune();
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn db_ratio_is_zero_for_degenerate_input() {
+        assert_eq!(db_ratio(0.0, 1.0), 0.0);
+        assert_eq!(db_ratio(1.0, f64::INFINITY), 0.0);
+        assert!((db_ratio(10.0, 1.0) - 10.0).abs() < 1e-12);
+    }
+
+    /// A striped square whose colour changes from red (first half of the loop) to blue
+    /// (second half) while its outline stays put (drifting by 0.7 pixel a frame, so no warp
+    /// is exact): no warp of one key image draws both halves.
+    fn turning(frames: usize) -> Vec<PartTile> {
+        (0..frames)
+            .map(|f| {
+                let size = 48u32;
+                let blue = f >= frames / 2;
+                let px = (0..size * size)
+                    .map(|i| {
+                        let (x, y) = ((i % size) as f32 + 0.5, (i / size) as f32 + 0.5);
+                        let (u, v) = ((x - 22.0 - 0.7 * f as f32) / 14.0, (y - 24.0) / 16.0);
+                        if u.abs() < 1.0 && v.abs() < 1.0 {
+                            let stripe = if ((v + 1.0) * 3.0).floor() as i32 % 2 == 0 { 0.9 } else { 0.5 };
+                            let (r, b) = if blue { (0.1, stripe) } else { (stripe, 0.1) };
+                            [r, 0.2, b, 0.5, 0.5, 1.0, 1.0]
+                        } else {
+                            [0.0; 7]
+                        }
+                    })
+                    .collect();
+                PartTile { size, px }
+            })
+            .collect()
+    }
+
+    fn extra(frame: usize, start: usize, count: usize, sse: Vec<f64>) -> ExtraKey {
+        let t = turning(4);
+        let fit = crate::bake::part_fit::fit_part(&t, 0, &PartFitOptions::default(), &[]).unwrap();
+        ExtraKey {
+            frame,
+            fit,
+            span: Span { start, count },
+            key_color: image::RgbaImage::new(1, 1),
+            key_normal: image::RgbaImage::new(1, 1),
+            sse,
+        }
+    }
+
+    #[test]
+    fn each_frame_gets_the_best_key_that_also_fits_its_neighbours() {
+        let frames = 8;
+        let primary = vec![5.0; frames];
+        let inf = f64::INFINITY;
+        // Key 1 covers frames 1..=4, best at 2 and 3 (and 4, but 5 is outside its span).
+        let a = extra(2, 1, 4, vec![inf, 1.0, 1.0, 1.0, 1.0, inf, inf, inf]);
+        // Key 2 covers 6, 7, 0 round the loop: only 7 has both neighbours inside.
+        let b = extra(7, 6, 3, vec![0.5, inf, inf, inf, inf, inf, 0.5, 0.5]);
+        let keys = vec![a, b];
+        let got = assign(&primary, &keys, frames);
+        // Brute force: the cheapest key among those whose span holds f - 1, f, f + 1.
+        for f in 0..frames {
+            let mut best = (primary[f], 0u8);
+            for (k, e) in keys.iter().enumerate() {
+                let ok = [f, (f + frames - 1) % frames, (f + 1) % frames]
+                    .iter()
+                    .all(|&g| e.span.contains(g, frames));
+                if ok && e.sse[f] < best.0 {
+                    best = (e.sse[f], k as u8 + 1);
+                }
+            }
+            assert_eq!(got[f], best.1, "frame {f}");
+        }
+        assert_eq!(got, vec![0, 0, 1, 1, 0, 0, 0, 2]);
+        // What the keys buy: total 5 × 5 + 1 + 1 + 0.5 = 27.5 against 40 alone.
+        let (gain, per) = key_gains(&primary, &keys);
+        assert!((gain - db_ratio(40.0, 27.5)).abs() < 1e-9);
+        assert!((per[0] - db_ratio(35.5, 27.5)).abs() < 1e-9);
+        assert!((per[1] - db_ratio(32.0, 27.5)).abs() < 1e-9);
+    }
+
+    /// The state `choose` starts from: one part, its first key at frame 0.
+    fn chosen(frames: usize, keys: &KeyOptions, manual: Option<&[usize]>) -> (Vec<f64>, Vec<ExtraKey>) {
+        let t = turning(frames);
+        let options = PartFitOptions::default();
+        let fit = crate::bake::part_fit::fit_part(&t, 0, &options, &[]).unwrap();
+        let primary_sse: Vec<f64> = (0..frames)
+            .map(|f| sse(&draw_part(&fit, &t[0], f, 48), &tile_canvas(&t[f])))
+            .collect();
+        let mut parts = vec![Some(PartKeys {
+            tiles: &t,
+            targets: &fit.targets,
+            primary: &fit,
+            primary_sse: &primary_sse,
+            extra: Vec::new(),
+        })];
+        let blank = |_: usize, _: usize| (image::RgbaImage::new(1, 1), image::RgbaImage::new(1, 1));
+        choose(&mut parts, &options, keys, manual, &blank);
+        let extra = parts.pop().unwrap().unwrap().extra;
+        (primary_sse, extra)
+    }
+
+    #[test]
+    fn a_second_key_is_added_where_the_first_cannot_draw_the_part() {
+        let frames = 8;
+        // One part: a budget of twice its first key image (the default half of a view's first
+        // images could not pay for any key of a one-part view).
+        let roomy = KeyOptions { budget: 2.0, ..KeyOptions::default() };
+        assert!(chosen(frames, &KeyOptions::default(), None).1.is_empty(), "over the budget");
+        let (primary, extra) = chosen(frames, &roomy, None);
+        assert!(!extra.is_empty(), "no key added");
+        assert!(extra.len() < roomy.max_keys);
+        // The added key is of the vertical-stripe half and draws it.
+        assert!(extra.iter().all(|e| e.frame >= frames / 2), "{:?}", extra.iter().map(|e| e.frame).collect::<Vec<_>>());
+        let a = assign(&primary, &extra, frames);
+        assert!(a[..frames / 2 - 1].iter().all(|&k| k == 0), "{a:?}");
+        assert!(a[frames / 2 + 1..frames - 1].iter().all(|&k| k != 0), "{a:?}");
+        let (gain, _) = key_gains(&primary, &extra);
+        assert!(gain > 3.0, "the keys buy {gain} dB");
+        // Every assigned key fits its frame and both neighbours.
+        for (f, &k) in a.iter().enumerate() {
+            if k > 0 {
+                assert!(usable(&extra[k as usize - 1], f, frames));
+            }
+        }
+        // One key only, or no budget: nothing added.
+        assert!(chosen(frames, &KeyOptions::SINGLE, None).1.is_empty());
+        let broke = KeyOptions { budget: 0.0, ..KeyOptions::default() };
+        assert!(chosen(frames, &broke, None).1.is_empty());
+        // A gain threshold above what the key bought: nothing added.
+        let strict = KeyOptions { min_gain_db: gain + 1.0, ..roomy };
+        assert!(chosen(frames, &strict, None).1.is_empty());
+    }
+
+    #[test]
+    fn the_artists_keys_are_used_as_they_are() {
+        let frames = 8;
+        // A key the automatic choice would take, and one of the first half it never would
+        // (frame 0 is the first key already, so it is skipped; frames out of range too).
+        let (_, extra) = chosen(frames, &KeyOptions::default(), Some(&[6, 0, 99]));
+        assert_eq!(extra.iter().map(|e| e.frame).collect::<Vec<_>>(), vec![6]);
+        // An empty list: one key.
+        assert!(chosen(frames, &KeyOptions::default(), Some(&[])).1.is_empty());
+    }
+}
