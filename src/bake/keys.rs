@@ -161,9 +161,13 @@ pub fn db_ratio(before: f64, after: f64) -> f64 {
 /// Bytes a key image of this polygon costs in the pack: its crop (the polygon's bounds) in
 /// the colour atlas (4 bytes a pixel) and the half-resolution normal atlas (1 a pixel).
 pub fn key_bytes(fit: &PartFit) -> f64 {
-    let uv = fit.uvs();
+    polygon_bytes(&fit.uvs())
+}
+
+/// [`key_bytes`] of a key image cropped to the bounds of `uv`.
+fn polygon_bytes(uv: &[[f32; 2]]) -> f64 {
     let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
-    for q in &uv {
+    for q in uv {
         for c in 0..2 {
             lo[c] = lo[c].min(q[c]);
             hi[c] = hi[c].max(q[c]);
@@ -392,6 +396,11 @@ pub fn choose(
                 let frame = (0..frames)
                     .filter(|&f| !part.used(f))
                     .max_by(|&x, &y| cur[x].total_cmp(&cur[y]))?;
+                // The key's image is about its frame's outline's bounds: not fitted at all
+                // when that is past what the view has left to spend.
+                if 0.9 * polygon_bytes(&part.targets[frame]) > budget {
+                    return None;
+                }
                 let key = part.try_key(frame, options, &|f| images(p, f))?;
                 let mut extra = part.extra.clone();
                 extra.push(key);
