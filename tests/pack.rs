@@ -172,23 +172,8 @@ fn pack_round_trip_and_damage() {
 
 #[test]
 fn several_key_images_round_trip_and_damaged_key_tables_are_refused() {
-    use polypostor::bake::keys::KeyOptions;
     let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
-    let c = polypostor::default_character::generate();
-    let seg = auto_segment(&c);
-    // Keys at no cost, so parts get several.
-    let options = BakeOptions {
-        views: 3,
-        resolution: 64,
-        key_frame: KeyFrame::Frame(0),
-        keys: KeyOptions {
-            max_keys: 4,
-            min_gain_db: 0.0,
-            budget: 4.0,
-        },
-        ..Default::default()
-    };
-    let b = bake(&ctx, &c, &seg, &CapOverrides::default(), &options, &|_| {}, &AtomicBool::new(false)).unwrap();
+    let (c, b) = common::bake_default(&ctx, &common::cheap_keys(3, 64));
     let dir = common::temp_dir("pack-keys");
     let out = dir.join("walk.pack");
     let stats = write_pack(&b, &c.name, Some("Walk"), &out).unwrap();

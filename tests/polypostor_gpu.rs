@@ -222,33 +222,9 @@ fn mean_diff(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
 
 #[test]
 fn a_change_of_key_image_is_cross_faded_without_a_pop() {
-    use polypostor::bake::keys::KeyOptions;
     let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
     let (device, queue) = (&ctx.device, &ctx.queue);
-    let c = polypostor::default_character::generate();
-    let seg = auto_segment(&c);
-    // Keys are cheap here (any gain, a large budget), so views get several.
-    let options = BakeOptions {
-        views: 4,
-        resolution: 96,
-        key_frame: KeyFrame::Frame(0),
-        keys: KeyOptions {
-            max_keys: 4,
-            min_gain_db: 0.0,
-            budget: 4.0,
-        },
-        ..Default::default()
-    };
-    let b = bake(
-        &ctx,
-        &c,
-        &seg,
-        &CapOverrides::default(),
-        &options,
-        &|_| {},
-        &AtomicBool::new(false),
-    )
-    .unwrap();
+    let (c, b) = common::bake_default(&ctx, &common::cheap_keys(4, 96));
     let dir = common::temp_dir("polypostor-crossfade");
     let out = dir.join("walk.pack");
     write_pack(&b, &c.name, Some("Walk"), &out).unwrap();

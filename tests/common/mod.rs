@@ -92,3 +92,40 @@ pub fn crc32(bytes: &[u8]) -> u32 {
     }
     !c
 }
+
+/// Bakes the generated default character (its first clip, automatic segmentation, no cap
+/// overrides) with `options`.
+pub fn bake_default(
+    ctx: &polypostor::gpu::GpuContext,
+    options: &polypostor::bake::pipeline::BakeOptions,
+) -> (polypostor::Character, polypostor::bake::pipeline::Bake) {
+    let c = polypostor::default_character::generate();
+    let seg = polypostor::bake::segment::auto_segment(&c);
+    let b = polypostor::bake::pipeline::bake(
+        ctx,
+        &c,
+        &seg,
+        &polypostor::bake::caps::CapOverrides::default(),
+        options,
+        &|_| {},
+        &std::sync::atomic::AtomicBool::new(false),
+    )
+    .unwrap();
+    (c, b)
+}
+
+/// Bake options that make several key images cheap (any gain, a large budget), so parts get
+/// several.
+pub fn cheap_keys(views: usize, resolution: u32) -> polypostor::bake::pipeline::BakeOptions {
+    polypostor::bake::pipeline::BakeOptions {
+        views,
+        resolution,
+        key_frame: polypostor::bake::pipeline::KeyFrame::Frame(0),
+        keys: polypostor::bake::keys::KeyOptions {
+            max_keys: 4,
+            min_gain_db: 0.0,
+            budget: 4.0,
+        },
+        ..Default::default()
+    }
+}
