@@ -196,13 +196,11 @@ pub struct ViewKey {
     pub buys_db: f64,
 }
 
-/// A view's key frames, the first one first, each with what it costs and buys. `parts`: per
-/// part with a fit, its first key's fit and squared errors and its extra keys, and the frame
-/// each frame is drawn from.
+/// A view's key frames, each with what it costs and buys: first the frames of the parts'
+/// first keys (one row per frame, usually one frame for the whole view), then the frames of
+/// the extra keys. `parts`: per part with a fit, its first key's fit and squared errors, its
+/// extra keys, and the key each frame is drawn from.
 pub fn view_keys(parts: &[(&PartFit, &[f64], &[ExtraKey], &[u8])]) -> Vec<ViewKey> {
-    let Some(first) = parts.first().map(|p| p.0.key_frame) else {
-        return Vec::new();
-    };
     let total = |skip: Option<usize>| -> f64 {
         parts
             .iter()
@@ -213,15 +211,13 @@ pub fn view_keys(parts: &[(&PartFit, &[f64], &[ExtraKey], &[u8])]) -> Vec<ViewKe
             .sum()
     };
     let all = total(None);
-    let mut frames: Vec<usize> = parts.iter().flat_map(|p| p.2.iter().map(|e| e.frame)).collect();
-    frames.sort_unstable();
-    frames.dedup();
-    let drawn = |frame: usize| -> usize {
+    // Part-frames drawn by the key `k` (0: first) of each part whose key `k` is at `frame`.
+    let drawn = |frame: usize, first: bool| -> usize {
         parts
             .iter()
             .map(|(fit, _, extra, fk)| {
-                let k = if fit.key_frame == frame {
-                    Some(0)
+                let k = if first {
+                    (fit.key_frame == frame).then_some(0)
                 } else {
                     extra.iter().position(|e| e.frame == frame).map(|i| i + 1)
                 };
@@ -233,21 +229,30 @@ pub fn view_keys(parts: &[(&PartFit, &[f64], &[ExtraKey], &[u8])]) -> Vec<ViewKe
             })
             .sum()
     };
-    let mut out = vec![ViewKey {
-        frame: first,
-        first: true,
-        parts: parts.len(),
-        frames_drawn: drawn(first),
-        bytes: parts.iter().map(|p| key_bytes(p.0) as u64).sum(),
-        buys_db: 0.0,
-    }];
-    for f in frames {
+    let sorted = |mut v: Vec<usize>| {
+        v.sort_unstable();
+        v.dedup();
+        v
+    };
+    let mut out = Vec::new();
+    for f in sorted(parts.iter().map(|p| p.0.key_frame).collect()) {
+        let with: Vec<_> = parts.iter().filter(|p| p.0.key_frame == f).collect();
+        out.push(ViewKey {
+            frame: f,
+            first: true,
+            parts: with.len(),
+            frames_drawn: drawn(f, true),
+            bytes: with.iter().map(|p| key_bytes(p.0) as u64).sum(),
+            buys_db: 0.0,
+        });
+    }
+    for f in sorted(parts.iter().flat_map(|p| p.2.iter().map(|e| e.frame)).collect()) {
         let with: Vec<&ExtraKey> = parts.iter().flat_map(|p| p.2.iter()).filter(|e| e.frame == f).collect();
         out.push(ViewKey {
             frame: f,
             first: false,
             parts: with.len(),
-            frames_drawn: drawn(f),
+            frames_drawn: drawn(f, false),
             bytes: with.iter().map(|e| key_bytes(&e.fit) as u64).sum(),
             buys_db: db_ratio(total(Some(f)), all),
         });

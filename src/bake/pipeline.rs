@@ -466,7 +466,13 @@ pub struct CompositeError {
 pub fn composite_error(data: &ViewData, parts: &[PartResult], order: &[usize], key: usize) -> CompositeError {
     let images = &data.depth_order_tiles;
     let frames = data.tiles.first().map_or(0, |t| t.len());
-    let key_tiles: Vec<PartTile> = data.tiles.iter().map(|t| t[key].clone()).collect();
+    // Each part textured from its own first key (see [`part_key`]).
+    let key_tiles: Vec<PartTile> = data
+        .tiles
+        .iter()
+        .zip(parts)
+        .map(|(t, r)| t[r.fit.as_ref().map_or(key, |f| f.key_frame).min(t.len().saturating_sub(1))].clone())
+        .collect();
     let still = render_polypostor(parts, &key_tiles, order, key, images.resolution);
     let per_frame: Vec<(f64, f64, f64)> = (0..frames)
         .into_par_iter()
@@ -494,6 +500,31 @@ pub fn view_order(hidden: &[Vec<f64>], ov: Option<&ViewOverride>) -> Vec<usize> 
 
 /// The key frame a view is fitted with: its override when it is a frame of the bake, else
 /// the bake's key frame (clamped to the frames).
+/// A part whose image at the view's key frame covers less than this share of its largest
+/// image over the clip gets its own first key ([`part_key`]).
+pub const FORESHORTENED: f64 = 0.5;
+
+/// The first key frame of a part: the view's key frame `key`, unless the part's image there
+/// covers less than [`FORESHORTENED`] of its largest image over the clip — the part is turned
+/// away or foreshortened there, and its texture would be stretched into a wedge over the
+/// frames where it is seen in full; then the frame of its largest image (a texture shrunk
+/// where the part foreshortens loses little). `forced`: the artist set the view's key frame,
+/// which then holds for every part.
+pub fn part_key(tiles: &[PartTile], key: usize, forced: bool) -> usize {
+    if forced || tiles.len() < 2 || key >= tiles.len() {
+        return key;
+    }
+    let area: Vec<f64> = tiles
+        .iter()
+        .map(|t| t.px.iter().map(|p| p[6] as f64).sum())
+        .collect();
+    let (best, largest) = area
+        .iter()
+        .enumerate()
+        .fold((key, area[key]), |b, (f, &a)| if a > b.1 { (f, a) } else { b });
+    if area[key] >= FORESHORTENED * largest { key } else { best }
+}
+
 pub fn view_key(ov: Option<&ViewOverride>, bake_key: usize, frames: usize) -> usize {
     ov.and_then(|o| o.key_frame)
         .filter(|&k| k < frames)
@@ -553,7 +584,8 @@ pub fn refit_view(
         .par_iter()
         .map(|&p| {
             let pins = ov.map_or_else(Vec::new, |o| o.pins_per_frame(p, frames));
-            fit_view_part(data, p, key, options, &pins)
+            let forced = ov.is_some_and(|o| o.key_frame.is_some());
+            fit_view_part(data, p, part_key(&data.tiles[p], key, forced), options, &pins)
         })
         .collect();
     let mut parts: Vec<Option<PartResult>> = match prev {
@@ -576,7 +608,7 @@ pub fn refit_view(
                 let r = &mut parts[p];
                 if let Some(fit) = &r.fit {
                     for f in (0..frames).filter(|&f| r.frame_key.get(f).is_some_and(|&k| k != 0)) {
-                        let (q, s) = keys::frame_quality(fit, &data.tiles[p][key], &data.tiles[p][f], f);
+                        let (q, s) = keys::frame_quality(fit, &data.tiles[p][fit.key_frame], &data.tiles[p][f], f);
                         r.psnr[f] = q;
                         r.ssim[f] = s;
                     }
@@ -994,4 +1026,49 @@ pub fn rebake(
         },
         reuse,
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Tiles of a part whose image is a `w[f]` × 10 block of covered pixels at frame `f`.
+    fn widths(w: &[u32]) -> Vec<PartTile> {
+        w.iter()
+            .map(|&w| {
+                let size = 32u32;
+                let px = (0..size * size)
+                    .map(|i| {
+                        let (x, y) = (i % size, i / size);
+                        if x < w && y < 10 { [0.5, 0.5, 0.5, 0.5, 0.5, 1.0, 1.0] } else { [0.0; 7] }
+                    })
+                    .collect();
+                PartTile { size, px }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_part_foreshortened_at_the_view_key_gets_its_own_first_key() {
+        // Seen in full at the key frame (or nearly): the view's key.
+        assert_eq!(part_key(&widths(&[20, 24, 30, 12]), 2, false), 2);
+        assert_eq!(part_key(&widths(&[20, 24, 30, 12]), 0, false), 0, "20 of 30 is above half");
+        // Foreshortened there (under half its largest image): the frame where it is largest,
+        // the first of equals.
+        assert_eq!(part_key(&widths(&[20, 24, 30, 12]), 3, false), 2);
+        assert_eq!(part_key(&widths(&[4, 30, 30, 12]), 0, false), 1);
+        // The artist's key frame holds for every part; degenerate input keeps the key.
+        assert_eq!(part_key(&widths(&[20, 24, 30, 12]), 3, true), 3);
+        assert_eq!(part_key(&widths(&[0, 0, 0]), 1, false), 1);
+        assert_eq!(part_key(&widths(&[5]), 0, false), 0);
+        // The choice reads coverage only: the same whichever frame the loop starts at
+        // (rotating the frames rotates the answer).
+        let w = [9u32, 3, 28, 30, 7];
+        for shift in 0..w.len() {
+            let rotated: Vec<u32> = (0..w.len()).map(|f| w[(f + shift) % w.len()]).collect();
+            let key = (1 + w.len() - shift) % w.len();
+            let want = (3 + w.len() - shift) % w.len();
+            assert_eq!(part_key(&widths(&rotated), key, false), want, "shift {shift}");
+        }
+    }
 }
