@@ -190,6 +190,9 @@ pub struct EditorApp {
     show_log: bool,
     adapter: Option<String>,
     timer: FrameTimer,
+    /// The window title last sent (a title command counts as a repaint request: sent only
+    /// when it changes, so an idle editor does not redraw).
+    window_title: String,
     prompt: Option<PathPrompt>,
     dialog: Option<(PathPurpose, Instant, Receiver<Option<PathBuf>>)>,
     texture_preview: Option<(u64, egui::TextureHandle)>,
@@ -247,6 +250,7 @@ impl EditorApp {
             show_log: true,
             adapter,
             timer: FrameTimer::from_env(),
+            window_title: String::new(),
             prompt: None,
             dialog: None,
             texture_preview: None,
@@ -1702,7 +1706,10 @@ impl eframe::App for EditorApp {
             Some(doc) => format!("{} — Polypostor Studio", doc.title()),
             None => "Polypostor Studio".into(),
         };
-        ctx.send_viewport_cmd(egui::ViewportCommand::Title(title));
+        if title != self.window_title {
+            self.window_title = title.clone();
+            ctx.send_viewport_cmd(egui::ViewportCommand::Title(title));
+        }
 
         egui::Panel::top("menu")
             .frame(panel_frame(ui.style()))

@@ -291,8 +291,9 @@ impl CrowdPanel {
     pub fn job_ui(&mut self, ui: &mut egui::Ui) {
         let Some(job) = &self.job else { return };
         let (stage, done, total) = job.progress.lock().map(|g| g.clone()).unwrap_or_default();
+        // No spinner: it redraws the window every frame, which on a software rasteriser takes
+        // the CPU from the bake; the app redraws a few times a second while a job runs.
         ui.horizontal(|ui| {
-            ui.spinner();
             ui.label(format!("{} — {stage}", job.what));
             ui.add(
                 egui::ProgressBar::new(done as f32 / total.max(1) as f32)
