@@ -449,7 +449,11 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         anyhow::bail!("--fps {}: choose {MIN_FPS} to {MAX_FPS}", a.fps);
     }
     if a.max_keys == 0 || a.max_keys > polypostor::bake::keys::MAX_KEYS {
-        anyhow::bail!("--max-keys {}: choose 1 to {}", a.max_keys, polypostor::bake::keys::MAX_KEYS);
+        anyhow::bail!(
+            "--max-keys {}: choose 1 to {}",
+            a.max_keys,
+            polypostor::bake::keys::MAX_KEYS
+        );
     }
     if !(a.key_gain_db.is_finite() && a.key_gain_db >= 0.0 && a.key_gain_db <= 100.0) {
         anyhow::bail!("--key-gain-db {}: choose 0 to 100", a.key_gain_db);

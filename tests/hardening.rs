@@ -615,7 +615,8 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
         .unwrap();
     assert!(
         // The pack's own per-frame tables (vertex blocks, key tables) may catch it first.
-        e.contains("frames") && (e.contains("disagree") || e.contains("past the end") || e.contains("frame keys for 9 frames")),
+        e.contains("frames")
+            && (e.contains("disagree") || e.contains("past the end") || e.contains("frame keys for 9 frames")),
         "{e}"
     );
     // A byte flipped anywhere in the data: the checksum names the file.

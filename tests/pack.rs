@@ -195,7 +195,11 @@ fn several_key_images_round_trip_and_damaged_key_tables_are_refused() {
                 // Every frame of the key's span is stored, as fitted.
                 for f in 0..frames {
                     let got = p.key_vertices(v, pi, k + 1, f);
-                    assert_eq!(got.is_some(), e.span.contains(f, frames), "view {v} part {pi} key {k} frame {f}");
+                    assert_eq!(
+                        got.is_some(),
+                        e.span.contains(f, frames),
+                        "view {v} part {pi} key {k} frame {f}"
+                    );
                     let Some((_, pos)) = got else { continue };
                     for (i, q) in e.fit.positions(f).iter().enumerate() {
                         assert!((pos[2 * i] - (q[0] / 64.0 * 2.0 - 1.0)).abs() < 4e-5);
@@ -215,7 +219,12 @@ fn several_key_images_round_trip_and_damaged_key_tables_are_refused() {
         .views
         .iter()
         .enumerate()
-        .find_map(|(v, view)| view.parts.iter().position(|q| q.as_ref().is_some_and(|q| !q.extra_keys.is_empty())).map(|pi| (v, pi)))
+        .find_map(|(v, view)| {
+            view.parts
+                .iter()
+                .position(|q| q.as_ref().is_some_and(|q| !q.extra_keys.is_empty()))
+                .map(|pi| (v, pi))
+        })
         .unwrap();
     let manifest_text = std::fs::read_to_string(out.join("manifest.json")).unwrap();
     let damage = |name: &str, f: &dyn Fn(&mut serde_json::Value)| -> String {
@@ -224,7 +233,10 @@ fn several_key_images_round_trip_and_damaged_key_tables_are_refused() {
         let mut m: serde_json::Value = serde_json::from_str(&manifest_text).unwrap();
         f(&mut m["views"][v]["parts"][pi]);
         std::fs::write(d.join("manifest.json"), serde_json::to_string(&m).unwrap()).unwrap();
-        load_pack(&d).err().unwrap_or_else(|| panic!("{name}: damaged pack loaded")).to_string()
+        load_pack(&d)
+            .err()
+            .unwrap_or_else(|| panic!("{name}: damaged pack loaded"))
+            .to_string()
     };
     let e = damage("key-missing", &|q| q["frame_keys"][0] = 9.into());
     assert!(e.contains("does not have"), "{e}");
@@ -236,12 +248,17 @@ fn several_key_images_round_trip_and_damaged_key_tables_are_refused() {
     assert!(e.contains("extra keys"), "{e}");
     let e = damage("key-span-empty", &|q| q["extra_keys"][0]["frame_count"] = 0.into());
     assert!(e.contains("do not fit"), "{e}");
-    let e = damage("key-offset", &|q| q["extra_keys"][0]["vertex_offset"] = 4_000_000_000u64.into());
+    let e = damage("key-offset", &|q| {
+        q["extra_keys"][0]["vertex_offset"] = 4_000_000_000u64.into()
+    });
     assert!(e.contains("past the end"), "{e}");
     // The key table names the key for a frame its polygon was not fitted to.
     let e = damage("key-uncovered", &|q| {
         let key = q["extra_keys"][0].clone();
-        let (start, count) = (key["frame_start"].as_u64().unwrap() as usize, key["frame_count"].as_u64().unwrap() as usize);
+        let (start, count) = (
+            key["frame_start"].as_u64().unwrap() as usize,
+            key["frame_count"].as_u64().unwrap() as usize,
+        );
         if count < frames {
             let outside = (start + count) % frames;
             q["frame_keys"][outside] = 1.into();

@@ -231,24 +231,21 @@ fn a_change_of_key_image_is_cross_faded_without_a_pop() {
     let pack = load_pack(&out).unwrap();
     let frames = pack.manifest.frames as usize;
     // A view with a part whose key changes between two consecutive frames.
-    let change = pack
-        .manifest
-        .views
-        .iter()
-        .enumerate()
-        .find_map(|(v, view)| {
-            view.parts.iter().flatten().find_map(|p| {
-                (0..frames)
-                    .find(|&f| !p.frame_keys.is_empty() && p.frame_keys[f] != p.frame_keys[(f + 1) % frames])
-                    .map(|f| (v, f))
-            })
-        });
+    let change = pack.manifest.views.iter().enumerate().find_map(|(v, view)| {
+        view.parts.iter().flatten().find_map(|p| {
+            (0..frames)
+                .find(|&f| !p.frame_keys.is_empty() && p.frame_keys[f] != p.frame_keys[(f + 1) % frames])
+                .map(|f| (v, f))
+        })
+    });
     let (v, f) = change.expect("a view whose parts change key (several keys were allowed at no cost)");
     let changing: Vec<usize> = (0..frames)
         .filter(|&g| {
-            pack.manifest.views[v].parts.iter().flatten().any(|p| {
-                !p.frame_keys.is_empty() && p.frame_keys[g] != p.frame_keys[(g + 1) % frames]
-            })
+            pack.manifest.views[v]
+                .parts
+                .iter()
+                .flatten()
+                .any(|p| !p.frame_keys.is_empty() && p.frame_keys[g] != p.frame_keys[(g + 1) % frames])
         })
         .collect();
     let size = 192u32;
@@ -296,13 +293,18 @@ fn a_change_of_key_image_is_cross_faded_without_a_pop() {
     const STEPS: usize = 8;
     let mut worst_ratio = 0.0f64;
     for g in 0..frames {
-        let images: Vec<image::RgbaImage> = (0..=STEPS).map(|s| draw(&mut gpu, g, s as f32 / STEPS as f32)).collect();
+        let images: Vec<image::RgbaImage> = (0..=STEPS)
+            .map(|s| draw(&mut gpu, g, s as f32 / STEPS as f32))
+            .collect();
         let steps: Vec<f64> = images.windows(2).map(|w| mean_diff(&w[0], &w[1])).collect();
         let largest = steps.iter().copied().fold(0.0, f64::max);
         // The end of one interval is the start of the next: no jump between them.
         let next = draw(&mut gpu, (g + 1) % frames, 0.0);
         let seam = mean_diff(&images[STEPS], &next);
-        assert!(seam < 0.05, "frame {g}: the interval's end and the next start differ by {seam}");
+        assert!(
+            seam < 0.05,
+            "frame {g}: the interval's end and the next start differ by {seam}"
+        );
         if !changing.contains(&g) {
             continue;
         }
@@ -312,7 +314,9 @@ fn a_change_of_key_image_is_cross_faded_without_a_pop() {
         let mut singles: Vec<Vec<image::RgbaImage>> = Vec::new();
         for first in [true, false] {
             let mut single = one_key(g, first);
-            let imgs: Vec<image::RgbaImage> = (0..=STEPS).map(|s| draw(&mut single, g, s as f32 / STEPS as f32)).collect();
+            let imgs: Vec<image::RgbaImage> = (0..=STEPS)
+                .map(|s| draw(&mut single, g, s as f32 / STEPS as f32))
+                .collect();
             own = own.max(imgs.windows(2).map(|w| mean_diff(&w[0], &w[1])).fold(0.0, f64::max));
             singles.push(imgs);
         }
@@ -325,7 +329,10 @@ fn a_change_of_key_image_is_cross_faded_without_a_pop() {
         eprintln!(
             "interval {g}: largest step {largest:.3}; one key's own {own:.3}; keys {apart:.3} apart; allowed {allowed:.3}"
         );
-        assert!(largest <= allowed, "interval {g}: a step of {largest} (own {own}, keys {apart} apart)");
+        assert!(
+            largest <= allowed,
+            "interval {g}: a step of {largest} (own {own}, keys {apart} apart)"
+        );
         if apart > 0.5 {
             // Where the keys differ visibly, no step carries the whole switch.
             assert!(largest < own + 0.5 * apart, "interval {g}: a pop of {largest}");
@@ -337,5 +344,7 @@ fn a_change_of_key_image_is_cross_faded_without_a_pop() {
             }
         }
     }
-    eprintln!("view {v}: key changes after frames {changing:?}; largest step at most {worst_ratio:.2} of what is allowed");
+    eprintln!(
+        "view {v}: key changes after frames {changing:?}; largest step at most {worst_ratio:.2} of what is allowed"
+    );
 }

@@ -47,13 +47,17 @@ pub fn composite_at(parts: &[PartResult], tiles: &[Vec<PartTile>], order: &[usiz
         let f0 = (tt.floor() as usize).min(frames - 1);
         let f1 = (f0 + 1) % frames;
         let a = tt - f0 as f32;
-        let (Some(k0), Some(k1)) = (part.fit_at(f0), part.fit_at(f1)) else { continue };
+        let (Some(k0), Some(k1)) = (part.fit_at(f0), part.fit_at(f1)) else {
+            continue;
+        };
         let same = std::ptr::eq(k0.0, k1.0);
         for (n, (fit, key)) in [k0, k1].into_iter().enumerate() {
             if same && n == 1 {
                 break;
             }
-            let Some(tile) = tiles.get(p).and_then(|t| t.get(key)) else { continue };
+            let Some(tile) = tiles.get(p).and_then(|t| t.get(key)) else {
+                continue;
+            };
             let pos = positions_at(fit, t);
             let uv = fit.uvs();
             let keep = |x: u32, y: u32| same || ((crossfade_threshold(x, y) < a) == (n == 1));

@@ -18,7 +18,6 @@ use super::image_cost::PartTile;
 use super::part_fit::{PartFit, PartFitOptions, Span, fit_part_span};
 use super::raster::{Canvas, psnr, tile_canvas};
 
-
 /// Most key images per part and view the format and the renderer take.
 pub const MAX_KEYS: usize = 8;
 
@@ -128,7 +127,13 @@ fn current(primary_sse: &[f64], extra: &[ExtraKey], assignment: &[u8]) -> Vec<f6
     assignment
         .iter()
         .enumerate()
-        .map(|(f, &k)| if k == 0 { primary_sse[f] } else { extra[k as usize - 1].sse[f] })
+        .map(|(f, &k)| {
+            if k == 0 {
+                primary_sse[f]
+            } else {
+                extra[k as usize - 1].sse[f]
+            }
+        })
         .collect()
 }
 
@@ -271,7 +276,12 @@ pub struct PartKeys<'a> {
 
 impl PartKeys<'_> {
     /// Fits a key at `frame`, as far round the loop as it beats the keys so far (by fit cost).
-    fn try_key(&self, frame: usize, options: &PartFitOptions, images: &dyn Fn(usize) -> (image::RgbaImage, image::RgbaImage)) -> Option<ExtraKey> {
+    fn try_key(
+        &self,
+        frame: usize,
+        options: &PartFitOptions,
+        images: &dyn Fn(usize) -> (image::RgbaImage, image::RgbaImage),
+    ) -> Option<ExtraKey> {
         let frames = self.tiles.len();
         let best_cost: Vec<f64> = (0..frames)
             .map(|f| {
@@ -294,7 +304,10 @@ impl PartKeys<'_> {
         let sse = (0..frames)
             .map(|f| {
                 if span.contains(f, frames) {
-                    sse(&draw_part(&fit, key_tile, f, key_tile.size), &tile_canvas(&self.tiles[f]))
+                    sse(
+                        &draw_part(&fit, key_tile, f, key_tile.size),
+                        &tile_canvas(&self.tiles[f]),
+                    )
                 } else {
                     f64::INFINITY
                 }
@@ -471,7 +484,11 @@ mod tests {
                         let (x, y) = ((i % size) as f32 + 0.5, (i / size) as f32 + 0.5);
                         let (u, v) = ((x - 22.0 - 0.7 * f as f32) / 14.0, (y - 24.0) / 16.0);
                         if u.abs() < 1.0 && v.abs() < 1.0 {
-                            let stripe = if ((v + 1.0) * 3.0).floor() as i32 % 2 == 0 { 0.9 } else { 0.5 };
+                            let stripe = if ((v + 1.0) * 3.0).floor() as i32 % 2 == 0 {
+                                0.9
+                            } else {
+                                0.5
+                            };
                             let (r, b) = if blue { (0.1, stripe) } else { (stripe, 0.1) };
                             [r, 0.2, b, 0.5, 0.5, 1.0, 1.0]
                         } else {
@@ -555,13 +572,23 @@ mod tests {
         let frames = 8;
         // One part: a budget of twice its first key image (the default half of a view's first
         // images could not pay for any key of a one-part view).
-        let roomy = KeyOptions { budget: 2.0, ..KeyOptions::default() };
-        assert!(chosen(frames, &KeyOptions::default(), None).1.is_empty(), "over the budget");
+        let roomy = KeyOptions {
+            budget: 2.0,
+            ..KeyOptions::default()
+        };
+        assert!(
+            chosen(frames, &KeyOptions::default(), None).1.is_empty(),
+            "over the budget"
+        );
         let (primary, extra) = chosen(frames, &roomy, None);
         assert!(!extra.is_empty(), "no key added");
         assert!(extra.len() < roomy.max_keys);
         // The added key is of the vertical-stripe half and draws it.
-        assert!(extra.iter().all(|e| e.frame >= frames / 2), "{:?}", extra.iter().map(|e| e.frame).collect::<Vec<_>>());
+        assert!(
+            extra.iter().all(|e| e.frame >= frames / 2),
+            "{:?}",
+            extra.iter().map(|e| e.frame).collect::<Vec<_>>()
+        );
         let a = assign(&primary, &extra, frames);
         assert!(a[..frames / 2 - 1].iter().all(|&k| k == 0), "{a:?}");
         assert!(a[frames / 2 + 1..frames - 1].iter().all(|&k| k != 0), "{a:?}");
@@ -575,10 +602,16 @@ mod tests {
         }
         // One key only, or no budget: nothing added.
         assert!(chosen(frames, &KeyOptions::SINGLE, None).1.is_empty());
-        let broke = KeyOptions { budget: 0.0, ..KeyOptions::default() };
+        let broke = KeyOptions {
+            budget: 0.0,
+            ..KeyOptions::default()
+        };
         assert!(chosen(frames, &broke, None).1.is_empty());
         // A gain threshold above what the key bought: nothing added.
-        let strict = KeyOptions { min_gain_db: gain + 1.0, ..roomy };
+        let strict = KeyOptions {
+            min_gain_db: gain + 1.0,
+            ..roomy
+        };
         assert!(chosen(frames, &strict, None).1.is_empty());
     }
 

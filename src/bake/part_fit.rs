@@ -507,7 +507,11 @@ impl Span {
         let end = (self.start + self.count - 1) % frames;
         let after_end = (f + frames - end) % frames;
         let before_start = (self.start + frames - f) % frames;
-        if after_end <= before_start { end } else { self.start % frames }
+        if after_end <= before_start {
+            end
+        } else {
+            self.start % frames
+        }
     }
 }
 
@@ -583,7 +587,7 @@ pub fn fit_part_span(
         let go_forward = forward.is_some() && (turn_forward || backward.is_none());
         turn_forward = !turn_forward;
         let (way, f) = if go_forward {
-            let d = forward.as_mut().expect("forward walk") ;
+            let d = forward.as_mut().expect("forward walk");
             *d += 1;
             (true, (key + *d) % frames)
         } else {
@@ -607,7 +611,10 @@ pub fn fit_part_span(
     }
     let back = (1..frames).take_while(|&d| fitted[(key + frames - d) % frames]).count();
     let span = if done == frames {
-        Span { start: 0, count: frames }
+        Span {
+            start: 0,
+            count: frames,
+        }
     } else {
         Span {
             start: (key + frames - back) % frames,
@@ -646,7 +653,11 @@ pub fn fit_part_span(
 }
 
 /// S: the key frame's outline simplified to [`PartFitOptions::key_vertices`].
-fn targets_key_polygon(tiles: &[PartTile], key: usize, options: &PartFitOptions) -> Result<Vec<[f32; 2]>, PartFitError> {
+fn targets_key_polygon(
+    tiles: &[PartTile],
+    key: usize,
+    options: &PartFitOptions,
+) -> Result<Vec<[f32; 2]>, PartFitError> {
     polygon_of(&tiles[key], options.key_vertices, key)
 }
 
@@ -894,7 +905,11 @@ mod tests {
                     let span = Span { start, count };
                     let members: Vec<usize> = (0..count).map(|d| (start + d) % frames).collect();
                     for f in 0..frames {
-                        assert_eq!(span.contains(f, frames), members.contains(&f), "{span:?} of {frames}: {f}");
+                        assert_eq!(
+                            span.contains(f, frames),
+                            members.contains(&f),
+                            "{span:?} of {frames}: {f}"
+                        );
                         if count == 0 {
                             continue;
                         }

@@ -343,10 +343,18 @@ pub fn render_polypostor(
 
 /// Draws the polypostor of one view at one frame as the bake wrote it: each part from the
 /// key that draws that frame. `tiles[p][f]`: part `p`'s tile at frame `f`.
-pub fn render_view_frame(parts: &[PartResult], tiles: &[Vec<PartTile>], order: &[usize], frame: usize, size: u32) -> Canvas {
+pub fn render_view_frame(
+    parts: &[PartResult],
+    tiles: &[Vec<PartTile>],
+    order: &[usize],
+    frame: usize,
+    size: u32,
+) -> Canvas {
     let mut c = Canvas::new(size);
     for &p in order {
-        let Some((fit, key)) = parts[p].fit_at(frame) else { continue };
+        let Some((fit, key)) = parts[p].fit_at(frame) else {
+            continue;
+        };
         let pos = fit.positions(frame);
         let uv = fit.uvs();
         for t in &fit.triangles {
@@ -471,7 +479,13 @@ pub fn composite_error(data: &ViewData, parts: &[PartResult], order: &[usize], k
         .tiles
         .iter()
         .zip(parts)
-        .map(|(t, r)| t[r.fit.as_ref().map_or(key, |f| f.key_frame).min(t.len().saturating_sub(1))].clone())
+        .map(|(t, r)| {
+            t[r.fit
+                .as_ref()
+                .map_or(key, |f| f.key_frame)
+                .min(t.len().saturating_sub(1))]
+            .clone()
+        })
         .collect();
     let still = render_polypostor(parts, &key_tiles, order, key, images.resolution);
     let per_frame: Vec<(f64, f64, f64)> = (0..frames)
@@ -514,15 +528,16 @@ pub fn part_key(tiles: &[PartTile], key: usize, forced: bool) -> usize {
     if forced || tiles.len() < 2 || key >= tiles.len() {
         return key;
     }
-    let area: Vec<f64> = tiles
-        .iter()
-        .map(|t| t.px.iter().map(|p| p[6] as f64).sum())
-        .collect();
+    let area: Vec<f64> = tiles.iter().map(|t| t.px.iter().map(|p| p[6] as f64).sum()).collect();
     let (best, largest) = area
         .iter()
         .enumerate()
         .fold((key, area[key]), |b, (f, &a)| if a > b.1 { (f, a) } else { b });
-    if area[key] >= FORESHORTENED * largest { key } else { best }
+    if area[key] >= FORESHORTENED * largest {
+        key
+    } else {
+        best
+    }
 }
 
 pub fn view_key(ov: Option<&ViewOverride>, bake_key: usize, frames: usize) -> usize {
@@ -877,7 +892,16 @@ pub fn bake(
             (dirs[v], *cam, options.fit, options.keys, options.keep_frame_images);
         let ov = options.overrides.view(prepared.basis, v).cloned();
         rayon::spawn(move || {
-            let r = fit_view(dir, cam, extract(images), key, &fit_options, &key_options, keep, ov.as_ref());
+            let r = fit_view(
+                dir,
+                cam,
+                extract(images),
+                key,
+                &fit_options,
+                &key_options,
+                keep,
+                ov.as_ref(),
+            );
             let _ = tx.send((v, r));
         });
     }
@@ -998,7 +1022,14 @@ pub fn rebake(
                     parts: &view.parts,
                     ov: &old,
                 };
-                refit_view(&data, prev.key_frame, &options.fit, &options.keys, Some(&new), Some(prev_fit))
+                refit_view(
+                    &data,
+                    prev.key_frame,
+                    &options.fit,
+                    &options.keys,
+                    Some(&new),
+                    Some(prev_fit),
+                )
             };
             reuse.parts_refit += fit.refit.len();
             let view = &mut views[v];
@@ -1040,7 +1071,11 @@ mod tests {
                 let px = (0..size * size)
                     .map(|i| {
                         let (x, y) = (i % size, i / size);
-                        if x < w && y < 10 { [0.5, 0.5, 0.5, 0.5, 0.5, 1.0, 1.0] } else { [0.0; 7] }
+                        if x < w && y < 10 {
+                            [0.5, 0.5, 0.5, 0.5, 0.5, 1.0, 1.0]
+                        } else {
+                            [0.0; 7]
+                        }
                     })
                     .collect();
                 PartTile { size, px }
@@ -1052,7 +1087,11 @@ mod tests {
     fn a_part_foreshortened_at_the_view_key_gets_its_own_first_key() {
         // Seen in full at the key frame (or nearly): the view's key.
         assert_eq!(part_key(&widths(&[20, 24, 30, 12]), 2, false), 2);
-        assert_eq!(part_key(&widths(&[20, 24, 30, 12]), 0, false), 0, "20 of 30 is above half");
+        assert_eq!(
+            part_key(&widths(&[20, 24, 30, 12]), 0, false),
+            0,
+            "20 of 30 is above half"
+        );
         // Foreshortened there (under half its largest image): the frame where it is largest,
         // the first of equals.
         assert_eq!(part_key(&widths(&[20, 24, 30, 12]), 3, false), 2);

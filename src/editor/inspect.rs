@@ -13,11 +13,11 @@ use std::sync::mpsc::{Receiver, channel};
 use std::time::Instant;
 
 use polypostor::bake::inspect::{composite_at, error_map, positions_at, tile_image};
+use polypostor::bake::keys::{KeyOptions, MAX_KEYS};
 use polypostor::bake::overrides::{OverrideBasis, Pin, ViewOverride};
 use polypostor::bake::part_fit::PartFitOptions;
 use polypostor::bake::pipeline::{PartResult, Prepared, PreviousFit, ViewData, ground_truth, refit_view};
 use polypostor::bake::raster::psnr;
-use polypostor::bake::keys::{KeyOptions, MAX_KEYS};
 use polypostor::bake::report::{Report, view_keys_of_parts};
 use polypostor::project::StoredSegmentation;
 
@@ -412,7 +412,11 @@ impl Inspector {
                     "target + fit (pins: frames of the first key)"
                 };
                 ui.label(egui::RichText::new(hint).small());
-                let sense = if first_key { egui::Sense::drag() } else { egui::Sense::hover() };
+                let sense = if first_key {
+                    egui::Sense::drag()
+                } else {
+                    egui::Sense::hover()
+                };
                 let (rect, response) = ui.allocate_exact_size(egui::vec2(w, w), sense);
                 let painter = ui.painter_at(rect);
                 painter.image(target_id, rect, crop_uv, egui::Color32::WHITE);
@@ -624,7 +628,11 @@ impl Inspector {
                         });
                         ui.label(k.parts.to_string());
                         ui.label(format!("{} part-frames", k.frames_drawn));
-                        ui.label(if k.first { "-".to_string() } else { format!("{:.2} dB", k.buys_db) });
+                        ui.label(if k.first {
+                            "-".to_string()
+                        } else {
+                            format!("{:.2} dB", k.buys_db)
+                        });
                         ui.label(polypostor::limits::human_bytes(k.bytes));
                         if !k.first
                             && ui
@@ -650,7 +658,11 @@ impl Inspector {
                         ui.label("no part draws better from it");
                         ui.label("-");
                         ui.label("-");
-                        if ui.small_button("Remove").on_hover_text("Remove this key frame (undoable)").clicked() {
+                        if ui
+                            .small_button("Remove")
+                            .on_hover_text("Remove this key frame (undoable)")
+                            .clicked()
+                        {
                             set = Some(Some(manual.iter().flatten().copied().filter(|&x| x != m).collect()));
                         }
                         ui.end_row();

@@ -561,7 +561,9 @@ fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
         let s = h.state().views.inspector.session.as_ref().unwrap();
         s.parts.iter().flat_map(|r| r.key_frames()).collect()
     };
-    let at = (0..frames).find(|f| !key_frames.contains(f)).expect("a frame that is no key");
+    let at = (0..frames)
+        .find(|f| !key_frames.contains(f))
+        .expect("a frame that is no key");
     h.state_mut().views.inspector.time = at as f32;
     h.run_steps(2);
     h.get_by_label(&format!("Add key at frame {at}")).click();
@@ -596,7 +598,12 @@ fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
             .map(|k| k.frame)
             .collect();
         listed.iter().position(|&k| k == at).unwrap_or_else(|| {
-            listed.len() + with.iter().filter(|k| !listed.contains(k)).position(|&k| k == at).unwrap()
+            listed.len()
+                + with
+                    .iter()
+                    .filter(|k| !listed.contains(k))
+                    .position(|&k| k == at)
+                    .unwrap()
         })
     };
     h.get_all_by_label("Remove").nth(index).unwrap().click();

@@ -202,20 +202,40 @@ impl GpuPolypostors {
                     continue;
                 };
                 // The part's key images: its first (every frame), then the extra ones.
-                let mut blocks = vec![(p.vertex_offset, p.vertex_count, p.index_offset, p.index_count, 0, frames)];
-                blocks.extend(
-                    p.extra_keys
-                        .iter()
-                        .map(|k| (k.vertex_offset, k.vertex_count, k.index_offset, k.index_count, k.frame_start, k.frame_count)),
-                );
-                let keys = if p.frame_keys.len() == frames as usize { blocks.len().min(255) } else { 1 };
+                let mut blocks = vec![(
+                    p.vertex_offset,
+                    p.vertex_count,
+                    p.index_offset,
+                    p.index_count,
+                    0,
+                    frames,
+                )];
+                blocks.extend(p.extra_keys.iter().map(|k| {
+                    (
+                        k.vertex_offset,
+                        k.vertex_count,
+                        k.index_offset,
+                        k.index_count,
+                        k.frame_start,
+                        k.frame_count,
+                    )
+                }));
+                let keys = if p.frame_keys.len() == frames as usize {
+                    blocks.len().min(255)
+                } else {
+                    1
+                };
                 let key_table = table_base + tables.len() as u32;
                 if keys > 1 {
-                    tables.extend(p.frame_keys.chunks(4).map(|c| {
-                        c.iter().enumerate().fold(0u32, |w, (i, &k)| w | (k as u32) << (8 * i))
-                    }));
+                    tables.extend(
+                        p.frame_keys
+                            .chunks(4)
+                            .map(|c| c.iter().enumerate().fold(0u32, |w, (i, &k)| w | (k as u32) << (8 * i))),
+                    );
                 }
-                for (k, &(offset, count, index_offset, index_count, start, block_frames)) in blocks.iter().enumerate().take(keys) {
+                for (k, &(offset, count, index_offset, index_count, start, block_frames)) in
+                    blocks.iter().enumerate().take(keys)
+                {
                     let record = PartGpu {
                         vertex_word: (offset / 2) as u32,
                         vertex_count: count.clamp(1, 0xffff) | (id.min(0xffff) << 16),

@@ -343,7 +343,11 @@ impl KeyBlock {
             )));
         }
         let [x, y, rw, rh] = self.atlas_rect;
-        if rw == 0 || rh == 0 || u64::from(x) + u64::from(rw) > u64::from(aw) || u64::from(y) + u64::from(rh) > u64::from(ah) {
+        if rw == 0
+            || rh == 0
+            || u64::from(x) + u64::from(rw) > u64::from(aw)
+            || u64::from(y) + u64::from(rh) > u64::from(ah)
+        {
             return Err(damaged(format!(
                 "{w}: atlas rectangle {:?} lies outside the {aw}×{ah} atlas",
                 self.atlas_rect
@@ -494,7 +498,8 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
                 if k > 0 {
                     // The run time interpolates each frame's polygon towards both neighbours.
                     let key = &part.extra_keys[k - 1];
-                    let inside = |g: u64| (g + frames - u64::from(key.frame_start)) % frames < u64::from(key.frame_count);
+                    let inside =
+                        |g: u64| (g + frames - u64::from(key.frame_start)) % frames < u64::from(key.frame_count);
                     let f = f as u64;
                     if !inside(f) || !inside((f + 1) % frames) || !inside((f + frames - 1) % frames) {
                         return Err(damaged(format!(
@@ -544,8 +549,11 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
     for (v, view) in manifest.views.iter().enumerate() {
         for (p, part) in view.parts.iter().enumerate() {
             let Some(part) = part else { continue };
-            let blocks = std::iter::once((part.index_offset, part.index_count, part.vertex_count))
-                .chain(part.extra_keys.iter().map(|k| (k.index_offset, k.index_count, k.vertex_count)));
+            let blocks = std::iter::once((part.index_offset, part.index_count, part.vertex_count)).chain(
+                part.extra_keys
+                    .iter()
+                    .map(|k| (k.index_offset, k.index_count, k.vertex_count)),
+            );
             for (offset, count, vc) in blocks {
                 let range = offset as usize..(offset + u64::from(count)) as usize;
                 if let Some(bad) = indices[range].iter().find(|&&i| u32::from(i) >= vc) {

@@ -11,7 +11,9 @@ mod load;
 mod write;
 
 pub use atlas::{Atlas, AtlasRect, dilate, pack_atlas};
-pub use format::{Checksums, FORMAT_NAME, FORMAT_VERSION, FileSum, Manifest, ManifestKey, ManifestPart, ManifestView, PackCamera};
+pub use format::{
+    Checksums, FORMAT_NAME, FORMAT_VERSION, FileSum, Manifest, ManifestKey, ManifestPart, ManifestView, PackCamera,
+};
 pub(crate) use load::{
     FolderReader, check_camera, check_direction, check_resolution_views, check_texture_budget, check_timing,
     parse_manifest,

@@ -163,11 +163,11 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
         let (aw, ah) = (atlas.width as f32, atlas.height as f32);
         // One key's block: UVs, then the positions of `span` frames from `start`.
         let write_key = |fit: &crate::bake::part_fit::PartFit,
-                             rect: &crate::pack::atlas::AtlasRect,
-                             start: usize,
-                             count: usize,
-                             vertices: &mut Vec<u16>,
-                             indices: &mut Vec<u16>|
+                         rect: &crate::pack::atlas::AtlasRect,
+                         start: usize,
+                         count: usize,
+                         vertices: &mut Vec<u16>,
+                         indices: &mut Vec<u16>|
          -> (u64, u64) {
             let vertex_offset = vertices.len() as u64;
             for q in fit.uvs() {
