@@ -276,12 +276,8 @@ pub struct PartKeys<'a> {
 
 impl PartKeys<'_> {
     /// Fits a key at `frame`, as far round the loop as it beats the keys so far (by fit cost).
-    fn try_key(
-        &self,
-        frame: usize,
-        options: &PartFitOptions,
-        images: &dyn Fn(usize) -> (image::RgbaImage, image::RgbaImage),
-    ) -> Option<ExtraKey> {
+    /// Its images are left empty: they are cut only for keys that are kept.
+    fn try_key(&self, frame: usize, options: &PartFitOptions) -> Option<ExtraKey> {
         let frames = self.tiles.len();
         let best_cost: Vec<f64> = (0..frames)
             .map(|f| {
@@ -313,13 +309,12 @@ impl PartKeys<'_> {
                 }
             })
             .collect();
-        let (key_color, key_normal) = images(frame);
         Some(ExtraKey {
             frame,
             fit,
             span,
-            key_color,
-            key_normal,
+            key_color: image::RgbaImage::new(0, 0),
+            key_normal: image::RgbaImage::new(0, 0),
             sse,
         })
     }
@@ -377,7 +372,8 @@ pub fn choose(
                 if part.used(f) || part.extra.len() + 1 >= MAX_KEYS {
                     continue;
                 }
-                if let Some(k) = part.try_key(f, options, &|f| images(p, f)) {
+                if let Some(mut k) = part.try_key(f, options) {
+                    (k.key_color, k.key_normal) = images(p, f);
                     part.extra.push(k);
                 }
             }
@@ -419,7 +415,7 @@ pub fn choose(
                 if 0.9 * polygon_bytes(&part.targets[frame]) > budget {
                     return None;
                 }
-                let key = part.try_key(frame, options, &|f| images(p, f))?;
+                let key = part.try_key(frame, options)?;
                 let mut extra = part.extra.clone();
                 extra.push(key);
                 let after: f64 = current(part.primary_sse, &extra, &assign(part.primary_sse, &extra, frames))
@@ -453,7 +449,9 @@ pub fn choose(
             }
             budget -= c.bytes;
             if let Some(part) = parts[c.part].as_mut() {
-                part.extra.push(c.key);
+                let mut key = c.key;
+                (key.key_color, key.key_normal) = images(c.part, key.frame);
+                part.extra.push(key);
                 part.prune();
             }
         }
