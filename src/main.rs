@@ -97,6 +97,27 @@ enum Command {
 
 #[derive(clap::Subcommand)]
 enum BenchWhat {
+    /// Bakes each character at default settings (137 views, 10 Hz, 128²) one after the other
+    /// and prints where the time went, stage by stage, and how far the fast fitting mode lands
+    /// from the exact DP on a few views.
+    Bake {
+        /// Characters (.glb/.gltf) or projects (default: the default project and every
+        /// character in ../shared/assets/characters).
+        inputs: Vec<PathBuf>,
+        /// Views per character on which to fit every part both ways (fast and exact DP; the
+        /// exact DP takes about a second per part and frame). 0 skips the comparison.
+        #[arg(long, default_value_t = 2)]
+        gap_views: usize,
+        /// Representations to bake (as `bake --representation`).
+        #[arg(long, default_value = "polypostor")]
+        representation: String,
+        /// Folder for bench_bake.json.
+        #[arg(long, default_value = "bench-bake")]
+        out: PathBuf,
+        /// Print one JSON object instead of tables.
+        #[arg(long)]
+        json: bool,
+    },
     /// Frames per second of every representation at every crowd size, rendered offscreen in
     /// one run (the Polypostor paper's Figure 7 experiment).
     Crowd {
@@ -221,6 +242,16 @@ fn main() -> ExitCode {
         Some(Command::Bench {
             what: BenchWhat::Sim { agents, frames, json },
         }) => bench_sim(agents, frames, json),
+        Some(Command::Bench {
+            what:
+                BenchWhat::Bake {
+                    inputs,
+                    gap_views,
+                    representation,
+                    out,
+                    json,
+                },
+        }) => bench_bake(inputs, gap_views, &representation, &out, json),
         Some(Command::Bench {
             what:
                 BenchWhat::Crowd {
@@ -430,10 +461,80 @@ struct BakeArgs {
     representation: String,
 }
 
+/// What a bake's INPUT names: the project (when one is given or INPUT is one), its file, and
+/// the character's path.
+fn resolve_input(
+    input: &Path,
+    project: Option<&Path>,
+) -> anyhow::Result<(Option<polypostor::project::Project>, Option<PathBuf>, PathBuf)> {
+    use polypostor::project::Project;
+    let is_gltf = input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"));
+    Ok(if is_gltf {
+        let (project, file) = match project {
+            Some(p) => {
+                let (p, f) = Project::load(p)?;
+                (Some(p), Some(f))
+            }
+            None => (None, None),
+        };
+        (project, file, input.to_owned())
+    } else {
+        let (p, file) = Project::load(input)?;
+        let path = p.character_path(&file);
+        (Some(p), Some(file), path)
+    })
+}
+
+/// The project's segmentation when it fits the character, else the automatic one (said).
+fn segmentation_for(
+    project: Option<&polypostor::project::Project>,
+    c: &polypostor::Character,
+) -> polypostor::bake::segment::Segmentation {
+    match project.and_then(|p| p.segmentation.as_ref()) {
+        Some(s) => match s.to_segmentation(c.triangle_count()) {
+            Ok(seg) => seg,
+            Err(e) => {
+                eprintln!(
+                    "warning: the project's segmentation does not fit this character ({e}); using the automatic one"
+                );
+                polypostor::bake::segment::auto_segment(c)
+            }
+        },
+        None => polypostor::bake::segment::auto_segment(c),
+    }
+}
+
+impl BakeArgs {
+    /// The `bake` command's defaults for INPUT into OUT.
+    fn defaults(input: PathBuf, out: PathBuf, representation: &str) -> Self {
+        Self {
+            input,
+            project: None,
+            clip: None,
+            out: Some(out),
+            views: polypostor::bake::viewpoints::DEFAULT_VIEW_COUNT,
+            resolution: polypostor::bake::renders::DEFAULT_RESOLUTION,
+            fps: polypostor::bake::renders::DEFAULT_FPS,
+            key_frame: "auto".into(),
+            exhaustive: false,
+            allow_folds: false,
+            paper_objective: false,
+            no_restarts: false,
+            max_keys: 4,
+            key_gain_db: 0.5,
+            key_budget: 0.5,
+            full_sphere: false,
+            debug_images: false,
+            representation: representation.into(),
+        }
+    }
+}
+
 fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     use polypostor::bake::pipeline::{BakeOptions, KeyFrame};
     use polypostor::limits::{MAX_FPS, MAX_RESOLUTION, MAX_VIEWS, MIN_FPS, MIN_RESOLUTION};
-    use polypostor::project::Project;
     let started = std::time::Instant::now();
     // The settings first: nothing is read or rendered for a bake that cannot run.
     if a.views == 0 || a.views > MAX_VIEWS {
@@ -463,24 +564,7 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     }
     let set =
         polypostor::reps::RepSet::parse(&a.representation).map_err(|e| anyhow::anyhow!("--representation: {e}"))?;
-    let is_gltf = a
-        .input
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"));
-    let (project, project_file, character_path) = if is_gltf {
-        let (project, file) = match &a.project {
-            Some(p) => {
-                let (p, f) = Project::load(p)?;
-                (Some(p), Some(f))
-            }
-            None => (None, None),
-        };
-        (project, file, a.input.clone())
-    } else {
-        let (p, file) = Project::load(&a.input)?;
-        let path = p.character_path(&file);
-        (Some(p), Some(file), path)
-    };
+    let (project, project_file, character_path) = resolve_input(&a.input, a.project.as_deref())?;
     let stem = character_path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
@@ -529,18 +613,7 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         })?),
         None => None,
     };
-    let seg = match project.as_ref().and_then(|p| p.segmentation.as_ref()) {
-        Some(s) => match s.to_segmentation(c.triangle_count()) {
-            Ok(seg) => seg,
-            Err(e) => {
-                eprintln!(
-                    "warning: the project's segmentation does not fit this character ({e}); using the automatic one"
-                );
-                polypostor::bake::segment::auto_segment(&c)
-            }
-        },
-        None => polypostor::bake::segment::auto_segment(&c),
-    };
+    let seg = segmentation_for(project.as_ref(), &c);
     let caps = project.as_ref().map(|p| p.caps.clone()).unwrap_or_default();
     let overrides = project.as_ref().map(|p| p.overrides.clone()).unwrap_or_default();
     let key_frame = match a.key_frame.as_str() {
@@ -906,26 +979,196 @@ fn bake_default_all(out: &Path) -> anyhow::Result<()> {
         "baking the default character with every representation into {} (pass --pack to reuse a bake)",
         out.display()
     );
-    bake_cmd(BakeArgs {
-        input: repo_root().join(polypostor::project::DEFAULT_PROJECT_DIR),
-        project: None,
-        clip: None,
-        out: Some(out.to_owned()),
-        views: polypostor::bake::viewpoints::DEFAULT_VIEW_COUNT,
-        resolution: polypostor::bake::renders::DEFAULT_RESOLUTION,
-        fps: polypostor::bake::renders::DEFAULT_FPS,
-        key_frame: "auto".into(),
-        exhaustive: false,
-        allow_folds: false,
-        paper_objective: false,
-        no_restarts: false,
-        max_keys: 4,
-        key_gain_db: 0.5,
-        key_budget: 0.5,
-        full_sphere: false,
-        debug_images: false,
-        representation: "all".into(),
-    })
+    bake_cmd(BakeArgs::defaults(
+        repo_root().join(polypostor::project::DEFAULT_PROJECT_DIR),
+        out.to_owned(),
+        "all",
+    ))
+}
+
+/// The stages of `bench bake`'s table: a column name and the `cpu_seconds` keys it sums
+/// (`*` matches any job: `*/trace` is tracing wherever it ran).
+const BENCH_STAGES: [(&str, &[&str]); 12] = [
+    ("render", &["render", "prepare"]),
+    ("key frame", &["key frame", "key frame/*"]),
+    ("trace", &["part fit/trace", "key choice/trace"]),
+    ("fit", &["part fit", "part fit/fold rescue"]),
+    ("restarts", &["part fit/restart"]),
+    (
+        "keys",
+        &[
+            "key choice",
+            "key choice/restart",
+            "key choice/fold rescue",
+            "key choice/simplify",
+        ],
+    ),
+    ("simplify", &["part fit/simplify"]),
+    ("measure", &["measure", "composite"]),
+    ("order", &["order"]),
+    ("atlas", &["atlas"]),
+    ("encode+write", &["encode", "write"]),
+    ("other reps", &["other representations"]),
+];
+
+/// CPU seconds of one column of [`BENCH_STAGES`].
+fn stage_sum(cpu: &std::collections::BTreeMap<String, f64>, keys: &[&str]) -> f64 {
+    cpu.iter()
+        .filter(|(k, _)| {
+            keys.iter().any(|pat| match pat.strip_suffix("/*") {
+                Some(job) => k.starts_with(&format!("{job}/")),
+                None => k.as_str() == *pat,
+            })
+        })
+        .map(|(_, v)| v)
+        .sum()
+}
+
+/// `bench bake`: each character baked at default settings, its time per stage, and the fast
+/// mode's gap to the exact DP on a few views.
+fn bench_bake(
+    mut inputs: Vec<PathBuf>,
+    gap_views: usize,
+    representation: &str,
+    out: &Path,
+    json: bool,
+) -> anyhow::Result<()> {
+    use polypostor::bake::report::Report;
+    if inputs.is_empty() {
+        inputs.push(repo_root().join(polypostor::project::DEFAULT_PROJECT_DIR));
+        let shared = repo_root().join("../shared/assets/characters");
+        let mut found: Vec<PathBuf> = std::fs::read_dir(&shared)
+            .map(|d| {
+                d.flatten()
+                    .map(|e| e.path())
+                    .filter(|p| {
+                        p.extension()
+                            .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"))
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        found.sort();
+        if found.is_empty() {
+            eprintln!(
+                "no characters in {} (only the default is benchmarked)",
+                shared.display()
+            );
+        }
+        inputs.extend(found);
+    }
+    // Every input must resolve before the first (long) bake starts.
+    for input in &inputs {
+        resolve_input(input, None).map_err(|e| anyhow::anyhow!("{}: {e}", input.display()))?;
+    }
+    let ctx = polypostor::gpu::GpuContext::from_env()?;
+    let mut rows = Vec::new();
+    for input in &inputs {
+        let tmp = polypostor::safe_fs::TempDir::new("polypostor-bench")?;
+        let pack = tmp.path().join("pack");
+        bake_cmd(BakeArgs::defaults(input.clone(), pack.clone(), representation))?;
+        let report: Report = serde_json::from_str(&std::fs::read_to_string(pack.join("report.json"))?)?;
+        let gap = if gap_views > 0 {
+            let (project, _, character_path) = resolve_input(input, None)?;
+            let c = polypostor::import_path(&character_path)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", character_path.display()))?;
+            let seg = segmentation_for(project.as_ref(), &c);
+            let caps = project.as_ref().map(|p| p.caps.clone()).unwrap_or_default();
+            let options = polypostor::bake::pipeline::BakeOptions {
+                clip: report.settings.clip.as_deref().and_then(|n| c.find_clip(n)),
+                ..Default::default()
+            };
+            eprintln!("fitting {gap_views} views of {} both ways (fast, exact DP)…", c.name);
+            BAKING.store(true, std::sync::atomic::Ordering::Relaxed);
+            let g =
+                polypostor::bake::gap::measure(&ctx, &c, &seg, &caps, &options, report.key_frame, gap_views, &CANCEL);
+            BAKING.store(false, std::sync::atomic::Ordering::Relaxed);
+            match g {
+                Ok(g) => Some(g),
+                Err(polypostor::bake::pipeline::BakeError::Cancelled) => return Err(Cancelled.into()),
+                Err(e) => return Err(e.into()),
+            }
+        } else {
+            None
+        };
+        let name = input
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        rows.push((name, report, gap));
+    }
+    let cpu_total = |r: &Report| r.cpu_seconds.values().sum::<f64>();
+    let value = serde_json::json!({
+        "adapter": ctx.adapter_description(),
+        "threads": rayon::current_num_threads(),
+        "characters": rows.iter().map(|(name, r, gap)| serde_json::json!({
+            "character": name,
+            "wall_seconds": r.seconds_total,
+            "stage_seconds": r.stage_seconds,
+            "cpu_seconds": r.cpu_seconds,
+            "cpu_counts": r.cpu_counts,
+            "table_cpu_seconds": BENCH_STAGES.iter().map(|(col, keys)| (col.to_string(), stage_sum(&r.cpu_seconds, keys))).collect::<std::collections::BTreeMap<_, _>>(),
+            "views": r.settings.views,
+            "frames": r.views.first().map_or(0, |v| v.psnr.len()),
+            "mean_psnr": r.mean_psnr,
+            "fit_gap": gap,
+            "fit_gap_percent": gap.as_ref().map(|g| g.percent()),
+        })).collect::<Vec<_>>(),
+    });
+    std::fs::create_dir_all(out)?;
+    std::fs::write(out.join("bench_bake.json"), serde_json::to_string_pretty(&value)?)?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&value)?);
+        return Ok(());
+    }
+    println!(
+        "bake at default settings on {} ({} threads); wall seconds, then CPU seconds per stage (summed over threads)",
+        ctx.adapter_description(),
+        rayon::current_num_threads()
+    );
+    print!("{:<18} {:>6} {:>7} {:>6}", "character", "frames", "wall s", "CPU s");
+    for (col, _) in BENCH_STAGES {
+        print!(" {col:>9}");
+    }
+    println!(" {:>8} {:>10}", "other", "fast−exact");
+    for (name, r, gap) in &rows {
+        let total = cpu_total(r);
+        print!(
+            "{:<18} {:>6} {:>7.1} {:>6.1}",
+            name,
+            r.views.first().map_or(0, |v| v.psnr.len()),
+            r.seconds_total,
+            total
+        );
+        let mut listed = 0.0;
+        for (_, keys) in BENCH_STAGES {
+            let s = stage_sum(&r.cpu_seconds, keys);
+            listed += s;
+            print!(" {s:>9.1}");
+        }
+        let gap = gap
+            .as_ref()
+            .map_or("—".to_string(), |g| format!("{:+.2} %", g.percent()));
+        println!(" {:>8.1} {:>10}", (total - listed).max(0.0), gap);
+    }
+    for (name, _, gap) in &rows {
+        if let Some(g) = gap {
+            println!(
+                "{name}: views {:?}, {} part-frames, fast {:.1} vs exact {:.1} ({:+.2} %), optimum found in {} ({:.0} %); fit time fast {:.1} s, exact {:.1} s",
+                g.views,
+                g.part_frames,
+                g.fast,
+                g.exact,
+                g.percent(),
+                g.optimal,
+                100.0 * g.optimal as f64 / g.part_frames.max(1) as f64,
+                g.fast_secs,
+                g.exact_secs
+            );
+        }
+    }
+    println!("figures in {}", out.join("bench_bake.json").display());
+    Ok(())
 }
 
 /// `bench crowd`: every representation at every size, one after the other on the same

@@ -367,6 +367,7 @@ pub fn choose(
         list.sort_unstable();
         list.dedup();
         parts.par_iter_mut().enumerate().for_each(|(p, part)| {
+            let _keys = super::profile::root("key choice");
             let Some(part) = part else { return };
             for &f in &list {
                 if part.used(f) || part.extra.len() + 1 >= MAX_KEYS {
@@ -393,6 +394,7 @@ pub fn choose(
             .par_iter()
             .enumerate()
             .map(|(p, part)| {
+                let _keys = super::profile::root("key choice");
                 let part = part.as_ref()?;
                 if !active[p] || part.extra.len() + 1 >= max_keys {
                     return None;

@@ -14,10 +14,20 @@
 //! - [`visibility`]: the drawing order of parts from the occlusion graph (exact minimum
 //!   feedback arc set).
 //! - [`overrides`]: the artist's per-view corrections (key frame, order, pins) every bake applies.
+//! - [`image_cost`]: the fit's objective (colour, normal and coverage error of a mapped triangle).
+//! - [`part_fit`]: one part in one view over every frame (trace, simplify, fast or exact fit).
+//! - [`keys`]: the extra key images of a view's parts (greedy choice under a byte budget).
+//! - [`renders`], [`raster`]: the per-part GPU renders of every view and frame; CPU drawing.
+//! - [`pipeline`]: the whole bake, one view at a time, and the one re-fit path.
+//! - [`plan`]: checks and memory estimates made before any work starts.
+//! - [`report`]: `report.json`; [`inspect`]: the inspector's per-view data.
+//! - [`profile`]: CPU seconds per stage (the bake's profiling table).
+//! - [`gap`]: the fast fitting mode against the exact DP on a few views of a bake.
 
 pub mod caps;
 pub mod contour;
 pub mod fit;
+pub mod gap;
 pub mod image_cost;
 pub mod inspect;
 pub mod keys;
@@ -25,6 +35,7 @@ pub mod overrides;
 pub mod part_fit;
 pub mod pipeline;
 pub mod plan;
+pub mod profile;
 pub mod raster;
 pub mod renders;
 pub mod report;

@@ -117,6 +117,7 @@ impl PartFit {
 }
 
 fn polygon_of(tile: &PartTile, vertices: usize, frame: usize) -> Result<Vec<[f32; 2]>, PartFitError> {
+    let _trace = super::profile::leaf("trace");
     let contour = trace_simple(&bridge_pieces(&tile.mask()));
     if contour.len() < 3 {
         return Err(PartFitError::Empty(frame));
@@ -317,6 +318,7 @@ pub fn fit_frame(
     // every `restart_step`-th target vertex (global, ~1/8 of the exact DP's work at step 2),
     // then search locally from there; keep whichever is cheaper.
     if best.cost > options.restart_threshold * samples.area() {
+        let _restart = super::profile::leaf("restart");
         let every: Vec<usize> = (0..target.len()).step_by(options.restart_step.max(1)).collect();
         let mut cands = vec![every; n];
         pin(&mut cands);
@@ -327,6 +329,11 @@ pub fn fit_frame(
         let start = plan.solve_bounded(&windows(&at, Some(&coarse.mapping), &near, win), &cost)?;
         let restarted = local_search(start)?;
         if restarted.cost < best.cost {
+            super::profile::tally(if restarted.cost < 0.99 * best.cost {
+                "restart improved >1 %"
+            } else {
+                "restart improved <1 %"
+            });
             best = restarted;
         }
     }
@@ -334,6 +341,7 @@ pub fn fit_frame(
     // a part that turns over between frames). The full candidate set always has one (a
     // degenerate triangle).
     if best.cost >= FOLD_COST {
+        let _rescue = super::profile::leaf("fold rescue");
         if let Some(better) = exact_below(plan, samples, target_tile, target, pins, best.cost)? {
             best = better;
         }
@@ -634,6 +642,7 @@ pub fn fit_part_span(
         .filter(|&f| fitted[f])
         .map(|f| mappings[f].iter().map(|&j| targets[f][j]).collect())
         .collect();
+    let _simplify = super::profile::leaf("simplify");
     let kept = deformation_aware_simplify(&positions, &key_polygon, options.final_vertices);
     let final_poly: Vec<[f32; 2]> = kept.iter().map(|&i| key_polygon[i]).collect();
     let triangles = triangulate(&final_poly)?;

@@ -6,6 +6,8 @@ use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
+use super::profile;
+
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -376,10 +378,11 @@ pub fn fit_view_part(
     let images = &data.depth_order_tiles;
     let tiles = &data.tiles[p];
     let frames = tiles.len();
-    let (fit, problem) = match fit_part(tiles, key, options, pins) {
+    let (fit, problem) = match profile::in_root("part fit", || fit_part(tiles, key, options, pins)) {
         Ok(f) => (Some(f), None),
         Err(e) => (None, Some(e.to_string())),
     };
+    let _measure = profile::root("measure");
     let truths: Vec<Canvas> = tiles.iter().map(tile_canvas).collect();
     let per_frame: Vec<(f64, f64, f64)> = (0..frames)
         .map(|f| match &fit {
@@ -440,6 +443,7 @@ pub fn add_view_keys(
         }
     }
     parts.par_iter_mut().enumerate().for_each(|(p, r)| {
+        let _measure = profile::root("measure");
         if r.extra.is_empty() {
             r.frame_key.clear();
             return;
@@ -487,10 +491,13 @@ pub fn composite_error(data: &ViewData, parts: &[PartResult], order: &[usize], k
             .clone()
         })
         .collect();
-    let still = render_polypostor(parts, &key_tiles, order, key, images.resolution);
+    let still = profile::in_root("composite", || {
+        render_polypostor(parts, &key_tiles, order, key, images.resolution)
+    });
     let per_frame: Vec<(f64, f64, f64)> = (0..frames)
         .into_par_iter()
         .map(|f| {
+            let _composite = profile::root("composite");
             let gt = ground_truth(images, f);
             let poly = render_view_frame(parts, &data.tiles, order, f, images.resolution);
             (psnr(poly.rmse(&gt).0), psnr(still.rmse(&gt).0), poly.ssim(&gt))
@@ -508,7 +515,7 @@ pub fn composite_error(data: &ViewData, parts: &[PartResult], order: &[usize], k
 pub fn view_order(hidden: &[Vec<f64>], ov: Option<&ViewOverride>) -> Vec<usize> {
     match ov.and_then(|o| o.order.as_ref()) {
         Some(order) if valid_order(order, hidden.len()) => order.clone(),
-        _ => draw_order(hidden).order,
+        _ => profile::in_root("order", || draw_order(hidden).order),
     }
 }
 
@@ -757,6 +764,7 @@ impl Prepared {
     }
 
     fn render_images(&self, ctx: &GpuContext, v: usize) -> Result<PartImages, BakeError> {
+        let _render = profile::root("render");
         Ok(self
             .batch
             .render_view(&self.renderer, &ctx.device, &ctx.queue, &self.cameras[v])?)
@@ -809,6 +817,7 @@ impl Prepared {
                             data.tiles
                                 .iter()
                                 .map(|tiles| {
+                                    let _probe = profile::root("key frame");
                                     if cancel.load(Ordering::Relaxed) {
                                         return 0.0;
                                     }
@@ -844,7 +853,9 @@ pub fn bake(
 ) -> Result<Bake, BakeError> {
     let mut stage_secs = BTreeMap::new();
     let t0 = Instant::now();
-    let prepared = Prepared::new(ctx, character, segmentation, cap_overrides, options)?;
+    let prepared = profile::in_root("prepare", || {
+        Prepared::new(ctx, character, segmentation, cap_overrides, options)
+    })?;
     stage_secs.insert("prepare".into(), t0.elapsed().as_secs_f64());
 
     // Key frame.
@@ -1002,7 +1013,9 @@ pub fn rebake(
         views: prev.views.len(),
     };
     if !changed.is_empty() {
-        let prepared = Prepared::new(ctx, character, segmentation, cap_overrides, options)?;
+        let prepared = profile::in_root("prepare", || {
+            Prepared::new(ctx, character, segmentation, cap_overrides, options)
+        })?;
         for (n, &v) in changed.iter().enumerate() {
             if cancel.load(Ordering::Relaxed) {
                 return Err(BakeError::Cancelled);

@@ -101,6 +101,14 @@ pub struct Report {
     pub settings: Settings,
     pub seconds_total: f64,
     pub stage_seconds: std::collections::BTreeMap<String, f64>,
+    /// CPU seconds per stage, summed over threads (see `bake::profile`): `job` or
+    /// `job/stage`, e.g. `part fit/restart`. Filled by the folder bake; empty otherwise.
+    #[serde(default)]
+    pub cpu_seconds: std::collections::BTreeMap<String, f64>,
+    /// How many times each of `cpu_seconds`' stages ran (and events such as
+    /// `restart improved >1 %`).
+    #[serde(default)]
+    pub cpu_counts: std::collections::BTreeMap<String, u64>,
     pub key_frame: usize,
     pub mean_psnr: f64,
     pub worst_psnr: f64,
@@ -281,6 +289,8 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
         },
         seconds_total,
         stage_seconds: bake.stage_secs.clone(),
+        cpu_seconds: Default::default(),
+        cpu_counts: Default::default(),
         key_frame: bake.key_frame,
         mean_psnr: mean(&all),
         worst_psnr: all.iter().copied().fold(f64::INFINITY, f64::min),

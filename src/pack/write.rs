@@ -152,12 +152,13 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
             }
             extra_item.push(list);
         }
-        let atlas = pack_atlas(&items);
+        let atlas = crate::bake::profile::in_root("atlas", || pack_atlas(&items));
         let atlas_name = format!("atlas_{v:03}.png");
         let normal_name = format!("normal_{v:03}.png");
         for (name, img) in [(&atlas_name, &atlas.color), (&normal_name, &atlas.normal)] {
-            let bytes = bake.options.png.encode(img).map_err(|e| io(&dir.join(name), &e))?;
-            put_file(dir, name, &bytes, &mut sums)?;
+            let bytes = crate::bake::profile::in_root("encode", || bake.options.png.encode(img))
+                .map_err(|e| io(&dir.join(name), &e))?;
+            crate::bake::profile::in_root("write", || put_file(dir, name, &bytes, &mut sums))?;
             stats.texture_bytes += img.width() as u64 * img.height() as u64 * 4;
         }
         let (aw, ah) = (atlas.width as f32, atlas.height as f32);

@@ -500,6 +500,7 @@ pub fn bake_folder(
 ) -> Result<FolderResult, FolderError> {
     use crate::bake::pipeline::KeyFrame;
     let started = std::time::Instant::now();
+    let profile = crate::bake::profile::snapshot();
     let o = job.options;
     // Everything that can be known before the work: the settings, the output folder.
     crate::bake::plan::check(
@@ -558,15 +559,17 @@ pub fn bake_folder(
             part_labels: job.segmentation.labels.iter().map(|&l| l as u32).collect(),
         };
         let path = std::fs::canonicalize(job.character_path).unwrap_or_else(|_| job.character_path.to_owned());
-        Some(bake_representations(
-            ctx,
-            job.character,
-            Some(&path.display().to_string()),
-            job.clip_name,
-            &reps_options,
-            progress,
-            cancel,
-        )?)
+        Some(crate::bake::profile::in_root("other representations", || {
+            bake_representations(
+                ctx,
+                job.character,
+                Some(&path.display().to_string()),
+                job.clip_name,
+                &reps_options,
+                progress,
+                cancel,
+            )
+        })?)
     } else {
         None
     };
@@ -585,7 +588,7 @@ pub fn bake_folder(
                 .map_err(|e| format!("the copied representations do not load back: {e}"))?;
         }
         if let Some(r) = &reps {
-            super::write_representations(r, dir)?;
+            crate::bake::profile::in_root("write", || super::write_representations(r, dir))?;
             super::load_representations(dir)
                 .map_err(|e| format!("the written representations do not load back: {e}"))?;
         }
@@ -622,6 +625,8 @@ pub fn bake_folder(
         report
             .stage_seconds
             .insert("write".into(), write_started.elapsed().as_secs_f64());
+        report.cpu_seconds = profile.since();
+        report.cpu_counts = profile.counts_since();
         let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
         std::fs::write(dir.join("report.json"), text).map_err(|e| e.to_string())?;
         extra(dir, Some(&b))
