@@ -114,7 +114,35 @@ fn main() {
     if let Some(t) = std::env::var("FIT_STEP").ok().and_then(|s| s.parse().ok()) {
         options.restart_step = t;
     }
-    let t = std::time::Instant::now();
+    let knob = |name: &str, field: &mut usize| {
+        if let Some(v) = std::env::var(name).ok().and_then(|s| s.parse().ok()) {
+            *field = v;
+        }
+    };
+    knob("FIT_WINDOW", &mut options.window);
+    knob("FIT_HINT", &mut options.hint_radius);
+    knob("FIT_REFINE", &mut options.refine_passes);
+    knob("FIT_SWEEPS", &mut options.sweeps);
+    knob("FIT_FREE", &mut options.sweep_free);
+    knob("FIT_GAP", &mut options.sweep_gap);
+    knob("FIT_RWIN", &mut options.refine_window);
+    if let Some(t) = std::env::var("FIT_JUMP").ok().and_then(|s| s.parse().ok()) {
+        options.restart_jump = t;
+    }
+    knob("FIT_RHINT", &mut options.refine_hint);
+    options.finish_exact = std::env::var("FIT_EXACT").is_ok();
+    if let Some(t) = std::env::var("FIT_BOUND").ok().and_then(|s| s.parse().ok()) {
+        options.restart_bound = t;
+    }
+    let cpu = || {
+        let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+        unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) };
+        u.ru_utime.tv_sec as f64 + u.ru_utime.tv_usec as f64 * 1e-6
+    };
+    let t = cpu();
+    let e0 = polypostor::bake::part_fit::evaluations();
+    let p0 = polypostor::bake::part_fit::evaluations_by_phase();
+    let l0 = polypostor::bake::part_fit::lookups();
     let fast: Vec<(usize, usize, Vec<f64>)> = jobs
         .par_iter()
         .map(|(v, p, tiles)| {
@@ -122,7 +150,18 @@ fn main() {
             (*v, *p, costs)
         })
         .collect();
-    let fast_secs = t.elapsed().as_secs_f64();
+    let fast_secs = cpu() - t;
+    let evals = (polypostor::bake::part_fit::evaluations() - e0) as f64 / 1e6;
+    let p1 = polypostor::bake::part_fit::evaluations_by_phase();
+    let phases: Vec<String> = (0..4).map(|i| format!("{:.1}", (p1[i] - p0[i]) as f64 / 1e6)).collect();
+    println!(
+        "  M evaluations: windows {}, sweeps {}, restart {}, exact {}; {:.1} M asked",
+        phases[0],
+        phases[1],
+        phases[2],
+        phases[3],
+        (polypostor::bake::part_fit::lookups() - l0) as f64 / 1e6
+    );
     let (mut ft, mut et) = (0.0, 0.0);
     let mut by_dist: BTreeMap<usize, (f64, f64)> = BTreeMap::new();
     let mut worst: Vec<(f64, String)> = Vec::new();
@@ -146,7 +185,7 @@ fn main() {
         }
     }
     println!(
-        "{label}: fast/exact = {:.4}  (fast {:.1}s, {} part-views, {frames} frames)",
+        "{label}: fast/exact = {:.4}  (fast {:.1} CPU s, {evals:.1} M evaluations, {} part-views, {frames} frames)",
         ft / et,
         fast_secs,
         fast.len()

@@ -698,15 +698,30 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     let bar = indicatif::ProgressBar::new(options.views as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
-            "{spinner} {msg:>10} [{bar:40}] {pos}/{len} {elapsed_precise} (eta {eta})",
+            "{spinner} {prefix:>10} [{bar:40}] {pos}/{len} {elapsed_precise} {msg}",
         )
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
         .progress_chars("=> "),
     );
+    // The remaining time of the current stage at its own pace (see `bake::eta`).
+    let eta = std::sync::Mutex::new(polypostor::bake::eta::Eta::new());
     let progress = |p: polypostor::bake::pipeline::Progress| {
-        bar.set_message(p.stage);
+        let now = std::time::Instant::now();
+        let left = eta
+            .lock()
+            .map(|mut e| {
+                e.update(p.stage, p.done, p.total, now);
+                e.describe(now)
+            })
+            .unwrap_or_default();
+        bar.set_prefix(p.stage);
         bar.set_length(p.total as u64);
         bar.set_position(p.done as u64);
+        bar.set_message(if left.is_empty() {
+            String::new()
+        } else {
+            format!("({left} in this stage)")
+        });
     };
     let job = polypostor::reps::bake::FolderBake {
         character: &c,

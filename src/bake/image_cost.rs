@@ -255,6 +255,16 @@ impl SourceSamples {
         if c.is_finite() { c + missed } else { c }
     }
 
+    /// Whether mapping source triangle `t` onto target vertices `p` of `outline` turns it
+    /// inside out (costs [`FOLD_COST`] when folds are forbidden): a few multiplications, no
+    /// sampling.
+    #[inline]
+    pub fn folds(&self, t: usize, outline: &[[f32; 2]], p: [usize; 3]) -> bool {
+        let [a, b, c] = p.map(|j| outline[j]);
+        let signed = 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]));
+        signed * self.orientation[t] < -FOLD_TOLERANCE
+    }
+
     /// Error of mapping source triangle `t` onto the target triangle with corners `p`.
     pub fn cost(&self, t: usize, target: &TargetGrid, p: [[f32; 2]; 3]) -> f64 {
         self.cost_bounded(t, target, p, f64::INFINITY)

@@ -23,9 +23,11 @@
 //! - [`report`]: `report.json`; [`inspect`]: the inspector's per-view data.
 //! - [`profile`]: CPU seconds per stage (the bake's profiling table).
 //! - [`gap`]: the fast fitting mode against the exact DP on a few views of a bake.
+//! - [`eta`]: the remaining-time estimate of a bake's progress bar.
 
 pub mod caps;
 pub mod contour;
+pub mod eta;
 pub mod fit;
 pub mod gap;
 pub mod image_cost;

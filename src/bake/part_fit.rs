@@ -41,13 +41,45 @@ pub struct PartFitOptions {
     ///
     /// [`MissedCoverage`]: crate::bake::image_cost::MissedCoverage
     pub charge_missed_coverage: bool,
+    /// Fast mode: target vertices either side of a vertex's carried-over contour index that
+    /// join its candidates. Default value: [`HINT_RADIUS`].
+    pub hint_radius: usize,
+    /// Fast mode: re-centred solves after the first. Default value: [`REFINE_PASSES`].
+    pub refine_passes: usize,
+    /// Fast mode: sweep rounds (each frees every vertex once). Default value: [`SWEEPS`].
+    pub sweeps: usize,
+    /// Fast mode: target vertices a freed vertex may jump to in a sweep. Default value:
+    /// [`SWEEP_FREE`].
+    pub sweep_free: usize,
+    /// Fast mode: a freed vertex may also move anywhere on the target contour between where
+    /// its two outline neighbours map, when that run is at most this long (slides a vertex
+    /// into a stretch of the target the fit leaves uncovered). 0 turns it off. Default value:
+    /// [`SWEEP_GAP`].
+    pub sweep_gap: usize,
+    /// Fast mode: a restart's coarse solve only looks for solutions cheaper than this many
+    /// times the local search's cost (prunes most of its work). Default value:
+    /// [`RESTART_BOUND`].
+    pub restart_bound: f64,
+    /// Fast mode: finish with the exact DP bounded by the local search's cost (the exact
+    /// optimum, at the price of the bounded search).
+    pub finish_exact: bool,
+    /// Fast mode: the refinement passes' candidates (nearest in space, and either side along
+    /// the contour), smaller than the first solve's: the solution is already near. Default
+    /// value: [`REFINE_WINDOW`], [`REFINE_HINT`].
+    pub refine_window: usize,
+    pub refine_hint: usize,
+    /// Fast mode: a frame is restarted only when its cost is also above this multiple of
+    /// the cheapest neighbouring frame it was seeded from (a jump in cost is the mark of a
+    /// local minimum; a part that is costly in every frame is not one). 0 restarts on the
+    /// threshold alone. Default value: [`RESTART_JUMP`].
+    pub restart_jump: f64,
 }
 
 /// Error per source pixel above which the fast mode restarts from a coarse global solution.
-pub const DEFAULT_RESTART_THRESHOLD: f64 = 0.04;
+pub const DEFAULT_RESTART_THRESHOLD: f64 = 0.06;
 
 /// Target-vertex stride of a restart's coarse exact solve.
-pub const DEFAULT_RESTART_STEP: usize = 2;
+pub const DEFAULT_RESTART_STEP: usize = 4;
 
 /// Candidates per source vertex in the fast mode.
 pub const DEFAULT_WINDOW: usize = 6;
@@ -64,6 +96,16 @@ impl Default for PartFitOptions {
             restart_threshold: DEFAULT_RESTART_THRESHOLD,
             restart_step: DEFAULT_RESTART_STEP,
             charge_missed_coverage: true,
+            hint_radius: HINT_RADIUS,
+            refine_passes: REFINE_PASSES,
+            sweeps: SWEEPS,
+            sweep_free: SWEEP_FREE,
+            sweep_gap: SWEEP_GAP,
+            restart_bound: RESTART_BOUND,
+            finish_exact: false,
+            refine_window: REFINE_WINDOW,
+            refine_hint: REFINE_HINT,
+            restart_jump: RESTART_JUMP,
         }
     }
 }
@@ -171,6 +213,9 @@ fn candidates(pred: &[[f32; 2]], target: &[[f32; 2]], window: usize) -> Vec<Vec<
 pub struct Seed {
     pub positions: Vec<[f32; 2]>,
     pub indices: Option<Vec<usize>>,
+    /// The fit cost of the neighbouring frame it came from, when known (the restart rule
+    /// compares against it).
+    pub cost: Option<f64>,
 }
 
 /// Fits S onto one target. The fast mode starts from each seed (at least one) and keeps the
@@ -184,7 +229,16 @@ pub fn fit_frame(
     options: &PartFitOptions,
     pins: &[(usize, usize)],
 ) -> Result<Fit, FitError> {
-    let cost = |t: usize, p: [usize; 3], limit: f64| samples.cost_indexed(t, target_tile, target, p, limit);
+    // Triangle costs evaluated (the fit's unit of work), added to [`evaluations`] at the end.
+    let evaluated = std::cell::Cell::new(0u64);
+    let phase = std::cell::Cell::new(0usize);
+    let looked = std::cell::Cell::new(0u64);
+    let by_phase: [std::cell::Cell<u64>; 4] = Default::default();
+    let raw = |t: usize, p: [usize; 3], limit: f64| {
+        evaluated.set(evaluated.get() + 1);
+        by_phase[phase.get()].set(by_phase[phase.get()].get() + 1);
+        samples.cost_indexed(t, target_tile, target, p, limit)
+    };
     let pin = |cands: &mut Vec<Vec<usize>>| apply_pins(cands, pins, target.len());
     if options.exhaustive {
         let exact = exact_below(plan, samples, target_tile, target, pins, f64::INFINITY)?;
@@ -192,8 +246,15 @@ pub fn fit_frame(
     }
     // The fast mode solves several overlapping candidate sets: remember every triangle cost
     // (exact, or a lower bound where the evaluation gave up) so no triple is sampled twice.
-    let memo: std::cell::RefCell<rustc_hash::FxHashMap<u64, f64>> = Default::default();
+    let memo: std::cell::RefCell<rustc_hash::FxHashMap<u64, f64>> = std::cell::RefCell::new(
+        rustc_hash::FxHashMap::with_capacity_and_hasher(1 << 15, Default::default()),
+    );
     let cost = |t: usize, p: [usize; 3], limit: f64| {
+        looked.set(looked.get() + 1);
+        // A fold costs a table lookup and a few multiplications: cheaper than the memo.
+        if samples.folds(t, target, p) {
+            return samples.cost_indexed(t, target_tile, target, p, limit);
+        }
         let key = (t as u64) << 48 | (p[0] as u64) << 32 | (p[1] as u64) << 16 | p[2] as u64;
         // Stored values >= 0 are exact; a negative value -b records "cost >= b".
         if let Some(&v) = memo.borrow().get(&key) {
@@ -204,7 +265,7 @@ pub fn fit_frame(
                 return f64::INFINITY;
             }
         }
-        let c = cost(t, p, limit);
+        let c = raw(t, p, limit);
         if c.is_finite() {
             memo.borrow_mut().insert(key, c);
         } else if limit > 0.0 {
@@ -216,7 +277,10 @@ pub fn fit_frame(
     // expected, plus a run along the target contour around the index it is expected at
     // (the cyclic-order hint: where it went last frame, carried along the contour).
     let m = target.len() as i64;
-    let near: Vec<i64> = (-HINT_RADIUS..=HINT_RADIUS).collect();
+    let hint = options.hint_radius as i64;
+    let near: Vec<i64> = (-hint..=hint).collect();
+    let refine_hint = options.refine_hint as i64;
+    let refine_near: Vec<i64> = (-refine_hint..=refine_hint).collect();
     let windows = |at: &[[f32; 2]], centre: Option<&[usize]>, offsets: &[i64], window: usize| {
         let mut cands = candidates(at, target, window);
         if let Some(centre) = centre {
@@ -252,22 +316,27 @@ pub fn fit_frame(
         // Refine: re-centre the windows on the current solution (near it in space and along
         // the target contour) and solve again; the old solution stays feasible, so the cost
         // never rises.
-        for _ in 0..REFINE_PASSES {
+        for _ in 0..options.refine_passes {
             let at: Vec<[f32; 2]> = best.mapping.iter().map(|&j| target[j]).collect();
-            let next = plan.solve_bounded(&windows(&at, Some(&best.mapping), &near, win), &cost)?;
+            let next = plan.solve_bounded(
+                &windows(&at, Some(&best.mapping), &refine_near, options.refine_window),
+                &cost,
+            )?;
             if next.cost < best.cost - 1e-12 {
                 best = next;
             } else {
                 break;
             }
         }
+        let outer = phase.get();
+        phase.set(if outer == 2 { 2 } else { 1 });
         // Sweeps: free a set of vertices that share no triangle (each may jump to any of the
         // SWEEP_FREE target vertices nearest to it) while the rest stay within one contour
         // step of where they are; catches the far jumps (folds across a thin limb, where the
         // other side of the contour is near in space but far along it) that the windows
         // miss. Every vertex is freed once per round; the current mapping stays feasible, so
         // the cost never rises.
-        for round in 0..SWEEPS {
+        for round in 0..options.sweeps {
             let mut covered = vec![false; n];
             let mut improved = false;
             let mut start = round * 7;
@@ -288,7 +357,18 @@ pub fn fit_frame(
                 let mut cands: Vec<Vec<usize>> = (0..n)
                     .map(|i| {
                         if free[i] {
-                            candidates(&[target[best.mapping[i]]], target, SWEEP_FREE).remove(0)
+                            let mut c = candidates(&[target[best.mapping[i]]], target, options.sweep_free).remove(0);
+                            if options.sweep_gap > 0 {
+                                let before = best.mapping[(i + n - 1) % n];
+                                let after = best.mapping[(i + 1) % n];
+                                let run = (after + target.len() - before) % target.len();
+                                if run <= options.sweep_gap {
+                                    c.extend((0..=run).map(|d| (before + d) % target.len()));
+                                    c.sort_unstable();
+                                    c.dedup();
+                                }
+                            }
+                            c
                         } else {
                             let j = best.mapping[i] as i64;
                             let mut c: Vec<usize> = (-1..=1).map(|d| (j + d).rem_euclid(m) as usize).collect();
@@ -309,6 +389,7 @@ pub fn fit_frame(
                 break;
             }
         }
+        phase.set(outer);
         Ok(best)
     };
     let mut best = local_search(best.ok_or(FitError::NoSeed)?)?;
@@ -317,24 +398,44 @@ pub fn fit_frame(
     // better mapping slides whole runs of vertices along the contour). Solve exactly over
     // every `restart_step`-th target vertex (global, ~1/8 of the exact DP's work at step 2),
     // then search locally from there; keep whichever is cheaper.
-    if best.cost > options.restart_threshold * samples.area() {
+    let neighbour = seeds.iter().filter_map(|s| s.cost).reduce(f64::min);
+    if best.cost > options.restart_threshold * samples.area()
+        && neighbour.is_none_or(|c| best.cost > options.restart_jump * c)
+    {
         let _restart = super::profile::leaf("restart");
+        phase.set(2);
         let every: Vec<usize> = (0..target.len()).step_by(options.restart_step.max(1)).collect();
         let mut cands = vec![every; n];
         pin(&mut cands);
         // Most of these triples are never seen again: no memo.
-        let raw = |t: usize, p: [usize; 3], limit: f64| samples.cost_indexed(t, target_tile, target, p, limit);
-        let coarse = plan.solve_bounded(&cands, raw)?;
-        let at: Vec<[f32; 2]> = coarse.mapping.iter().map(|&j| target[j]).collect();
-        let start = plan.solve_bounded(&windows(&at, Some(&coarse.mapping), &near, win), &cost)?;
-        let restarted = local_search(start)?;
-        if restarted.cost < best.cost {
+        let coarse = if options.restart_bound.is_finite() {
+            plan.solve_below(&cands, raw, options.restart_bound * best.cost)?
+        } else {
+            Some(plan.solve_bounded(&cands, raw)?)
+        };
+        let restarted = match coarse {
+            Some(coarse) => {
+                let at: Vec<[f32; 2]> = coarse.mapping.iter().map(|&j| target[j]).collect();
+                let start = plan.solve_bounded(&windows(&at, Some(&coarse.mapping), &near, win), &cost)?;
+                Some(local_search(start)?)
+            }
+            None => None,
+        };
+        if let Some(restarted) = restarted.filter(|r| r.cost < best.cost) {
             super::profile::tally(if restarted.cost < 0.99 * best.cost {
                 "restart improved >1 %"
             } else {
                 "restart improved <1 %"
             });
             best = restarted;
+        }
+    }
+    phase.set(3);
+    if options.finish_exact {
+        let mut cands = vec![(0..target.len()).collect::<Vec<_>>(); n];
+        pin(&mut cands);
+        if let Some(better) = plan.solve_below(&cands, raw, best.cost - 1e-9)? {
+            best = better;
         }
     }
     // With folds forbidden, the windows may hold no fold-free choice for some triangle (rare:
@@ -346,7 +447,34 @@ pub fn fit_frame(
             best = better;
         }
     }
+    EVALUATIONS.fetch_add(evaluated.get(), std::sync::atomic::Ordering::Relaxed);
+    LOOKUPS.fetch_add(looked.get(), std::sync::atomic::Ordering::Relaxed);
+    for (a, c) in PHASES.iter().zip(&by_phase) {
+        a.fetch_add(c.get(), std::sync::atomic::Ordering::Relaxed);
+    }
     Ok(best)
+}
+
+static EVALUATIONS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+static LOOKUPS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// Triangle costs the fast mode's DP solves asked for (evaluated, folded or found in the
+/// memo).
+pub fn lookups() -> u64 {
+    LOOKUPS.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+static PHASES: [std::sync::atomic::AtomicU64; 4] = [const { std::sync::atomic::AtomicU64::new(0) }; 4];
+
+/// [`evaluations`] by phase: windows, sweeps, restart, exact finish.
+pub fn evaluations_by_phase() -> [u64; 4] {
+    PHASES.each_ref().map(|a| a.load(std::sync::atomic::Ordering::Relaxed))
+}
+
+/// Triangle costs the fast mode has evaluated in this process so far (memo hits not
+/// counted): the fitting's unit of work, steadier than timings on a shared machine.
+pub fn evaluations() -> u64 {
+    EVALUATIONS.load(std::sync::atomic::Ordering::Relaxed)
 }
 
 /// Pinned correspondences `(S vertex, T vertex)` leave that vertex one candidate; pins out of
@@ -385,7 +513,7 @@ pub fn target_grid(tile: &PartTile, outline: &[[f32; 2]], options: &PartFitOptio
 }
 
 /// Fast mode: how far along the target contour around the carried-over index to look.
-pub const HINT_RADIUS: i64 = 5;
+pub const HINT_RADIUS: usize = 5;
 
 /// The cyclic shift `d` that best aligns polygon `a` onto `b` (`a[j]` near `b[j + d]`), for
 /// polygons with the same vertex count; `None` otherwise.
@@ -405,6 +533,15 @@ pub fn cyclic_shift(a: &[[f32; 2]], b: &[[f32; 2]]) -> Option<usize> {
         .map(|x| x.0)
 }
 
+/// Fast mode: restart only above this multiple of the seeding neighbour's cost.
+pub const RESTART_JUMP: f64 = 0.0;
+
+/// Fast mode: candidates nearest in space in a refinement pass.
+pub const REFINE_WINDOW: usize = DEFAULT_WINDOW;
+
+/// Fast mode: contour run either side in a refinement pass.
+pub const REFINE_HINT: usize = HINT_RADIUS;
+
 /// Refinement passes of the fast mode.
 pub const REFINE_PASSES: usize = 2;
 
@@ -413,6 +550,12 @@ pub const SWEEPS: usize = 1;
 
 /// Fast mode: target vertices (nearest in space) a freed vertex may jump to in a sweep.
 pub const SWEEP_FREE: usize = 16;
+
+/// Fast mode: longest contour run between a freed vertex's neighbours it may move into.
+pub const SWEEP_GAP: usize = 24;
+
+/// Fast mode: a restart's coarse solve looks below this multiple of the local cost.
+pub const RESTART_BOUND: f64 = f64::INFINITY;
 
 /// Removes S vertices one at a time, each time the one whose removal moves the outline least,
 /// averaged over every frame, until `target` remain; keeps the key polygon simple.
@@ -548,7 +691,11 @@ pub fn fit_part_span(
     let mut fitted = vec![false; frames];
     // Distance walked each way; `None` once that way has stopped.
     let (mut forward, mut backward) = (Some(0usize), Some(0usize));
-    let fit_one = |f: usize, fitted: &mut Vec<bool>, mappings: &mut Vec<Vec<usize>>| -> Result<f64, PartFitError> {
+    let fit_one = |f: usize,
+                   fitted: &mut Vec<bool>,
+                   mappings: &mut Vec<Vec<usize>>,
+                   costs: &[f64]|
+     -> Result<f64, PartFitError> {
         let mut neighbours: Vec<usize> = [(f + frames - 1) % frames, (f + 1) % frames]
             .into_iter()
             .filter(|&g| fitted[g])
@@ -559,6 +706,7 @@ pub fn fit_part_span(
         let mut seeds: Vec<Seed> = neighbours
             .into_iter()
             .map(|pf| Seed {
+                cost: costs[pf].is_finite().then_some(costs[pf]),
                 positions: mappings[pf].iter().map(|&j| targets[pf][j]).collect(),
                 indices: cyclic_shift(&targets[pf], &targets[f]).map(|shift| {
                     let m = targets[f].len();
@@ -571,6 +719,7 @@ pub fn fit_part_span(
             seeds.push(Seed {
                 positions: key_polygon.clone(),
                 indices: None,
+                cost: None,
             });
         }
         let none = Vec::new();
@@ -588,7 +737,7 @@ pub fn fit_part_span(
         mappings[f] = fit.mapping;
         Ok(fit.cost)
     };
-    costs[key] = fit_one(key, &mut fitted, &mut mappings)?;
+    costs[key] = fit_one(key, &mut fitted, &mut mappings, &costs)?;
     let mut turn_forward = true;
     let mut done = 1;
     while done < frames && (forward.is_some() || backward.is_some()) {
@@ -606,7 +755,7 @@ pub fn fit_part_span(
         if fitted[f] {
             break;
         }
-        let cost = fit_one(f, &mut fitted, &mut mappings)?;
+        let cost = fit_one(f, &mut fitted, &mut mappings, &costs)?;
         costs[f] = cost;
         done += 1;
         if losing.is_some_and(|l| l(f, cost)) {
@@ -851,6 +1000,7 @@ mod tests {
         let seed = [Seed {
             positions: fit.key_polygon.clone(),
             indices: None,
+            cost: None,
         }];
         for f in 1..t.len() {
             let grid = TargetGrid::new(&t[f]);

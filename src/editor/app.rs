@@ -1813,15 +1813,20 @@ impl eframe::App for EditorApp {
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
         }
 
-        // Animation redraws every frame. Background work only needs its progress shown: a
-        // few redraws a second leave the CPU to the bake (input still redraws at once).
+        // Animation redraws every frame, except while a bake runs: then the crowd preview
+        // holds still, since on a software rasteriser its frames would take the CPU from the
+        // bake. Background work only needs its progress shown: four redraws a second (input
+        // still redraws at once).
+        let baking = self.crowd.busy();
         if (self.playback.playing && self.doc.is_some())
             || self.views.inspector.busy()
-            || (self.crowd.open && self.crowd.assets.is_some())
+            || (self.crowd.open && self.crowd.assets.is_some() && !baking)
         {
             ctx.request_repaint();
             self.timer.continuous = true;
-        } else if self.loading.is_some() || self.dialog.is_some() || self.crowd.busy() {
+        } else if baking {
+            ctx.request_repaint_after(std::time::Duration::from_millis(250));
+        } else if self.loading.is_some() || self.dialog.is_some() {
             ctx.request_repaint_after(std::time::Duration::from_millis(100));
         }
     }

@@ -69,7 +69,7 @@ pub struct PreviewStats {
 struct Job {
     what: String,
     started: Instant,
-    progress: Arc<Mutex<(String, usize, usize)>>,
+    progress: Arc<Mutex<polypostor::bake::eta::Eta>>,
     cancel: Arc<AtomicBool>,
     rx: Receiver<Result<JobDone, String>>,
 }
@@ -159,7 +159,7 @@ impl CrowdPanel {
             return;
         }
         let (tx, rx) = channel();
-        let progress = Arc::new(Mutex::new(("starting".to_string(), 0usize, 1usize)));
+        let progress = Arc::new(Mutex::new(polypostor::bake::eta::Eta::starting("starting", 1)));
         let cancel = Arc::new(AtomicBool::new(false));
         let (p, c) = (progress.clone(), cancel.clone());
         self.job = Some(Job {
@@ -197,7 +197,7 @@ impl CrowdPanel {
                 };
                 let progress = |pr: polypostor::bake::pipeline::Progress| {
                     if let Ok(mut g) = p.lock() {
-                        *g = (pr.stage.to_string(), pr.done, pr.total);
+                        g.update(pr.stage, pr.done, pr.total, Instant::now());
                     }
                 };
                 let done = polypostor::reps::bake::bake_folder(&ctx, &job, &progress, &c, &|_, _| Ok(()))
@@ -226,7 +226,7 @@ impl CrowdPanel {
         self.job = Some(Job {
             what: format!("Opening {}", folder.display()),
             started: Instant::now(),
-            progress: Arc::new(Mutex::new(("loading".into(), 0, 1))),
+            progress: Arc::new(Mutex::new(polypostor::bake::eta::Eta::starting("loading", 1))),
             cancel: Arc::new(AtomicBool::new(false)),
             rx,
         });
@@ -290,20 +290,35 @@ impl CrowdPanel {
     /// Progress line and a cancel button, while a job runs.
     pub fn job_ui(&mut self, ui: &mut egui::Ui) {
         let Some(job) = &self.job else { return };
-        let (stage, done, total) = job.progress.lock().map(|g| g.clone()).unwrap_or_default();
+        let eta = job.progress.lock().map(|g| g.clone()).unwrap_or_default();
+        let (done, total) = eta.counts();
         // No spinner: it redraws the window every frame, which on a software rasteriser takes
         // the CPU from the bake; the app redraws a few times a second while a job runs.
         ui.horizontal(|ui| {
-            ui.label(format!("{} — {stage}", job.what));
+            // Cancel first: on a narrow window the row is cut on the right, never the button.
+            if ui.button("Cancel").clicked() {
+                job.cancel.store(true, Ordering::Relaxed);
+            }
+            ui.label(format!("{} — {}", job.what, eta.stage()));
             ui.add(
                 egui::ProgressBar::new(done as f32 / total.max(1) as f32)
                     .desired_width(160.0)
                     .text(format!("{done}/{total}")),
             );
-            ui.label(format!("{:.0} s", job.started.elapsed().as_secs_f32()));
-            if ui.button("Cancel").clicked() {
-                job.cancel.store(true, Ordering::Relaxed);
-            }
+            let left = eta.describe(Instant::now());
+            ui.label(format!(
+                "{}{}",
+                polypostor::bake::eta::human(job.started.elapsed()),
+                if left.is_empty() {
+                    String::new()
+                } else {
+                    format!(" · {left}")
+                }
+            ))
+            .on_hover_text(
+                "Time so far, and what is left of this stage at its own pace so far; writing \
+                 the pack and any other representations come after it.",
+            );
         });
     }
 

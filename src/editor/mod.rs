@@ -24,19 +24,22 @@ pub use app::{AppOptions, EditorApp};
 #[cfg(test)]
 pub use document::Command;
 
-/// Lowers the calling thread's scheduling priority (Linux `SCHED_IDLE`, else nice 19; threads
-/// it starts inherit it): for bakes, so that the window's own drawing — which on a software
-/// rasteriser needs both cores for a frame — goes first and the bake takes what is left.
-/// No-op elsewhere.
+/// Nice value of the editor's bake threads: low enough that the window's drawing (which on
+/// a software rasteriser needs both cores for a frame) goes first, high enough that the bake
+/// still gets its share of a machine busy with other work. `SCHED_IDLE` (tried first) starved
+/// the bake entirely under one competing CPU-bound process: a 78-second bake took over 20
+/// minutes. At nice 10 the kernel gives a thread about a tenth of the weight of a normal one,
+/// so the window and other programs go first but the bake always moves.
+pub const BAKE_NICE: i32 = 10;
+
+/// Lowers the calling thread's scheduling priority to [`BAKE_NICE`] (Linux; threads it
+/// starts inherit it). No-op elsewhere.
 pub fn lower_thread_priority() {
     #[cfg(target_os = "linux")]
     // SAFETY: plain syscalls on the calling thread; a failure only leaves the priority as is.
     unsafe {
-        let tid = libc::syscall(libc::SYS_gettid) as libc::pid_t;
-        let param = libc::sched_param { sched_priority: 0 };
-        if libc::sched_setscheduler(tid, libc::SCHED_IDLE, &param) != 0 {
-            libc::setpriority(libc::PRIO_PROCESS, tid as libc::id_t, 19);
-        }
+        let tid = libc::syscall(libc::SYS_gettid) as libc::id_t;
+        libc::setpriority(libc::PRIO_PROCESS, tid, BAKE_NICE);
     }
 }
 
