@@ -1814,11 +1814,11 @@ impl eframe::App for EditorApp {
         }
 
         // Animation redraws every frame, except while a bake runs: then the crowd preview
-        // holds still, since on a software rasteriser its frames would take the CPU from the
-        // bake. Background work only needs its progress shown: four redraws a second (input
-        // still redraws at once).
+        // holds still and playback steps four times a second, since on a software rasteriser
+        // every frame would take the CPU from the bake. Background work only needs its
+        // progress shown: four redraws a second (input still redraws at once).
         let baking = self.crowd.busy();
-        if (self.playback.playing && self.doc.is_some())
+        if (self.playback.playing && self.doc.is_some() && !baking)
             || self.views.inspector.busy()
             || (self.crowd.open && self.crowd.assets.is_some() && !baking)
         {
