@@ -854,6 +854,42 @@ pub fn bake(
     progress: &(dyn Fn(Progress) + Sync),
     cancel: &AtomicBool,
 ) -> Result<Bake, BakeError> {
+    bake_sharing(
+        ctx,
+        character,
+        segmentation,
+        cap_overrides,
+        options,
+        progress,
+        cancel,
+        &mut |_: &ViewRenders| {},
+    )
+}
+
+/// One view's part renders as the bake made them, handed to whoever shares them (the other
+/// representations composite their whole-character images from them instead of rendering
+/// the view again).
+pub struct ViewRenders<'a> {
+    pub view: usize,
+    pub camera: Camera,
+    /// The bake's key frame.
+    pub key_frame: usize,
+    pub images: &'a PartImages,
+}
+
+/// [`bake`], handing every view's part renders to `on_view` (on the rendering thread, in
+/// view order) before they are fitted.
+#[allow(clippy::too_many_arguments)]
+pub fn bake_sharing(
+    ctx: &GpuContext,
+    character: &Character,
+    segmentation: &Segmentation,
+    cap_overrides: &CapOverrides,
+    options: &BakeOptions,
+    progress: &(dyn Fn(Progress) + Sync),
+    cancel: &AtomicBool,
+    on_view: &mut dyn FnMut(&ViewRenders),
+) -> Result<Bake, BakeError> {
     let mut stage_secs = BTreeMap::new();
     let t0 = Instant::now();
     let prepared = profile::in_root("prepare", || {
@@ -901,6 +937,12 @@ pub fn bake(
         let tr = Instant::now();
         let images = prepared.render_images(ctx, v)?;
         render_secs += tr.elapsed().as_secs_f64();
+        on_view(&ViewRenders {
+            view: v,
+            camera: *cam,
+            key_frame: key,
+            images: &images,
+        });
         let tx = tx.clone();
         let (dir, cam, fit_options, key_options, keep) =
             (dirs[v], *cam, options.fit, options.keys, options.keep_frame_images);
@@ -981,12 +1023,48 @@ pub fn rebake(
     progress: &(dyn Fn(Progress) + Sync),
     cancel: &AtomicBool,
 ) -> Result<(Bake, Reuse), BakeError> {
+    rebake_sharing(
+        ctx,
+        prev,
+        character,
+        segmentation,
+        cap_overrides,
+        options,
+        progress,
+        cancel,
+        &mut |_: &ViewRenders| {},
+    )
+}
+
+/// [`rebake`], handing every view's part renders to `on_view` when it bakes everything again
+/// (as [`bake_sharing`]; an incremental re-bake renders only some views and hands none).
+#[allow(clippy::too_many_arguments)]
+pub fn rebake_sharing(
+    ctx: &GpuContext,
+    prev: &Bake,
+    character: &Character,
+    segmentation: &Segmentation,
+    cap_overrides: &CapOverrides,
+    options: &BakeOptions,
+    progress: &(dyn Fn(Progress) + Sync),
+    cancel: &AtomicBool,
+    on_view: &mut dyn FnMut(&ViewRenders),
+) -> Result<(Bake, Reuse), BakeError> {
     let compatible = prev.segmentation == *segmentation
         && prev.caps == *cap_overrides
         && same_but_overrides(&prev.options, options)
         && segmentation.labels.len() == character.triangle_count();
     if !compatible {
-        let b = bake(ctx, character, segmentation, cap_overrides, options, progress, cancel)?;
+        let b = bake_sharing(
+            ctx,
+            character,
+            segmentation,
+            cap_overrides,
+            options,
+            progress,
+            cancel,
+            on_view,
+        )?;
         let n = b.views.len();
         let parts = b.views.iter().map(|v| v.parts.len()).sum();
         return Ok((

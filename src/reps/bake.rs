@@ -38,6 +38,128 @@ pub struct RepsOptions {
     pub part_labels: Vec<u32>,
 }
 
+/// Whole-character images of every view, composited from the Polypostor bake's part renders
+/// (each pixel from the part nearest the camera there), so that `--representation all` renders
+/// each view once: the impostor sheets (colour; normal with the texel's body part in alpha)
+/// and the NP3D key-frame images, as [`bake_representations`] would render them. The parts'
+/// caps sit inside the body, behind the surface next to them, so they do not show.
+pub struct SharedRenders {
+    frames: usize,
+    resolution: u32,
+    /// Keep every frame (impostors), or only the key frame's image (NP3D).
+    every_frame: bool,
+    views: Vec<Option<SharedView>>,
+}
+
+struct SharedView {
+    camera: crate::gpu::Camera,
+    key_frame: usize,
+    color: image::RgbaImage,
+    normal: image::RgbaImage,
+    key_image: image::RgbaImage,
+}
+
+impl SharedRenders {
+    /// Collects `views` views of `frames` frames at `resolution`² for the representations of
+    /// `set` (none needed: nothing is kept).
+    pub fn new(views: usize, frames: usize, resolution: u32, set: RepSet) -> Self {
+        Self {
+            frames,
+            resolution,
+            every_frame: set.impostor,
+            views: if set.impostor || set.np3d {
+                (0..views).map(|_| None).collect()
+            } else {
+                Vec::new()
+            },
+        }
+    }
+
+    /// Composites one view's part renders (ignored when it does not match the collector).
+    pub fn add(&mut self, view: &crate::bake::pipeline::ViewRenders) {
+        let images = view.images;
+        let r = self.resolution;
+        if view.view >= self.views.len() || images.frames != self.frames || images.resolution != r {
+            return;
+        }
+        let columns = sheet_columns(self.frames);
+        let rows = (self.frames as u32).div_ceil(columns);
+        let (mut color, mut normal) = if self.every_frame {
+            (
+                image::RgbaImage::new(columns * r, rows * r),
+                image::RgbaImage::new(columns * r, rows * r),
+            )
+        } else {
+            (image::RgbaImage::new(0, 0), image::RgbaImage::new(0, 0))
+        };
+        let mut key_image = image::RgbaImage::new(r, r);
+        for f in 0..self.frames {
+            if !self.every_frame && f != view.key_frame {
+                continue;
+            }
+            let (mut c, nrm) = composite(images, f);
+            crate::pack::dilate(&mut c, 2);
+            if f == view.key_frame {
+                key_image = c.clone();
+            }
+            if self.every_frame {
+                let (x, y) = ((f as u32 % columns) * r, (f as u32 / columns) * r);
+                image::imageops::replace(&mut color, &c, x as i64, y as i64);
+                image::imageops::replace(&mut normal, &nrm, x as i64, y as i64);
+            }
+        }
+        self.views[view.view] = Some(SharedView {
+            camera: view.camera,
+            key_frame: view.key_frame,
+            color,
+            normal,
+            key_image,
+        });
+    }
+
+    /// Whether every view is in, at key frame `key`.
+    fn complete(&self, views: usize, frames: usize, resolution: u32, key: usize) -> bool {
+        self.views.len() == views
+            && self.frames == frames
+            && self.resolution == resolution
+            && self
+                .views
+                .iter()
+                .all(|v| v.as_ref().is_some_and(|v| v.key_frame == key))
+    }
+}
+
+/// The whole character at frame `f` from its parts' renders: colour (alpha 255 where
+/// covered) and normal (alpha: the body part, 0 where nothing is), each pixel from the
+/// covering part nearest the camera (the lowest part number on a tie, as the first drawn
+/// wins a depth test).
+pub fn composite(images: &crate::gpu::PartImages, f: usize) -> (image::RgbaImage, image::RgbaImage) {
+    let r = images.resolution;
+    let mut color = image::RgbaImage::new(r, r);
+    let mut normal = image::RgbaImage::new(r, r);
+    for y in 0..r {
+        for x in 0..r {
+            let mut best: Option<(f32, usize)> = None;
+            for p in 0..images.parts {
+                if images.covered(p, f, x, y) {
+                    let d = images.depth_at(p, f, x, y);
+                    if best.is_none_or(|(bd, _)| d < bd) {
+                        best = Some((d, p));
+                    }
+                }
+            }
+            if let Some((_, p)) = best {
+                let (ox, oy) = images.tile_origin(p, f);
+                color.put_pixel(x, y, *images.color.get_pixel(ox + x, oy + y));
+                let mut n = *images.normal.get_pixel(ox + x, oy + y);
+                n[3] = p.min(255) as u8;
+                normal.put_pixel(x, y, n);
+            }
+        }
+    }
+    (color, normal)
+}
+
 /// Bakes the impostor, NP3D and rigid representations selected in `options.set`.
 pub fn bake_representations(
     ctx: &GpuContext,
@@ -45,6 +167,32 @@ pub fn bake_representations(
     character_path: Option<&str>,
     clip_name: Option<&str>,
     options: &RepsOptions,
+    progress: &(dyn Fn(Progress) + Sync),
+    cancel: &AtomicBool,
+) -> Result<Representations, BakeError> {
+    bake_representations_sharing(
+        ctx,
+        character,
+        character_path,
+        clip_name,
+        options,
+        None,
+        progress,
+        cancel,
+    )
+}
+
+/// [`bake_representations`], taking the impostor and NP3D images from `shared` (the
+/// Polypostor bake's part renders of the same views) when it holds every view at the
+/// options' key frame; otherwise rendering them.
+#[allow(clippy::too_many_arguments)]
+pub fn bake_representations_sharing(
+    ctx: &GpuContext,
+    character: &Character,
+    character_path: Option<&str>,
+    clip_name: Option<&str>,
+    options: &RepsOptions,
+    shared: Option<SharedRenders>,
     progress: &(dyn Fn(Progress) + Sync),
     cancel: &AtomicBool,
 ) -> Result<Representations, BakeError> {
@@ -59,7 +207,11 @@ pub fn bake_representations(
     }
     let (poses, points) = sample_frames(character, options.clip, &times);
     let dirs = directions(options.views.max(1), options.coverage);
-    let cameras = view_cameras(&points, &dirs);
+    let shared = shared.filter(|s| s.complete(dirs.len(), frames, options.resolution, options.key_frame));
+    let cameras = match &shared {
+        Some(s) => s.views.iter().flatten().map(|v| v.camera).collect(),
+        None => view_cameras(&points, &dirs),
+    };
     let r = options.resolution;
     let set = options.set;
     // The NP3D mesh first: if it cannot be made, say so before the renders.
@@ -91,7 +243,24 @@ pub fn bake_representations(
     // NP3D.
     let mut impostor = None;
     let mut np3d_images = Vec::new();
-    if set.impostor || set.np3d {
+    if let Some(shared) = shared.filter(|_| set.impostor || set.np3d) {
+        let columns = sheet_columns(frames);
+        let rows = (frames as u32).div_ceil(columns);
+        let (mut color, mut normal) = (Vec::new(), Vec::new());
+        for v in shared.views.into_iter().flatten() {
+            np3d_images.push(v.key_image);
+            color.push(v.color);
+            normal.push(v.normal);
+        }
+        if set.impostor {
+            impostor = Some(ImpostorData {
+                columns,
+                rows,
+                color,
+                normal,
+            });
+        }
+    } else if set.impostor || set.np3d {
         let renderer = CharacterRenderer::new(&ctx.device);
         let mut gpu = GpuCharacter::new(&renderer, &ctx.device, &ctx.queue, character);
         let id_character = part_id_character(character, &options.part_labels);
@@ -513,10 +682,27 @@ pub fn bake_folder(
     .map_err(BakeError::from)?;
     crate::safe_fs::check_bake_output(job.out, &[job.character_path]).map_err(FolderError::Output)?;
     let mut reuse = None;
+    // The other representations' whole-character images, composited from the Polypostor's
+    // part renders as the bake makes them (each view is rendered once).
+    let mut shared = (job.set.polypostor && (job.set.impostor || job.set.np3d)).then(|| {
+        let frames = crate::bake::renders::frame_times(
+            o.clip
+                .and_then(|i| job.character.clips.get(i))
+                .map_or(0.0, |c| c.duration_secs),
+            o.fps,
+        )
+        .len();
+        SharedRenders::new(o.views.max(1), frames, o.resolution, job.set)
+    });
+    let mut on_view = |v: &crate::bake::pipeline::ViewRenders| {
+        if let Some(s) = shared.as_mut() {
+            crate::bake::profile::in_root("other representations", || s.add(v));
+        }
+    };
     let bake = if job.set.polypostor {
         Some(match job.previous {
             Some(prev) => {
-                let (b, r) = crate::bake::pipeline::rebake(
+                let (b, r) = crate::bake::pipeline::rebake_sharing(
                     ctx,
                     prev,
                     job.character,
@@ -525,11 +711,21 @@ pub fn bake_folder(
                     o,
                     progress,
                     cancel,
+                    &mut on_view,
                 )?;
                 reuse = Some(r);
                 b
             }
-            None => crate::bake::pipeline::bake(ctx, job.character, job.segmentation, job.caps, o, progress, cancel)?,
+            None => crate::bake::pipeline::bake_sharing(
+                ctx,
+                job.character,
+                job.segmentation,
+                job.caps,
+                o,
+                progress,
+                cancel,
+                &mut on_view,
+            )?,
         })
     } else {
         None
@@ -560,12 +756,13 @@ pub fn bake_folder(
         };
         let path = std::fs::canonicalize(job.character_path).unwrap_or_else(|_| job.character_path.to_owned());
         Some(crate::bake::profile::in_root("other representations", || {
-            bake_representations(
+            bake_representations_sharing(
                 ctx,
                 job.character,
                 Some(&path.display().to_string()),
                 job.clip_name,
                 &reps_options,
+                shared.take(),
                 progress,
                 cancel,
             )
