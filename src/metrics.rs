@@ -61,14 +61,21 @@ fn blur(plane: &[f64], w: usize, h: usize, taps: &[f64], tmp: &mut Vec<f64>, out
     let r = SSIM_RADIUS as isize;
     tmp.clear();
     tmp.resize(w * h, 0.0);
+    // Each row with its mirrored borders laid out once, so the taps read a plain slice (the
+    // same sums in the same order as reflecting every index).
+    let mut padded = vec![0.0f64; w + 2 * SSIM_RADIUS];
     for y in 0..h {
         let row = &plane[y * w..(y + 1) * w];
-        for x in 0..w {
+        for (i, p) in padded.iter_mut().enumerate() {
+            *p = row[reflect(i as isize - r, w)];
+        }
+        for (x, out) in tmp[y * w..(y + 1) * w].iter_mut().enumerate() {
+            let window = &padded[x..x + taps.len()];
             let mut s = 0.0;
-            for (k, t) in taps.iter().enumerate() {
-                s += t * row[reflect(x as isize + k as isize - r, w)];
+            for (t, v) in taps.iter().zip(window) {
+                s += t * v;
             }
-            tmp[y * w + x] = s;
+            *out = s;
         }
     }
     out.clear();

@@ -134,6 +134,18 @@ impl Plan {
         &self.triangles
     }
 
+    /// For each triangle, the corner (0..3, in the triangle's own vertex order) whose target
+    /// the solves vary fastest: for fixed targets of the other two corners, a solve asks for
+    /// the costs of every candidate of this one in a row (a cost cache can lay them out
+    /// side by side).
+    pub fn inner_corners(&self) -> Vec<usize> {
+        let mut corners = vec![2; self.triangles.len()];
+        for &(t, _, _, c) in &self.order {
+            corners[t] = self.triangles[t].iter().position(|&v| v == c).unwrap_or(2);
+        }
+        corners
+    }
+
     /// Solves the fit exactly. `cost(t, [pa, pb, pc])` is the error of mapping triangle `t`'s
     /// vertices `triangles[t] = [a, b, c]` to target vertices `pa, pb, pc` (in that order).
     pub fn solve(&self, m: usize, cost: impl Fn(usize, [usize; 3]) -> f64) -> Result<Fit, FitError> {

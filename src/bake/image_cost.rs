@@ -281,6 +281,28 @@ impl SourceSamples {
         }
         let scale = self.weights[t] / SAMPLES.len() as f64;
         let ssd_limit = (limit / scale) as f32;
+        let ssd = self.ssd(t, target, p, ssd_limit);
+        if ssd >= ssd_limit {
+            f64::INFINITY
+        } else {
+            scale * ssd as f64
+        }
+    }
+
+    /// The weighted sum of squared differences of triangle `t`'s samples mapped onto `p`, or
+    /// any value `>= ssd_limit` once it reaches that: with AVX where the CPU has it, else
+    /// portable; both give the same bits.
+    #[inline]
+    fn ssd(&self, t: usize, target: &TargetGrid, p: [[f32; 2]; 3], ssd_limit: f32) -> f32 {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX (checked just above).
+            return unsafe { self.ssd_avx(t, target, p, ssd_limit) };
+        }
+        self.ssd_portable(t, target, p, ssd_limit)
+    }
+
+    fn ssd_portable(&self, t: usize, target: &TargetGrid, p: [[f32; 2]; 3], ssd_limit: f32) -> f32 {
         let mut acc = Vec4::ZERO;
         let mut ssd = 0.0f32;
         for (k, w) in SAMPLES.iter().enumerate() {
@@ -292,10 +314,73 @@ impl SourceSamples {
             acc += d0 * d0 + d1 * d1;
             ssd = acc.element_sum();
             if ssd >= ssd_limit {
-                return f64::INFINITY;
+                return ssd;
             }
         }
-        scale * ssd as f64
+        ssd
+    }
+}
+
+impl SourceSamples {
+    /// The sum of squares of [`SourceSamples::cost_bounded`] with 8-lane AVX arithmetic: the
+    /// same operations lane by lane in the same order (no fused multiply-add; the two halves
+    /// folded before accumulating, the horizontal sum as glam's), so the result is
+    /// bit-identical to the portable path. Returns a value `>= ssd_limit` as soon as the
+    /// partial sum reaches it (checked every few samples: the partial sums only grow).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn ssd_avx(&self, t: usize, target: &TargetGrid, p: [[f32; 2]; 3], ssd_limit: f32) -> f32 {
+        use std::arch::x86_64::*;
+        let hsum = |v: __m128| -> f32 {
+            let v = _mm_add_ps(v, _mm_shuffle_ps(v, v, 0b00_11_00_01));
+            let v = _mm_add_ps(v, _mm_shuffle_ps(v, v, 0b00_00_00_10));
+            _mm_cvtss_f32(v)
+        };
+        let values = &self.values[t];
+        let stride = target.stride;
+        let max = (stride - 1) as f32;
+        let px = target.px.as_ptr() as *const f32;
+        let mut acc = _mm_setzero_ps();
+        for (k, w) in SAMPLES.iter().enumerate() {
+            let x = w[0] * p[0][0] + w[1] * p[1][0] + w[2] * p[2][0];
+            let y = w[0] * p[0][1] + w[1] * p[1][1] + w[2] * p[2][1];
+            // As `TargetGrid::sample_lanes`.
+            let fx = (x + 0.5).clamp(0.0, max);
+            let fy = (y + 0.5).clamp(0.0, max);
+            let (x0, y0) = ((fx as usize).min(stride - 2), (fy as usize).min(stride - 2));
+            let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
+            let i = y0 * stride + x0;
+            debug_assert!(i + stride + 1 < target.px.len());
+            // SAFETY: x0, y0 <= stride - 2, so cells i, i + 1, i + stride and i + stride + 1
+            // lie in the stride × stride grid; each cell is 8 contiguous f32.
+            let (a, b, c, d) = unsafe {
+                (
+                    _mm256_loadu_ps(px.add(i * 8)),
+                    _mm256_loadu_ps(px.add((i + 1) * 8)),
+                    _mm256_loadu_ps(px.add((i + stride) * 8)),
+                    _mm256_loadu_ps(px.add((i + stride + 1) * 8)),
+                )
+            };
+            let (txv, tyv) = (_mm256_set1_ps(tx), _mm256_set1_ps(ty));
+            let top = _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), txv));
+            let bottom = _mm256_add_ps(c, _mm256_mul_ps(_mm256_sub_ps(d, c), txv));
+            let s = _mm256_add_ps(top, _mm256_mul_ps(_mm256_sub_ps(bottom, top), tyv));
+            // SAFETY: values[k] is two Vec4s, 8 contiguous f32.
+            let v = unsafe { _mm256_loadu_ps(values[k].as_ptr() as *const f32) };
+            let dd = _mm256_sub_ps(s, v);
+            let sq = _mm256_mul_ps(dd, dd);
+            acc = _mm_add_ps(
+                acc,
+                _mm_add_ps(_mm256_castps256_ps128(sq), _mm256_extractf128_ps::<1>(sq)),
+            );
+            if k % 3 == 2 {
+                let ssd = hsum(acc);
+                if ssd >= ssd_limit {
+                    return ssd;
+                }
+            }
+        }
+        hsum(acc)
     }
 }
 
@@ -580,6 +665,54 @@ mod tests {
         assert_eq!(t.sample(3.5, 7.5)[0], 3.0);
         assert!((t.sample(4.0, 7.5)[0] - 3.5).abs() < 1e-6);
         assert_eq!(t.sample(-5.0, 2.0), [0.0; 7]);
+    }
+
+    #[test]
+    fn the_vector_path_gives_the_portable_paths_bits() {
+        // A textured target and source with every channel varying, triangles anywhere (in,
+        // across the border, far outside), limits from none to tight.
+        let target = tile(|x, y| {
+            let f = |k: u32| (((x * 7 + y * 13 + k * 29) % 97) as f32) / 97.0;
+            [
+                f(0),
+                f(1),
+                f(2),
+                f(3),
+                f(4),
+                f(5),
+                if (x + y) % 11 < 8 { 1.0 } else { 0.3 },
+            ]
+        });
+        let source = tile(|x, y| {
+            let f = |k: u32| (((x * 5 + y * 3 + k * 17) % 89) as f32) / 89.0;
+            [f(0), f(1), f(2), f(3), f(4), f(5), 1.0]
+        });
+        let grid = TargetGrid::new(&target);
+        let mut seed = 12345u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((seed >> 33) as f32 / (1u64 << 31) as f32) * 28.0 - 6.0
+        };
+        let vertices: Vec<[f32; 2]> = (0..6).map(|_| [next().abs(), next().abs()]).collect();
+        let triangles = [[0, 1, 2], [2, 3, 4], [4, 5, 0], [1, 3, 5]];
+        let samples = SourceSamples::new(&source, &vertices, &triangles, false);
+        let mut exits = 0;
+        for _ in 0..2000 {
+            let p = [[next(), next()], [next(), next()], [next(), next()]];
+            for t in 0..triangles.len() {
+                for limit in [f32::INFINITY, 40.0, 5.0, 0.5] {
+                    let a = samples.ssd(t, &grid, p, limit);
+                    let b = samples.ssd_portable(t, &grid, p, limit);
+                    if b >= limit {
+                        assert!(a >= limit, "the vector path missed the limit: {a} vs {b}");
+                        exits += 1;
+                    } else {
+                        assert_eq!(a.to_bits(), b.to_bits(), "triangle {t} onto {p:?}: {a} vs {b}");
+                    }
+                }
+            }
+        }
+        assert!(exits > 100 && exits < 2000 * 4 * 4, "limits reached {exits} times");
     }
 
     #[test]

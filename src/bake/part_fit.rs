@@ -246,30 +246,29 @@ pub fn fit_frame(
     }
     // The fast mode solves several overlapping candidate sets: remember every triangle cost
     // (exact, or a lower bound where the evaluation gave up) so no triple is sampled twice.
-    let memo: std::cell::RefCell<rustc_hash::FxHashMap<u64, f64>> = std::cell::RefCell::new(
-        rustc_hash::FxHashMap::with_capacity_and_hasher(1 << 15, Default::default()),
-    );
+    let memo = std::cell::RefCell::new(CostCache::new(plan, target.len()));
     let cost = |t: usize, p: [usize; 3], limit: f64| {
         looked.set(looked.get() + 1);
         // A fold costs a table lookup and a few multiplications: cheaper than the memo.
         if samples.folds(t, target, p) {
             return samples.cost_indexed(t, target_tile, target, p, limit);
         }
-        let key = (t as u64) << 48 | (p[0] as u64) << 32 | (p[1] as u64) << 16 | p[2] as u64;
-        // Stored values >= 0 are exact; a negative value -b records "cost >= b".
-        if let Some(&v) = memo.borrow().get(&key) {
-            if v >= 0.0 {
-                return v;
-            }
-            if -v >= limit {
-                return f64::INFINITY;
-            }
+        let mut memo = memo.borrow_mut();
+        let cell = memo.cell(t, p);
+        // Stored values >= 0 are exact; a negative value -b records "cost >= b"; NaN: not
+        // evaluated yet.
+        let v = *cell;
+        if v >= 0.0 {
+            return v;
+        }
+        if -v >= limit {
+            return f64::INFINITY;
         }
         let c = raw(t, p, limit);
         if c.is_finite() {
-            memo.borrow_mut().insert(key, c);
+            *cell = c;
         } else if limit > 0.0 {
-            memo.borrow_mut().insert(key, -limit);
+            *cell = -limit;
         }
         c
     };
@@ -453,6 +452,72 @@ pub fn fit_frame(
         a.fetch_add(c.get(), std::sync::atomic::Ordering::Relaxed);
     }
     Ok(best)
+}
+
+/// The fast mode's cache of triangle costs: for each triangle and targets of the two corners
+/// a solve holds fixed, a row with one value per target vertex of the corner it varies
+/// ([`Plan::inner_corners`]), so the costs a solve asks for one after the other sit side by
+/// side (a hash map scattered them: a cache miss a lookup). Rows are made on first use.
+struct CostCache {
+    m: usize,
+    inner: Vec<usize>,
+    /// Row start in `values` per (triangle, outer corner target, outer corner target), or
+    /// `u32::MAX`; a hash map instead where that table would be large.
+    rows: RowIndex,
+    values: Vec<f64>,
+}
+
+enum RowIndex {
+    Dense(Vec<u32>),
+    Sparse(rustc_hash::FxHashMap<usize, u32>),
+}
+
+/// Most entries of a dense row index (4 bytes each).
+const DENSE_ROWS: usize = 1 << 20;
+
+impl CostCache {
+    fn new(plan: &Plan, m: usize) -> Self {
+        let triangles = plan.triangles().len();
+        let n = triangles.saturating_mul(m).saturating_mul(m);
+        Self {
+            m,
+            inner: plan.inner_corners(),
+            rows: if n <= DENSE_ROWS {
+                RowIndex::Dense(vec![u32::MAX; n])
+            } else {
+                RowIndex::Sparse(Default::default())
+            },
+            values: Vec::with_capacity(1 << 14),
+        }
+    }
+
+    /// The cached value of triangle `t` mapped onto `p` (NaN where not evaluated yet).
+    #[inline]
+    fn cell(&mut self, t: usize, p: [usize; 3]) -> &mut f64 {
+        let (inner, a, b) = match self.inner[t] {
+            0 => (p[0], p[1], p[2]),
+            1 => (p[1], p[0], p[2]),
+            _ => (p[2], p[0], p[1]),
+        };
+        let key = (t * self.m + a) * self.m + b;
+        let m = self.m;
+        let values = &mut self.values;
+        let mut fresh = || {
+            let start = values.len();
+            values.resize(start + m, f64::NAN);
+            start as u32
+        };
+        let start = match &mut self.rows {
+            RowIndex::Dense(index) => {
+                if index[key] == u32::MAX {
+                    index[key] = fresh();
+                }
+                index[key]
+            }
+            RowIndex::Sparse(index) => *index.entry(key).or_insert_with(fresh),
+        };
+        &mut self.values[start as usize + inner]
+    }
 }
 
 static EVALUATIONS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
@@ -1042,6 +1107,40 @@ mod tests {
                 if frames >= 3 {
                     assert_eq!(order[frames - 1].1.len(), 2, "{frames} frames, key {key}");
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn the_cost_cache_gives_every_triple_its_own_cell_dense_or_sparse() {
+        // A fan of 4 triangles over 6 vertices, 5 target vertices: every (triangle, triple)
+        // written with its own value, in a scrambled order, then read back.
+        let tris = [[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 5]];
+        let plan = Plan::new(6, &tris).unwrap();
+        let m = 5;
+        let mut all = Vec::new();
+        for t in 0..tris.len() {
+            for a in 0..m {
+                for b in 0..m {
+                    for c in 0..m {
+                        all.push((t, [a, b, c]));
+                    }
+                }
+            }
+        }
+        let value = |t: usize, p: [usize; 3]| (t * 1000 + p[0] * 100 + p[1] * 10 + p[2]) as f64;
+        let mut dense = CostCache::new(&plan, m);
+        assert!(matches!(dense.rows, RowIndex::Dense(_)));
+        let mut sparse = CostCache::new(&plan, m);
+        sparse.rows = RowIndex::Sparse(Default::default());
+        for cache in [&mut dense, &mut sparse] {
+            for k in 0..all.len() {
+                let (t, p) = all[(k * 37) % all.len()];
+                assert!(cache.cell(t, p).is_nan(), "fresh cells are empty");
+                *cache.cell(t, p) = value(t, p);
+            }
+            for &(t, p) in &all {
+                assert_eq!(*cache.cell(t, p), value(t, p));
             }
         }
     }
