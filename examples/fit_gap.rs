@@ -47,7 +47,13 @@ fn main() {
     let batch = PartRenderer::new(&renderer, &ctx.device, &ctx.queue, &merged, ranges, &poses, 128);
     let frames = times.len();
     let mut jobs = Vec::new();
-    for v in (0..views_n).step_by(stride) {
+    // FIT_VIEWS=34,102: these views instead of every `stride`-th (the exact cache is keyed
+    // by view, so any set can share it).
+    let chosen: Vec<usize> = match std::env::var("FIT_VIEWS") {
+        Ok(list) => list.split(',').map(|x| x.trim().parse().unwrap()).collect(),
+        Err(_) => (0..views_n).step_by(stride).collect(),
+    };
+    for v in chosen {
         let img = batch
             .render_view(&renderer, &ctx.device, &ctx.queue, &cameras[v])
             .unwrap();
@@ -130,6 +136,9 @@ fn main() {
         options.restart_jump = t;
     }
     knob("FIT_RHINT", &mut options.refine_hint);
+    if let Some(t) = std::env::var("FIT_TRUST").ok().and_then(|s| s.parse().ok()) {
+        options.restart_trust = t;
+    }
     options.finish_exact = std::env::var("FIT_EXACT").is_ok();
     if let Some(t) = std::env::var("FIT_BOUND").ok().and_then(|s| s.parse().ok()) {
         options.restart_bound = t;

@@ -73,6 +73,12 @@ pub struct PartFitOptions {
     /// local minimum; a part that is costly in every frame is not one). 0 restarts on the
     /// threshold alone. Default value: [`RESTART_JUMP`].
     pub restart_jump: f64,
+    /// Fast mode: a frame whose seeding neighbours are all stuck (their restart, or their
+    /// neighbours', found nothing more than 1 % better: the local search already sits in the
+    /// coarse global solution's basin) is not restarted unless its cost exceeds this multiple
+    /// of theirs; it is then stuck too. 0 restarts on the threshold alone. Default value:
+    /// [`RESTART_TRUST`].
+    pub restart_trust: f64,
 }
 
 /// Error per source pixel above which the fast mode restarts from a coarse global solution.
@@ -106,6 +112,7 @@ impl Default for PartFitOptions {
             refine_window: REFINE_WINDOW,
             refine_hint: REFINE_HINT,
             restart_jump: RESTART_JUMP,
+            restart_trust: RESTART_TRUST,
         }
     }
 }
@@ -216,6 +223,8 @@ pub struct Seed {
     /// The fit cost of the neighbouring frame it came from, when known (the restart rule
     /// compares against it).
     pub cost: Option<f64>,
+    /// The neighbouring frame was stuck ([`PartFitOptions::restart_trust`]).
+    pub stuck: bool,
 }
 
 /// Fits S onto one target. The fast mode starts from each seed (at least one) and keeps the
@@ -229,6 +238,19 @@ pub fn fit_frame(
     options: &PartFitOptions,
     pins: &[(usize, usize)],
 ) -> Result<Fit, FitError> {
+    Ok(fit_frame_stuck(plan, samples, target_tile, target, seeds, options, pins)?.0)
+}
+
+/// [`fit_frame`], and whether the frame is stuck ([`PartFitOptions::restart_trust`]).
+pub fn fit_frame_stuck(
+    plan: &Plan,
+    samples: &SourceSamples,
+    target_tile: &TargetGrid,
+    target: &[[f32; 2]],
+    seeds: &[Seed],
+    options: &PartFitOptions,
+    pins: &[(usize, usize)],
+) -> Result<(Fit, bool), FitError> {
     // Triangle costs evaluated (the fit's unit of work), added to [`evaluations`] at the end.
     let evaluated = std::cell::Cell::new(0u64);
     let phase = std::cell::Cell::new(0usize);
@@ -242,7 +264,7 @@ pub fn fit_frame(
     let pin = |cands: &mut Vec<Vec<usize>>| apply_pins(cands, pins, target.len());
     if options.exhaustive {
         let exact = exact_below(plan, samples, target_tile, target, pins, f64::INFINITY)?;
-        return Ok(exact.expect("a finite optimum is below infinity"));
+        return Ok((exact.expect("a finite optimum is below infinity"), false));
     }
     // The fast mode solves several overlapping candidate sets: remember every triangle cost
     // (exact, or a lower bound where the evaluation gave up) so no triple is sampled twice.
@@ -398,9 +420,16 @@ pub fn fit_frame(
     // every `restart_step`-th target vertex (global, ~1/8 of the exact DP's work at step 2),
     // then search locally from there; keep whichever is cheaper.
     let neighbour = seeds.iter().filter_map(|s| s.cost).reduce(f64::min);
-    if best.cost > options.restart_threshold * samples.area()
-        && neighbour.is_none_or(|c| best.cost > options.restart_jump * c)
-    {
+    let mut stuck = false;
+    let over = best.cost > options.restart_threshold * samples.area();
+    let trusted = options.restart_trust > 0.0
+        && !seeds.is_empty()
+        && seeds.iter().all(|s| s.stuck)
+        && neighbour.is_some_and(|c| best.cost <= options.restart_trust * c);
+    if over && trusted {
+        stuck = true;
+    } else if over && neighbour.is_none_or(|c| best.cost > options.restart_jump * c) {
+        stuck = true;
         let _restart = super::profile::leaf("restart");
         phase.set(2);
         let every: Vec<usize> = (0..target.len()).step_by(options.restart_step.max(1)).collect();
@@ -421,11 +450,13 @@ pub fn fit_frame(
             None => None,
         };
         if let Some(restarted) = restarted.filter(|r| r.cost < best.cost) {
-            super::profile::tally(if restarted.cost < 0.99 * best.cost {
+            let much = restarted.cost < 0.99 * best.cost;
+            super::profile::tally(if much {
                 "restart improved >1 %"
             } else {
                 "restart improved <1 %"
             });
+            stuck = !much;
             best = restarted;
         }
     }
@@ -451,7 +482,7 @@ pub fn fit_frame(
     for (a, c) in PHASES.iter().zip(&by_phase) {
         a.fetch_add(c.get(), std::sync::atomic::Ordering::Relaxed);
     }
-    Ok(best)
+    Ok((best, stuck))
 }
 
 /// The fast mode's cache of triangle costs: for each triangle and targets of the two corners
@@ -600,6 +631,9 @@ pub fn cyclic_shift(a: &[[f32; 2]], b: &[[f32; 2]]) -> Option<usize> {
 
 /// Fast mode: restart only above this multiple of the seeding neighbour's cost.
 pub const RESTART_JUMP: f64 = 0.0;
+
+/// See [`PartFitOptions::restart_trust`].
+pub const RESTART_TRUST: f64 = 1.0;
 
 /// Fast mode: candidates nearest in space in a refinement pass.
 pub const REFINE_WINDOW: usize = DEFAULT_WINDOW;
@@ -754,6 +788,8 @@ pub fn fit_part_span(
     let mut mappings = vec![Vec::new(); frames];
     let mut costs = vec![f64::INFINITY; frames];
     let mut fitted = vec![false; frames];
+    // Frames whose restart (or their neighbours') found nothing better.
+    let stuck = std::cell::RefCell::new(vec![false; frames]);
     // Distance walked each way; `None` once that way has stopped.
     let (mut forward, mut backward) = (Some(0usize), Some(0usize));
     let fit_one = |f: usize,
@@ -772,6 +808,7 @@ pub fn fit_part_span(
             .into_iter()
             .map(|pf| Seed {
                 cost: costs[pf].is_finite().then_some(costs[pf]),
+                stuck: stuck.borrow()[pf],
                 positions: mappings[pf].iter().map(|&j| targets[pf][j]).collect(),
                 indices: cyclic_shift(&targets[pf], &targets[f]).map(|shift| {
                     let m = targets[f].len();
@@ -785,11 +822,12 @@ pub fn fit_part_span(
                 positions: key_polygon.clone(),
                 indices: None,
                 cost: None,
+                stuck: false,
             });
         }
         let none = Vec::new();
         let pins_f = pins.get(f).unwrap_or(&none);
-        let fit = fit_frame(
+        let (fit, is_stuck) = fit_frame_stuck(
             &plan,
             &samples,
             &target_grid(&tiles[f], &targets[f], options),
@@ -799,6 +837,7 @@ pub fn fit_part_span(
             pins_f,
         )?;
         fitted[f] = true;
+        stuck.borrow_mut()[f] = is_stuck;
         mappings[f] = fit.mapping;
         Ok(fit.cost)
     };
@@ -1066,6 +1105,7 @@ mod tests {
             positions: fit.key_polygon.clone(),
             indices: None,
             cost: None,
+            stuck: false,
         }];
         for f in 1..t.len() {
             let grid = TargetGrid::new(&t[f]);
@@ -1081,6 +1121,51 @@ mod tests {
             assert!(always.cost <= plain.cost + 1e-9, "frame {f}");
             assert!(exact.cost <= always.cost + 1e-9, "frame {f}");
         }
+    }
+
+    #[test]
+    fn stuck_neighbours_spare_a_restart_only_while_the_cost_does_not_rise() {
+        let t = tiles(6);
+        let fit = fit_part(&t, 0, &PartFitOptions::default(), &[]).unwrap();
+        let plan = Plan::new(fit.key_polygon.len(), &fit.key_triangles).unwrap();
+        let samples = SourceSamples::new(&t[0], &fit.key_polygon, &fit.key_triangles, true);
+        let mut trusted_some = false;
+        for f in 1..t.len() {
+            let grid = TargetGrid::new(&t[f]);
+            let solve = |restart_threshold: f64, restart_trust: f64, stuck: bool, cost: Option<f64>| {
+                let o = PartFitOptions {
+                    restart_threshold,
+                    restart_trust,
+                    ..Default::default()
+                };
+                // A poor seed (every vertex expected half-way round the outline), so that
+                // restarting helps.
+                let n = fit.key_polygon.len();
+                let seed = [Seed {
+                    positions: (0..n).map(|i| fit.key_polygon[(i + n / 2) % n]).collect(),
+                    indices: None,
+                    cost,
+                    stuck,
+                }];
+                fit_frame_stuck(&plan, &samples, &grid, &fit.targets[f], &seed, &o, &[]).unwrap()
+            };
+            // Every frame is over a zero threshold.
+            let (local, _) = solve(f64::INFINITY, 0.0, false, None);
+            let (restarted, _) = solve(0.0, 0.0, false, None);
+            // Stuck neighbours that cost more: no restart, and this frame is stuck in turn.
+            let (spared, stuck) = solve(0.0, 1.0, true, Some(local.cost * 2.0 + 1.0));
+            assert_eq!(spared, local, "frame {f}: a trusted frame is the local search's");
+            assert!(stuck, "frame {f}: a trusted frame passes its state on");
+            // Stuck neighbours that cost less (the cost rose), or neighbours not stuck: the
+            // restart runs as without the rule.
+            let (rose, _) = solve(0.0, 1.0, true, Some(local.cost * 0.5));
+            assert_eq!(rose, restarted, "frame {f}");
+            let (fresh, _) = solve(0.0, 1.0, false, Some(local.cost * 2.0 + 1.0));
+            assert_eq!(fresh, restarted, "frame {f}");
+            trusted_some |= restarted.cost < local.cost;
+        }
+        // The fixture has frames a restart improves, so the rule had something to skip.
+        assert!(trusted_some, "no frame improved by restarting: the test shows nothing");
     }
 
     #[test]
