@@ -290,9 +290,13 @@ impl PartKeys<'_> {
             .collect();
         let losing = |f: usize, cost: f64| cost > best_cost[f];
         // A key is fitted near its own frame, where local search suffices: no restarts
-        // (they search frames far from the key again from a global solution).
+        // (they search frames far from the key again from a global solution), one
+        // refinement pass and no sweeps. Measured at 40 views: the key choice 17-22 % cheaper,
+        // the bakes' mean PSNR and SSIM the same to 0.001 dB / 0.0001 (default, CesiumMan).
         let options = PartFitOptions {
             restart_threshold: f64::INFINITY,
+            refine_passes: options.refine_passes.min(1),
+            sweeps: 0,
             ..*options
         };
         let (fit, span) = fit_part_span(self.tiles, self.targets, frame, &options, &[], Some(&losing)).ok()?;
