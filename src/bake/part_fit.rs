@@ -802,6 +802,19 @@ pub fn fit_part_span(
             .filter(|&g| fitted[g])
             .collect();
         neighbours.dedup();
+        let none = Vec::new();
+        let pins_f = pins.get(f).unwrap_or(&none);
+        // A part that holds still between two frames (same image, same pins) gets the fitted
+        // neighbour's answer: the same problem, already solved.
+        if let Some(&same) = neighbours.iter().find(|&&g| {
+            tiles[g].px == tiles[f].px && targets[g] == targets[f] && pins.get(g).unwrap_or(&none) == pins_f
+        }) {
+            fitted[f] = true;
+            let was_stuck = stuck.borrow()[same];
+            stuck.borrow_mut()[f] = was_stuck;
+            mappings[f] = mappings[same].clone();
+            return Ok(costs[same]);
+        }
         // A seed holds a fitted neighbour's positions and its contour indices carried over
         // by the cyclic shift between the two target polygons.
         let mut seeds: Vec<Seed> = neighbours
@@ -825,8 +838,6 @@ pub fn fit_part_span(
                 stuck: false,
             });
         }
-        let none = Vec::new();
-        let pins_f = pins.get(f).unwrap_or(&none);
         let (fit, is_stuck) = fit_frame_stuck(
             &plan,
             &samples,
@@ -1166,6 +1177,26 @@ mod tests {
         }
         // The fixture has frames a restart improves, so the rule had something to skip.
         assert!(trusted_some, "no frame improved by restarting: the test shows nothing");
+    }
+
+    #[test]
+    fn a_part_holding_still_reuses_its_neighbours_fit() {
+        let mut t = tiles(6);
+        t[3] = t[2].clone();
+        let fit = fit_part(&t, 0, &PartFitOptions::default(), &[]).unwrap();
+        assert_eq!(fit.mappings[3], fit.mappings[2]);
+        assert_eq!(fit.costs[3], fit.costs[2]);
+        // The reused answer is a real fit of that frame: its cost is what it costs there.
+        let samples = SourceSamples::new(&t[0], &fit.key_polygon, &fit.key_triangles, true);
+        let grid = TargetGrid::with_outline(&t[3], &fit.targets[3]);
+        let again = crate::bake::fit::mapping_cost(&fit.key_triangles, &fit.mappings[3], |k, p| {
+            samples.cost_indexed(k, &grid, &fit.targets[3], p, f64::INFINITY)
+        });
+        assert!(
+            (again - fit.costs[3]).abs() <= 1e-9 * again.max(1.0),
+            "{again} vs {}",
+            fit.costs[3]
+        );
     }
 
     #[test]
