@@ -304,16 +304,7 @@ pub fn ground_truth(images: &PartImages, frame: usize) -> Canvas {
     let mut c = Canvas::new(r);
     for y in 0..r {
         for x in 0..r {
-            let mut best: Option<(f32, usize)> = None;
-            for p in 0..images.parts {
-                if images.covered(p, frame, x, y) {
-                    let d = images.depth_at(p, frame, x, y);
-                    if best.is_none_or(|(bd, _)| d < bd) {
-                        best = Some((d, p));
-                    }
-                }
-            }
-            if let Some((_, p)) = best {
+            if let Some(p) = images.front_part(frame, x, y) {
                 let (ox, oy) = images.tile_origin(p, frame);
                 let q = images.color.get_pixel(ox + x, oy + y);
                 c.px[(y * r + x) as usize] = [q[0] as f32 / 255.0, q[1] as f32 / 255.0, q[2] as f32 / 255.0, 1.0];

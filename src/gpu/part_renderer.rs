@@ -45,6 +45,22 @@ impl PartImages {
         let (ox, oy) = self.tile_origin(part, frame);
         self.normal.get_pixel(ox + x, oy + y)[3] > 127
     }
+
+    /// The part the whole character shows at a pixel of a frame: of the parts covering it,
+    /// the nearest the camera (the lowest number on a tie, as the first drawn wins a depth
+    /// test); `None` where no part covers it.
+    pub fn front_part(&self, frame: usize, x: u32, y: u32) -> Option<usize> {
+        let mut best: Option<(f32, usize)> = None;
+        for p in 0..self.parts {
+            if self.covered(p, frame, x, y) {
+                let d = self.depth_at(p, frame, x, y);
+                if best.is_none_or(|(bd, _)| d < bd) {
+                    best = Some((d, p));
+                }
+            }
+        }
+        best.map(|(_, p)| p)
+    }
 }
 
 /// Most pixels of the bake's part-render target (colour, normal and depth: 12 bytes each).

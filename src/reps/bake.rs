@@ -130,25 +130,15 @@ impl SharedRenders {
 }
 
 /// The whole character at frame `f` from its parts' renders: colour (alpha 255 where
-/// covered) and normal (alpha: the body part, 0 where nothing is), each pixel from the
-/// covering part nearest the camera (the lowest part number on a tie, as the first drawn
-/// wins a depth test).
+/// covered) and normal (alpha: the body part, 0 where nothing is), each pixel from
+/// [`crate::gpu::PartImages::front_part`].
 pub fn composite(images: &crate::gpu::PartImages, f: usize) -> (image::RgbaImage, image::RgbaImage) {
     let r = images.resolution;
     let mut color = image::RgbaImage::new(r, r);
     let mut normal = image::RgbaImage::new(r, r);
     for y in 0..r {
         for x in 0..r {
-            let mut best: Option<(f32, usize)> = None;
-            for p in 0..images.parts {
-                if images.covered(p, f, x, y) {
-                    let d = images.depth_at(p, f, x, y);
-                    if best.is_none_or(|(bd, _)| d < bd) {
-                        best = Some((d, p));
-                    }
-                }
-            }
-            if let Some((_, p)) = best {
+            if let Some(p) = images.front_part(f, x, y) {
                 let (ox, oy) = images.tile_origin(p, f);
                 color.put_pixel(x, y, *images.color.get_pixel(ox + x, oy + y));
                 let mut n = *images.normal.get_pixel(ox + x, oy + y);
