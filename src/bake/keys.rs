@@ -345,7 +345,6 @@ impl PartKeys<'_> {
 
 /// A candidate key for one part.
 struct Candidate {
-    part: usize,
     key: ExtraKey,
     /// Cut in squared error over all frames.
     gain: f64,
@@ -393,75 +392,171 @@ pub fn choose(
     let mut budget: f64 = keys.budget * parts.iter().flatten().map(|p| key_bytes(p.primary)).sum::<f64>();
     let mut active: Vec<bool> = parts.iter().map(Option::is_some).collect();
     let threshold = 10f64.powf(keys.min_gain_db / 10.0);
-    for _round in 1..max_keys {
-        let candidates: Vec<Option<Candidate>> = parts
-            .par_iter()
-            .enumerate()
-            .map(|(p, part)| {
-                let _keys = super::profile::root("key choice");
-                let part = part.as_ref()?;
-                if !active[p] || part.extra.len() + 1 >= max_keys {
-                    return None;
-                }
-                let a = assign(part.primary_sse, &part.extra, frames);
-                let cur = current(part.primary_sse, &part.extra, &a);
-                let total: f64 = cur.iter().sum();
-                // No key does better at a frame than the first key does at its own: if even
-                // that level everywhere would not buy the threshold, stop here.
-                let floor = part.primary_sse[part.primary.key_frame];
-                let best_case: f64 = cur.iter().map(|&e| e.min(floor)).sum();
-                if !(total > 0.0) || total <= best_case * threshold {
-                    return None;
-                }
-                let frame = (0..frames)
-                    .filter(|&f| !part.used(f))
-                    .max_by(|&x, &y| cur[x].total_cmp(&cur[y]))?;
-                // The key's image is about its frame's outline's bounds: not fitted at all
-                // when that is past what the view has left to spend.
-                if 0.9 * polygon_bytes(&part.targets[frame]) > budget {
-                    return None;
-                }
-                let key = part.try_key(frame, options)?;
-                let mut extra = part.extra.clone();
-                extra.push(key);
-                let after: f64 = current(part.primary_sse, &extra, &assign(part.primary_sse, &extra, frames))
-                    .iter()
-                    .sum();
-                if total < after * threshold {
-                    return None;
-                }
-                let key = extra.pop().expect("just pushed");
-                let bytes = key_bytes(&key.fit);
-                Some(Candidate {
-                    part: p,
-                    key,
-                    gain: total - after,
-                    bytes,
-                })
-            })
-            .collect();
-        let mut candidates: Vec<Candidate> = candidates.into_iter().flatten().collect();
-        for (p, a) in active.iter_mut().enumerate() {
-            *a = *a && candidates.iter().any(|c| c.part == p);
-        }
-        if candidates.is_empty() {
-            break;
-        }
-        candidates.sort_by(|a, b| (b.gain / b.bytes.max(1.0)).total_cmp(&(a.gain / a.bytes.max(1.0))));
-        for c in candidates {
-            if c.bytes > budget {
-                active[c.part] = false;
+    // Lazy greedy: every active part proposes its next key (the frame its keys fit worst)
+    // with an optimistic gain per byte, known before fitting; proposals are fitted, best
+    // estimate first, only until the best fitted one beats every estimate left, which is then
+    // taken. A part's proposal depends only on that part, so fitted proposals stay valid
+    // while other parts take keys; proposals the budget can no longer pay for are never
+    // fitted (fitting every part's proposal each round, a third of them were lost to the
+    // budget after fitting).
+    let mut proposals: Vec<Option<Proposal>> = parts.iter().map(|_| None).collect();
+    loop {
+        for (p, part) in parts.iter().enumerate() {
+            if !active[p] || proposals[p].is_some() {
                 continue;
             }
+            proposals[p] = part
+                .as_ref()
+                .and_then(|part| propose(part, max_keys, threshold, frames, budget));
+            active[p] = proposals[p].is_some();
+        }
+        // Proposals the budget no longer pays for: their parts are done.
+        for (p, prop) in proposals.iter_mut().enumerate() {
+            let over = prop.as_ref().is_some_and(|x| match &x.fitted {
+                Some(c) => c.bytes > budget,
+                None => x.min_bytes > budget,
+            });
+            if over {
+                *prop = None;
+                active[p] = false;
+            }
+        }
+        let best_fitted = (0..parts.len())
+            .filter_map(|p| {
+                let c = proposals[p].as_ref()?.fitted.as_ref()?;
+                Some((p, c.ratio()))
+            })
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        let mut unfitted: Vec<(usize, f64)> = (0..parts.len())
+            .filter_map(|p| {
+                let x = proposals[p].as_ref()?;
+                x.fitted.is_none().then_some((p, x.estimate))
+            })
+            .collect();
+        unfitted.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+        if let Some((p, ratio)) = best_fitted
+            && unfitted.first().is_none_or(|u| ratio >= u.1)
+        {
+            let c = proposals[p].take().and_then(|x| x.fitted).expect("a fitted proposal");
             budget -= c.bytes;
-            if let Some(part) = parts[c.part].as_mut() {
+            if let Some(part) = parts[p].as_mut() {
                 let mut key = c.key;
-                (key.key_color, key.key_normal) = images(c.part, key.frame);
+                (key.key_color, key.key_normal) = images(p, key.frame);
                 part.extra.push(key);
                 part.prune();
             }
+            continue;
+        }
+        if unfitted.is_empty() {
+            break;
+        }
+        // A fixed batch (not the thread count), so the choice is the same on every machine.
+        let batch: Vec<usize> = unfitted.iter().take(KEY_FIT_BATCH).map(|u| u.0).collect();
+        let fitted: Vec<Option<Candidate>> = batch
+            .par_iter()
+            .map(|&p| {
+                let _keys = super::profile::root("key choice");
+                let part = parts[p].as_ref()?;
+                let x = proposals[p].as_ref()?;
+                evaluate(part, x, options, threshold, frames)
+            })
+            .collect();
+        for (p, c) in batch.into_iter().zip(fitted) {
+            match c {
+                Some(c) => {
+                    if let Some(x) = proposals[p].as_mut() {
+                        x.fitted = Some(c);
+                    }
+                }
+                None => {
+                    proposals[p] = None;
+                    active[p] = false;
+                }
+            }
         }
     }
+}
+
+/// Proposals [`choose`] fits at once.
+const KEY_FIT_BATCH: usize = 2;
+
+/// A part's next key, before and after fitting.
+struct Proposal {
+    frame: usize,
+    /// The part's error over all frames with its keys so far.
+    total: f64,
+    /// The least bytes its image may take (about its frame's outline's bounds).
+    min_bytes: f64,
+    /// An optimistic gain per byte: every frame down to the first key's error at its own
+    /// frame, for `min_bytes`.
+    estimate: f64,
+    fitted: Option<Candidate>,
+}
+
+impl Candidate {
+    fn ratio(&self) -> f64 {
+        self.gain / self.bytes.max(1.0)
+    }
+}
+
+/// Part `part`'s next key to try, or `None` when it is done (its keys at `max_keys`, no key
+/// could buy `threshold`, or the key's image would be past the `budget` left).
+fn propose(part: &PartKeys<'_>, max_keys: usize, threshold: f64, frames: usize, budget: f64) -> Option<Proposal> {
+    if part.extra.len() + 1 >= max_keys {
+        return None;
+    }
+    let a = assign(part.primary_sse, &part.extra, frames);
+    let cur = current(part.primary_sse, &part.extra, &a);
+    let total: f64 = cur.iter().sum();
+    // No key does better at a frame than the first key does at its own: if even that level
+    // everywhere would not buy the threshold, stop here.
+    let floor = part.primary_sse[part.primary.key_frame];
+    let best_case: f64 = cur.iter().map(|&e| e.min(floor)).sum();
+    if !(total > 0.0) || total <= best_case * threshold {
+        return None;
+    }
+    let frame = (0..frames)
+        .filter(|&f| !part.used(f))
+        .max_by(|&x, &y| cur[x].total_cmp(&cur[y]))?;
+    // The key's image is about its frame's outline's bounds: not fitted at all when that is
+    // past what the view has left to spend.
+    let min_bytes = 0.9 * polygon_bytes(&part.targets[frame]);
+    if min_bytes > budget {
+        return None;
+    }
+    Some(Proposal {
+        frame,
+        total,
+        min_bytes,
+        estimate: (total - best_case) / min_bytes.max(1.0),
+        fitted: None,
+    })
+}
+
+/// Fits a proposal; `None` when it does not buy `threshold` (the part is then done).
+fn evaluate(
+    part: &PartKeys<'_>,
+    x: &Proposal,
+    options: &PartFitOptions,
+    threshold: f64,
+    frames: usize,
+) -> Option<Candidate> {
+    let key = part.try_key(x.frame, options)?;
+    let mut extra = part.extra.clone();
+    extra.push(key);
+    let after: f64 = current(part.primary_sse, &extra, &assign(part.primary_sse, &extra, frames))
+        .iter()
+        .sum();
+    if x.total < after * threshold {
+        return None;
+    }
+    let key = extra.pop().expect("just pushed");
+    let bytes = key_bytes(&key.fit);
+    Some(Candidate {
+        key,
+        gain: x.total - after,
+        bytes,
+    })
 }
 
 #[cfg(test)]
@@ -479,6 +574,11 @@ mod tests {
     /// (second half) while its outline stays put (drifting by 0.7 pixel a frame, so no warp
     /// is exact): no warp of one key image draws both halves.
     fn turning(frames: usize) -> Vec<PartTile> {
+        turning_by(frames, 1.0)
+    }
+
+    /// [`turning`], the second half's colour `change` of the way from red to blue.
+    fn turning_by(frames: usize, change: f32) -> Vec<PartTile> {
         (0..frames)
             .map(|f| {
                 let size = 48u32;
@@ -493,7 +593,11 @@ mod tests {
                             } else {
                                 0.5
                             };
-                            let (r, b) = if blue { (0.1, stripe) } else { (stripe, 0.1) };
+                            let (r, b) = if blue {
+                                (stripe + (0.1 - stripe) * change, 0.1 + (stripe - 0.1) * change)
+                            } else {
+                                (stripe, 0.1)
+                            };
                             [r, 0.2, b, 0.5, 0.5, 1.0, 1.0]
                         } else {
                             [0.0; 7]
@@ -628,5 +732,100 @@ mod tests {
         assert_eq!(extra.iter().map(|e| e.frame).collect::<Vec<_>>(), vec![6]);
         // An empty list: one key.
         assert!(chosen(frames, &KeyOptions::default(), Some(&[])).1.is_empty());
+    }
+
+    /// Several parts share one budget: a part that holds still proposes nothing, and when the
+    /// budget pays for one key only, the part whose key buys more per byte gets it (checked
+    /// against both candidates fitted directly).
+    #[test]
+    fn the_view_budget_goes_to_the_key_that_buys_most_per_byte() {
+        let frames = 8;
+        let options = PartFitOptions::default();
+        let still: Vec<PartTile> = (0..frames).map(|_| turning(frames)[0].clone()).collect();
+        let strong = turning_by(frames, 1.0);
+        let weak = turning_by(frames, 0.35);
+        let sets = [still, weak, strong];
+        let fits: Vec<PartFit> = sets
+            .iter()
+            .map(|t| crate::bake::part_fit::fit_part(t, 0, &options, &[]).unwrap())
+            .collect();
+        let sses: Vec<Vec<f64>> = sets
+            .iter()
+            .zip(&fits)
+            .map(|(t, fit)| {
+                (0..frames)
+                    .map(|f| sse(&draw_part(fit, &t[0], f, 48), &tile_canvas(&t[f])))
+                    .collect()
+            })
+            .collect();
+        let state = || -> Vec<Option<PartKeys<'_>>> {
+            (0..3)
+                .map(|i| {
+                    Some(PartKeys {
+                        tiles: &sets[i],
+                        targets: &fits[i].targets,
+                        primary: &fits[i],
+                        primary_sse: &sses[i],
+                        extra: Vec::new(),
+                    })
+                })
+                .collect()
+        };
+        let threshold = 10f64.powf(KeyOptions::default().min_gain_db / 10.0);
+        // Each part's candidate fitted on its own.
+        let probe = state();
+        let cands: Vec<Option<Candidate>> = probe
+            .iter()
+            .map(|p| {
+                let p = p.as_ref().unwrap();
+                let x = propose(p, 4, threshold, frames, f64::INFINITY)?;
+                evaluate(p, &x, &options, threshold, frames)
+            })
+            .collect();
+        assert!(cands[0].is_none(), "a still part proposes no key");
+        let (weak_c, strong_c) = (
+            cands[1].as_ref().expect("weak key"),
+            cands[2].as_ref().expect("strong key"),
+        );
+        let first: f64 = fits.iter().map(key_bytes).sum();
+        let blank = |_: usize, _: usize| (image::RgbaImage::new(1, 1), image::RgbaImage::new(1, 1));
+        // A budget for exactly one of the two keys (the larger), not both.
+        let one = weak_c.bytes.max(strong_c.bytes);
+        assert!(one < weak_c.bytes + strong_c.bytes);
+        let keys = KeyOptions {
+            budget: (one + 1.0) / first,
+            max_keys: 2,
+            ..KeyOptions::default()
+        };
+        let mut parts = state();
+        choose(&mut parts, &options, &keys, None, &blank);
+        let got: Vec<usize> = parts.iter().map(|p| p.as_ref().unwrap().extra.len()).collect();
+        let better = if strong_c.ratio() >= weak_c.ratio() { 2 } else { 1 };
+        let mut want = vec![0, 0, 0];
+        want[better] = 1;
+        assert_eq!(
+            got,
+            want,
+            "ratios: weak {}, strong {}",
+            weak_c.ratio(),
+            strong_c.ratio()
+        );
+        // Room for both: both get their key, and the still part none.
+        let roomy = KeyOptions {
+            budget: 4.0,
+            max_keys: 2,
+            ..KeyOptions::default()
+        };
+        let mut parts = state();
+        choose(&mut parts, &options, &roomy, None, &blank);
+        let got: Vec<usize> = parts.iter().map(|p| p.as_ref().unwrap().extra.len()).collect();
+        assert_eq!(got, vec![0, 1, 1]);
+        let spent: f64 = parts
+            .iter()
+            .flatten()
+            .flat_map(|p| p.extra.iter())
+            .map(|e| key_bytes(&e.fit))
+            .sum();
+        assert!(spent <= roomy.budget * first);
     }
 }
