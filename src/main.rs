@@ -1200,13 +1200,15 @@ fn bench_crowd(
     height: u32,
     json: bool,
 ) -> anyhow::Result<()> {
-    use polypostor::crowd::CrowdParams;
     use polypostor::crowd::lod::{Level, LodDistances, LodPolicy};
     use polypostor::crowd::scene::{CrowdAssets, CrowdScene, bench_camera};
     if counts.is_empty() || counts.iter().any(|&c| c == 0 || c > 1_000_000) || frames == 0 {
         anyhow::bail!("--counts must list crowd sizes from 1 to 1,000,000 and --frames must be at least 1");
     }
-    check_output_files(out, &["crowd_fps.png", "crowd_fps.json"])?;
+    let shots: Vec<String> = counts.iter().map(|c| format!("crowd_{c}.png")).collect();
+    let mut names = vec!["crowd_fps.png", "crowd_fps.json"];
+    names.extend(shots.iter().map(String::as_str));
+    check_output_files(out, &names)?;
     let ctx = polypostor::gpu::GpuContext::from_env()?;
     polypostor::limits::check_render_size(&ctx.device, width, height, "--width × --height")?;
     // Without --pack: a bake of the default character in a temporary folder, removed when
@@ -1225,15 +1227,7 @@ fn bench_crowd(
     let assets = CrowdAssets::load(&dir, character.as_deref(), None).map_err(|e| anyhow::anyhow!(e))?;
     let (device, queue) = (&ctx.device, &ctx.queue);
     let target = polypostor::gpu::RenderTarget::new(device, width, height);
-    let mut scene = CrowdScene::new(
-        device,
-        queue,
-        &assets,
-        CrowdParams {
-            count: counts[0],
-            ..Default::default()
-        },
-    )?;
+    let mut scene = CrowdScene::new(device, queue, &assets, assets.crowd_params(counts[0]))?;
     // Characters only: no ground, so each figure is the representation's own cost.
     scene.ground = false;
     let mut reps: Vec<(&str, LodPolicy)> = Level::ALL
@@ -1265,10 +1259,7 @@ fn bench_crowd(
     }
     let mut rows = Vec::new();
     for &count in counts {
-        scene.respawn(CrowdParams {
-            count,
-            ..Default::default()
-        });
+        scene.respawn(assets.crowd_params(count));
         let camera = bench_camera(&scene.crowd);
         let mut per_rep = Vec::new();
         for (name, policy) in &reps {
@@ -1295,6 +1286,18 @@ fn bench_crowd(
             }
             per_rep.push((name.to_string(), fps, last));
         }
+        // One frame of the three-level mix on its ground, to look at (the character at its
+        // real size, spacing and camera following it).
+        scene.ground = true;
+        let mix = LodPolicy::Mixed(LodDistances {
+            texels: assets.resolution() as f32,
+            ..Default::default()
+        });
+        scene.frame(device, queue, &target, &camera, &mix, 1.0 / 60.0, wgpu::Color::BLACK);
+        let shot = target.read_color(device, queue)?;
+        std::fs::create_dir_all(out)?;
+        polypostor::safe_fs::write_png(&out.join(format!("crowd_{count}.png")), &shot).map_err(anyhow::Error::msg)?;
+        scene.ground = false;
         let poly = per_rep.iter().find(|r| r.0 == "polypostor").map(|r| r.1);
         for (name, fps, last) in per_rep {
             let level = Level::ALL.iter().find(|l| l.name() == name);

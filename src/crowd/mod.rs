@@ -21,6 +21,61 @@ use grid::OccupancyGrid;
 use lod::{Level, LodPolicy};
 use rng::Rng;
 
+/// How big a character is, in metres (glTF's unit, after every node transform: a model
+/// authored in centimetres under a 0.01 root scale measures in metres here), over its clip.
+/// The crowd's spacing, walking speeds, culling, level-of-detail sizes, cameras and ground
+/// follow it, so a fox, a giant and a person each walk at their own scale.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CharacterSize {
+    /// The lowest point over the clip: the ground the character stands on.
+    pub ground_y: f32,
+    /// Top minus bottom over the clip.
+    pub height: f32,
+    /// The longer horizontal side of the bounds (a quadruped's body length).
+    pub length: f32,
+    /// Centre of the bounds over the clip, in the character's own frame.
+    pub centre: Vec3,
+    /// Radius of the sphere about `centre` that holds the character at every frame.
+    pub radius: f32,
+}
+
+impl CharacterSize {
+    /// Size of the reference character the crowd's defaults are made for: a 1.8 m person.
+    pub const REFERENCE_METRES: f32 = 1.8;
+
+    /// The reference person: 1.8 m tall, 0.8 m across, standing on y = 0.
+    pub fn reference() -> Self {
+        Self::from_bounds(Vec3::new(-0.4, 0.0, -0.4), Vec3::new(0.4, 1.8, 0.4))
+    }
+
+    /// From bounds over the clip (an empty or non-finite box gives the reference).
+    pub fn from_bounds(min: Vec3, max: Vec3) -> Self {
+        let size = max - min;
+        if !(min.is_finite() && max.is_finite()) || size.max_element() <= 0.0 {
+            return Self::reference();
+        }
+        Self {
+            ground_y: min.y,
+            height: size.y,
+            length: size.x.max(size.z),
+            centre: 0.5 * (min + max),
+            radius: 0.5 * size.length(),
+        }
+    }
+
+    /// Measured over `clip` (`None`: the rest pose), skinned at 16 times.
+    pub fn measure(character: &crate::character::Character, clip: Option<usize>) -> Self {
+        let (min, max) = crate::animation::clip_bounds(character, clip, 16);
+        Self::from_bounds(min, max)
+    }
+
+    /// The character's size against the reference person: its height or body length,
+    /// whichever is larger, over 1.8 m (never below 1e-6).
+    pub fn scale(&self) -> f32 {
+        (self.height.max(self.length) / Self::REFERENCE_METRES).max(1e-6)
+    }
+}
+
 /// How a crowd is laid out and moves.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CrowdParams {
@@ -31,10 +86,18 @@ pub struct CrowdParams {
     pub min_distance: f32,
     /// Walking speed range (m/s). Default value: 0.9..1.5.
     pub speed: (f32, f32),
+    /// Ground speed (m/s) at which the clip plays at its own rate; agents' animation rate
+    /// follows their speed against it. Default value: 1.2.
+    pub stride_speed: f32,
     /// Random heading change (rad/s, the spread of a random walk). Default value: 1.0.
     pub wander: f32,
-    /// Character height (metres) for culling and level of detail. Default value: 1.8.
+    /// World length (metres) the baked images' texels span along their height: a character
+    /// at distance `d` covers `height · focal_px / d` pixels of it, against the bake's
+    /// resolution in texels (level of detail). Default value: 1.8.
     pub height: f32,
+    /// The character's size: culling spheres, cameras and ground. Default value:
+    /// [`CharacterSize::reference`].
+    pub size: CharacterSize,
     pub seed: u64,
 }
 
@@ -45,10 +108,41 @@ impl Default for CrowdParams {
             density: 0.25,
             min_distance: 0.8,
             speed: (0.9, 1.5),
+            stride_speed: 1.2,
             wander: 1.0,
             height: 1.8,
+            size: CharacterSize::reference(),
             seed: 1,
         }
+    }
+}
+
+impl CrowdParams {
+    /// `count` agents of a character of `size`, laid out and moving as the defaults do for
+    /// the reference person, every length and speed scaled by [`CharacterSize::scale`] (a
+    /// character twice as big keeps twice the distance, walks twice as fast and covers four
+    /// times the ground, so the crowd looks the same at any size). `framing`: the world length
+    /// the baked images span (default: the character's bounding diameter).
+    pub fn for_character(count: usize, size: CharacterSize, framing: Option<f32>) -> Self {
+        let d = Self::default();
+        let s = size.scale();
+        Self {
+            count,
+            density: d.density / (s * s),
+            min_distance: d.min_distance * s,
+            speed: (d.speed.0 * s, d.speed.1 * s),
+            stride_speed: d.stride_speed * s,
+            height: framing
+                .filter(|f| f.is_finite() && *f > 0.0)
+                .unwrap_or(2.0 * size.radius),
+            size,
+            ..d
+        }
+    }
+
+    /// [`CharacterSize::scale`] of the character.
+    pub fn scale(&self) -> f32 {
+        self.size.scale()
     }
 }
 
@@ -174,10 +268,22 @@ pub struct Crowd {
 
 impl Crowd {
     pub fn new(params: CrowdParams) -> Self {
-        let c = params.min_distance.max(0.05);
+        // Lengths are the character's own (a mouse keeps millimetres apart): only a positive
+        // floor, no absolute one.
+        let c = if params.min_distance > 0.0 {
+            params.min_distance.min(1e15)
+        } else {
+            1e-6
+        };
+        let n = params.count.max(1) as f32;
         // The ground holds `count / density` square metres, and at least twice as many cells
         // as agents so everyone can move.
-        let area = (params.count as f32 / params.density.max(1e-3)).max(2.0 * params.count as f32 * c * c);
+        let density = if params.density > 0.0 { params.density } else { 1e-20 };
+        let area = (n / density).max(2.0 * n * c * c).min(f32::MAX / 4.0);
+        // A sparse crowd gets cells wider than the minimum distance (at most 64 per agent, so
+        // the grid stays in proportion to the crowd whatever the arguments); they are still
+        // far apart.
+        let c = c.max((area / (64.0 * n)).sqrt());
         let dim = ((area.sqrt() / c).ceil() as usize).max(2);
         let half_extent = 0.5 * dim as f32 * c;
         let mut grid = OccupancyGrid::new(dim, c, half_extent);
@@ -252,6 +358,7 @@ impl Crowd {
         let min2 = self.grid.cell * self.grid.cell;
         let limit = self.half_extent - 0.5 * self.grid.cell;
         let spread = self.params.wander * dt.sqrt();
+        let stride = self.params.stride_speed.max(1e-6);
         let a = &mut self.agents;
         for i in 0..a.pos.len() {
             // Turn by a small random angle (a rotation with the small-angle sine and cosine,
@@ -276,7 +383,7 @@ impl Crowd {
                 }
                 a.pos[i] = to;
                 a.facing[i] = d;
-                a.clock[i] += dt * a.rate[i] * a.speed[i] * (1.0 / 1.2);
+                a.clock[i] += dt * a.rate[i] * a.speed[i] / stride;
             } else {
                 // Turn away (a quarter to a half turn, either side) and try again next frame.
                 let turn = self.rng.range(0.5, 1.0) * std::f32::consts::PI;
@@ -301,13 +408,17 @@ impl Crowd {
         }
         let frustum = Frustum::from_clip_from_world(&camera.clip_from_world);
         let h = self.params.height;
-        let radius = 0.5 * h + 0.5 * self.params.min_distance;
+        // The character's bounding sphere over the clip (about its centre, turned with the
+        // agent: the horizontal offset is added to the radius instead).
+        let size = &self.params.size;
+        let offset = Vec2::new(size.centre.x, size.centre.z).length();
+        let radius = size.radius + offset + 0.5 * self.params.min_distance;
         let frames = clip.frames.max(1);
         let mut stats = FrameStats::default();
         let a = &mut self.agents;
         for i in 0..a.pos.len() {
             let p = a.pos[i];
-            let centre = Vec3::new(p.x, 0.5 * h, p.y);
+            let centre = Vec3::new(p.x, size.centre.y, p.y);
             if !frustum.sphere_visible(centre, radius) {
                 continue;
             }

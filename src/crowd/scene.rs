@@ -8,7 +8,7 @@ use std::time::Instant;
 use glam::Vec3;
 
 use super::lod::{Level, LodPolicy};
-use super::{ClipTiming, Crowd, CrowdCamera, CrowdParams, FrameStats};
+use super::{CharacterSize, ClipTiming, Crowd, CrowdCamera, CrowdParams, FrameStats};
 use crate::bake::viewpoints::ViewLookup;
 use crate::character::Character;
 use crate::gpu::{Camera, CrowdRenderers, GpuError, PolypostorStyle, RenderTarget};
@@ -24,6 +24,8 @@ pub struct CrowdAssets {
     pub labels: Vec<u32>,
     pub pack: Option<LoadedPack>,
     pub reps: Option<Representations>,
+    /// The character's size over the baked clip, in metres.
+    pub size: CharacterSize,
 }
 
 impl CrowdAssets {
@@ -123,6 +125,7 @@ impl CrowdAssets {
                 .map(|&l| l as u32)
                 .collect()
         });
+        let size = CharacterSize::measure(&c, clip);
         Ok(Self {
             character: c,
             character_path: path,
@@ -130,6 +133,7 @@ impl CrowdAssets {
             labels,
             pack,
             reps,
+            size,
         })
     }
 }
@@ -187,6 +191,32 @@ impl CrowdAssets {
             .as_ref()
             .map(|r| r.manifest.views.iter().map(|v| Vec3::from(v.direction)).collect())
             .unwrap_or_default()
+    }
+
+    /// World length the baked images span (twice the largest view's orthographic half
+    /// size), when there are baked images.
+    pub fn framing(&self) -> Option<f32> {
+        let half = match (&self.pack, &self.reps) {
+            (Some(p), _) => p
+                .manifest
+                .views
+                .iter()
+                .map(|v| v.camera.half_size)
+                .fold(0.0f32, f32::max),
+            (None, Some(r)) => r
+                .manifest
+                .views
+                .iter()
+                .map(|v| v.camera.half_size)
+                .fold(0.0f32, f32::max),
+            _ => 0.0,
+        };
+        (half > 0.0).then_some(2.0 * half)
+    }
+
+    /// A crowd of `count` of this character at its real size ([`CrowdParams::for_character`]).
+    pub fn crowd_params(&self, count: usize) -> CrowdParams {
+        CrowdParams::for_character(count, self.size, self.framing())
     }
 
     /// Texels of the baked images along the character's height (the LOD switch unit).
@@ -282,6 +312,8 @@ impl CrowdScene {
         let mut frame = self.crowd.frame(dt, &view, policy, &self.views, self.timing);
         let t = Instant::now();
         self.renderers.ground_half_extent = if self.ground { self.crowd.half_extent } else { 0.0 };
+        self.renderers.ground_y = self.crowd.params.size.ground_y;
+        self.renderers.ground_scale = self.crowd.params.scale();
         self.fall_back();
         for (n, list) in frame.per_level.iter_mut().zip(&self.crowd.instances) {
             *n = list.len();
@@ -319,18 +351,20 @@ impl CrowdScene {
     }
 }
 
-/// The camera of `bench sim` and `bench crowd`: at the edge of the crowd, 10 m up, looking
-/// across it.
+/// The camera of `bench crowd`: at the edge of the crowd, looking across it from 10 m up
+/// (for the reference person; scaled with the character).
 pub fn bench_camera(crowd: &Crowd) -> Camera {
-    let eye = Vec3::new(0.0, 10.0, -crowd.half_extent - 5.0);
+    let s = crowd.params.scale();
+    let ground = crowd.params.size.ground_y;
+    let eye = Vec3::new(0.0, ground + 10.0 * s, -crowd.half_extent - 5.0 * s);
     Camera {
         eye,
-        target: Vec3::ZERO,
+        target: Vec3::new(0.0, ground, 0.0),
         up: Vec3::Y,
         projection: crate::gpu::Projection::Perspective {
             fov_y_rad: 50f32.to_radians(),
         },
-        near: 0.1,
-        far: 4.0 * crowd.half_extent + 100.0,
+        near: 0.1 * s,
+        far: 4.0 * crowd.half_extent + 100.0 * s,
     }
 }

@@ -266,3 +266,91 @@ fn sort_by_view_groups_every_instance_under_its_view() {
         assert_eq!(found.frame, a.frame % 10);
     }
 }
+
+/// A crowd of a character `k` times bigger (or smaller) is the same crowd `k` times bigger:
+/// the same agents at `k` times the positions, the same frames, views and levels seen from a
+/// camera `k` times further away. Powers of two, so every product is exact in floating point
+/// and the two runs take the same random decisions.
+#[test]
+fn a_crowd_of_any_size_is_the_reference_crowd_scaled() {
+    let base = CharacterSize::from_bounds(Vec3::new(-0.3, 0.0, -0.2), Vec3::new(0.3, 1.75, 0.25));
+    let views = ViewLookup::new(&directions(137, Coverage::UpperHemisphere));
+    let clip = ClipTiming { frames: 12, fps: 10.0 };
+    let policy = LodPolicy::Mixed(LodDistances::default());
+    let run = |k: f32| {
+        let size = CharacterSize::from_bounds(Vec3::new(-0.3, 0.0, -0.2) * k, Vec3::new(0.3, 1.75, 0.25) * k);
+        assert_eq!(size.scale(), base.scale() * k);
+        let params = CrowdParams {
+            seed: 5,
+            ..CrowdParams::for_character(1500, size, Some(2.0 * k))
+        };
+        assert_eq!(
+            params.min_distance,
+            CrowdParams::default().min_distance * base.scale() * k
+        );
+        let mut crowd = Crowd::new(params);
+        let cam = camera(Vec3::new(3.0, 6.0, -40.0) * k, Vec3::new(0.0, 0.0, 0.0), 1600.0, 900.0);
+        let mut out = Vec::new();
+        for _ in 0..40 {
+            crowd.simulate(1.0 / 30.0);
+            crowd.select(&cam, &policy, &views, clip);
+            out.push(crowd.instances.clone());
+        }
+        (crowd.half_extent, out)
+    };
+    let (h1, one) = run(1.0);
+    assert!(
+        one.iter()
+            .any(|levels| levels.iter().filter(|l| !l.is_empty()).count() >= 2),
+        "one level only"
+    );
+    for k in [4.0f32, 1.0 / 64.0] {
+        let (hk, other) = run(k);
+        assert_eq!(hk, h1 * k);
+        for (a, b) in one.iter().zip(&other) {
+            for (la, lb) in a.iter().zip(b) {
+                assert_eq!(la.len(), lb.len(), "scale {k}");
+                for (x, y) in la.iter().zip(lb) {
+                    assert_eq!([x.pos[0] * k, x.pos[1] * k], y.pos, "scale {k}");
+                    assert_eq!(
+                        (x.view, x.frame, x.facing, x.variant),
+                        (y.view, y.frame, y.facing, y.variant)
+                    );
+                    assert!(
+                        (x.blend - y.blend).abs() < 1e-4,
+                        "scale {k}: {} against {}",
+                        x.blend,
+                        y.blend
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// The reference person's sizes give the crowd's defaults; the default character measures
+/// about as tall as a person and stands on the ground.
+#[test]
+fn the_reference_person_keeps_the_defaults_and_the_default_character_measures_right() {
+    let p = CrowdParams::for_character(1000, CharacterSize::reference(), Some(1.8));
+    let d = CrowdParams::default();
+    assert_eq!(
+        (p.density, p.min_distance, p.speed, p.stride_speed),
+        (d.density, d.min_distance, d.speed, d.stride_speed)
+    );
+    let c = crate::default_character::generate();
+    let clip = c.find_clip("Walk");
+    let size = CharacterSize::measure(&c, clip);
+    assert!((1.4..2.2).contains(&size.height), "{size:?}");
+    assert!(size.ground_y.abs() < 0.1, "{size:?}");
+    assert!((0.75..1.25).contains(&size.scale()), "{size:?}");
+    // Nonsense bounds fall back to the reference instead of a zero or infinite size.
+    assert_eq!(
+        CharacterSize::from_bounds(Vec3::ZERO, Vec3::ZERO),
+        CharacterSize::reference()
+    );
+    assert_eq!(
+        CharacterSize::from_bounds(Vec3::splat(f32::NAN), Vec3::ONE),
+        CharacterSize::reference()
+    );
+}

@@ -11,7 +11,6 @@ use std::time::Instant;
 use eframe::egui_wgpu::{self, wgpu};
 use glam::Vec3;
 
-use polypostor::crowd::CrowdParams;
 use polypostor::crowd::lod::{Level, LodDistances, LodPolicy};
 use polypostor::crowd::scene::{CrowdAssets, CrowdScene};
 use polypostor::gpu::{Camera, RenderTarget};
@@ -262,6 +261,18 @@ impl CrowdPanel {
                     ),
                 ));
                 self.lod.texels = assets.resolution() as f32;
+                // The view follows the character's real size: a mouse is looked at from
+                // centimetres, a giant from hundreds of metres (the same picture).
+                let s = assets.size.scale();
+                let first = self.assets.is_none();
+                let rescaled = self
+                    .assets
+                    .as_ref()
+                    .is_some_and(|(_, a)| (a.size.scale() / s - 1.0).abs() > 0.01);
+                if first || rescaled {
+                    self.camera.distance = 40.0 * s;
+                    self.camera.target = Vec3::new(0.0, assets.size.ground_y, 0.0);
+                }
                 self.assets = Some((self.next_generation, Arc::new(assets)));
                 self.next_generation += 1;
                 self.folder = Some(folder);
@@ -454,15 +465,20 @@ impl CrowdPanel {
             });
             let forward = Vec3::new(-self.camera.yaw_rad.sin(), 0.0, -self.camera.yaw_rad.cos());
             let right = forward.cross(Vec3::Y);
-            // Half the viewing distance per second: slow up close, quick over a big crowd.
-            let speed = (0.5 * self.camera.distance).clamp(2.0, 200.0) * dt;
+            // Half the viewing distance per second: slow up close, quick over a big crowd
+            // (bounds in the character's own size).
+            let (scale, ground) = self
+                .assets
+                .as_ref()
+                .map_or((1.0, 0.0), |(_, a)| (a.size.scale(), a.size.ground_y));
+            let speed = (0.5 * self.camera.distance).clamp(2.0 * scale, 200.0 * scale) * dt;
             let mut step = Vec3::ZERO;
             step += forward * (w as i32 - s as i32) as f32;
             step += right * (d as i32 - a as i32) as f32;
             step += Vec3::Y * (e as i32 - q as i32) as f32;
             self.camera.target += step * speed;
             // Never under the ground.
-            self.camera.target.y = self.camera.target.y.clamp(0.0, 1000.0);
+            self.camera.target.y = self.camera.target.y.clamp(ground, ground + 1000.0 * scale);
         }
         let Some((generation, assets)) = &self.assets else {
             ui.painter().text(
@@ -539,10 +555,7 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
             return Vec::new();
         };
         let [w, h] = [self.size_px[0].max(1), self.size_px[1].max(1)];
-        let params = CrowdParams {
-            count: self.count,
-            ..Default::default()
-        };
+        let params = self.assets.crowd_params(self.count);
         let stale = res.crowd.as_ref().is_none_or(|c| c.generation != self.generation);
         if stale {
             res.crowd = None;

@@ -82,7 +82,7 @@ impl OrbitCamera {
     }
 
     pub fn zoom(&mut self, wheel: f32) {
-        self.distance = (self.distance * (-wheel * 0.0015).exp()).clamp(0.05, 3000.0);
+        self.distance = (self.distance * (-wheel * 0.0015).exp()).clamp(1e-3, 1e5);
     }
 
     /// Applies the pointer input of the viewport's response; `primary_orbits` false leaves

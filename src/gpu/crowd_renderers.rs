@@ -917,6 +917,12 @@ pub struct CrowdRenderers {
     ground: Ground,
     /// Half the side of the ground square drawn under the crowd (0: no ground).
     pub ground_half_extent: f32,
+    /// Height of the ground plane (the character's lowest point). Default value: 0.
+    pub ground_y: f32,
+    /// Size of the characters against a 1.8 m person: the ground's margin and its grid lines
+    /// (2 m and 10 m for a person, the nearest power of ten times that otherwise). Default
+    /// value: 1.
+    pub ground_scale: f32,
 }
 
 impl CrowdRenderers {
@@ -974,6 +980,8 @@ impl CrowdRenderers {
             counts: [0; Level::COUNT],
             ground: Ground::new(device),
             ground_half_extent: 0.0,
+            ground_y: 0.0,
+            ground_scale: 1.0,
         })
     }
 
@@ -1030,7 +1038,17 @@ impl CrowdRenderers {
         for l in Level::ALL {
             self.counts[l as usize] = if self.has(l) { instances[l as usize].len() } else { 0 };
         }
-        let u = crowd_uniform(clip_from_world, style, [self.ground_half_extent, 0.0, 0.0, 0.0], [0; 4]);
+        let u = crowd_uniform(
+            clip_from_world,
+            style,
+            [
+                self.ground_half_extent,
+                self.ground_y,
+                self.ground_scale.max(1e-6),
+                10f32.powf(self.ground_scale.max(1e-6).log10().round()),
+            ],
+            [0; 4],
+        );
         queue.write_buffer(&self.ground.frame, 0, bytemuck::bytes_of(&u));
     }
 

@@ -145,15 +145,7 @@ pub struct Renders<'a> {
 impl<'a> Renders<'a> {
     pub fn new(ctx: &'a GpuContext, assets: &'a CrowdAssets) -> Result<Self, GpuError> {
         let (device, queue) = (&ctx.device, &ctx.queue);
-        let scene = crate::crowd::scene::CrowdScene::new(
-            device,
-            queue,
-            assets,
-            crate::crowd::CrowdParams {
-                count: 0,
-                ..Default::default()
-            },
-        )?;
+        let scene = crate::crowd::scene::CrowdScene::new(device, queue, assets, assets.crowd_params(0))?;
         let levels: Vec<Level> = Level::ALL.iter().copied().filter(|l| scene.renderers.has(*l)).collect();
         let cameras: Vec<crate::pack::PackCamera> = match (&assets.pack, &assets.reps) {
             (Some(p), _) => p.manifest.views.iter().map(|v| v.camera.clone()).collect(),
