@@ -230,7 +230,14 @@ impl CrowdPanel {
             rx,
         });
         std::thread::spawn(move || {
-            let r = CrowdAssets::load(&folder, character.as_deref(), None).map(|a| (folder, a, None));
+            // The open character first; a folder baked from another character (its clip or
+            // frames do not match) opens with the character it names.
+            let r = CrowdAssets::load(&folder, character.as_deref(), None)
+                .or_else(|e| match character {
+                    Some(_) => CrowdAssets::load(&folder, None, None).map_err(|_| e),
+                    None => Err(e),
+                })
+                .map(|a| (folder, a, None));
             let _ = tx.send(r);
         });
     }
@@ -421,6 +428,28 @@ impl CrowdPanel {
                 );
                 row(ui, "draw calls", stats.draw_calls.to_string());
                 row(ui, "agents / visible", format!("{} / {}", stats.agents, stats.visible));
+                // The size the crowd follows (measured over the clip, in the file's metres).
+                let p = assets.crowd_params(stats.agents);
+                row(
+                    ui,
+                    "character",
+                    format!(
+                        "{} tall, {} long (×{:.2} a 1.8 m person)",
+                        metres(assets.size.height),
+                        metres(assets.size.length),
+                        p.scale()
+                    ),
+                );
+                row(
+                    ui,
+                    "spacing / speed",
+                    format!(
+                        "{} apart, {}–{} /s",
+                        metres(p.min_distance),
+                        metres(p.speed.0),
+                        metres(p.speed.1)
+                    ),
+                );
             });
         ui.add_space(4.0);
         egui::Grid::new("crowd levels")
@@ -639,5 +668,19 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
         };
         let Some(crowd) = &res.crowd else { return };
         res.blit(pass, &crowd.blit, true);
+    }
+}
+
+/// A length for people to read: mm, cm, m or km as its size asks.
+fn metres(x: f32) -> String {
+    let a = x.abs();
+    if a < 0.01 {
+        format!("{:.1} mm", x * 1000.0)
+    } else if a < 1.0 {
+        format!("{:.1} cm", x * 100.0)
+    } else if a < 1000.0 {
+        format!("{x:.2} m")
+    } else {
+        format!("{:.2} km", x / 1000.0)
     }
 }
