@@ -8,6 +8,9 @@ scale F is added (a model F times larger)."""
 import json, struct, sys
 src, dst, F = sys.argv[1], sys.argv[2], float(sys.argv[3])
 giant = '--giant' in sys.argv
+import os
+if os.path.exists(dst):
+    sys.exit(f'{dst} exists: choose a new path (nothing is overwritten)')
 data = open(src, 'rb').read()
 magic, ver, length = struct.unpack_from('<III', data, 0)
 off = 12; js = None; bin_ = b''
