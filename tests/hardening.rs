@@ -875,3 +875,42 @@ fn a_closed_pipe_ends_the_command_quietly() {
         );
     }
 }
+
+/// The default character under a root node scaled by `k` (a GLB written for the test).
+fn scaled_default(k: f32) -> Vec<u8> {
+    let c = polypostor::default_character::generate();
+    let glb = polypostor::gltf_write::write_glb(&c).unwrap();
+    let (mut json, bin) = polypostor::gltf_write::glb_parts(&glb).unwrap();
+    let scene = json["scene"].as_u64().unwrap_or(0) as usize;
+    let roots = json["scenes"][scene]["nodes"].clone();
+    let nodes = json["nodes"].as_array_mut().unwrap();
+    nodes.push(serde_json::json!({"name": "UnitRoot", "scale": [k, k, k], "children": roots}));
+    let root = nodes.len() - 1;
+    json["scenes"][scene]["nodes"] = serde_json::json!([root]);
+    polypostor::gltf_write::glb_container(&json, &bin).unwrap()
+}
+
+/// A character 100× too big (a model in centimetres exported without its unit scale) or
+/// 1000× too small imports with a warning naming its size, and the crowd measures it at the
+/// size the file gives: a person-sized character has no warning.
+#[test]
+fn characters_of_implausible_size_are_reported_and_measured_as_the_file_says() {
+    let person = polypostor::import::import_slice(&scaled_default(1.0), None, "person").unwrap();
+    assert!(person.warnings.is_empty(), "{:?}", person.warnings);
+    let size = |c: &polypostor::character::Character| polypostor::crowd::CharacterSize::measure(c, c.find_clip("Walk"));
+    let base = size(&person);
+    for (k, unit) in [(100.0f32, " m across"), (0.001, " mm across")] {
+        let c = polypostor::import::import_slice(&scaled_default(k), None, "scaled").unwrap();
+        assert!(
+            c.warnings.iter().any(|w| w.contains(unit) && w.contains("metres")),
+            "scale {k}: {:?}",
+            c.warnings
+        );
+        let s = size(&c);
+        assert!(
+            (s.height / base.height - k).abs() < 1e-3 * k,
+            "scale {k}: {s:?} against {base:?}"
+        );
+        assert!((s.scale() / base.scale() - k).abs() < 1e-3 * k);
+    }
+}

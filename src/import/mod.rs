@@ -853,7 +853,7 @@ impl Builder<'_> {
 
         let clips = self.clips(&node_map, any_skin)?;
         let name = scene_name(root).unwrap_or_else(|| name.to_string());
-        Ok(Character {
+        let mut character = Character {
             name,
             vertices,
             indices,
@@ -864,7 +864,15 @@ impl Builder<'_> {
             bones,
             clips,
             warnings: self.warnings,
-        })
+        };
+        // Measured skinned in the rest pose (a skinned mesh's own node transform does not
+        // apply; its joints' do).
+        if let Some(w) = size_warning(crate::animation::clip_bounds(&character, None, 2)) {
+            if !character.warnings.contains(&w) {
+                character.warnings.push(w);
+            }
+        }
+        Ok(character)
     }
 
     fn material(
@@ -1183,5 +1191,33 @@ fn compute_normals(vertices: &mut [Vertex], indices: &[u32], base: u32) {
     }
     for (v, n) in vertices.iter_mut().zip(acc) {
         v.normal = n.normalize_or(Vec3::Y);
+    }
+}
+
+/// Largest extent (metres) above which a character is reported as probably made in other units.
+pub const HUGE_METRES: f32 = 50.0;
+/// Largest extent (metres) below which a character is reported as probably made in other units.
+pub const TINY_METRES: f32 = 0.01;
+
+/// A warning for a character whose bind-pose bounds are implausibly large or small for
+/// something that walks in a crowd: glTF lengths are metres, and the crowd shows a character
+/// at that size, so a model exported in centimetres without its 0.01 scale comes out 100×
+/// too big.
+fn size_warning((min, max): (glam::Vec3, glam::Vec3)) -> Option<String> {
+    let extent = (max - min).max_element();
+    if !extent.is_finite() {
+        return None;
+    }
+    if extent > HUGE_METRES {
+        Some(format!(
+            "the character is {extent:.0} m across: glTF lengths are metres and the crowd shows it at that size; if it was made in centimetres, export it with a 0.01 scale on its root node"
+        ))
+    } else if extent > 0.0 && extent < TINY_METRES {
+        Some(format!(
+            "the character is {:.2} mm across: glTF lengths are metres and the crowd shows it at that size; check the exporter's unit scale",
+            extent * 1000.0
+        ))
+    } else {
+        None
     }
 }
