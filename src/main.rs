@@ -1299,8 +1299,30 @@ fn bench_crowd(
         polypostor::safe_fs::write_png(&out.join(format!("crowd_{count}.png")), &shot).map_err(anyhow::Error::msg)?;
         scene.ground = false;
         let poly = per_rep.iter().find(|r| r.0 == "polypostor").map(|r| r.1);
+        // GPU bytes per representation: the impostor level alone draws the full-resolution
+        // sheets, the mix its far characters from the quarter-resolution ones.
+        let r = &scene.renderers;
+        let mix_bytes = r.gpu_bytes(Level::Skinned)
+            + r.polypostor.as_ref().map_or(0, |p| p.gpu_bytes)
+            + r.far_impostor.as_ref().map_or(0, |p| p.gpu_bytes);
+        let bytes_of = |name: &str| -> Option<u64> {
+            match name {
+                "impostor" => r.impostor.as_ref().map(|p| p.gpu_bytes),
+                "mixed" => Some(mix_bytes),
+                _ => Level::ALL.iter().find(|l| l.name() == name).map(|l| r.gpu_bytes(*l)),
+            }
+        };
+        if !json && let Some(poly) = r.polypostor.as_ref().map(|p| p.gpu_bytes) {
+            eprintln!(
+                "  {count:>7} GPU memory: mix {:.1} MB ({:.2}× the Polypostor's {:.1} MB; far impostors {:.1} MB, full-resolution impostors {:.1} MB)",
+                mix_bytes as f64 / 1e6,
+                mix_bytes as f64 / poly.max(1) as f64,
+                poly as f64 / 1e6,
+                r.far_impostor.as_ref().map_or(0, |p| p.gpu_bytes) as f64 / 1e6,
+                r.impostor.as_ref().map_or(0, |p| p.gpu_bytes) as f64 / 1e6,
+            );
+        }
         for (name, fps, last) in per_rep {
-            let level = Level::ALL.iter().find(|l| l.name() == name);
             rows.push(serde_json::json!({
                 "representation": name,
                 "count": count,
@@ -1309,7 +1331,7 @@ fn bench_crowd(
                 "polypostor_over_this": poly.map(|p| p / fps),
                 "visible": last.frame.visible,
                 "draw_calls": last.draw_calls,
-                "gpu_bytes": level.map(|l| scene.renderers.gpu_bytes(*l)),
+                "gpu_bytes": bytes_of(&name),
             }));
         }
     }

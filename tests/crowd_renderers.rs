@@ -95,7 +95,8 @@ fn every_representation_draws_close_to_the_mesh() {
 
     let labels: Vec<u32> = seg.labels.iter().map(|&l| l as u32).collect();
     let timing = ClipTiming { frames, fps: 10.0 };
-    let mut crowd = CrowdRenderers::new(device, queue, &c, Some(0), &labels, None, Some(&loaded), timing).unwrap();
+    let mut crowd =
+        CrowdRenderers::new(device, queue, &c, Some(0), &labels, None, Some(&loaded), timing, true).unwrap();
     for level in [Level::Skinned, Level::Rigid, Level::Impostor, Level::Np3d] {
         assert!(crowd.has(level), "{level:?}");
         assert!(crowd.gpu_bytes(level) > 0, "{level:?}");
@@ -180,6 +181,73 @@ fn every_representation_draws_close_to_the_mesh() {
                 "view {v}, {level:?}, blend {blend}: colour difference {diff}"
             );
         }
+    }
+
+    // Far impostors (quarter-resolution colour, eighth-resolution normals) where the mix
+    // draws them: the character 32 pixels across, a quarter of a screen pixel per baked
+    // texel. They must draw about as close to the mesh as the full-resolution sheets do
+    // there, from a sixteenth of the memory or less.
+    let far = crowd.far_impostor.as_ref().expect("far impostors").gpu_bytes;
+    let full = crowd.impostor.as_ref().expect("full impostors").gpu_bytes;
+    assert!(far * 10 < full, "far {far} B against full {full} B");
+    let small = RenderTarget::new(device, 32, 32);
+    for (v, view) in loaded.manifest.views.iter().enumerate() {
+        let cam = &view.camera;
+        let camera = cam.to_camera(cam.half_size * 4.0, cam.half_size, cam.half_size * 8.0);
+        renderer.render(
+            device,
+            queue,
+            &small,
+            &mut mesh,
+            &c,
+            &Pose::sample_index(&c, Some(0), frame as f32 / 10.0),
+            SkinningMode::Gpu,
+            &camera,
+            &DrawOptions {
+                shading: Shading::Unlit,
+                ..Default::default()
+            },
+        );
+        let truth_color = small.read_color(device, queue).unwrap();
+        let truth = mask(&small.read_normal(device, queue).unwrap());
+        let mut instances: [Vec<Instance>; Level::COUNT] = Default::default();
+        instances[Level::Impostor as usize].push(Instance {
+            pos: [0.0, 0.0],
+            facing: [0.0, 1.0],
+            view: v as u32,
+            frame: frame as u32,
+            blend: 0.0,
+            variant: 7,
+        });
+        let mut got = Vec::new();
+        for use_far in [false, true] {
+            crowd.use_far_impostors = use_far;
+            crowd.render(
+                device,
+                queue,
+                &small,
+                camera.clip_from_world(1.0),
+                &style,
+                &instances,
+                wgpu::Color::TRANSPARENT,
+            );
+            let color = small.read_color(device, queue).unwrap();
+            let drawn = mask(&small.read_normal(device, queue).unwrap());
+            got.push(compare(&truth_color, &truth, &color, &drawn));
+        }
+        crowd.use_far_impostors = false;
+        let ((full_iou, full_diff), (far_iou, far_diff)) = (got[0], got[1]);
+        eprintln!(
+            "view {v} at 32 px: full impostor IoU {full_iou:.3} / {full_diff:.1}, far IoU {far_iou:.3} / {far_diff:.1}"
+        );
+        assert!(
+            far_iou > full_iou - 0.06,
+            "view {v}: far IoU {far_iou} against full {full_iou}"
+        );
+        assert!(
+            far_diff < full_diff + 6.0,
+            "view {v}: far colour {far_diff} against full {full_diff}"
+        );
     }
 
     // Per-part tints agree across levels: the impostor and the skinned mesh of the same

@@ -250,11 +250,25 @@ pub struct CrowdScene {
 }
 
 impl CrowdScene {
+    /// A crowd with every representation loaded (full-resolution impostors included).
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         assets: &CrowdAssets,
         params: CrowdParams,
+    ) -> Result<Self, GpuError> {
+        Self::with_impostors(device, queue, assets, params, true)
+    }
+
+    /// [`CrowdScene::new`], with the full-resolution impostor sheets only when
+    /// `full_impostors` (the mix draws far characters from quarter-resolution sheets, always
+    /// loaded; the impostor level on its own needs the full ones).
+    pub fn with_impostors(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        assets: &CrowdAssets,
+        params: CrowdParams,
+        full_impostors: bool,
     ) -> Result<Self, GpuError> {
         let timing = assets.timing();
         let renderers = CrowdRenderers::new(
@@ -266,6 +280,7 @@ impl CrowdScene {
             assets.pack.as_ref(),
             assets.reps.as_ref(),
             timing,
+            full_impostors,
         )?;
         Ok(Self {
             crowd: Crowd::new(params),
@@ -310,6 +325,8 @@ impl CrowdScene {
             focal_px: target.height as f32 / (2.0 * (fov / 2.0).tan()),
         };
         let mut frame = self.crowd.frame(dt, &view, policy, &self.views, self.timing);
+        // The mix draws its far characters from the quarter-resolution impostors.
+        self.renderers.use_far_impostors = matches!(policy, LodPolicy::Mixed(_));
         let t = Instant::now();
         self.renderers.ground_half_extent = if self.ground { self.crowd.half_extent } else { 0.0 };
         self.renderers.ground_y = self.crowd.params.size.ground_y;

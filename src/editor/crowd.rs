@@ -585,10 +585,16 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
         };
         let [w, h] = [self.size_px[0].max(1), self.size_px[1].max(1)];
         let params = self.assets.crowd_params(self.count);
-        let stale = res.crowd.as_ref().is_none_or(|c| c.generation != self.generation);
+        // Full-resolution impostor sheets only for the impostor level on its own (the mix
+        // draws far characters from quarter-resolution ones): loaded when first asked for.
+        let full = matches!(self.policy, LodPolicy::Only(Level::Impostor));
+        let stale = res
+            .crowd
+            .as_ref()
+            .is_none_or(|c| c.generation != self.generation || (full && !c.scene.renderers.has_full_impostors()));
         if stale {
             res.crowd = None;
-            match CrowdScene::new(device, queue, &self.assets, params.clone()) {
+            match CrowdScene::with_impostors(device, queue, &self.assets, params.clone(), full) {
                 Ok(scene) => {
                     let target = res.new_target(device, w, h);
                     let blit = res.blit_group(device, &target);

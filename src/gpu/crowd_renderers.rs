@@ -761,6 +761,16 @@ impl GpuImpostors {
         let data = reps.impostor.as_ref().ok_or_else(|| {
             GpuError::Unsupported("no impostors were baked (bake with --representation impostor)".into())
         })?;
+        Self::from_sheets(device, queue, reps, data)
+    }
+
+    /// Impostors of `reps`' views drawn from `data` (its sheets, or a downsampled copy).
+    pub fn from_sheets(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        reps: &Representations,
+        data: &crate::reps::ImpostorData,
+    ) -> Result<Self, GpuError> {
         let (color, cb) = texture_array(
             device,
             queue,
@@ -907,11 +917,24 @@ impl Ground {
     }
 }
 
+/// Downsampling of the far impostors' sheets: the three-level mix draws impostors only below
+/// a quarter of a screen pixel per baked texel (`LodDistances::impostor_below`), where a
+/// quarter of the texels along each side still gives one texel a pixel. Their normal sheets
+/// are downsampled twice as much (lighting is smoother than colour).
+pub const FAR_IMPOSTOR_FACTOR: u32 = 4;
+
 /// Every representation of one character, ready to draw a crowd's per-level instances.
 pub struct CrowdRenderers {
     pub meshes: GpuMeshCrowd,
     pub polypostor: Option<GpuPolypostors>,
+    /// Impostors at the baked resolution (the impostor level on its own; loaded on request).
     pub impostor: Option<GpuImpostors>,
+    /// Impostors at `1 / FAR_IMPOSTOR_FACTOR` of the baked resolution: what the three-level
+    /// mix draws its far characters with.
+    pub far_impostor: Option<GpuImpostors>,
+    /// Draw the impostor level with [`CrowdRenderers::far_impostor`] (the mix) rather than
+    /// the full-resolution sheets. Default value: false.
+    pub use_far_impostors: bool,
     pub np3d: Option<GpuNp3d>,
     counts: [usize; Level::COUNT],
     ground: Ground,
@@ -927,8 +950,9 @@ pub struct CrowdRenderers {
 
 impl CrowdRenderers {
     /// Builds what the inputs allow: meshes always (skinned; rigid when `reps` has rigid
-    /// frames), the Polypostor from `pack`, impostors and NP3D from `reps`. Frames and rate
-    /// come from the pack, else from `reps`, else `fallback`.
+    /// frames), the Polypostor from `pack`, impostors (far ones always, full-resolution ones
+    /// when `full_impostors`) and NP3D from `reps`. Frames and rate come from the pack, else
+    /// from `reps`, else `fallback`.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         device: &wgpu::Device,
@@ -939,6 +963,7 @@ impl CrowdRenderers {
         pack: Option<&crate::pack::LoadedPack>,
         reps: Option<&Representations>,
         fallback: crate::crowd::ClipTiming,
+        full_impostors: bool,
     ) -> Result<Self, GpuError> {
         let timing = pack
             .map(|p| crate::crowd::ClipTiming {
@@ -970,9 +995,21 @@ impl CrowdRenderers {
             meshes,
             polypostor: pack.map(|p| GpuPolypostors::new(device, queue, p)).transpose()?,
             impostor: reps
-                .filter(|r| r.impostor.is_some())
+                .filter(|r| full_impostors && r.impostor.is_some())
                 .map(|r| GpuImpostors::new(device, queue, r))
                 .transpose()?,
+            far_impostor: reps
+                .and_then(|r| r.impostor.as_ref().map(|d| (r, d)))
+                .map(|(r, d)| {
+                    GpuImpostors::from_sheets(
+                        device,
+                        queue,
+                        r,
+                        &d.downsampled_split(FAR_IMPOSTOR_FACTOR, 2 * FAR_IMPOSTOR_FACTOR),
+                    )
+                })
+                .transpose()?,
+            use_far_impostors: false,
             np3d: reps
                 .filter(|r| r.np3d.is_some())
                 .map(|r| GpuNp3d::new(device, queue, r, &parts))
@@ -991,9 +1028,24 @@ impl CrowdRenderers {
             Level::Skinned => true,
             Level::Rigid => self.meshes.has_rigid(),
             Level::Polypostor => self.polypostor.is_some(),
-            Level::Impostor => self.impostor.is_some(),
+            Level::Impostor => self.impostor.is_some() || self.far_impostor.is_some(),
             Level::Np3d => self.np3d.is_some(),
         }
+    }
+
+    /// The impostors the impostor level draws with: the far ones for the mix (or when the
+    /// full-resolution ones are not loaded), else the full-resolution ones.
+    fn impostors(&self) -> Option<&GpuImpostors> {
+        if self.use_far_impostors || self.impostor.is_none() {
+            self.far_impostor.as_ref().or(self.impostor.as_ref())
+        } else {
+            self.impostor.as_ref()
+        }
+    }
+
+    /// Whether the full-resolution impostor sheets are on the GPU.
+    pub fn has_full_impostors(&self) -> bool {
+        self.impostor.is_some()
     }
 
     /// Bytes on the GPU per level (0 where it is not loaded).
@@ -1003,7 +1055,7 @@ impl CrowdRenderers {
             Level::Rigid if self.meshes.has_rigid() => self.meshes.rigid_bytes,
             Level::Rigid => 0,
             Level::Polypostor => self.polypostor.as_ref().map_or(0, |p| p.gpu_bytes),
-            Level::Impostor => self.impostor.as_ref().map_or(0, |p| p.gpu_bytes),
+            Level::Impostor => self.impostors().map_or(0, |p| p.gpu_bytes),
             Level::Np3d => self.np3d.as_ref().map_or(0, |p| p.gpu_bytes),
         }
     }
@@ -1029,7 +1081,13 @@ impl CrowdRenderers {
         if let Some(p) = &mut self.polypostor {
             p.prepare(device, queue, clip_from_world, style, n(Level::Polypostor));
         }
-        if let Some(p) = &mut self.impostor {
+        let far = self.use_far_impostors || self.impostor.is_none();
+        let used = if far {
+            self.far_impostor.as_mut().or(self.impostor.as_mut())
+        } else {
+            self.impostor.as_mut()
+        };
+        if let Some(p) = used {
             p.prepare(device, queue, clip_from_world, style, n(Level::Impostor));
         }
         if let Some(p) = &mut self.np3d {
@@ -1066,7 +1124,7 @@ impl CrowdRenderers {
         if let Some(p) = &self.polypostor {
             calls += p.draw(pass, c(Level::Polypostor));
         }
-        if let Some(p) = &self.impostor {
+        if let Some(p) = self.impostors() {
             calls += p.draw(pass, c(Level::Impostor));
         }
         if let Some(p) = &self.np3d {

@@ -163,6 +163,108 @@ pub struct ImpostorData {
     pub normal: Vec<image::RgbaImage>,
 }
 
+impl ImpostorData {
+    /// The sheets at `1/factor` of their resolution, for far characters (the three-level
+    /// mix draws impostors only below a quarter of a screen pixel per baked texel, so a
+    /// quarter of the texels loses nothing there). Each `factor × factor` block becomes one
+    /// texel: colour averaged with premultiplied alpha (coverage is the block's mean alpha,
+    /// so the silhouette keeps where at least half the block is covered); normals averaged
+    /// over the block's covered texels and renormalised; the body part in the normal's alpha
+    /// is the one most of the covered texels have (a part number is not averaged). Sheets
+    /// whose sides `factor` does not divide, or a factor below 2, are kept as they are.
+    pub fn downsampled(&self, factor: u32) -> ImpostorData {
+        self.downsampled_split(factor, factor)
+    }
+
+    /// [`ImpostorData::downsampled`] with the colour sheets at `1/color_factor` and the normal
+    /// sheets at `1/normal_factor` (lighting is smoother than colour; the shader samples both
+    /// by texture coordinate, so they need not match). Where either factor does not divide
+    /// the sheets, both are kept as they are.
+    pub fn downsampled_split(&self, color_factor: u32, normal_factor: u32) -> ImpostorData {
+        let ok = |f: u32| {
+            self.color
+                .iter()
+                .chain(&self.normal)
+                .all(|i| f >= 1 && i.width() % f == 0 && i.height() % f == 0 && i.width() >= f)
+        };
+        if !ok(color_factor) || !ok(normal_factor) {
+            return self.clone();
+        }
+        let c = self.downsampled_both(color_factor);
+        if normal_factor == color_factor {
+            return c;
+        }
+        let n = self.downsampled_both(normal_factor);
+        ImpostorData { normal: n.normal, ..c }
+    }
+
+    fn downsampled_both(&self, factor: u32) -> ImpostorData {
+        let f = factor.max(1);
+        let divides = |i: &image::RgbaImage| i.width() % f == 0 && i.height() % f == 0 && i.width() >= f;
+        if f < 2 || !self.color.iter().chain(&self.normal).all(divides) {
+            return self.clone();
+        }
+        let mut color = Vec::with_capacity(self.color.len());
+        let mut normal = Vec::with_capacity(self.normal.len());
+        for (c, n) in self.color.iter().zip(&self.normal) {
+            let (w, h) = (c.width() / f, c.height() / f);
+            let mut co = image::RgbaImage::new(w, h);
+            let mut no = image::RgbaImage::new(w, h);
+            for y in 0..h {
+                for x in 0..w {
+                    let mut rgb = [0.0f32; 3];
+                    let mut alpha = 0.0f32;
+                    let mut nrm = [0.0f32; 3];
+                    let mut parts = [0u32; 256];
+                    let mut covered = 0u32;
+                    for dy in 0..f {
+                        for dx in 0..f {
+                            let (sx, sy) = (x * f + dx, y * f + dy);
+                            let p = c.get_pixel(sx, sy).0;
+                            let a = p[3] as f32 / 255.0;
+                            for k in 0..3 {
+                                rgb[k] += p[k] as f32 * a;
+                            }
+                            alpha += a;
+                            if p[3] >= 128 && sx < n.width() && sy < n.height() {
+                                let q = n.get_pixel(sx, sy).0;
+                                for k in 0..3 {
+                                    nrm[k] += q[k] as f32 / 127.5 - 1.0;
+                                }
+                                parts[q[3] as usize] += 1;
+                                covered += 1;
+                            }
+                        }
+                    }
+                    let nn = (f * f) as f32;
+                    let out_rgb = if alpha > 0.0 {
+                        rgb.map(|v| (v / alpha).round().clamp(0.0, 255.0) as u8)
+                    } else {
+                        [0; 3]
+                    };
+                    let a = (alpha / nn * 255.0).round().clamp(0.0, 255.0) as u8;
+                    co.put_pixel(x, y, image::Rgba([out_rgb[0], out_rgb[1], out_rgb[2], a]));
+                    if covered > 0 {
+                        let len = (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]).sqrt().max(1e-6);
+                        let enc = nrm.map(|v| ((v / len + 1.0) * 127.5).round().clamp(0.0, 255.0) as u8);
+                        // The most frequent part; the lowest number on a tie.
+                        let part = (0..256).max_by_key(|&i| (parts[i], std::cmp::Reverse(i))).unwrap_or(0) as u8;
+                        no.put_pixel(x, y, image::Rgba([enc[0], enc[1], enc[2], part]));
+                    }
+                }
+            }
+            color.push(co);
+            normal.push(no);
+        }
+        ImpostorData {
+            columns: self.columns,
+            rows: self.rows,
+            color,
+            normal,
+        }
+    }
+}
+
 /// The simplified mesh at every frame and the per-view key-frame images.
 #[derive(Clone, Debug)]
 pub struct Np3dData {
@@ -511,6 +613,56 @@ pub fn write_representations(reps: &Representations, dir: &Path) -> Result<u64, 
 
 #[cfg(test)]
 mod tests {
+
+    /// Against a direct computation on a 4×4 sheet of 2×2-texel blocks: a full block
+    /// keeps its mean colour and majority part, a block a quarter covered is transparent, a
+    /// block three quarters covered keeps the covered texels' colour (premultiplied).
+    #[test]
+    fn far_impostor_sheets_average_blocks_and_keep_the_majority_part() {
+        let mut c = image::RgbaImage::new(4, 4);
+        let mut n = image::RgbaImage::new(4, 4);
+        // Block (0, 0): all covered, colours 0/100/200/100 in red, parts 3, 3, 3, 7.
+        for (i, (x, y)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
+            c.put_pixel(x, y, image::Rgba([[0, 100, 200, 100][i], 10, 20, 255]));
+            n.put_pixel(x, y, image::Rgba([128, 128, 255, [3, 3, 3, 7][i]]));
+        }
+        // Block (1, 0): one texel of four covered.
+        c.put_pixel(2, 0, image::Rgba([255, 255, 255, 255]));
+        n.put_pixel(2, 0, image::Rgba([255, 128, 128, 5]));
+        // Block (0, 1): three covered, all colour 90.
+        for (x, y) in [(0, 2), (1, 2), (0, 3)] {
+            c.put_pixel(x, y, image::Rgba([90, 90, 90, 255]));
+            n.put_pixel(x, y, image::Rgba([128, 255, 128, 2]));
+        }
+        let d = ImpostorData {
+            columns: 1,
+            rows: 1,
+            color: vec![c.clone()],
+            normal: vec![n],
+        };
+        let half = d.downsampled(2);
+        assert_eq!(half.color[0].dimensions(), (2, 2));
+        assert_eq!(half.color[0].get_pixel(0, 0).0, [100, 10, 20, 255]);
+        assert_eq!(half.normal[0].get_pixel(0, 0).0[3], 3);
+        let q = half.color[0].get_pixel(1, 0).0;
+        assert!(q[3] < 128, "a quarter-covered block is drawn as empty: {q:?}");
+        let t = half.color[0].get_pixel(0, 1).0;
+        assert_eq!(t, [90, 90, 90, 191]);
+        assert_eq!(half.normal[0].get_pixel(0, 1).0, [128, 255, 128, 2]);
+        // An empty block stays empty; factors that do not divide keep the sheets.
+        assert_eq!(half.color[0].get_pixel(1, 1).0, [0, 0, 0, 0]);
+        assert_eq!(d.downsampled(3).color[0], c);
+        assert_eq!(d.downsampled(1).color[0], c);
+        // Normals at half the colour's resolution: the whole sheet's majority part (of the
+        // eight covered texels three are part 2, three part 3, one 5 and one 7: the lower
+        // number wins the tie) and the colour as before.
+        let split = d.downsampled_split(2, 4);
+        assert_eq!(split.color[0], half.color[0]);
+        assert_eq!(split.normal[0].dimensions(), (1, 1));
+        assert_eq!(split.normal[0].get_pixel(0, 0).0[3], 2);
+        assert_eq!(d.downsampled_split(2, 3).normal[0].dimensions(), (4, 4));
+    }
+
     use super::*;
 
     #[test]
