@@ -50,9 +50,33 @@ fn turn(p: vec3<f32>, f: vec2<f32>) -> vec3<f32> {
 // The colour modulation of body part `part` of an instance: the same in every
 // representation, so a character keeps its colours when it changes level.
 fn part_tint(variant: u32, part: u32, strength: f32) -> vec3<f32> {
-    let h = hash(variant ^ (part * 0x9e3779b9u));
+    // Bits 0..24 seed the appearance; the rest is the cross-fade (`faded_out`).
+    let h = hash((variant & 0xFFFFFFu) ^ (part * 0x9e3779b9u));
     let t = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0;
     return mix(vec3<f32>(1.0), 0.6 + 0.8 * t, strength);
+}
+
+// The ordered-dither threshold (4×4 Bayer, 0..1) of a screen pixel: the Polypostor's key
+// cross-fade and every level and view cross-fade compare against it. Keep in sync with
+// `crossfade_threshold` in `src/bake/raster.rs`.
+fn crossfade_threshold(p: vec2<f32>) -> f32 {
+    let x = u32(p.x) & 3u;
+    let y = u32(p.y) & 3u;
+    var m = array<u32, 16>(0u, 8u, 2u, 10u, 12u, 4u, 14u, 6u, 3u, 11u, 1u, 9u, 15u, 7u, 13u, 5u);
+    return (f32(m[y * 4u + x]) + 0.5) / 16.0;
+}
+
+// Cross-fades between levels of detail and between baked views: bits 24..30 of
+// `Instance.variant` hold q (0: drawn whole); the incoming copy is drawn where the pixel's
+// threshold is below q / 128, the outgoing copy (bit 31 set) everywhere else, so the two
+// cover exactly what one would. Keep in sync with `crowd::fade_keeps`.
+fn faded_out(variant: u32, pixel: vec2<f32>) -> bool {
+    let q = (variant >> 24u) & 0x7Fu;
+    if (q == 0u) {
+        return false;
+    }
+    let keep = crossfade_threshold(pixel) < f32(q) / 128.0;
+    return keep == ((variant >> 31u) == 1u);
 }
 
 // The world light in a view's camera frame, for a character turned by `facing`.

@@ -34,6 +34,8 @@ struct VertexOut {
     @location(1) uv: vec2<f32>,
     @location(2) color: vec4<f32>,
     @location(3) tint: vec3<f32>,
+    // The instance's variant: its level cross-fade bits (`faded_out`).
+    @location(4) @interpolate(flat) variant: u32,
 };
 
 fn rotate(q: vec4<f32>, v: vec3<f32>) -> vec3<f32> {
@@ -49,6 +51,7 @@ fn place(inst: Instance, model: vec3<f32>, normal: vec3<f32>, vi: u32, uv: vec2<
     out.uv = uv;
     out.color = color;
     out.tint = part_tint(inst.variant, vertex_parts[vi], frame.params.z);
+    out.variant = inst.variant;
     return out;
 }
 
@@ -118,6 +121,9 @@ fn vs_rigid(v: RigidIn) -> VertexOut {
 
 @fragment
 fn fs_main(in: VertexOut) -> FragmentOut {
+    if (faded_out(in.variant, in.clip_position.xy)) {
+        discard;
+    }
     let albedo = textureSample(base_texture, base_sampler, in.uv) * material.base_color_factor * in.color;
     return shade(albedo.rgb, in.tint, normalize(in.normal), frame.light_dir.xyz, frame.params);
 }

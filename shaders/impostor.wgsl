@@ -46,6 +46,9 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> 
 
 @fragment
 fn fs_main(in: VertexOut) -> FragmentOut {
+    if (faded_out(in.variant, in.clip_position.xy)) {
+        discard;
+    }
     let albedo = textureSample(sheets, sheet_sampler, in.uv, in.layer);
     if (albedo.a < 0.5) {
         discard;

@@ -22,6 +22,8 @@ struct VertexOut {
     @location(1) @interpolate(flat) layer: u32,
     @location(2) normal: vec3<f32>,
     @location(3) tint: vec3<f32>,
+    // The instance's variant: its level/view cross-fade bits (`faded_out`).
+    @location(4) @interpolate(flat) variant: u32,
 };
 
 @vertex
@@ -47,11 +49,15 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> 
     out.clip_position = frame.clip_from_world * vec4<f32>(world, 1.0);
     out.normal = turn(n, inst.facing);
     out.tint = part_tint(inst.variant, topology[frame.bases.x + local], frame.params.z);
+    out.variant = inst.variant;
     return out;
 }
 
 @fragment
 fn fs_main(in: VertexOut) -> FragmentOut {
+    if (faded_out(in.variant, in.clip_position.xy)) {
+        discard;
+    }
     let albedo = textureSample(images, image_sampler, in.uv, in.layer);
     return shade(albedo.rgb, in.tint, normalize(in.normal), frame.light_dir.xyz, frame.params);
 }

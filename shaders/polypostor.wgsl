@@ -50,6 +50,8 @@ struct VertexOut {
     // x: 0 draw every pixel, 1 the pixels whose threshold is at least the blend (the
     // interval's first key), 2 those below it (its second key); y: the blend.
     @location(4) @interpolate(flat) fade: vec2<f32>,
+    // The instance's variant: its level/view cross-fade bits (`faded_out`).
+    @location(5) @interpolate(flat) variant: u32,
 };
 
 // The key drawing frame `f` of a part whose table starts at word `table`.
@@ -57,14 +59,6 @@ fn key_of(table: u32, f: u32) -> u32 {
     return (geometry[table + f / 4u] >> (8u * (f % 4u))) & 0xffu;
 }
 
-// Ordered-dither threshold of a pixel in (0, 1): the 4×4 Bayer matrix, (v + 0.5) / 16. Keep
-// in sync with `crossfade_threshold` in `src/bake/raster.rs`.
-fn crossfade_threshold(p: vec2<f32>) -> f32 {
-    let x = u32(p.x) & 3u;
-    let y = u32(p.y) & 3u;
-    var m = array<u32, 16>(0u, 8u, 2u, 10u, 12u, 4u, 14u, 6u, 3u, 11u, 1u, 9u, 15u, 7u, 13u, 5u);
-    return (f32(m[y * 4u + x]) + 0.5) / 16.0;
-}
 
 @vertex
 fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> VertexOut {
@@ -112,12 +106,16 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> 
     // The light in the view's camera frame (the normal atlas is in that frame).
     out.light_view = light_in_view(frame.light_dir.xyz, inst.facing, view);
     out.tint = part_tint(inst.variant, part.vertex_count >> 16u, frame.params.z);
+    out.variant = inst.variant;
     out.fade = vec2<f32>(mode, blend);
     return out;
 }
 
 @fragment
 fn fs_main(in: VertexOut) -> FragmentOut {
+    if (faded_out(in.variant, in.clip_position.xy)) {
+        discard;
+    }
     if (in.fade.x > 0.5) {
         let later = crossfade_threshold(in.clip_position.xy) < in.fade.y;
         if (later != (in.fade.x > 1.5)) {

@@ -250,6 +250,64 @@ fn every_representation_draws_close_to_the_mesh() {
         );
     }
 
+    // Cross-fades: the incoming and outgoing copies of a character (same level here, so the
+    // pictures are comparable pixel for pixel) together draw exactly the character drawn
+    // whole — no pixel twice, none missing — and the incoming one about the fade's share.
+    let view0 = &loaded.manifest.views[1];
+    let camera = view0.camera.to_camera(
+        view0.camera.half_size * 4.0,
+        view0.camera.half_size,
+        view0.camera.half_size * 8.0,
+    );
+    for level in [Level::Skinned, Level::Rigid, Level::Impostor, Level::Np3d] {
+        let mut draw = |bits: u32| {
+            let mut instances: [Vec<Instance>; Level::COUNT] = Default::default();
+            instances[level as usize].push(Instance {
+                pos: [0.0, 0.0],
+                facing: [0.0, 1.0],
+                view: 1,
+                frame: frame as u32,
+                blend: 0.0,
+                variant: 7 | bits,
+            });
+            crowd.render(
+                device,
+                queue,
+                &target,
+                camera.clip_from_world(1.0),
+                &style,
+                &instances,
+                wgpu::Color::TRANSPARENT,
+            );
+            (
+                target.read_color(device, queue).unwrap(),
+                mask(&target.read_normal(device, queue).unwrap()),
+            )
+        };
+        let (whole_c, whole) = draw(0);
+        let t = 0.4;
+        let (in_c, incoming) = draw(polypostor::crowd::fade_bits(t, false));
+        let (out_c, outgoing) = draw(polypostor::crowd::fade_bits(t, true));
+        let total = whole.iter().filter(|&&m| m).count();
+        let mut share = 0usize;
+        for i in 0..whole.len() {
+            assert!(
+                !(incoming[i] && outgoing[i]),
+                "{level:?}: pixel {i} drawn by both copies"
+            );
+            assert_eq!(incoming[i] || outgoing[i], whole[i], "{level:?}: pixel {i}");
+            let from = if incoming[i] { &in_c } else { &out_c };
+            if whole[i] {
+                let (x, y) = ((i % size as usize) as u32, (i / size as usize) as u32);
+                assert_eq!(from.get_pixel(x, y), whole_c.get_pixel(x, y), "{level:?}: pixel {i}");
+            }
+            share += usize::from(incoming[i]);
+        }
+        let f = share as f64 / total.max(1) as f64;
+        // 4×4 ordered dither: thresholds below 0.4 are 6 of 16.
+        assert!((f - 6.0 / 16.0).abs() < 0.08, "{level:?}: incoming share {f}");
+    }
+
     // Per-part tints agree across levels: the impostor and the skinned mesh of the same
     // tinted instance look alike (as alike as untinted).
     let cam = &loaded.manifest.views[0].camera;

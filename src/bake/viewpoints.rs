@@ -159,6 +159,11 @@ impl ViewLookup {
         Some(best.1 as usize)
     }
 
+    /// Direction of view `i` (unit length), if there is one.
+    pub fn direction(&self, i: usize) -> Option<Vec3> {
+        self.views.get(i).copied()
+    }
+
     /// Mean number of views a query checks (for the benchmark's notes).
     pub fn mean_candidates(&self) -> f32 {
         self.candidates.len() as f32 / self.cells.len().max(1) as f32

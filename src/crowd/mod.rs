@@ -89,7 +89,9 @@ pub struct CrowdParams {
     /// Ground speed (m/s) at which the clip plays at its own rate; agents' animation rate
     /// follows their speed against it. Default value: 1.2.
     pub stride_speed: f32,
-    /// Random heading change (rad/s, the spread of a random walk). Default value: 1.0.
+    /// How much agents turn: the spread of their turning rate (rad/s), which drifts smoothly
+    /// (it forgets itself over [`TURN_MEMORY_SECS`]), so headings curve instead of jittering
+    /// frame to frame. Default value: 0.5.
     pub wander: f32,
     /// World length (metres) the baked images' texels span along their height: a character
     /// at distance `d` covers `height · focal_px / d` pixels of it, against the bake's
@@ -98,6 +100,9 @@ pub struct CrowdParams {
     /// The character's size: culling spheres, cameras and ground. Default value:
     /// [`CharacterSize::reference`].
     pub size: CharacterSize,
+    /// Seconds a character takes to cross-fade (dithered) from one level of detail or baked
+    /// view to the next; 0 switches with a cut. Default value: 0.25.
+    pub fade_secs: f32,
     pub seed: u64,
 }
 
@@ -109,9 +114,10 @@ impl Default for CrowdParams {
             min_distance: 0.8,
             speed: (0.9, 1.5),
             stride_speed: 1.2,
-            wander: 1.0,
+            wander: 0.5,
             height: 1.8,
             size: CharacterSize::reference(),
+            fade_secs: 0.25,
             seed: 1,
         }
     }
@@ -159,10 +165,18 @@ pub struct Agents {
     pub clock: Vec<f32>,
     /// Animation rate (1 = the clip's own speed).
     pub rate: Vec<f32>,
+    /// Turning rate (rad/s, positive turns from +Z towards +X).
+    pub turn_rate: Vec<f32>,
     /// Appearance variation seed (the renderers derive per-part tints from it).
     pub variant: Vec<u32>,
     /// Level chosen last frame (for hysteresis).
     pub level: Vec<Level>,
+    /// View chosen last frame (0 for meshes).
+    pub view: Vec<u32>,
+    /// The level and view being faded out while `fade < 1`.
+    pub fade_from: Vec<(Level, u32)>,
+    /// Progress of the agent's cross-fade (0 just switched, 1 or more: none).
+    pub fade: Vec<f32>,
 }
 
 /// One visible character, as the GPU renderers read it (32 bytes).
@@ -178,7 +192,48 @@ pub struct Instance {
     /// Animation frame and the blend towards the next one.
     pub frame: u32,
     pub blend: f32,
+    /// Appearance seed in bits 0..24 ([`VARIANT_SEED_MASK`]); bits 24..31 a cross-fade amount
+    /// `q` (0: drawn whole; 1..=127: drawn where the screen's dither threshold is below
+    /// `q / 128`); bit 31 flips that (the outgoing copy draws exactly the other pixels). See
+    /// [`fade_bits`].
     pub variant: u32,
+}
+
+/// Angle (radians, 3°) by which a character's previous baked view may be further from the
+/// camera direction than the nearest view and still be kept (views are about 12° apart at
+/// 137 on the hemisphere).
+pub const VIEW_HYSTERESIS_RAD: f32 = 0.052;
+const VIEW_HYSTERESIS_COS: f32 = 0.998_648_4; // cos(0.052)
+const VIEW_HYSTERESIS_SIN: f32 = 0.051_976_6; // sin(0.052)
+
+/// Seconds over which an agent's turning rate forgets itself (an Ornstein–Uhlenbeck drift):
+/// agents hold a curve for about this long.
+pub const TURN_MEMORY_SECS: f32 = 1.5;
+
+/// The bits of [`Instance::variant`] that seed a character's appearance.
+pub const VARIANT_SEED_MASK: u32 = 0x00FF_FFFF;
+
+/// The cross-fade bits of [`Instance::variant`] for progress `t` (0..1) of a fade: the
+/// incoming copy (`outgoing` false) is drawn where the screen-space dither threshold is below
+/// about `t`, the outgoing copy everywhere else, with the same threshold per pixel, so the
+/// two together cover exactly what one would (nothing see-through, nothing twice). `t` at or
+/// past 1 gives 0: drawn whole.
+pub fn fade_bits(t: f32, outgoing: bool) -> u32 {
+    if !(t < 1.0) {
+        return 0;
+    }
+    let q = (t.max(0.0) * 128.0).round().clamp(1.0, 127.0) as u32;
+    (q << 24) | if outgoing { 1 << 31 } else { 0 }
+}
+
+/// Whether a pixel with dither threshold `d` (0..1) is drawn for cross-fade bits `bits` (the
+/// rule the crowd shaders apply; see `crowd_common.wgsl`).
+pub fn fade_keeps(bits: u32, d: f32) -> bool {
+    let q = (bits >> 24) & 0x7F;
+    if q == 0 {
+        return true;
+    }
+    (d < q as f32 / 128.0) != (bits >> 31 == 1)
 }
 
 /// Counting sort of `instances` by view into `out` (views clamped below `views`, frames
@@ -262,6 +317,8 @@ pub struct Crowd {
     cell_of: Vec<u32>,
     rng: Rng,
     paused: bool,
+    /// Whether levels were chosen before (the first choice fades nothing).
+    selected: bool,
     /// Instances per level, rebuilt by [`Crowd::select`].
     pub instances: [Vec<Instance>; Level::COUNT],
 }
@@ -315,8 +372,12 @@ impl Crowd {
                 .push(rng.range(params.speed.0, params.speed.1.max(params.speed.0)));
             agents.clock.push(rng.range(0.0, 10.0));
             agents.rate.push(rng.range(0.85, 1.15));
-            agents.variant.push(rng.next_u64() as u32);
+            agents.turn_rate.push(0.0);
+            agents.variant.push(rng.next_u64() as u32 & VARIANT_SEED_MASK);
             agents.level.push(Level::Polypostor);
+            agents.view.push(0);
+            agents.fade_from.push((Level::Polypostor, 0));
+            agents.fade.push(1.0);
         }
         Self {
             params,
@@ -326,6 +387,7 @@ impl Crowd {
             cell_of,
             rng,
             paused: false,
+            selected: false,
             instances: Default::default(),
         }
     }
@@ -357,13 +419,18 @@ impl Crowd {
         let dt = dt.min(0.25);
         let min2 = self.grid.cell * self.grid.cell;
         let limit = self.half_extent - 0.5 * self.grid.cell;
-        let spread = self.params.wander * dt.sqrt();
+        // The turning rate's drift over `dt` (exact for the Ornstein–Uhlenbeck process): it
+        // keeps `keep` of itself and gains uniform noise of the matching spread, so its
+        // spread stays `wander` (uniform on ±√3 has unit variance).
+        let keep = (-dt / TURN_MEMORY_SECS).exp();
+        let kick = self.params.wander * (1.0 - keep * keep).max(0.0).sqrt() * 3f32.sqrt();
         let stride = self.params.stride_speed.max(1e-6);
         let a = &mut self.agents;
         for i in 0..a.pos.len() {
             // Turn by a small random angle (a rotation with the small-angle sine and cosine,
             // then one Newton step back to unit length: no trigonometry per agent).
-            let t = spread * self.rng.range(-1.0, 1.0);
+            a.turn_rate[i] = a.turn_rate[i] * keep + kick * self.rng.range(-1.0, 1.0);
+            let t = a.turn_rate[i] * dt;
             let (s, c) = (t - t * t * t / 6.0, 1.0 - 0.5 * t * t);
             let d = a.facing[i];
             let d = Vec2::new(d.x * c + d.y * s, d.y * c - d.x * s);
@@ -403,6 +470,29 @@ impl Crowd {
         views: &ViewLookup,
         clip: ClipTiming,
     ) -> FrameStats {
+        self.select_over(camera, policy, views, clip, f32::INFINITY)
+    }
+
+    /// [`Crowd::select`] (which cuts: no fades) `dt` seconds after the last selection (an
+    /// infinite `dt` ends every fade): a character whose level or
+    /// (image-based levels) view changes is drawn twice for [`CrowdParams::fade_secs`], the
+    /// new copy dithered in and the old one out with the same per-pixel threshold
+    /// ([`fade_bits`]); `dt` advances the fades in progress.
+    pub fn select_over(
+        &mut self,
+        camera: &CrowdCamera,
+        policy: &LodPolicy,
+        views: &ViewLookup,
+        clip: ClipTiming,
+        dt: f32,
+    ) -> FrameStats {
+        let fade_step = if self.params.fade_secs > 0.0 {
+            dt.max(0.0) / self.params.fade_secs
+        } else {
+            f32::INFINITY
+        };
+        let fading = self.selected && self.params.fade_secs > 0.0 && dt.is_finite();
+        self.selected = true;
         for list in &mut self.instances {
             list.clear();
         }
@@ -425,15 +515,35 @@ impl Crowd {
             let to_eye = camera.eye - centre;
             let distance = to_eye.length().max(1e-3);
             let pixels = h * camera.focal_px / distance;
-            let level = policy.choose(pixels, a.level[i]);
+            let previous = a.level[i];
+            let level = policy.choose(pixels, previous);
             a.level[i] = level;
             // The camera direction in the character's own frame (undo its heading).
             let Vec2 { x: s, y: c } = a.facing[i];
             let local = Vec3::new(c * to_eye.x - s * to_eye.z, to_eye.y, s * to_eye.x + c * to_eye.z);
-            // Meshes need no view.
+            // Meshes need no view. An image-based level keeps its view while that is within
+            // VIEW_HYSTERESIS_RAD of the nearest one (a character turning about a view
+            // boundary would otherwise switch, and fade, back and forth).
             let view = match level {
                 Level::Skinned | Level::Rigid => 0,
-                _ => views.nearest(local).unwrap_or(0) as u32,
+                _ => {
+                    let nearest = views.nearest(local).unwrap_or(0) as u32;
+                    let kept = a.view[i];
+                    if level == previous && kept != nearest {
+                        let dir = local.normalize_or_zero();
+                        match (views.direction(kept as usize), views.direction(nearest as usize)) {
+                            (Some(k), Some(n)) => {
+                                let c = n.dot(dir).clamp(-1.0, 1.0);
+                                // cos(angle to the nearest + the margin).
+                                let limit = c * VIEW_HYSTERESIS_COS - (1.0 - c * c).sqrt() * VIEW_HYSTERESIS_SIN;
+                                if k.dot(dir) >= limit { kept } else { nearest }
+                            }
+                            _ => nearest,
+                        }
+                    } else {
+                        nearest
+                    }
+                }
             };
             // Clocks start non-negative and only grow; wrap them every 64 loops so the
             // blend keeps its precision however long the crowd runs.
@@ -445,16 +555,44 @@ impl Crowd {
             }
             let whole = t as u32;
             let frame = whole % frames as u32;
-            self.instances[level as usize].push(Instance {
+            // A new level, or a new baked view of the same image-based level: fade.
+            // The mix's far impostors (under a quarter of a pixel per texel: a few dozen pixels
+            // tall) switch views with a cut: there a view change is hardly visible, and they are
+            // most of a crowd.
+            let image = !matches!(level, Level::Skinned | Level::Rigid)
+                && !(level == Level::Impostor && matches!(policy, LodPolicy::Mixed(_)));
+            if fading && (level != previous || (image && view != a.view[i])) {
+                a.fade_from[i] = (previous, a.view[i]);
+                a.fade[i] = 0.0;
+            }
+            a.view[i] = view;
+            let record = Instance {
                 pos: [p.x, p.y],
                 facing: [s, c],
                 view,
                 frame,
                 blend: t - whole as f32,
-                variant: a.variant[i],
-            });
+                variant: a.variant[i] & VARIANT_SEED_MASK,
+            };
+            // An infinite step (`select`) ends every fade: a cut.
+            let f = if fade_step.is_finite() { a.fade[i] } else { 1.0 };
+            if f < 1.0 {
+                let (from, from_view) = a.fade_from[i];
+                self.instances[from as usize].push(Instance {
+                    view: from_view,
+                    variant: record.variant | fade_bits(f, true),
+                    ..record
+                });
+                self.instances[level as usize].push(Instance {
+                    variant: record.variant | fade_bits(f, false),
+                    ..record
+                });
+                a.fade[i] = f + fade_step;
+            } else {
+                self.instances[level as usize].push(record);
+            }
+            stats.visible += 1;
         }
-        stats.visible = self.instances.iter().map(Vec::len).sum();
         for (n, list) in stats.per_level.iter_mut().zip(&self.instances) {
             *n = list.len();
         }
@@ -473,7 +611,7 @@ impl Crowd {
         let t0 = Instant::now();
         self.simulate(dt);
         let t1 = Instant::now();
-        let mut stats = self.select(camera, policy, views, clip);
+        let mut stats = self.select_over(camera, policy, views, clip, dt);
         stats.simulate_secs = (t1 - t0).as_secs_f64();
         stats.select_secs = t1.elapsed().as_secs_f64();
         stats

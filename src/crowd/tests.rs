@@ -354,3 +354,95 @@ fn the_reference_person_keeps_the_defaults_and_the_default_character_measures_ri
         CharacterSize::reference()
     );
 }
+
+/// A character crossing a level switch, or turning into the next baked view, is drawn twice
+/// for `fade_secs`: the new level (view) dithered in, the old one out, with complementary
+/// bits (`fade_keeps` of the two covers every threshold exactly once); then once again.
+/// `select` (no time step) cuts.
+#[test]
+fn level_and_view_switches_cross_fade_for_the_fade_time() {
+    let params = CrowdParams {
+        count: 1,
+        fade_secs: 0.25,
+        seed: 4,
+        ..Default::default()
+    };
+    let views = ViewLookup::new(&directions(137, Coverage::UpperHemisphere));
+    let clip = ClipTiming { frames: 10, fps: 10.0 };
+    let policy = LodPolicy::Mixed(LodDistances::default());
+    let mut crowd = Crowd::new(params);
+    let at = crowd.agents.pos[0];
+    let target = Vec3::new(at.x, 0.9, at.y);
+    let cam = |d: f32, angle: f32| {
+        let eye = target + Vec3::new(angle.sin() * d, 0.5, angle.cos() * d);
+        camera(eye, target, 800.0, 600.0)
+    };
+    let copies = |c: &Crowd| -> Vec<(Level, Instance)> {
+        Level::ALL
+            .iter()
+            .flat_map(|&l| c.instances[l as usize].iter().map(move |i| (l, *i)))
+            .collect()
+    };
+    let complementary = |a: u32, b: u32| {
+        (0..16).all(|k| {
+            let d = (k as f32 + 0.5) / 16.0;
+            crate::crowd::fade_keeps(a, d) != crate::crowd::fade_keeps(b, d)
+        })
+    };
+    // Far: the impostor. The first selection never fades.
+    crowd.select_over(&cam(200.0, 0.0), &policy, &views, clip, 1.0 / 30.0);
+    assert_eq!(copies(&crowd).len(), 1);
+    assert_eq!(copies(&crowd)[0].0, Level::Impostor);
+    // Near enough for the Polypostor: two copies for 0.25 s.
+    let dt = 1.0 / 30.0;
+    let mut frames_faded = 0;
+    for step in 0..20 {
+        crowd.select_over(&cam(20.0, 0.0), &policy, &views, clip, dt);
+        let c = copies(&crowd);
+        if step == 0 {
+            assert_eq!(c.len(), 2, "{c:?}");
+            let new = c.iter().find(|x| x.0 == Level::Polypostor).expect("incoming copy");
+            let old = c.iter().find(|x| x.0 == Level::Impostor).expect("outgoing copy");
+            assert!(complementary(new.1.variant, old.1.variant));
+            assert_eq!(new.1.variant & VARIANT_SEED_MASK, old.1.variant & VARIANT_SEED_MASK);
+        }
+        if c.len() == 2 {
+            frames_faded += 1;
+        } else {
+            assert_eq!(c.len(), 1);
+            assert_eq!(c[0].0, Level::Polypostor);
+            assert_eq!(c[0].1.variant >> 24, 0, "drawn whole after the fade");
+        }
+    }
+    // 0.25 s at 30 frames a second: 8 frames (the last at t = 7/7.5).
+    assert_eq!(frames_faded, 8);
+    // Turning round the character at the same distance: the view changes, and fades.
+    let before = copies(&crowd)[0].1.view;
+    let mut angle = 0.0f32;
+    let mut saw_view_fade = false;
+    while angle < 1.0 {
+        angle += 0.02;
+        crowd.select_over(&cam(20.0, angle), &policy, &views, clip, dt);
+        let c = copies(&crowd);
+        if c.len() == 2 {
+            assert!(c.iter().all(|x| x.0 == Level::Polypostor));
+            assert_ne!(c[0].1.view, c[1].1.view);
+            assert!(complementary(c[0].1.variant, c[1].1.variant));
+            saw_view_fade = true;
+        }
+    }
+    assert!(saw_view_fade, "no view change from view {before}");
+    // `select` cuts: one copy whatever changed.
+    crowd.select(&cam(200.0, 0.0), &policy, &views, clip);
+    assert_eq!(copies(&crowd).len(), 1);
+    // The dither rule: q of 128 thresholds kept by the incoming copy, the rest by the other.
+    for t in [0.0f32, 0.3, 0.5, 0.99] {
+        let kept = (0..128)
+            .filter(|&k| crate::crowd::fade_keeps(fade_bits(t, false), (k as f32 + 0.5) / 128.0))
+            .count();
+        let q = ((t * 128.0).round() as usize).clamp(1, 127);
+        assert_eq!(kept, q, "t {t}");
+    }
+    assert_eq!(fade_bits(1.0, false), 0);
+    assert_eq!(fade_bits(1.5, true), 0);
+}
