@@ -149,6 +149,27 @@ enum BenchWhat {
         #[arg(long)]
         json: bool,
     },
+    /// Temporal stability of the three-level mix: the largest frame-to-frame image change of
+    /// one still character while the camera orbits it through baked views and backs away
+    /// through the Polypostor → impostor switch, relative to the skinned mesh filmed the same
+    /// way; with level and view switches cut, then cross-faded.
+    Stability {
+        /// A folder baked with --representation all.
+        #[arg(long)]
+        pack: PathBuf,
+        /// The character the pack was baked from (default: the path the pack names).
+        #[arg(long)]
+        character: Option<PathBuf>,
+        /// Frames along the camera path (60 a second).
+        #[arg(long, default_value_t = 240)]
+        frames: usize,
+        /// Offscreen image side (pixels).
+        #[arg(long, default_value_t = 512)]
+        size: u32,
+        /// Print one JSON object instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
     /// CPU work per crowd frame on one thread: simulation, then culling, level of detail,
     /// view and frame choice and instance records.
     Sim {
@@ -242,6 +263,16 @@ fn main() -> ExitCode {
         Some(Command::Bench {
             what: BenchWhat::Sim { agents, frames, json },
         }) => bench_sim(agents, frames, json),
+        Some(Command::Bench {
+            what:
+                BenchWhat::Stability {
+                    pack,
+                    character,
+                    frames,
+                    size,
+                    json,
+                },
+        }) => bench_stability(&pack, character, frames, size, json),
         Some(Command::Bench {
             what:
                 BenchWhat::Bake {
@@ -1397,6 +1428,44 @@ fn bench_crowd(
         println!();
     }
     println!("wrote crowd_fps.png and crowd_fps.json in {}", out.display());
+    Ok(())
+}
+
+/// `bench stability`: the mix's temporal stability with cuts and with cross-fades.
+fn bench_stability(
+    pack: &Path,
+    character: Option<PathBuf>,
+    frames: usize,
+    size: u32,
+    json: bool,
+) -> anyhow::Result<()> {
+    use polypostor::crowd::scene::{CrowdAssets, temporal_stability};
+    if !(2..=10_000).contains(&frames) || !(16..=4096).contains(&size) {
+        anyhow::bail!("--frames must be 2 to 10,000 and --size 16 to 4096");
+    }
+    let ctx = polypostor::gpu::GpuContext::from_env()?;
+    polypostor::limits::check_render_size(&ctx.device, size, size, "--size")?;
+    let assets = CrowdAssets::load(pack, character.as_deref(), None).map_err(|e| anyhow::anyhow!(e))?;
+    let cut = temporal_stability(&ctx.device, &ctx.queue, &assets, 0.0, frames, size)?;
+    let faded = temporal_stability(&ctx.device, &ctx.queue, &assets, 0.25, frames, size)?;
+    if json {
+        println!(
+            "{}",
+            serde_json::json!({ "cut": cut, "cross_faded": faded, "adapter": ctx.adapter_description() })
+        );
+        return Ok(());
+    }
+    println!(
+        "temporal stability of the mix ({frames} frames at 60 Hz, {size}², {}): largest frame-to-frame change per covered pixel",
+        ctx.adapter_description()
+    );
+    println!("  switches        mix       skinned   ratio   frames fading");
+    for (name, s) in [("cut", &cut), ("cross-faded", &faded)] {
+        println!(
+            "  {name:<12} {:>9.4} {:>9.4} {:>7.2}× {:>6}",
+            s.mix_max, s.skinned_max, s.ratio, s.fading_frames
+        );
+    }
     Ok(())
 }
 
