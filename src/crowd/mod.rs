@@ -177,6 +177,9 @@ pub struct Agents {
     pub fade_from: Vec<(Level, u32)>,
     /// Progress of the agent's cross-fade (0 just switched, 1 or more: none).
     pub fade: Vec<f32>,
+    /// The selection (count of [`Crowd::select_over`] calls) that last saw the agent: only an
+    /// agent seen in the one before has a level and view to fade from.
+    pub seen: Vec<u32>,
 }
 
 /// One visible character, as the GPU renderers read it (32 bytes).
@@ -209,6 +212,10 @@ const VIEW_HYSTERESIS_SIN: f32 = 0.051_976_6; // sin(0.052)
 /// Seconds over which an agent's turning rate forgets itself (an Ornstein–Uhlenbeck drift):
 /// agents hold a curve for about this long.
 pub const TURN_MEMORY_SECS: f32 = 1.5;
+
+/// Views further apart than this (cosine of 40°) switch with a cut: a cross-fade between them
+/// would show two ghosts of the character.
+pub const FADE_VIEWS_COS: f32 = 0.766;
 
 /// The bits of [`Instance::variant`] that seed a character's appearance.
 pub const VARIANT_SEED_MASK: u32 = 0x00FF_FFFF;
@@ -317,8 +324,8 @@ pub struct Crowd {
     cell_of: Vec<u32>,
     rng: Rng,
     paused: bool,
-    /// Whether levels were chosen before (the first choice fades nothing).
-    selected: bool,
+    /// Selections made so far (the first fades nothing).
+    selections: u32,
     /// Instances per level, rebuilt by [`Crowd::select`].
     pub instances: [Vec<Instance>; Level::COUNT],
 }
@@ -378,6 +385,7 @@ impl Crowd {
             agents.view.push(0);
             agents.fade_from.push((Level::Polypostor, 0));
             agents.fade.push(1.0);
+            agents.seen.push(0);
         }
         Self {
             params,
@@ -387,7 +395,7 @@ impl Crowd {
             cell_of,
             rng,
             paused: false,
-            selected: false,
+            selections: 0,
             instances: Default::default(),
         }
     }
@@ -491,8 +499,10 @@ impl Crowd {
         } else {
             f32::INFINITY
         };
-        let fading = self.selected && self.params.fade_secs > 0.0 && dt.is_finite();
-        self.selected = true;
+        let fading = self.selections > 0 && self.params.fade_secs > 0.0 && dt.is_finite();
+        let previous_selection = self.selections;
+        self.selections = self.selections.wrapping_add(1).max(1);
+        let now = self.selections;
         for list in &mut self.instances {
             list.clear();
         }
@@ -561,11 +571,22 @@ impl Crowd {
             // most of a crowd.
             let image = !matches!(level, Level::Skinned | Level::Rigid)
                 && !(level == Level::Impostor && matches!(policy, LodPolicy::Mixed(_)));
-            if fading && (level != previous || (image && view != a.view[i])) {
+            // Only an agent drawn in the last selection has something on screen to fade from
+            // (one coming into view, or back, starts clean); and views far apart (a coarse
+            // bake) would show as two ghosts: those cut.
+            let was_drawn = a.seen[i] == previous_selection;
+            let close = |u: u32, w: u32| match (views.direction(u as usize), views.direction(w as usize)) {
+                (Some(x), Some(y)) => x.dot(y) >= FADE_VIEWS_COS,
+                _ => false,
+            };
+            if !was_drawn {
+                a.fade[i] = 1.0;
+            } else if fading && (level != previous || (image && view != a.view[i] && close(view, a.view[i]))) {
                 a.fade_from[i] = (previous, a.view[i]);
                 a.fade[i] = 0.0;
             }
             a.view[i] = view;
+            a.seen[i] = now;
             let record = Instance {
                 pos: [p.x, p.y],
                 facing: [s, c],

@@ -432,6 +432,20 @@ fn level_and_view_switches_cross_fade_for_the_fade_time() {
         }
     }
     assert!(saw_view_fade, "no view change from view {before}");
+    // Out of view for a frame (the camera looks away), then back nearer, from another side:
+    // nothing on screen to fade from, so one copy.
+    let away = camera(
+        target + Vec3::new(0.0, 0.5, 20.0),
+        target + Vec3::new(0.0, 0.5, 40.0),
+        800.0,
+        600.0,
+    );
+    crowd.select_over(&away, &policy, &views, clip, dt);
+    assert!(copies(&crowd).is_empty(), "culled");
+    crowd.select_over(&cam(4.0, 2.5), &policy, &views, clip, dt);
+    let c = copies(&crowd);
+    assert_eq!(c.len(), 1, "{c:?}");
+    assert_eq!(c[0].1.variant >> 24, 0);
     // `select` cuts: one copy whatever changed.
     crowd.select(&cam(200.0, 0.0), &policy, &views, clip);
     assert_eq!(copies(&crowd).len(), 1);
