@@ -236,6 +236,8 @@ pub struct SceneStats {
     /// Instance upload and command recording (CPU).
     pub upload_secs: f64,
     pub draw_calls: usize,
+    /// Character records not drawn this frame ([`CrowdScene::draw_budget`]).
+    pub skipped: usize,
 }
 
 /// A crowd with its renderers.
@@ -247,6 +249,63 @@ pub struct CrowdScene {
     pub style: PolypostorStyle,
     /// Draw the ground under the crowd.
     pub ground: bool,
+    /// Most character records drawn a frame; the others are skipped, evenly spread over
+    /// every level (`usize::MAX`: all). [`CrowdScene::adapt_budget`] sets it from the frame
+    /// rate so that a crowd too heavy for the machine thins out instead of freezing the
+    /// window. Default value: `usize::MAX`.
+    pub draw_budget: usize,
+    /// Fast frames in a row (a thinned crowd grows back only after [`FAST_STREAK`]).
+    fast_streak: u32,
+}
+
+/// Fast frames in a row after which a thinned crowd grows back by a quarter (one quick
+/// frame between slow ones is not enough).
+pub const FAST_STREAK: u32 = 10;
+
+/// Frame interval (seconds) above which [`CrowdScene::adapt_budget`] thins the drawn
+/// characters (to at most half, in proportion to how slow the frame was).
+pub const SLOW_FRAME_SECS: f32 = 0.15;
+/// Frame interval (seconds) below which it lets a thinned crowd grow back by a quarter.
+pub const FAST_FRAME_SECS: f32 = 0.1;
+/// The fewest characters a thinned crowd draws.
+pub const MIN_DRAWN: usize = 50;
+
+/// [`CrowdScene::adapt_budget`]'s rule: the budget after a frame `interval_secs` long that
+/// had `records` character records to draw.
+pub fn next_budget(budget: usize, interval_secs: f32, records: usize) -> usize {
+    if interval_secs > SLOW_FRAME_SECS && records > MIN_DRAWN {
+        // Aim at about 100 ms a frame: the share to keep, at most a half.
+        let keep = (0.1 / interval_secs as f64).clamp(0.05, 0.5);
+        ((budget.min(records) as f64 * keep) as usize).max(MIN_DRAWN)
+    } else if interval_secs < FAST_FRAME_SECS && budget != usize::MAX {
+        let grown = budget + budget / 4 + 1;
+        if grown >= 2 * records { usize::MAX } else { grown }
+    } else {
+        budget
+    }
+}
+
+/// Keeps at most `budget` of `lists`' records in all, the same share of each list, evenly
+/// spread through it (record `k` of a list of `n` is kept when `⌊(k + 1)·r⌋ > ⌊k·r⌋`,
+/// `r = budget / total`); returns how many were dropped.
+pub fn thin_out<T>(lists: &mut [Vec<T>], budget: usize) -> usize {
+    let total: usize = lists.iter().map(Vec::len).sum();
+    if total <= budget {
+        return 0;
+    }
+    let r = budget as f64 / total as f64;
+    let mut dropped = 0;
+    for list in lists.iter_mut() {
+        let mut k = 0usize;
+        let before = list.len();
+        list.retain(|_| {
+            let keep = ((k + 1) as f64 * r).floor() > (k as f64 * r).floor();
+            k += 1;
+            keep
+        });
+        dropped += before - list.len();
+    }
+    dropped
 }
 
 impl CrowdScene {
@@ -289,6 +348,8 @@ impl CrowdScene {
             timing,
             style: PolypostorStyle::default(),
             ground: true,
+            draw_budget: usize::MAX,
+            fast_streak: 0,
         })
     }
 
@@ -332,6 +393,7 @@ impl CrowdScene {
         self.renderers.ground_y = self.crowd.params.size.ground_y;
         self.renderers.ground_scale = self.crowd.params.scale();
         self.fall_back();
+        let skipped = thin_out(&mut self.crowd.instances, self.draw_budget);
         for (n, list) in frame.per_level.iter_mut().zip(&self.crowd.instances) {
             *n = list.len();
         }
@@ -348,7 +410,24 @@ impl CrowdScene {
             frame,
             upload_secs: t.elapsed().as_secs_f64(),
             draw_calls,
+            skipped,
         }
+    }
+
+    /// Adapts [`CrowdScene::draw_budget`] to the last frame interval: over
+    /// [`SLOW_FRAME_SECS`] it keeps at most half of what was drawn, less the slower the frame
+    /// (not below [`MIN_DRAWN`]); after [`FAST_STREAK`] frames in a row under
+    /// [`FAST_FRAME_SECS`] a thinned crowd grows back by a quarter, and draws everyone again
+    /// once the budget covers twice the `records` drawn and skipped last frame.
+    pub fn adapt_budget(&mut self, interval_secs: f32, records: usize) {
+        if interval_secs < FAST_FRAME_SECS {
+            self.fast_streak += 1;
+            if self.fast_streak < FAST_STREAK {
+                return;
+            }
+        }
+        self.fast_streak = 0;
+        self.draw_budget = next_budget(self.draw_budget, interval_secs, records);
     }
 
     /// Moves instances of levels that are not loaded to a loaded one (impostor → polypostor

@@ -460,3 +460,64 @@ fn level_and_view_switches_cross_fade_for_the_fade_time() {
     assert_eq!(fade_bits(1.0, false), 0);
     assert_eq!(fade_bits(1.5, true), 0);
 }
+
+/// Thinning a crowd too heavy for the machine: at most the budget is kept, the same share of
+/// every level, evenly spread (no gap longer than the stride); the budget halves on slow
+/// frames down to a floor and grows back to "everyone" on fast ones.
+#[test]
+fn a_crowd_too_heavy_for_the_machine_thins_out_evenly_and_recovers() {
+    use super::scene::{FAST_FRAME_SECS, MIN_DRAWN, SLOW_FRAME_SECS, next_budget, thin_out};
+    for (sizes, budget) in [
+        (vec![20_000usize, 0, 3_000], 5_000usize),
+        (vec![7, 7], 5),
+        (vec![10], 100),
+    ] {
+        let mut lists: Vec<Vec<usize>> = sizes.iter().map(|&n| (0..n).collect()).collect();
+        let total: usize = sizes.iter().sum();
+        let dropped = thin_out(&mut lists, budget);
+        let kept: usize = lists.iter().map(Vec::len).sum();
+        assert_eq!(kept + dropped, total);
+        assert!(
+            kept <= budget.max(0) && kept + sizes.len() >= budget.min(total),
+            "{kept} of {total} for {budget}"
+        );
+        for (list, &n) in lists.iter().zip(&sizes) {
+            if n == 0 || total <= budget {
+                assert_eq!(list.len(), n);
+                continue;
+            }
+            // Brute force over the kept indices: gaps at most the stride, rounded up.
+            let stride = (total as f64 / budget as f64).ceil() as usize;
+            let mut last = None;
+            for &k in list {
+                if let Some(l) = last {
+                    assert!(k - l <= stride, "gap {} > {stride}", k - l);
+                }
+                last = Some(k);
+            }
+            let share = list.len() as f64 / n as f64;
+            assert!((share - budget as f64 / total as f64).abs() < 0.01 + 1.0 / n as f64);
+        }
+    }
+    // Slow frames halve (never below the floor); fast ones grow back to everyone.
+    let mut b = usize::MAX;
+    for _ in 0..20 {
+        b = next_budget(b, SLOW_FRAME_SECS + 0.05, 20_000);
+    }
+    assert_eq!(b, MIN_DRAWN);
+    assert_eq!(
+        next_budget(usize::MAX, (SLOW_FRAME_SECS + FAST_FRAME_SECS) / 2.0, 20_000),
+        usize::MAX
+    );
+    let mut steps = 0;
+    while b != usize::MAX {
+        b = next_budget(b, FAST_FRAME_SECS / 2.0, 20_000);
+        steps += 1;
+        assert!(steps < 100);
+    }
+    // A small crowd is never thinned.
+    assert_eq!(next_budget(usize::MAX, 1.0, MIN_DRAWN), usize::MAX);
+    // The slower the frame, the more is dropped at once (at most half kept).
+    assert!(next_budget(10_000, 2.0, 10_000) < next_budget(10_000, 0.2, 10_000));
+    assert_eq!(next_budget(10_000, 0.16, 10_000), 5_000);
+}

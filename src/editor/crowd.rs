@@ -62,6 +62,9 @@ pub struct PreviewStats {
     pub select_ms: f64,
     pub upload_ms: f64,
     pub draw_calls: usize,
+    /// Visible characters not drawn last frame (the crowd thinned to keep the window
+    /// answering).
+    pub skipped: usize,
     pub error: Option<String>,
 }
 
@@ -428,6 +431,7 @@ impl CrowdPanel {
                 );
                 row(ui, "draw calls", stats.draw_calls.to_string());
                 row(ui, "agents / visible", format!("{} / {}", stats.agents, stats.visible));
+
                 // The size the crowd follows (measured over the clip, in the file's metres).
                 let p = assets.crowd_params(stats.agents);
                 row(
@@ -451,6 +455,19 @@ impl CrowdPanel {
                     ),
                 );
             });
+        if stats.skipped > 0 {
+            ui.add(
+                egui::Label::new(
+                    egui::RichText::new(format!(
+                        "{} of the visible characters not drawn: frames took over {:.0} ms, so the crowd is thinned to keep the window answering (fewer characters, or a lighter representation, draws them all)",
+                        stats.skipped,
+                        polypostor::crowd::scene::SLOW_FRAME_SECS * 1e3
+                    ))
+                    .color(ui.visuals().warn_fg_color),
+                )
+                .wrap(),
+            );
+        }
         ui.add_space(4.0);
         egui::Grid::new("crowd levels")
             .num_columns(3)
@@ -556,6 +573,10 @@ pub struct CrowdGpu {
     scene: CrowdScene,
     target: RenderTarget,
     blit: wgpu::BindGroup,
+    /// When the crowd was last drawn (the interval its draw budget adapts to).
+    drawn_at: Option<Instant>,
+    /// The representation and size last drawn: a change starts the draw budget afresh.
+    drawn_as: Option<(LodPolicy, usize)>,
 }
 
 /// One frame's crowd draw request.
@@ -603,6 +624,8 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
                         scene,
                         target,
                         blit,
+                        drawn_at: None,
+                        drawn_as: None,
                     });
                 }
                 Err(e) => {
@@ -632,6 +655,10 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
             crowd.scene.respawn(params);
         }
         crowd.scene.crowd.set_paused(self.paused);
+        if crowd.drawn_as != Some((self.policy, self.count)) {
+            crowd.scene.draw_budget = usize::MAX;
+            crowd.drawn_as = Some((self.policy, self.count));
+        }
         let s = crowd.scene.frame(
             device,
             queue,
@@ -646,7 +673,17 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
                 a: 1.0,
             },
         );
+        // A crowd too heavy for this machine (20,000 skinned meshes on a software rasteriser
+        // took seconds a frame and the window stopped answering) draws fewer characters,
+        // evenly spread, until frames come back under about 150 ms; the panel says so.
+        let records = s.frame.per_level.iter().sum::<usize>() + s.skipped;
+        let now = Instant::now();
+        if let Some(then) = crowd.drawn_at {
+            crowd.scene.adapt_budget((now - then).as_secs_f32(), records);
+        }
+        crowd.drawn_at = Some(now);
         if let Ok(mut out) = self.stats.lock() {
+            out.skipped = s.skipped;
             out.agents = crowd.scene.crowd.len();
             out.visible = s.frame.visible;
             out.per_level = s.frame.per_level;
