@@ -31,10 +31,20 @@ struct Instance {
     // (sin h, cos h) of the heading h about +Y.
     facing: vec2<f32>,
     view: u32,
+    // Bits 0..16: the frame drawn; bits 16..32: the frame it blends towards (`frame_pair`).
     frame: u32,
     blend: f32,
     variant: u32,
 };
+
+// The two frames an instance blends between: the one drawn (bits 0..16 of `Instance.frame`)
+// and the next as its clip plays (bits 16..32; a clip's last frame is followed by its own
+// first, not the next clip's), each wrapped below `frames`. Keep in sync with
+// `crowd::frame_pair`.
+fn frame_pair(packed: u32, frames: u32) -> vec2<u32> {
+    let n = max(frames, 1u);
+    return vec2<u32>((packed & 0xffffu) % n, (packed >> 16u) % n);
+}
 
 fn hash(x: u32) -> u32 {
     var h = x * 747796405u + 2891336453u;

@@ -73,10 +73,14 @@ fn vs_skinned(v: SkinnedIn) -> VertexOut {
     let frames = max(u32(frame.counts.y), 1u);
     let bones = max(u32(frame.counts.z), 1u);
     let samples = frames * u32(per_frame);
-    let t = (f32(inst.frame % frames) + clamp(inst.blend, 0.0, 1.0)) * per_frame;
-    let s0 = u32(floor(t)) % samples;
-    let s1 = (s0 + 1u) % samples;
-    let a = fract(t);
+    let pair = frame_pair(inst.frame, frames);
+    // The samples of frame f0 run from f0 · per_frame; past its last one comes the first of
+    // f1 (the next frame as the clip plays).
+    let t = clamp(inst.blend, 0.0, 1.0) * per_frame;
+    let sub = min(u32(floor(t)), u32(per_frame) - 1u);
+    let s0 = min(pair.x * u32(per_frame) + sub, samples - 1u);
+    let s1 = select(s0 + 1u, pair.y * u32(per_frame), sub + 1u >= u32(per_frame));
+    let a = clamp(t - f32(sub), 0.0, 1.0);
     var p = vec3<f32>(0.0);
     var n = vec3<f32>(0.0);
     for (var k = 0u; k < 4u; k++) {
@@ -108,8 +112,9 @@ fn vs_rigid(v: RigidIn) -> VertexOut {
     let inst = instances[v.ii];
     let frames = max(u32(frame.counts.y), 1u);
     let count = u32(frame.counts.w);
-    let f0 = inst.frame % frames;
-    let f1 = (f0 + 1u) % frames;
+    let pair = frame_pair(inst.frame, frames);
+    let f0 = pair.x;
+    let f1 = pair.y;
     let a = rigid[f0 * count + v.vi];
     let b = rigid[f1 * count + v.vi];
     let blend = clamp(inst.blend, 0.0, 1.0);

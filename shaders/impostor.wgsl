@@ -35,7 +35,8 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> 
     let frames = max(u32(frame.counts.z), 1u);
     let columns = max(u32(frame.counts.x), 1u);
     // Impostors cannot interpolate: the nearest baked frame.
-    let f = (inst.frame + u32(inst.blend >= 0.5)) % frames;
+    let pair = frame_pair(inst.frame, frames);
+    let f = select(pair.x, pair.y, inst.blend >= 0.5);
     let tile = vec2<f32>(f32(f % columns), f32(f / columns));
     out.uv = (tile + vec2<f32>(0.5 + 0.5 * xy.x, 0.5 - 0.5 * xy.y)) / frame.counts.xy;
     out.layer = inst.view;

@@ -33,8 +33,9 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> 
     let count = u32(frame.counts.x);
     let frames = max(u32(frame.counts.y), 1u);
     let local = min(topology[vi], count - 1u);
-    let f0 = inst.frame % frames;
-    let f1 = (f0 + 1u) % frames;
+    let pair = frame_pair(inst.frame, frames);
+    let f0 = pair.x;
+    let f1 = pair.y;
     let a = vertices[f0 * count + local];
     let b = vertices[f1 * count + local];
     let blend = clamp(inst.blend, 0.0, 1.0);

@@ -71,8 +71,9 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> 
     let keys = max((part.slot_key >> 16u) & 0xffu, 1u);
     let vc = max(part.vertex_count & 0xffffu, 1u);
     let local = min(vi & 0xffffu, vc - 1u);
-    let f0 = inst.frame % frames;
-    let f1 = (f0 + 1u) % frames;
+    let pair = frame_pair(inst.frame, frames);
+    let f0 = pair.x;
+    let f1 = pair.y;
     let blend = clamp(inst.blend, 0.0, 1.0);
     var mode = 0.0;
     if (keys > 1u) {

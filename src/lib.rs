@@ -20,6 +20,8 @@
 //! - [`plot`]: PNG charts for reports (grouped bars, optionally log-scaled; lines per series).
 //! - [`project`]: the serde project file (atomic save, versioned load).
 //! - [`limits`]: every documented limit (views, frames, resolution, parts, memory budgets).
+//! - [`timeline`]: the frames of a bake (one or several clips one after another, each looping
+//!   on its own) and each clip's measured ground speed.
 //! - [`safe_fs`]: bounded reads of regular files, outputs that never clobber what the user
 //!   had, staging clean-up and temporary folders.
 
@@ -39,6 +41,7 @@ pub mod plot;
 pub mod project;
 pub mod reps;
 pub mod safe_fs;
+pub mod timeline;
 
 pub use character::Character;
 pub use import::{ImportError, import_path};

@@ -439,8 +439,13 @@ struct BakeArgs {
     #[arg(long)]
     project: Option<PathBuf>,
     /// Clip name (default: the project's clip, else Walk, else the first).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "clips")]
     clip: Option<String>,
+    /// Several clips in one whole-character pack, comma-separated (`Walk,Run,Idle`), or
+    /// `all`: one set of key images for all of them (default: the project's clip set when it
+    /// has one, else one clip as --clip).
+    #[arg(long)]
+    clips: Option<String>,
     /// Output pack folder (default: <input>-<clip>.pack in the current folder).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -544,6 +549,7 @@ impl BakeArgs {
             input,
             project: None,
             clip: None,
+            clips: None,
             out: Some(out),
             views: polypostor::bake::viewpoints::DEFAULT_VIEW_COUNT,
             resolution: polypostor::bake::renders::DEFAULT_RESOLUTION,
@@ -629,19 +635,41 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     for w in &c.warnings {
         eprintln!("warning: {w}");
     }
-    let clip_name = a
-        .clip
-        .clone()
-        .or_else(|| project.as_ref().and_then(|p| p.view.clip.clone()))
-        .or_else(|| c.find_clip("Walk").map(|_| "Walk".to_string()))
-        .or_else(|| c.clips.first().map(|k| k.name.clone()));
-    let clip = match &clip_name {
-        Some(n) => Some(c.find_clip(n).ok_or_else(|| {
+    let find = |n: &str| {
+        c.find_clip(n).ok_or_else(|| {
             anyhow::anyhow!(
                 "no clip named '{n}' (clips: {})",
                 c.clips.iter().map(|k| k.name.as_str()).collect::<Vec<_>>().join(", ")
             )
-        })?),
+        })
+    };
+    // Several clips: --clips, else the project's clip set.
+    let clip_set: Option<Vec<String>> = match a.clips.as_deref() {
+        Some(list) => {
+            Some(polypostor::timeline::parse_clip_list(list, &c).map_err(|e| anyhow::anyhow!("--clips: {e}"))?)
+        }
+        None if a.clip.is_none() => project.as_ref().map(|p| p.clips.clone()).filter(|l| !l.is_empty()),
+        None => None,
+    };
+    let (clip_name, extra_clips) = match &clip_set {
+        Some(list) => {
+            let mut idx = Vec::with_capacity(list.len());
+            for n in list {
+                idx.push(find(n)?);
+            }
+            (list.first().cloned(), idx.into_iter().skip(1).collect::<Vec<_>>())
+        }
+        None => (
+            a.clip
+                .clone()
+                .or_else(|| project.as_ref().and_then(|p| p.view.clip.clone()))
+                .or_else(|| c.find_clip("Walk").map(|_| "Walk".to_string()))
+                .or_else(|| c.clips.first().map(|k| k.name.clone())),
+            Vec::new(),
+        ),
+    };
+    let clip = match &clip_name {
+        Some(n) => Some(find(n)?),
         None => None,
     };
     let seg = segmentation_for(project.as_ref(), &c);
@@ -664,6 +692,7 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         resolution: a.resolution,
         fps: a.fps,
         clip,
+        extra_clips,
         key_frame,
         fit: polypostor::bake::part_fit::PartFitOptions {
             exhaustive: a.exhaustive,
@@ -688,7 +717,11 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     let out = match &a.out {
         Some(o) => o.clone(),
         None => {
-            let o = default_out(clip_name.as_deref());
+            let o = if clip_set.as_ref().is_some_and(|l| l.len() > 1) {
+                PathBuf::from(format!("{stem}-clips.pack"))
+            } else {
+                default_out(clip_name.as_deref())
+            };
             check_out(&o)?;
             o
         }
@@ -826,6 +859,37 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
             String::new()
         }
     );
+    let parsed: Option<polypostor::bake::report::Report> = serde_json::from_value(report).ok();
+    if let Some(r) = parsed.filter(|r| r.clips.len() > 1) {
+        eprintln!(
+            "{:<16} {:>6} {:>9} {:>9} {:>7} {:>11} {:>11} {:>8}",
+            "clip", "frames", "speed", "PSNR dB", "SSIM", "alone", "impostors", "ratio"
+        );
+        for c in &r.clips {
+            eprintln!(
+                "{:<16} {:>6} {:>9.3} {:>9.2} {:>7.3} {:>11} {:>11} {:>7.1}×",
+                c.name,
+                c.frames,
+                c.ground_speed,
+                c.mean_psnr,
+                c.mean_ssim,
+                human_bytes(c.alone_bytes),
+                human_bytes(c.impostor_bytes),
+                c.memory_ratio
+            );
+        }
+        eprintln!(
+            "{:<16} {:>6} {:>9} {:>9.2} {:>7.3} {:>11} {:>11} {:>7.1}×",
+            "whole pack",
+            r.settings.frames,
+            "",
+            r.mean_psnr,
+            r.mean_ssim,
+            human_bytes(r.pack_bytes),
+            human_bytes(r.impostor_bytes),
+            r.memory_ratio
+        );
+    }
     Ok(())
 }
 

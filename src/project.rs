@@ -114,6 +114,10 @@ pub struct Project {
     /// Per-view corrections of the bake (key frame, drawing order, pinned correspondences).
     #[serde(default, skip_serializing_if = "crate::bake::overrides::BakeOverrides::is_empty")]
     pub overrides: crate::bake::overrides::BakeOverrides,
+    /// The artist's clip set: the clips a whole-character bake puts in one pack, in order
+    /// (empty: one clip, the viewed one).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub clips: Vec<String>,
 }
 
 impl Project {
@@ -130,6 +134,7 @@ impl Project {
             segmentation: None,
             caps: Default::default(),
             overrides: Default::default(),
+            clips: Vec::new(),
         }
     }
 

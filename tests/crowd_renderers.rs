@@ -14,7 +14,7 @@ use polypostor::animation::Pose;
 use polypostor::bake::segment::auto_segment;
 use polypostor::bake::viewpoints::Coverage;
 use polypostor::crowd::lod::Level;
-use polypostor::crowd::{ClipTiming, Instance};
+use polypostor::crowd::{ClipTiming, Instance, looping_pair};
 use polypostor::gpu::*;
 use polypostor::reps::bake::{RepsOptions, bake_representations};
 use polypostor::reps::{RepSet, load_representations, write_representations};
@@ -49,6 +49,7 @@ fn every_representation_draws_close_to_the_mesh() {
         resolution: 128,
         fps: 10.0,
         clip: Some(0),
+        extra_clips: Vec::new(),
         key_frame: 0,
         set: RepSet::ALL,
         np3d_triangles: 400,
@@ -95,8 +96,9 @@ fn every_representation_draws_close_to_the_mesh() {
 
     let labels: Vec<u32> = seg.labels.iter().map(|&l| l as u32).collect();
     let timing = ClipTiming { frames, fps: 10.0 };
+    let timeline = polypostor::timeline::Timeline::new(&c, &[Some(0)], 10.0).unwrap();
     let mut crowd =
-        CrowdRenderers::new(device, queue, &c, Some(0), &labels, None, Some(&loaded), timing, true).unwrap();
+        CrowdRenderers::new(device, queue, &c, &timeline, &labels, None, Some(&loaded), timing, true).unwrap();
     for level in [Level::Skinned, Level::Rigid, Level::Impostor, Level::Np3d] {
         assert!(crowd.has(level), "{level:?}");
         assert!(crowd.gpu_bytes(level) > 0, "{level:?}");
@@ -151,7 +153,7 @@ fn every_representation_draws_close_to_the_mesh() {
                 pos: [0.0, 0.0],
                 facing: [0.0, 1.0],
                 view: v as u32,
-                frame: frame as u32,
+                frame: looping_pair(frame as u32, frames as u32),
                 blend,
                 variant: 7,
             });
@@ -215,7 +217,7 @@ fn every_representation_draws_close_to_the_mesh() {
             pos: [0.0, 0.0],
             facing: [0.0, 1.0],
             view: v as u32,
-            frame: frame as u32,
+            frame: looping_pair(frame as u32, frames as u32),
             blend: 0.0,
             variant: 7,
         });
@@ -266,7 +268,7 @@ fn every_representation_draws_close_to_the_mesh() {
                 pos: [0.0, 0.0],
                 facing: [0.0, 1.0],
                 view: 1,
-                frame: frame as u32,
+                frame: looping_pair(frame as u32, frames as u32),
                 blend: 0.0,
                 variant: 7 | bits,
             });
@@ -324,7 +326,7 @@ fn every_representation_draws_close_to_the_mesh() {
             pos: [0.0, 0.0],
             facing: [0.0, 1.0],
             view: 0,
-            frame: 2,
+            frame: looping_pair(2, frames as u32),
             blend: 0.0,
             variant: 12345,
         });
@@ -356,7 +358,7 @@ fn every_representation_draws_close_to_the_mesh() {
             pos: [(i % 20) as f32 * 0.8 - 8.0, (i / 20) as f32 * 0.8],
             facing: [0.0, 1.0],
             view: i * 7,
-            frame: i * 3,
+            frame: polypostor::crowd::frame_pair(i * 3, i * 3 + 1),
             blend: 0.5,
             variant: i,
         });

@@ -49,6 +49,7 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
     let pack = load_pack(&out).unwrap();
     let mut gpu = GpuPolypostors::new(device, queue, &pack).unwrap();
     assert!(gpu.gpu_bytes > 0);
+    let frames = pack.manifest.frames as usize;
 
     // The real mesh (with the caps the bake drew) at frame 3.
     let caps = find_caps(&c, &seg);
@@ -89,7 +90,7 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
             pos: [0.0, 0.0],
             facing: [0.0, 1.0],
             view: v as u32,
-            frame: frame as u32,
+            frame: polypostor::crowd::looping_pair(frame as u32, frames as u32),
             blend: 0.0,
             variant: 7,
         };
@@ -130,7 +131,7 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
             pos: [(i % 25) as f32 * 0.8 - 10.0, (i / 25) as f32 * 0.8],
             facing: [0.0, 1.0],
             view: i * 7,
-            frame: i * 3,
+            frame: polypostor::crowd::frame_pair(i * 3, i * 3 + 1),
             blend: 0.5,
             variant: i,
         })
@@ -161,7 +162,7 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
             pos: [0.0, 0.0],
             facing: [0.0, 1.0],
             view: v as u32,
-            frame: frame as u32,
+            frame: polypostor::crowd::looping_pair(frame as u32, frames as u32),
             blend: 0.0,
             variant: 7,
         };
@@ -262,7 +263,7 @@ fn a_change_of_key_image_is_cross_faded_without_a_pop() {
             pos: [0.0, 0.0],
             facing: [0.0, 1.0],
             view: v as u32,
-            frame: frame as u32,
+            frame: polypostor::crowd::looping_pair(frame as u32, frames as u32),
             blend,
             variant: 3,
         };

@@ -136,6 +136,7 @@ fn an_incomplete_collection_is_not_used() {
         resolution: 32,
         fps: 10.0,
         clip: Some(0),
+        extra_clips: Vec::new(),
         key_frame: 0,
         set: RepSet::ALL,
         np3d_triangles: 400,

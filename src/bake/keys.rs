@@ -5,7 +5,8 @@
 //! up to [`KeyOptions::max_keys`] key images. The bake adds them greedily: for every part it
 //! tries the frame its current keys fit worst, fitted from that frame only as far round the
 //! loop as it can win ([`fit_part_span`]), and keeps the additions that cut the part's
-//! rendered error over all frames most per byte of texture, while each cuts it by at least
+//! rendered error over all frames most per byte of texture, while each cuts it (on some clip,
+//! for a whole-character pack) by at least
 //! [`KeyOptions::min_gain_db`] and the view's extra key images stay within
 //! [`KeyOptions::budget`] of its first ones. Each frame is then drawn from the key whose
 //! warped image is closest to the frame's render (a key is only given frames whose two
@@ -66,6 +67,9 @@ pub struct ExtraKey {
     pub key_normal: image::RgbaImage,
     /// Rendered squared colour error per frame (infinite outside the span).
     pub sse: Vec<f64>,
+    /// Per frame, whether the key may draw it: it fits the frame and both its neighbours in
+    /// the frame's clip ([`usable_frames`]).
+    pub usable: Vec<bool>,
 }
 
 /// Draws one part at frame `f` from its fit, textured from `key_tile`.
@@ -98,7 +102,7 @@ pub fn assign(primary_sse: &[f64], extra: &[ExtraKey], frames: usize) -> Vec<u8>
         .map(|f| {
             let mut best = (primary_sse.get(f).copied().unwrap_or(f64::INFINITY), 0u8);
             for (k, e) in extra.iter().enumerate() {
-                if !usable(e, f, frames) {
+                if !e.usable.get(f).copied().unwrap_or(false) {
                     continue;
                 }
                 if e.sse[f] < best.0 {
@@ -110,16 +114,21 @@ pub fn assign(primary_sse: &[f64], extra: &[ExtraKey], frames: usize) -> Vec<u8>
         .collect()
 }
 
-/// Whether `key` may draw frame `f`: it fits `f` and both its neighbours (so the run time
-/// has its polygon at either end of both intervals around `f`).
-fn usable(key: &ExtraKey, f: usize, frames: usize) -> bool {
-    let s = key.span;
-    if s.count >= frames {
-        return true;
-    }
-    [f, (f + frames - 1) % frames, (f + 1) % frames]
-        .iter()
-        .all(|&g| s.contains(g, frames))
+/// Per frame, whether a key fitted over `span` may draw it: the span holds the frame and both
+/// its neighbours as its clip plays (`clips`: the timeline's spans; empty, one loop of all
+/// frames), so the run time has the key's polygon at either end of both intervals around it.
+pub fn usable_frames(span: Span, frames: usize, clips: &[crate::timeline::ClipSpan]) -> Vec<bool> {
+    use crate::timeline::{next_frame, prev_frame};
+    (0..frames)
+        .map(|f| {
+            let (p, n) = if clips.is_empty() {
+                ((f + frames - 1) % frames, (f + 1) % frames)
+            } else {
+                (prev_frame(clips, f), next_frame(clips, f))
+            };
+            span.count >= frames || [f, p, n].iter().all(|&g| span.contains(g, frames))
+        })
+        .collect()
 }
 
 /// Per frame, the least error of the keys as assigned.
@@ -268,6 +277,8 @@ pub fn view_keys(parts: &[(&PartFit, &[f64], &[ExtraKey], &[u8])]) -> Vec<ViewKe
 /// One part's state during the choice: its first key's fit and error, and the keys so far.
 pub struct PartKeys<'a> {
     pub tiles: &'a [PartTile],
+    /// The timeline's clips (empty: one loop of all frames).
+    pub clips: &'a [crate::timeline::ClipSpan],
     pub targets: &'a [Vec<[f32; 2]>],
     pub primary: &'a PartFit,
     pub primary_sse: &'a [f64],
@@ -320,6 +331,7 @@ impl PartKeys<'_> {
             key_color: image::RgbaImage::new(0, 0),
             key_normal: image::RgbaImage::new(0, 0),
             sse,
+            usable: usable_frames(span, frames, self.clips),
         })
     }
 
@@ -390,60 +402,71 @@ pub fn choose(
         return;
     }
     let mut budget: f64 = keys.budget * parts.iter().flatten().map(|p| key_bytes(p.primary)).sum::<f64>();
-    let mut active: Vec<bool> = parts.iter().map(Option::is_some).collect();
+    // One proposal slot per part and clip (slot `s`: part `s / nc`, clip `s % nc`), so every
+    // clip of a whole-character pack gets its worst frame tried, not only the worst clip.
+    let nc = parts.iter().flatten().map(|p| p.clips.len()).next().unwrap_or(1).max(1);
+    let nc = if nc < 2 { 1 } else { nc };
+    let slots = parts.len() * nc;
+    let mut active: Vec<bool> = (0..slots).map(|s| parts[s / nc].is_some()).collect();
     let threshold = 10f64.powf(keys.min_gain_db / 10.0);
-    // Lazy greedy: every active part proposes its next key (the frame its keys fit worst)
-    // with an optimistic gain per byte, known before fitting; proposals are fitted, best
-    // estimate first, only until the best fitted one beats every estimate left, which is then
-    // taken. A part's proposal depends only on that part, so fitted proposals stay valid
-    // while other parts take keys; proposals the budget can no longer pay for are never
-    // fitted (fitting every part's proposal each round, a third of them were lost to the
-    // budget after fitting).
-    let mut proposals: Vec<Option<Proposal>> = parts.iter().map(|_| None).collect();
+    // Lazy greedy: every active slot proposes its part's next key (the frame of its clip its
+    // keys fit worst) with an optimistic gain per byte, known before fitting; proposals are
+    // fitted, best estimate first, only until the best fitted one beats every estimate left,
+    // which is then taken. A proposal depends only on its part, so fitted proposals stay
+    // valid while other parts take keys (a part taking a key proposes again); proposals the
+    // budget can no longer pay for are never fitted (fitting every part's proposal each
+    // round, a third of them were lost to the budget after fitting).
+    let mut proposals: Vec<Option<Proposal>> = (0..slots).map(|_| None).collect();
     loop {
-        for (p, part) in parts.iter().enumerate() {
-            if !active[p] || proposals[p].is_some() {
+        for s in 0..slots {
+            if !active[s] || proposals[s].is_some() {
                 continue;
             }
-            proposals[p] = part
+            let clip = (nc > 1).then_some(s % nc);
+            proposals[s] = parts[s / nc]
                 .as_ref()
-                .and_then(|part| propose(part, max_keys, threshold, frames, budget));
-            active[p] = proposals[p].is_some();
+                .and_then(|part| propose(part, clip, max_keys, threshold, frames, budget));
+            active[s] = proposals[s].is_some();
         }
-        // Proposals the budget no longer pays for: their parts are done.
-        for (p, prop) in proposals.iter_mut().enumerate() {
+        // Proposals the budget no longer pays for: their slots are done.
+        for (s, prop) in proposals.iter_mut().enumerate() {
             let over = prop.as_ref().is_some_and(|x| match &x.fitted {
                 Some(c) => c.bytes > budget,
                 None => x.min_bytes > budget,
             });
             if over {
                 *prop = None;
-                active[p] = false;
+                active[s] = false;
             }
         }
-        let best_fitted = (0..parts.len())
-            .filter_map(|p| {
-                let c = proposals[p].as_ref()?.fitted.as_ref()?;
-                Some((p, c.ratio()))
+        let best_fitted = (0..slots)
+            .filter_map(|s| {
+                let c = proposals[s].as_ref()?.fitted.as_ref()?;
+                Some((s, c.ratio()))
             })
             .max_by(|a, b| a.1.total_cmp(&b.1));
-        let mut unfitted: Vec<(usize, f64)> = (0..parts.len())
-            .filter_map(|p| {
-                let x = proposals[p].as_ref()?;
-                x.fitted.is_none().then_some((p, x.estimate))
+        let mut unfitted: Vec<(usize, f64)> = (0..slots)
+            .filter_map(|s| {
+                let x = proposals[s].as_ref()?;
+                x.fitted.is_none().then_some((s, x.estimate))
             })
             .collect();
         unfitted.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
-        if let Some((p, ratio)) = best_fitted
+        if let Some((s, ratio)) = best_fitted
             && unfitted.first().is_none_or(|u| ratio >= u.1)
         {
-            let c = proposals[p].take().and_then(|x| x.fitted).expect("a fitted proposal");
+            let c = proposals[s].take().and_then(|x| x.fitted).expect("a fitted proposal");
             budget -= c.bytes;
+            let p = s / nc;
             if let Some(part) = parts[p].as_mut() {
                 let mut key = c.key;
                 (key.key_color, key.key_normal) = images(p, key.frame);
                 part.extra.push(key);
                 part.prune();
+            }
+            // The part's other proposals were made against its keys before this one.
+            for k in 0..nc {
+                proposals[p * nc + k] = None;
             }
             continue;
         }
@@ -454,23 +477,23 @@ pub fn choose(
         let batch: Vec<usize> = unfitted.iter().take(KEY_FIT_BATCH).map(|u| u.0).collect();
         let fitted: Vec<Option<Candidate>> = batch
             .par_iter()
-            .map(|&p| {
+            .map(|&s| {
                 let _keys = super::profile::root("key choice");
-                let part = parts[p].as_ref()?;
-                let x = proposals[p].as_ref()?;
+                let part = parts[s / nc].as_ref()?;
+                let x = proposals[s].as_ref()?;
                 evaluate(part, x, options, threshold, frames)
             })
             .collect();
-        for (p, c) in batch.into_iter().zip(fitted) {
+        for (s, c) in batch.into_iter().zip(fitted) {
             match c {
                 Some(c) => {
-                    if let Some(x) = proposals[p].as_mut() {
+                    if let Some(x) = proposals[s].as_mut() {
                         x.fitted = Some(c);
                     }
                 }
                 None => {
-                    proposals[p] = None;
-                    active[p] = false;
+                    proposals[s] = None;
+                    active[s] = false;
                 }
             }
         }
@@ -483,12 +506,14 @@ const KEY_FIT_BATCH: usize = 2;
 /// A part's next key, before and after fitting.
 struct Proposal {
     frame: usize,
-    /// The part's error over all frames with its keys so far.
+    /// The clip it is for (`None`: all frames, one clip).
+    clip: Option<usize>,
+    /// The part's weighted error ([`frame_weights`]) over all frames with its keys so far.
     total: f64,
     /// The least bytes its image may take (about its frame's outline's bounds).
     min_bytes: f64,
-    /// An optimistic gain per byte: every frame down to the first key's error at its own
-    /// frame, for `min_bytes`.
+    /// An optimistic gain per byte: every frame of its clip down to the first key's error at
+    /// its own frame, for `min_bytes`.
     estimate: f64,
     fitted: Option<Candidate>,
 }
@@ -499,23 +524,46 @@ impl Candidate {
     }
 }
 
-/// Part `part`'s next key to try, or `None` when it is done (its keys at `max_keys`, no key
-/// could buy `threshold`, or the key's image would be past the `budget` left).
-fn propose(part: &PartKeys<'_>, max_keys: usize, threshold: f64, frames: usize, budget: f64) -> Option<Proposal> {
+/// The frames of clip `clip` (all frames for `None`).
+fn clip_range(part: &PartKeys<'_>, clip: Option<usize>, frames: usize) -> std::ops::Range<usize> {
+    match clip.and_then(|c| part.clips.get(c)) {
+        Some(c) => c.start as usize..(c.range().end).min(frames),
+        None => 0..frames,
+    }
+}
+
+/// Part `part`'s next key for clip `clip` (`None`: all frames) to try, or `None` when it is
+/// done (its keys at `max_keys`, no key could buy `threshold` on the clip, or the key's image
+/// would be past the `budget` left).
+fn propose(
+    part: &PartKeys<'_>,
+    clip: Option<usize>,
+    max_keys: usize,
+    threshold: f64,
+    frames: usize,
+    budget: f64,
+) -> Option<Proposal> {
     if part.extra.len() + 1 >= max_keys {
         return None;
     }
+    let w = frame_weights(part.clips, frames);
     let a = assign(part.primary_sse, &part.extra, frames);
-    let cur = current(part.primary_sse, &part.extra, &a);
+    let cur: Vec<f64> = current(part.primary_sse, &part.extra, &a)
+        .iter()
+        .zip(&w)
+        .map(|(e, w)| e * w)
+        .collect();
     let total: f64 = cur.iter().sum();
+    let range = clip_range(part, clip, frames);
     // No key does better at a frame than the first key does at its own: if even that level
-    // everywhere would not buy the threshold, stop here.
+    // everywhere in the clip would not buy the threshold there, stop here.
     let floor = part.primary_sse[part.primary.key_frame];
-    let best_case: f64 = cur.iter().map(|&e| e.min(floor)).sum();
-    if !(total > 0.0) || total <= best_case * threshold {
+    let now: f64 = cur[range.clone()].iter().sum();
+    let best_case: f64 = range.clone().map(|f| cur[f].min(floor * w[f])).sum();
+    if !(now > 0.0) || now <= best_case * threshold {
         return None;
     }
-    let frame = (0..frames)
+    let frame = range
         .filter(|&f| !part.used(f))
         .max_by(|&x, &y| cur[x].total_cmp(&cur[y]))?;
     // The key's image is about its frame's outline's bounds: not fitted at all when that is
@@ -526,14 +574,16 @@ fn propose(part: &PartKeys<'_>, max_keys: usize, threshold: f64, frames: usize, 
     }
     Some(Proposal {
         frame,
+        clip,
         total,
         min_bytes,
-        estimate: (total - best_case) / min_bytes.max(1.0),
+        estimate: (now - best_case) / min_bytes.max(1.0),
         fitted: None,
     })
 }
 
-/// Fits a proposal; `None` when it does not buy `threshold` (the part is then done).
+/// Fits a proposal; `None` when it does not buy `threshold` on its clip (the slot is then
+/// done).
 fn evaluate(
     part: &PartKeys<'_>,
     x: &Proposal,
@@ -544,10 +594,20 @@ fn evaluate(
     let key = part.try_key(x.frame, options)?;
     let mut extra = part.extra.clone();
     extra.push(key);
-    let after: f64 = current(part.primary_sse, &extra, &assign(part.primary_sse, &extra, frames))
-        .iter()
-        .sum();
-    if x.total < after * threshold {
+    let w = frame_weights(part.clips, frames);
+    let weighted = |ex: &[ExtraKey]| -> Vec<f64> {
+        current(part.primary_sse, ex, &assign(part.primary_sse, ex, frames))
+            .iter()
+            .zip(&w)
+            .map(|(e, w)| e * w)
+            .collect()
+    };
+    let after_frames = weighted(&extra);
+    let after: f64 = after_frames.iter().sum();
+    let range = clip_range(part, x.clip, frames);
+    let before_clip: f64 = weighted(&part.extra)[range.clone()].iter().sum();
+    let after_clip: f64 = after_frames[range].iter().sum();
+    if !(before_clip > 0.0) || before_clip < after_clip * threshold {
         return None;
     }
     let key = extra.pop().expect("just pushed");
@@ -557,6 +617,25 @@ fn evaluate(
         gain: x.total - after,
         bytes,
     })
+}
+
+/// How much each frame's error counts when keys are chosen: every clip of the timeline
+/// equally (a clip of `n` frames weighs `frames / (clips × n)` a frame), so a short clip's
+/// frames are not outvoted by a long one's; 1 everywhere for one clip.
+pub fn frame_weights(clips: &[crate::timeline::ClipSpan], frames: usize) -> Vec<f64> {
+    let mut w = vec![1.0; frames];
+    if clips.len() < 2 {
+        return w;
+    }
+    for c in clips {
+        let share = frames as f64 / (clips.len() as f64 * c.frames.max(1) as f64);
+        for f in c.range() {
+            if let Some(x) = w.get_mut(f) {
+                *x = share;
+            }
+        }
+    }
+    w
 }
 
 #[cfg(test)]
@@ -612,6 +691,7 @@ mod tests {
     fn extra(frame: usize, start: usize, count: usize, sse: Vec<f64>) -> ExtraKey {
         let t = turning(4);
         let fit = crate::bake::part_fit::fit_part(&t, 0, &PartFitOptions::default(), &[]).unwrap();
+        let frames = sse.len();
         ExtraKey {
             frame,
             fit,
@@ -619,6 +699,7 @@ mod tests {
             key_color: image::RgbaImage::new(1, 1),
             key_normal: image::RgbaImage::new(1, 1),
             sse,
+            usable: usable_frames(Span { start, count }, frames, &[]),
         }
     }
 
@@ -654,6 +735,44 @@ mod tests {
         assert!((per[1] - db_ratio(32.0, 27.5)).abs() < 1e-9);
     }
 
+    #[test]
+    fn with_several_clips_a_key_draws_only_frames_whose_clip_neighbours_it_fits() {
+        use crate::timeline::ClipSpan;
+        let span = |name: &str, start: u32, frames: u32| ClipSpan {
+            name: name.into(),
+            start,
+            frames,
+            looping: true,
+            ground_speed: 0.0,
+        };
+        // Clips of 4, 3 and 5 frames; a key fitted over frames 2..=8.
+        let clips = vec![span("a", 0, 4), span("b", 4, 3), span("c", 7, 5)];
+        let frames = 12;
+        let key = Span { start: 2, count: 7 };
+        let got = usable_frames(key, frames, &clips);
+        // Brute force: the frame and its neighbours in its own clip inside 2..=8.
+        for f in 0..frames {
+            let c = clips.iter().find(|c| c.range().contains(&f)).unwrap();
+            let r = c.range();
+            let (p, n) = (
+                r.start + (f - r.start + r.len() - 1) % r.len(),
+                r.start + (f - r.start + 1) % r.len(),
+            );
+            let want = [f, p, n].iter().all(|g| (2..=8).contains(g));
+            assert_eq!(got[f], want, "frame {f}");
+        }
+        // Clip b (4..=6) is inside the span as a whole loop: all its frames; clip a's last
+        // frame 3 is followed by its first (0), outside: not drawn; the global neighbours
+        // would have allowed it.
+        assert_eq!(
+            got,
+            vec![
+                false, false, false, false, true, true, true, false, false, false, false, false
+            ]
+        );
+        assert!(usable_frames(key, frames, &[])[3]);
+    }
+
     /// The state `choose` starts from: one part, its first key at frame 0.
     fn chosen(frames: usize, keys: &KeyOptions, manual: Option<&[usize]>) -> (Vec<f64>, Vec<ExtraKey>) {
         let t = turning(frames);
@@ -667,6 +786,7 @@ mod tests {
             targets: &fit.targets,
             primary: &fit,
             primary_sse: &primary_sse,
+            clips: &[],
             extra: Vec::new(),
         })];
         let blank = |_: usize, _: usize| (image::RgbaImage::new(1, 1), image::RgbaImage::new(1, 1));
@@ -705,7 +825,7 @@ mod tests {
         // Every assigned key fits its frame and both neighbours.
         for (f, &k) in a.iter().enumerate() {
             if k > 0 {
-                assert!(usable(&extra[k as usize - 1], f, frames));
+                assert!(extra[k as usize - 1].usable[f]);
             }
         }
         // One key only, or no budget: nothing added.
@@ -766,6 +886,7 @@ mod tests {
                         targets: &fits[i].targets,
                         primary: &fits[i],
                         primary_sse: &sses[i],
+                        clips: &[],
                         extra: Vec::new(),
                     })
                 })
@@ -778,7 +899,7 @@ mod tests {
             .iter()
             .map(|p| {
                 let p = p.as_ref().unwrap();
-                let x = propose(p, 4, threshold, frames, f64::INFINITY)?;
+                let x = propose(p, None, 4, threshold, frames, f64::INFINITY)?;
                 evaluate(p, &x, &options, threshold, frames)
             })
             .collect();

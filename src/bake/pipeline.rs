@@ -17,12 +17,13 @@ use super::keys::{self, ExtraKey, KeyOptions};
 use super::overrides::{BakeOverrides, OverrideBasis, ViewOverride, valid_order};
 use super::part_fit::{PartFit, PartFitOptions, fit_part};
 use super::raster::{Canvas, psnr, tile_canvas};
-use super::renders::{frame_times, merge_parts, sample_frames, view_cameras};
+use super::renders::{merge_parts, sample_timeline, view_cameras};
 use super::segment::Segmentation;
 use super::viewpoints::{Coverage, directions};
 use super::visibility::draw_order;
 use crate::character::Character;
 use crate::gpu::{Camera, CharacterRenderer, GpuContext, GpuError, PartImages, PartRenderer};
+use crate::timeline::Timeline;
 
 /// Most frames tried as the key frame by [`KeyFrame::Auto`] (evenly spread over the clip).
 pub const KEY_FRAME_CANDIDATES: usize = 5;
@@ -44,6 +45,9 @@ pub struct BakeOptions {
     pub fps: f32,
     /// Clip index (None: rest pose).
     pub clip: Option<usize>,
+    /// Further clips baked after `clip` into the same pack (a whole-character pack: one set of
+    /// key images for every clip, [`crate::timeline`]).
+    pub extra_clips: Vec<usize>,
     pub key_frame: KeyFrame,
     pub fit: PartFitOptions,
     /// Views used to choose the key frame automatically.
@@ -91,6 +95,21 @@ impl PngCompression {
     }
 }
 
+impl BakeOptions {
+    /// Every clip baked, in order: `clip` then `extra_clips`.
+    pub fn clip_list(&self) -> Vec<Option<usize>> {
+        std::iter::once(self.clip)
+            .chain(self.extra_clips.iter().map(|&c| Some(c)))
+            .collect()
+    }
+
+    /// The frames baked: every clip of [`BakeOptions::clip_list`] at the bake's rate, with
+    /// their measured ground speeds.
+    pub fn timeline(&self, character: &Character) -> Result<Timeline, crate::limits::LimitError> {
+        Timeline::measured(character, &self.clip_list(), self.fps)
+    }
+}
+
 impl Default for BakeOptions {
     fn default() -> Self {
         Self {
@@ -99,6 +118,7 @@ impl Default for BakeOptions {
             resolution: super::renders::DEFAULT_RESOLUTION,
             fps: super::renders::DEFAULT_FPS,
             clip: Some(0),
+            extra_clips: Vec::new(),
             key_frame: KeyFrame::Auto,
             fit: PartFitOptions::default(),
             key_frame_probe_views: 4,
@@ -191,7 +211,10 @@ pub struct ViewResult {
 /// A finished bake.
 pub struct Bake {
     pub options: BakeOptions,
+    /// Each frame's time in its clip.
     pub frame_times: Vec<f32>,
+    /// The clips baked, one after another ([`crate::timeline`]).
+    pub timeline: Timeline,
     pub key_frame: usize,
     pub segmentation: Segmentation,
     /// The cap colours it was made with.
@@ -255,11 +278,15 @@ pub struct Progress {
 /// the images (with depth) they came from.
 pub struct ViewData {
     pub tiles: Vec<Vec<PartTile>>,
+    /// The clips the frames belong to (each loops on its own: a key may only draw a frame
+    /// whose neighbours in its clip it also fits).
+    pub clips: Vec<crate::timeline::ClipSpan>,
     pub hidden: Vec<Vec<f64>>,
     pub depth_order_tiles: PartImages,
 }
 
-pub fn extract(images: PartImages) -> ViewData {
+/// A view's part tiles and occlusion from its renders; `clips`: the timeline's spans.
+pub fn extract(images: PartImages, clips: &[crate::timeline::ClipSpan]) -> ViewData {
     let (parts, frames, r) = (images.parts, images.frames, images.resolution);
     let tiles: Vec<Vec<PartTile>> = (0..parts)
         .map(|p| {
@@ -293,6 +320,7 @@ pub fn extract(images: PartImages) -> ViewData {
     }
     ViewData {
         tiles,
+        clips: clips.to_vec(),
         hidden,
         depth_order_tiles: images,
     }
@@ -418,6 +446,7 @@ pub fn add_view_keys(
             .map(|(p, r)| {
                 r.fit.as_ref().map(|fit| keys::PartKeys {
                     tiles: &data.tiles[p],
+                    clips: &data.clips,
                     targets: &fit.targets,
                     primary: fit,
                     primary_sse: &r.sse,
@@ -685,7 +714,9 @@ pub fn fit_view(
 /// with its frames, the view directions and cameras. Views can then be rendered one at a
 /// time (the editor re-fits single views with it).
 pub struct Prepared {
+    /// Each frame's time in its clip.
     pub times: Vec<f32>,
+    pub timeline: Timeline,
     pub directions: Vec<Vec3>,
     pub cameras: Vec<Camera>,
     pub basis: OverrideBasis,
@@ -718,12 +749,10 @@ impl Prepared {
         )?;
         let caps = find_caps(character, segmentation);
         let (merged, ranges) = merge_parts(character, segmentation, &caps, cap_overrides);
-        let duration = options
-            .clip
-            .and_then(|i| character.clips.get(i))
-            .map_or(0.0, |c| c.duration_secs);
-        let times = frame_times(duration, options.fps);
-        let (poses, points) = sample_frames(&merged, options.clip, &times);
+        let timeline = options.timeline(character)?;
+        let samples = timeline.samples();
+        let times: Vec<f32> = samples.iter().map(|s| s.1).collect();
+        let (poses, points) = sample_timeline(&merged, &samples);
         let dirs = directions(options.views.max(1), options.coverage);
         let cameras = view_cameras(&points, &dirs);
         let renderer = CharacterRenderer::new(&ctx.device);
@@ -743,6 +772,7 @@ impl Prepared {
         };
         Ok(Self {
             times,
+            timeline,
             directions: dirs,
             cameras,
             basis,
@@ -753,7 +783,7 @@ impl Prepared {
 
     /// Renders view `v`'s parts at every frame.
     pub fn render(&self, ctx: &GpuContext, v: usize) -> Result<ViewData, BakeError> {
-        Ok(extract(self.render_images(ctx, v)?))
+        Ok(extract(self.render_images(ctx, v)?, &self.timeline.spans))
     }
 
     fn render_images(&self, ctx: &GpuContext, v: usize) -> Result<PartImages, BakeError> {
@@ -786,6 +816,8 @@ impl Prepared {
                 let step = times.len().div_ceil(KEY_FRAME_CANDIDATES).max(1);
                 let candidates: Vec<usize> = (0..times.len()).step_by(step).collect();
                 let mut totals = vec![0.0f64; candidates.len()];
+                // Every clip counts the same (a long idle does not outvote a short run).
+                let weights = keys::frame_weights(&self.timeline.spans, times.len());
                 for (n, &v) in probes.iter().enumerate() {
                     if cancel.load(Ordering::Relaxed) {
                         return Err(BakeError::Cancelled);
@@ -817,7 +849,8 @@ impl Prepared {
                                     if cancel.load(Ordering::Relaxed) {
                                         return 0.0;
                                     }
-                                    fit_part(tiles, k, &probe, &[]).map_or(0.0, |f| f.total_cost())
+                                    fit_part(tiles, k, &probe, &[])
+                                        .map_or(0.0, |f| f.costs.iter().zip(&weights).map(|(c, w)| c * w).sum())
                                 })
                                 .sum()
                         })
@@ -940,11 +973,12 @@ pub fn bake_sharing(
         let (dir, cam, fit_options, key_options, keep) =
             (dirs[v], *cam, options.fit, options.keys, options.keep_frame_images);
         let ov = options.overrides.view(prepared.basis, v).cloned();
+        let clips = prepared.timeline.spans.clone();
         rayon::spawn(move || {
             let r = fit_view(
                 dir,
                 cam,
-                extract(images),
+                extract(images, &clips),
                 key,
                 &fit_options,
                 &key_options,
@@ -970,6 +1004,7 @@ pub fn bake_sharing(
     Ok(Bake {
         options: options.clone(),
         frame_times: prepared.times,
+        timeline: prepared.timeline,
         key_frame: key,
         segmentation: segmentation.clone(),
         caps: cap_overrides.clone(),
@@ -1135,6 +1170,7 @@ pub fn rebake_sharing(
         Bake {
             options: options.clone(),
             frame_times: prev.frame_times.clone(),
+            timeline: prev.timeline.clone(),
             key_frame: prev.key_frame,
             segmentation: segmentation.clone(),
             caps: cap_overrides.clone(),

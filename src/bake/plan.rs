@@ -92,27 +92,12 @@ pub fn check(
             options.fps
         ));
     }
-    let clip = match options.clip {
-        Some(i) => Some(
-            character
-                .clips
-                .get(i)
-                .ok_or_else(|| LimitError(format!("clip {i} does not exist ({} clips)", character.clips.len())))?,
-        ),
-        None => None,
-    };
-    let duration = clip.map_or(0.0, |c| c.duration_secs);
-    let frames = crate::limits::frame_count(duration, options.fps).map_err(|e| {
-        LimitError(format!(
-            "clip '{}': {e}; bake a shorter clip or a lower --fps",
-            clip.map_or("(rest pose)", |c| c.name.as_str())
-        ))
-    })?;
+    let frames = crate::timeline::Timeline::new(character, &options.clip_list(), options.fps)?.frames();
     if let KeyFrame::Frame(k) = options.key_frame
         && k >= frames
     {
         return fail(format!(
-            "key frame {k} is out of range: the clip has {frames} frames (0 to {})",
+            "key frame {k} is out of range: the bake has {frames} frames (0 to {})",
             frames - 1
         ));
     }
@@ -137,7 +122,13 @@ pub fn check(
     if character.triangle_count() == 0 {
         return fail("the character has no triangles".into());
     }
-    let (lo, hi) = crate::animation::clip_bounds(character, options.clip, 16);
+    let (lo, hi) = options
+        .clip_list()
+        .iter()
+        .map(|&c| crate::animation::clip_bounds(character, c, 16))
+        .fold((glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY), |(a, b), (lo, hi)| {
+            (a.min(lo), b.max(hi))
+        });
     let extent = hi - lo;
     if !(lo.is_finite() && hi.is_finite() && extent.is_finite())
         || lo.abs().max_element() > MAX_EXTENT
@@ -160,7 +151,7 @@ pub fn check(
         let rows = (frames as u32).div_ceil(columns);
         if u64::from(columns.max(rows)) * u64::from(r) > u64::from(side) {
             return fail(format!(
-                "impostor sheets of {frames} frames at {r}² would be {}×{} pixels, more than the texture limit of {side}: lower --resolution or --fps, or bake a shorter clip",
+                "impostor sheets of {frames} frames at {r}² would be {}×{} pixels, more than the texture limit of {side}: lower --resolution or --fps, or bake a shorter clip or fewer clips",
                 u64::from(columns) * u64::from(r),
                 u64::from(rows) * u64::from(r)
             ));

@@ -117,6 +117,17 @@ pub fn sample_frames(c: &Character, clip: Option<usize>, times: &[f32]) -> (Vec<
     (poses, points)
 }
 
+/// Poses and skinned positions at each `(clip, time)` sample of a timeline
+/// ([`crate::timeline::Timeline::samples`]).
+pub fn sample_timeline(c: &Character, samples: &[(Option<usize>, f32)]) -> (Vec<Pose>, Vec<Vec<Vec3>>) {
+    let poses: Vec<Pose> = samples
+        .iter()
+        .map(|&(clip, t)| Pose::sample_index(c, clip, t))
+        .collect();
+    let points = poses.iter().map(|p| skin_vertices(c, p).0).collect();
+    (poses, points)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -139,6 +139,55 @@ pub struct Report {
     /// The project's corrections this bake could not apply, by kind.
     #[serde(default)]
     pub dropped_corrections: super::overrides::DroppedCorrections,
+    /// Per clip of the pack (one entry for a one-clip pack): its error and what it costs,
+    /// next to classic impostors of that clip alone.
+    #[serde(default)]
+    pub clips: Vec<ClipReport>,
+}
+
+/// One clip of a (whole-character) pack.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ClipReport {
+    pub name: String,
+    pub first_frame: usize,
+    pub frames: usize,
+    /// Measured ground speed at the clip's own rate (world units per second).
+    pub ground_speed: f32,
+    /// Composited PSNR and SSIM over every view and frame of the clip.
+    pub mean_psnr: f64,
+    pub worst_psnr: f64,
+    pub mean_ssim: f64,
+    /// Its vertex animation (polygon positions of its frames, every key, view and part).
+    pub animation_bytes: u64,
+    /// The pack with this clip alone: the shared key images, UVs and triangles plus its
+    /// animation.
+    pub alone_bytes: u64,
+    /// Classic animated impostors of this clip at the same settings.
+    pub impostor_bytes: u64,
+    /// `impostor_bytes / alone_bytes`.
+    pub memory_ratio: f64,
+}
+
+/// Bytes of polygon positions a bake's pack holds for the frames in `range` (4 a vertex a
+/// frame: two 16-bit coordinates), over every view, part and key.
+pub fn animation_bytes(bake: &Bake, range: std::ops::Range<usize>) -> u64 {
+    let frames = bake.frame_times.len();
+    let mut n = 0u64;
+    for v in &bake.views {
+        for part in &v.parts {
+            let Some(fit) = &part.fit else { continue };
+            n += 4 * (fit.kept.len() * range.len()) as u64;
+            // Extra keys hold only their span's frames (as the pack writes them).
+            if part.frame_key.is_empty() {
+                continue;
+            }
+            for e in &part.extra {
+                let inside = range.clone().filter(|&f| e.span.contains(f, frames)).count();
+                n += 4 * (e.fit.kept.len() * inside) as u64;
+            }
+        }
+    }
+    n
 }
 
 impl Report {
@@ -157,6 +206,12 @@ impl Report {
             resolution: s.resolution,
             fps: s.fps,
             clip: s.clip.as_deref().and_then(|n| character.find_clip(n)),
+            extra_clips: self
+                .clips
+                .iter()
+                .skip(1)
+                .filter_map(|c| character.find_clip(&c.name))
+                .collect(),
             key_frame: super::pipeline::KeyFrame::Frame(self.key_frame),
             fit: super::part_fit::PartFitOptions {
                 key_vertices: s.key_vertices,
@@ -307,8 +362,47 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
         extra_key_bytes: stats.extra_key_bytes,
         triangles_per_view: stats.triangles_per_view,
         worst_views: worst,
+        clips: clip_reports(bake, &views, stats),
         views,
     }
+}
+
+fn clip_reports(bake: &Bake, views: &[ViewReport], stats: &PackStats) -> Vec<ClipReport> {
+    let frames = bake.frame_times.len();
+    let r = bake.options.resolution as u64;
+    let all_animation = animation_bytes(bake, 0..frames);
+    let shared = stats.pack_bytes.saturating_sub(all_animation);
+    bake.timeline
+        .spans
+        .iter()
+        .map(|s| {
+            let range = s.range();
+            let psnr: Vec<f64> = views
+                .iter()
+                .flat_map(|v| v.psnr.get(range.clone()).unwrap_or(&[]).iter().copied())
+                .collect();
+            let ssim: Vec<f64> = views
+                .iter()
+                .flat_map(|v| v.ssim.get(range.clone()).unwrap_or(&[]).iter().copied())
+                .collect();
+            let animation = animation_bytes(bake, range.clone());
+            let alone = shared + animation;
+            let impostor = bake.views.len() as u64 * range.len() as u64 * r * r * 4 * 2;
+            ClipReport {
+                name: s.name.clone(),
+                first_frame: range.start,
+                frames: range.len(),
+                ground_speed: s.ground_speed,
+                mean_psnr: mean(&psnr),
+                worst_psnr: psnr.iter().copied().fold(f64::INFINITY, f64::min),
+                mean_ssim: mean(&ssim),
+                animation_bytes: animation,
+                alone_bytes: alone,
+                impostor_bytes: impostor,
+                memory_ratio: impostor as f64 / alone.max(1) as f64,
+            }
+        })
+        .collect()
 }
 
 fn line(img: &mut image::RgbaImage, a: [f32; 2], b: [f32; 2], ox: u32, oy: u32, color: [u8; 4]) {

@@ -65,7 +65,17 @@ impl CharacterSize {
 
     /// Measured over `clip` (`None`: the rest pose), skinned at 16 times.
     pub fn measure(character: &crate::character::Character, clip: Option<usize>) -> Self {
-        let (min, max) = crate::animation::clip_bounds(character, clip, 16);
+        Self::measure_clips(character, &[clip])
+    }
+
+    /// Measured over every clip of `clips` together (each skinned at 16 times).
+    pub fn measure_clips(character: &crate::character::Character, clips: &[Option<usize>]) -> Self {
+        let (min, max) = clips
+            .iter()
+            .map(|&c| crate::animation::clip_bounds(character, c, 16))
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), (lo, hi)| {
+                (a.min(lo), b.max(hi))
+            });
         Self::from_bounds(min, max)
     }
 
@@ -100,10 +110,109 @@ pub struct CrowdParams {
     /// The character's size: culling spheres, cameras and ground. Default value:
     /// [`CharacterSize::reference`].
     pub size: CharacterSize,
-    /// Seconds a character takes to cross-fade (dithered) from one level of detail or baked
-    /// view to the next; 0 switches with a cut. Default value: 0.25.
+    /// Seconds a character takes to cross-fade (dithered) from one level of detail, baked
+    /// view or clip to the next; 0 switches with a cut. Default value: 0.25.
     pub fade_secs: f32,
+    /// What agents spend their time doing, when the pack has clips to do it with
+    /// ([`Crowd::set_clips`]). Default value: [`Behaviour::default`].
+    pub behaviour: Behaviour,
     pub seed: u64,
+}
+
+/// Shares of agents walking, running and standing idle (any scale; only the ratios count).
+/// A share needs a clip to play: running a moving clip clearly faster than the walk, idling
+/// a clip that stands still; without one its share walks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Behaviour {
+    /// Default value: 0.6.
+    pub walk: f32,
+    /// Default value: 0.2.
+    pub run: f32,
+    /// Default value: 0.2.
+    pub idle: f32,
+}
+
+impl Default for Behaviour {
+    fn default() -> Self {
+        Self {
+            walk: 0.6,
+            run: 0.2,
+            idle: 0.2,
+        }
+    }
+}
+
+/// What an agent is doing ([`Behaviour`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Gait {
+    Walk = 0,
+    Run = 1,
+    Idle = 2,
+}
+
+/// Seconds an agent keeps walking or running before it reconsiders (uniform in this range).
+pub const MOVING_SECS: (f32, f32) = (4.0, 12.0);
+/// Seconds an agent stands idle before it reconsiders.
+pub const IDLE_SECS: (f32, f32) = (2.0, 6.0);
+/// Spread of a moving agent's speed about its clip's measured ground speed (its animation
+/// rate follows, so its feet keep to the ground).
+pub const SPEED_SPREAD: f32 = 0.1;
+
+/// The pack's clips sorted by what they do: moving ones (walk, run) by measured ground
+/// speed, and the ones standing still (idle).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Gaits {
+    pub clips: Vec<crate::timeline::ClipSpan>,
+    /// Their frame rate.
+    pub fps: f32,
+    /// The clip walked (the slowest moving one), if any clip moves.
+    pub walk: Option<usize>,
+    /// The clip run (the fastest moving one, at least [`RUN_OVER_WALK`] × the walk's speed).
+    pub run: Option<usize>,
+    /// Clips standing still.
+    pub idle: Vec<usize>,
+}
+
+/// How much faster than the walk a clip must move to be run.
+pub const RUN_OVER_WALK: f32 = 1.3;
+
+impl Gaits {
+    /// Sorts `clips` by ground speed: a clip moving less than a tenth of the fastest (or not
+    /// at all) stands still.
+    pub fn new(clips: &[crate::timeline::ClipSpan], fps: f32) -> Self {
+        let fastest = clips.iter().map(|c| c.ground_speed).fold(0.0f32, f32::max);
+        let moving: Vec<usize> = (0..clips.len())
+            .filter(|&i| fastest > 0.0 && clips[i].ground_speed > 0.1 * fastest)
+            .collect();
+        let idle = (0..clips.len()).filter(|i| !moving.contains(i)).collect();
+        let by_speed = |a: &usize, b: &usize| clips[*a].ground_speed.total_cmp(&clips[*b].ground_speed);
+        let walk = moving.iter().copied().min_by(by_speed);
+        let run = moving
+            .iter()
+            .copied()
+            .max_by(by_speed)
+            .filter(|&r| walk.is_some_and(|w| clips[r].ground_speed >= RUN_OVER_WALK * clips[w].ground_speed));
+        Self {
+            clips: clips.to_vec(),
+            fps: if fps.is_finite() && fps > 0.0 { fps } else { 10.0 },
+            walk,
+            run,
+            idle,
+        }
+    }
+
+    /// The clip for `gait`, if the pack has one (`pick` chooses among idle clips).
+    pub fn clip_for(&self, gait: Gait, pick: f32) -> Option<usize> {
+        match gait {
+            Gait::Walk => self.walk,
+            Gait::Run => self.run,
+            Gait::Idle if self.idle.is_empty() => None,
+            Gait::Idle => {
+                let k = ((pick.clamp(0.0, 0.999_999) * self.idle.len() as f32) as usize).min(self.idle.len() - 1);
+                Some(self.idle[k])
+            }
+        }
+    }
 }
 
 impl Default for CrowdParams {
@@ -118,6 +227,7 @@ impl Default for CrowdParams {
             height: 1.8,
             size: CharacterSize::reference(),
             fade_secs: 0.25,
+            behaviour: Behaviour::default(),
             seed: 1,
         }
     }
@@ -173,6 +283,16 @@ pub struct Agents {
     pub level: Vec<Level>,
     /// View chosen last frame (0 for meshes).
     pub view: Vec<u32>,
+    /// The clip playing (an index into [`Gaits::clips`]; 0 without a clip table).
+    pub clip: Vec<u16>,
+    /// What the agent is doing.
+    pub gait: Vec<Gait>,
+    /// Seconds until the agent reconsiders its gait.
+    pub gait_timer: Vec<f32>,
+    /// The clip being faded out, and its clock, while `clip_fade < 1`.
+    pub clip_from: Vec<(u16, f32)>,
+    /// Progress of the agent's clip cross-fade (1 or more: none).
+    pub clip_fade: Vec<f32>,
     /// The level and view being faded out while `fade < 1`.
     pub fade_from: Vec<(Level, u32)>,
     /// Progress of the agent's cross-fade (0 just switched, 1 or more: none).
@@ -192,7 +312,9 @@ pub struct Instance {
     pub facing: [f32; 2],
     /// Viewpoint index (image-based representations; 0 for meshes).
     pub view: u32,
-    /// Animation frame and the blend towards the next one.
+    /// Animation frames: the one drawn (bits 0..16) and the one it blends towards (bits
+    /// 16..32: the next as its clip plays), see [`frame_pair`]; `blend` goes from the first
+    /// to the second.
     pub frame: u32,
     pub blend: f32,
     /// Appearance seed in bits 0..24 ([`VARIANT_SEED_MASK`]); bits 24..31 a cross-fade amount
@@ -243,6 +365,30 @@ pub fn fade_keeps(bits: u32, d: f32) -> bool {
     (d < q as f32 / 128.0) != (bits >> 31 == 1)
 }
 
+/// [`Instance::frame`] for the frame drawn `f0` and the frame it blends towards `f1` (both
+/// below 65,536: the frame limit is 10,000).
+pub fn frame_pair(f0: u32, f1: u32) -> u32 {
+    (f0 & 0xffff) | (f1 << 16)
+}
+
+/// The two frames of an [`Instance::frame`].
+pub fn frame_pair_parts(packed: u32) -> (u32, u32) {
+    (packed & 0xffff, packed >> 16)
+}
+
+/// [`frame_pair`] of frame `f` of one loop of `frames` and the one after it (`f` wrapped).
+pub fn looping_pair(f: u32, frames: u32) -> u32 {
+    let n = frames.max(1);
+    frame_pair(f % n, (f % n + 1) % n)
+}
+
+/// Both frames of an [`Instance::frame`] wrapped below `frames` (what the shaders read).
+pub fn wrap_frame_pair(packed: u32, frames: u32) -> u32 {
+    let n = frames.max(1);
+    let (a, b) = frame_pair_parts(packed);
+    frame_pair(a % n, b % n)
+}
+
 /// Counting sort of `instances` by view into `out` (views clamped below `views`, frames
 /// wrapped below `frames`), with each view's range of `out` in `ranges` (one per view): what
 /// the Polypostor renderer uploads, one indexed draw per view. Linear time, no allocation
@@ -274,7 +420,7 @@ pub fn sort_by_view(
         let v = (i.view as usize).min(views - 1);
         out[ranges[v].end as usize] = Instance {
             view: v as u32,
-            frame: i.frame % frames,
+            frame: wrap_frame_pair(i.frame, frames),
             ..*i
         };
         ranges[v].end += 1;
@@ -326,6 +472,9 @@ pub struct Crowd {
     paused: bool,
     /// Selections made so far (the first fades nothing).
     selections: u32,
+    /// The pack's clips by gait ([`Crowd::set_clips`]); `None`: one clip, played at the rate
+    /// the agent walks against [`CrowdParams::stride_speed`].
+    gaits: Option<Gaits>,
     /// Instances per level, rebuilt by [`Crowd::select`].
     pub instances: [Vec<Instance>; Level::COUNT],
 }
@@ -383,6 +532,11 @@ impl Crowd {
             agents.variant.push(rng.next_u64() as u32 & VARIANT_SEED_MASK);
             agents.level.push(Level::Polypostor);
             agents.view.push(0);
+            agents.clip.push(0);
+            agents.gait.push(Gait::Walk);
+            agents.gait_timer.push(rng.range(0.0, MOVING_SECS.1));
+            agents.clip_from.push((0, 0.0));
+            agents.clip_fade.push(1.0);
             agents.fade_from.push((Level::Polypostor, 0));
             agents.fade.push(1.0);
             agents.seen.push(0);
@@ -396,8 +550,49 @@ impl Crowd {
             rng,
             paused: false,
             selections: 0,
+            gaits: None,
             instances: Default::default(),
         }
+    }
+
+    /// Gives the crowd the pack's clip table ([`crate::timeline::ClipSpan`], with measured
+    /// ground speeds) and frame rate: agents then walk, run and stand idle in the [`CrowdParams::behaviour`]
+    /// shares, each moving at about its clip's ground speed with the clip played at the rate
+    /// that keeps its feet on the ground, changing gait every few seconds with a clip
+    /// cross-fade. Where no clip moves (a prop, an idle), agents stand and play them. Every
+    /// agent starts afresh (a random gait, a random phase). An empty table: one clip, played
+    /// at the rate agents walk against [`CrowdParams::stride_speed`].
+    pub fn set_clips(&mut self, clips: &[crate::timeline::ClipSpan], fps: f32) {
+        let gaits = Gaits::new(clips, fps);
+        if clips.is_empty() {
+            self.gaits = None;
+            for c in &mut self.agents.clip {
+                *c = 0;
+            }
+            return;
+        }
+        for i in 0..self.agents.pos.len() {
+            let gait = choose_gait(&mut self.rng, &self.params.behaviour, &gaits);
+            start_gait(&mut self.agents, &mut self.rng, &gaits, i, gait, None);
+            let span = &gaits.clips[self.agents.clip[i] as usize];
+            self.agents.clock[i] = self.rng.range(0.0, span.frames as f32 / gaits.fps);
+            self.agents.clip_fade[i] = 1.0;
+        }
+        self.gaits = Some(gaits);
+    }
+
+    /// The clip table by gait, when the crowd has one ([`Crowd::set_clips`]).
+    pub fn gaits(&self) -> Option<&Gaits> {
+        self.gaits.as_ref()
+    }
+
+    /// Agents per gait (walking, running, idle).
+    pub fn gait_counts(&self) -> [usize; 3] {
+        let mut n = [0; 3];
+        for &g in &self.agents.gait {
+            n[g as usize] += 1;
+        }
+        n
     }
 
     pub fn len(&self) -> usize {
@@ -433,8 +628,38 @@ impl Crowd {
         let keep = (-dt / TURN_MEMORY_SECS).exp();
         let kick = self.params.wander * (1.0 - keep * keep).max(0.0).sqrt() * 3f32.sqrt();
         let stride = self.params.stride_speed.max(1e-6);
+        let fade_step = if self.params.fade_secs > 0.0 {
+            dt / self.params.fade_secs
+        } else {
+            f32::INFINITY
+        };
         let a = &mut self.agents;
         for i in 0..a.pos.len() {
+            // Gait: reconsidered every few seconds; the clip it plays sets the pace.
+            let mut clock_rate = a.rate[i] * a.speed[i] / stride;
+            if let Some(g) = &self.gaits {
+                a.gait_timer[i] -= dt;
+                if a.gait_timer[i] <= 0.0 {
+                    let gait = choose_gait(&mut self.rng, &self.params.behaviour, g);
+                    start_gait(a, &mut self.rng, g, i, gait, Some(&self.params));
+                }
+                if a.clip_fade[i] < 1.0 {
+                    a.clip_fade[i] += fade_step;
+                    a.clip_from[i].1 += dt;
+                }
+                let span = &g.clips[a.clip[i] as usize];
+                clock_rate = if span.ground_speed > 0.0 {
+                    a.speed[i] / span.ground_speed
+                } else {
+                    a.rate[i]
+                };
+                if a.speed[i] <= 0.0 {
+                    // Standing: no step, the turning drift settles.
+                    a.turn_rate[i] *= keep;
+                    a.clock[i] += dt * clock_rate;
+                    continue;
+                }
+            }
             // Turn by a small random angle (a rotation with the small-angle sine and cosine,
             // then one Newton step back to unit length: no trigonometry per agent).
             a.turn_rate[i] = a.turn_rate[i] * keep + kick * self.rng.range(-1.0, 1.0);
@@ -458,7 +683,7 @@ impl Crowd {
                 }
                 a.pos[i] = to;
                 a.facing[i] = d;
-                a.clock[i] += dt * a.rate[i] * a.speed[i] / stride;
+                a.clock[i] += dt * clock_rate;
             } else {
                 // Turn away (a quarter to a half turn, either side) and try again next frame.
                 let turn = self.rng.range(0.5, 1.0) * std::f32::consts::PI;
@@ -557,14 +782,14 @@ impl Crowd {
             };
             // Clocks start non-negative and only grow; wrap them every 64 loops so the
             // blend keeps its precision however long the crowd runs.
-            let mut t = a.clock[i] * clip.fps;
-            let wrap = 64.0 * frames as f32;
-            if t >= wrap && clip.fps > 0.0 {
-                a.clock[i] %= wrap / clip.fps;
-                t = a.clock[i] * clip.fps;
-            }
-            let whole = t as u32;
-            let frame = whole % frames as u32;
+            let (start, n) = match &self.gaits {
+                Some(g) => {
+                    let s = &g.clips[(a.clip[i] as usize).min(g.clips.len() - 1)];
+                    (s.start, s.frames)
+                }
+                None => (0, frames as u32),
+            };
+            let (frame, blend) = clip_frame(&mut a.clock[i], clip.fps, start, n);
             // A new level, or a new baked view of the same image-based level: fade.
             // The mix's far impostors (under a quarter of a pixel per texel: a few dozen pixels
             // tall) switch views with a cut: there a view change is hardly visible, and they are
@@ -592,7 +817,7 @@ impl Crowd {
                 facing: [s, c],
                 view,
                 frame,
-                blend: t - whole as f32,
+                blend,
                 variant: a.variant[i] & VARIANT_SEED_MASK,
             };
             // An infinite step (`select`) ends every fade: a cut.
@@ -609,6 +834,27 @@ impl Crowd {
                     ..record
                 });
                 a.fade[i] = f + fade_step;
+            } else if let Some(g) = &self.gaits
+                && a.clip_fade[i] < 1.0
+                && fade_step.is_finite()
+                && was_drawn
+            {
+                // A clip change: the clip left keeps playing under the dither while the new one
+                // comes in (meshes and images alike).
+                let (old, ref mut old_clock) = a.clip_from[i];
+                let s = &g.clips[(old as usize).min(g.clips.len() - 1)];
+                let (frame, blend) = clip_frame(old_clock, clip.fps, s.start, s.frames);
+                let c = a.clip_fade[i];
+                self.instances[level as usize].push(Instance {
+                    frame,
+                    blend,
+                    variant: record.variant | fade_bits(c, true),
+                    ..record
+                });
+                self.instances[level as usize].push(Instance {
+                    variant: record.variant | fade_bits(c, false),
+                    ..record
+                });
             } else {
                 self.instances[level as usize].push(record);
             }
@@ -637,6 +883,90 @@ impl Crowd {
         stats.select_secs = t1.elapsed().as_secs_f64();
         stats
     }
+}
+
+/// The frames (a [`frame_pair`] in the clip `start..start + n`, looping) and blend at
+/// `clock` seconds into the clip at `fps`. Clocks start non-negative and only grow; this
+/// wraps them every 64 loops so the blend keeps its precision however long the crowd runs.
+pub fn clip_frame(clock: &mut f32, fps: f32, start: u32, n: u32) -> (u32, f32) {
+    let n = n.max(1);
+    let mut t = *clock * fps;
+    let wrap = 64.0 * n as f32;
+    if t >= wrap && fps > 0.0 {
+        *clock %= wrap / fps;
+        t = *clock * fps;
+    }
+    let t = t.max(0.0);
+    let whole = t as u32;
+    let f = whole % n;
+    (
+        frame_pair(start + f, start + (f + 1) % n),
+        (t - whole as f32).clamp(0.0, 1.0),
+    )
+}
+
+/// A gait drawn from the behaviour's shares among those the pack has clips for (walking when
+/// none has).
+fn choose_gait(rng: &mut Rng, b: &Behaviour, g: &Gaits) -> Gait {
+    let w = |x: f32, ok: bool| if ok && x.is_finite() { x.max(0.0) } else { 0.0 };
+    let weights = [
+        w(b.walk, g.walk.is_some()),
+        w(b.run, g.run.is_some()),
+        w(b.idle, !g.idle.is_empty()),
+    ];
+    let total: f32 = weights.iter().sum();
+    if !(total > 0.0) {
+        return Gait::Walk;
+    }
+    let mut x = rng.range(0.0, total);
+    for (k, gait) in [Gait::Walk, Gait::Run, Gait::Idle].into_iter().enumerate() {
+        if x < weights[k] {
+            return gait;
+        }
+        x -= weights[k];
+    }
+    Gait::Walk
+}
+
+/// Puts agent `i` in `gait`: its clip (phase-matched to the one it leaves, which cross-fades
+/// out over [`CrowdParams::fade_secs`] when `params` is given), its speed about the clip's
+/// ground speed, and how long it keeps it.
+fn start_gait(a: &mut Agents, rng: &mut Rng, g: &Gaits, i: usize, gait: Gait, params: Option<&CrowdParams>) {
+    let clip = g.clip_for(gait, rng.unit()).or(g.walk).unwrap_or(0);
+    let gait = if g.clip_for(gait, 0.0).is_some() {
+        gait
+    } else if g.walk.is_some() {
+        Gait::Walk
+    } else {
+        Gait::Idle
+    };
+    a.gait[i] = gait;
+    let (lo, hi) = if gait == Gait::Idle { IDLE_SECS } else { MOVING_SECS };
+    a.gait_timer[i] = rng.range(lo, hi);
+    let span = &g.clips[clip];
+    // Standing still plays its clip in place (an idle that sways is not a walk).
+    a.speed[i] = if gait == Gait::Idle || g.walk.is_none() {
+        0.0
+    } else {
+        span.ground_speed * rng.range(1.0 - SPEED_SPREAD, 1.0 + SPEED_SPREAD)
+    };
+    let old = a.clip[i] as usize;
+    if old == clip {
+        return;
+    }
+    if let Some(p) = params
+        && p.fade_secs > 0.0
+    {
+        a.clip_from[i] = (old as u16, a.clock[i]);
+        a.clip_fade[i] = 0.0;
+    } else {
+        a.clip_fade[i] = 1.0;
+    }
+    // The same phase in the new clip: a walk turning into a run keeps its stride.
+    let from = &g.clips[old.min(g.clips.len() - 1)];
+    let phase = (a.clock[i] * g.fps / from.frames.max(1) as f32).fract();
+    a.clock[i] = phase * span.frames.max(1) as f32 / g.fps;
+    a.clip[i] = clip as u16;
 }
 
 #[cfg(test)]

@@ -19,7 +19,10 @@ use crate::reps::Representations;
 pub struct CrowdAssets {
     pub character: Character,
     pub character_path: PathBuf,
+    /// The first clip baked (`None`: the rest pose).
     pub clip: Option<usize>,
+    /// Every clip baked, one after another (with the ground speeds measured at bake).
+    pub timeline: crate::timeline::Timeline,
     /// Body part of each triangle (per-part tint of the meshes).
     pub labels: Vec<u32>,
     pub pack: Option<LoadedPack>,
@@ -73,41 +76,56 @@ impl CrowdAssets {
             })?;
         }
         let c = crate::import_path(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let clip_name = pack
+        let (spans, fps) = pack
             .as_ref()
-            .and_then(|p| p.manifest.clip.clone())
-            .or_else(|| reps.as_ref().and_then(|r| r.manifest.clip.clone()));
-        let clip = match &clip_name {
-            Some(n) => Some(
-                c.find_clip(n)
-                    .ok_or_else(|| format!("{} has no clip named '{n}' (the pack's clip)", path.display()))?,
-            ),
-            None => None,
+            .map(|p| (p.manifest.clips.clone(), p.manifest.fps))
+            .or_else(|| reps.as_ref().map(|r| (r.manifest.clips.clone(), r.manifest.fps)))
+            .unwrap_or_else(|| {
+                (
+                    crate::timeline::Timeline::single(crate::timeline::REST_POSE, 1, 10.0).spans,
+                    10.0,
+                )
+            });
+        // The character must be the one baked: every clip by name, with its frame count at
+        // the baked rate.
+        let not_baked = |what: String| {
+            format!(
+                "{}: {what}: the character is not the one baked (give it with --character) or the folder is damaged",
+                dir.display()
+            )
         };
-        // The character must be the one baked: the clip's frame count at the baked rate.
-        let (frames, fps) = pack
-            .as_ref()
-            .map(|p| (p.manifest.frames, p.manifest.fps))
-            .or_else(|| reps.as_ref().map(|r| (r.manifest.frames, r.manifest.fps)))
-            .unwrap_or((1, 10.0));
-        let duration = clip.map_or(0.0, |i| c.clips[i].duration_secs);
-        match crate::limits::frame_count(duration, fps) {
-            Ok(n) if n == frames as usize => {}
-            found => {
-                return Err(format!(
-                    "{}: the bake has {frames} frames at {fps} fps, but {} {} ({}): the character is not the one baked (give it with --character) or the folder is damaged",
-                    dir.display(),
-                    path.display(),
-                    clip_name
-                        .as_deref()
-                        .map_or("(rest pose)".to_string(), |n| format!("clip '{n}'")),
-                    match found {
-                        Ok(n) => format!("gives {n} frames"),
-                        Err(e) => e.to_string(),
-                    }
-                ));
+        let mut clips = Vec::with_capacity(spans.len());
+        for s in &spans {
+            if s.name == crate::timeline::REST_POSE {
+                clips.push(None);
+            } else {
+                clips.push(Some(c.find_clip(&s.name).ok_or_else(|| {
+                    not_baked(format!(
+                        "{} has no clip named '{}' (a clip of the bake)",
+                        path.display(),
+                        s.name
+                    ))
+                })?));
             }
         }
+        let timeline = match crate::timeline::Timeline::new(&c, &clips, fps) {
+            Ok(t) => t,
+            Err(e) => return Err(not_baked(format!("{}: {e}", path.display()))),
+        };
+        for (got, want) in timeline.spans.iter().zip(&spans) {
+            if got.frames != want.frames {
+                return Err(not_baked(format!(
+                    "the bake has {} frames of clip '{}' at {fps} fps, but {} gives {}",
+                    want.frames,
+                    want.name,
+                    path.display(),
+                    got.frames
+                )));
+            }
+        }
+        // The table as baked (with its measured ground speeds).
+        let timeline = crate::timeline::Timeline { spans, ..timeline };
+        let clip = clips.first().copied().flatten();
         if let Some(n) = reps.as_ref().and_then(|r| r.np3d.as_ref())
             && let Some(bad) = n.source.iter().find(|&&s| s as usize >= c.vertices.len())
         {
@@ -125,11 +143,12 @@ impl CrowdAssets {
                 .map(|&l| l as u32)
                 .collect()
         });
-        let size = CharacterSize::measure(&c, clip);
+        let size = CharacterSize::measure_clips(&c, &timeline.clips);
         Ok(Self {
             character: c,
             character_path: path,
             clip,
+            timeline,
             labels,
             pack,
             reps,
@@ -152,6 +171,14 @@ fn check_agreement(p: &crate::pack::Manifest, r: &crate::reps::RepsManifest) -> 
     }
     if p.clip != r.clip {
         return Err(format!("clip {:?} against {:?}", p.clip, r.clip));
+    }
+    if p.clips.len() != r.clips.len()
+        || p.clips
+            .iter()
+            .zip(&r.clips)
+            .any(|(a, b)| a.name != b.name || a.frames != b.frames)
+    {
+        return Err("the clip tables differ".into());
     }
     if p.views.len() != r.views.len() {
         return Err(format!("{} views against {}", p.views.len(), r.views.len()));
@@ -246,6 +273,8 @@ pub struct CrowdScene {
     pub renderers: CrowdRenderers,
     pub views: ViewLookup,
     pub timing: ClipTiming,
+    /// The baked clips the agents play ([`Crowd::set_clips`]).
+    pub clips: Vec<crate::timeline::ClipSpan>,
     pub style: PolypostorStyle,
     /// Draw the ground under the crowd.
     pub ground: bool,
@@ -334,15 +363,18 @@ impl CrowdScene {
             device,
             queue,
             &assets.character,
-            assets.clip,
+            &assets.timeline,
             &assets.labels,
             assets.pack.as_ref(),
             assets.reps.as_ref(),
             timing,
             full_impostors,
         )?;
+        let mut crowd = Crowd::new(params);
+        crowd.set_clips(&assets.timeline.spans, timing.fps);
         Ok(Self {
-            crowd: Crowd::new(params),
+            crowd,
+            clips: assets.timeline.spans.clone(),
             renderers,
             views: ViewLookup::new(&assets.view_directions()),
             timing,
@@ -357,6 +389,7 @@ impl CrowdScene {
     pub fn respawn(&mut self, params: CrowdParams) {
         let paused = self.crowd.paused();
         self.crowd = Crowd::new(params);
+        self.crowd.set_clips(&self.clips, self.timing.fps);
         self.crowd.set_paused(paused);
     }
 

@@ -197,10 +197,12 @@ fn instances_carry_the_animation_frame_and_blend() {
     let list = &crowd.instances[Level::Polypostor as usize];
     assert_eq!(list.len(), 50, "all in view from above");
     for inst in list {
-        assert!(inst.frame < 10 && (0.0..1.0).contains(&inst.blend));
+        let (f0, f1) = frame_pair_parts(inst.frame);
+        assert!(f0 < 10 && (0.0..1.0).contains(&inst.blend));
+        assert_eq!(f1, (f0 + 1) % 10, "the next frame round the loop");
         let i = crowd.agents.variant.iter().position(|&v| v == inst.variant).unwrap();
         let t = crowd.agents.clock[i] * 10.0;
-        assert_eq!(inst.frame, (t.floor() as i64).rem_euclid(10) as u32);
+        assert_eq!(f0, (t.floor() as i64).rem_euclid(10) as u32);
     }
     assert_eq!(std::mem::size_of::<Instance>(), 32);
 }
@@ -225,8 +227,183 @@ fn long_runs_keep_the_frame_in_range_and_the_blend_precise() {
         crowd.agents.clock
     );
     for inst in &crowd.instances[Level::Impostor as usize] {
-        assert!(inst.frame < 10 && (0.0..1.0).contains(&inst.blend));
+        let (f0, f1) = frame_pair_parts(inst.frame);
+        assert!(f0 < 10 && f1 < 10 && (0.0..1.0).contains(&inst.blend));
     }
+}
+
+fn span(name: &str, start: u32, frames: u32, ground_speed: f32) -> crate::timeline::ClipSpan {
+    crate::timeline::ClipSpan {
+        name: name.into(),
+        start,
+        frames,
+        looping: true,
+        ground_speed,
+    }
+}
+
+/// Walk (10 frames, 1.2 m/s), Run (7, 3.0 m/s), Idle (20, still), Wave (20, a sway).
+fn four_clips() -> Vec<crate::timeline::ClipSpan> {
+    vec![
+        span("Walk", 0, 10, 1.2),
+        span("Run", 10, 7, 3.0),
+        span("Idle", 17, 20, 0.0),
+        span("Wave", 37, 20, 0.05),
+    ]
+}
+
+#[test]
+fn clips_sort_into_walk_run_and_idle_by_measured_speed() {
+    let g = Gaits::new(&four_clips(), 10.0);
+    assert_eq!((g.walk, g.run, g.idle.clone()), (Some(0), Some(1), vec![2, 3]));
+    // A "run" barely faster than the walk is no run; with nothing moving, nothing walks.
+    let mut close = four_clips();
+    close[1].ground_speed = 1.4;
+    let g = Gaits::new(&close, 10.0);
+    assert_eq!((g.walk, g.run), (Some(0), None));
+    let still = vec![span("Idle", 0, 20, 0.0)];
+    let g = Gaits::new(&still, 10.0);
+    assert_eq!((g.walk, g.run, g.idle.clone()), (None, None, vec![0]));
+    assert_eq!(g.clip_for(Gait::Idle, 0.3), Some(0));
+    assert_eq!(g.clip_for(Gait::Walk, 0.3), None);
+}
+
+#[test]
+fn agents_walk_run_and_stand_in_their_shares_with_their_feet_on_the_ground() {
+    let clips = four_clips();
+    let mut crowd = Crowd::new(CrowdParams {
+        count: 3000,
+        seed: 5,
+        ..Default::default()
+    });
+    crowd.set_clips(&clips, 10.0);
+    // Shares as asked (0.6, 0.2, 0.2), within sampling error.
+    let n = crowd.gait_counts();
+    let total = crowd.len() as f32;
+    for (k, want) in [0.6f32, 0.2, 0.2].into_iter().enumerate() {
+        assert!((n[k] as f32 / total - want).abs() < 0.04, "gait {k}: {n:?}");
+    }
+    let a = &crowd.agents;
+    for i in 0..crowd.len() {
+        let c = &clips[a.clip[i] as usize];
+        match a.gait[i] {
+            Gait::Walk => assert_eq!(c.name, "Walk"),
+            Gait::Run => assert_eq!(c.name, "Run"),
+            Gait::Idle => assert!(c.name == "Idle" || c.name == "Wave"),
+        }
+        // Speed about the clip's own, none standing in a moving clip.
+        let s = a.speed[i];
+        if a.gait[i] == Gait::Idle {
+            assert_eq!(s, 0.0);
+        } else {
+            assert!(
+                (s / c.ground_speed - 1.0).abs() <= SPEED_SPREAD + 1e-4,
+                "{s} in {}",
+                c.name
+            );
+        }
+    }
+    // Brute force, step by step: an agent that keeps its clip moves exactly as far as its
+    // clip's frames carry the ground (clock × ground speed), so its feet do not slide; one
+    // standing does not move.
+    let cam = camera(Vec3::new(0.0, 300.0, -300.0), Vec3::ZERO, 800.0, 600.0);
+    let lookup = ViewLookup::new(&directions(24, Coverage::UpperHemisphere));
+    let timing = ClipTiming { frames: 57, fps: 10.0 };
+    let mut checked = 0;
+    for _ in 0..60 {
+        let before = crowd.agents.clone();
+        crowd.simulate(0.05);
+        let a = &crowd.agents;
+        for i in 0..crowd.len() {
+            if a.clip[i] != before.clip[i] {
+                continue;
+            }
+            let moved = a.pos[i].distance(before.pos[i]);
+            let c = &clips[a.clip[i] as usize];
+            if a.gait[i] == Gait::Idle {
+                assert_eq!(moved, 0.0, "agent {i} idles in place");
+            } else {
+                let carried = (a.clock[i] - before.clock[i]) * c.ground_speed;
+                assert!(
+                    (moved - carried).abs() < 1e-4 * (1.0 + moved),
+                    "agent {i}: moved {moved}, feet carried {carried}"
+                );
+                checked += 1;
+            }
+        }
+        // Every record plays frames of its own clip, blending towards the next in that clip.
+        crowd.select_over(&cam, &LodPolicy::Only(Level::Polypostor), &lookup, timing, 0.05);
+        for inst in &crowd.instances[Level::Polypostor as usize] {
+            let (f0, f1) = frame_pair_parts(inst.frame);
+            let c = clips.iter().find(|c| c.range().contains(&(f0 as usize))).unwrap();
+            assert!(c.range().contains(&(f1 as usize)), "{f0} → {f1} leaves clip {}", c.name);
+            assert_eq!(f1 as usize, crate::timeline::next_frame(&clips, f0 as usize));
+        }
+    }
+    assert!(checked > 10_000, "{checked}");
+}
+
+#[test]
+fn a_change_of_clip_cross_fades_between_the_two_clips() {
+    let clips = four_clips();
+    let mut crowd = Crowd::new(CrowdParams {
+        count: 200,
+        seed: 6,
+        behaviour: Behaviour {
+            walk: 1.0,
+            run: 0.0,
+            idle: 0.0,
+        },
+        ..Default::default()
+    });
+    crowd.set_clips(&clips, 10.0);
+    assert_eq!(crowd.gait_counts(), [200, 0, 0]);
+    let cam = camera(Vec3::new(0.0, 200.0, -200.0), Vec3::ZERO, 800.0, 600.0);
+    let lookup = ViewLookup::new(&directions(24, Coverage::UpperHemisphere));
+    let timing = ClipTiming { frames: 57, fps: 10.0 };
+    let policy = LodPolicy::Only(Level::Skinned);
+    crowd.select_over(&cam, &policy, &lookup, timing, 0.05);
+    let seen = crowd.instances[Level::Skinned as usize].len();
+    assert!(seen > 100);
+    // Everyone breaks into a run now.
+    crowd.params.behaviour = Behaviour {
+        walk: 0.0,
+        run: 1.0,
+        idle: 0.0,
+    };
+    for t in &mut crowd.agents.gait_timer {
+        *t = 0.0;
+    }
+    crowd.simulate(0.05);
+    assert_eq!(crowd.gait_counts(), [0, 200, 0]);
+    crowd.select_over(&cam, &policy, &lookup, timing, 0.05);
+    let list = &crowd.instances[Level::Skinned as usize];
+    assert_eq!(
+        list.len(),
+        2 * seen,
+        "every agent drawn twice while its clips cross-fade"
+    );
+    for pair in list.chunks(2) {
+        let (out, inc) = (pair[0], pair[1]);
+        let (o, _) = frame_pair_parts(out.frame);
+        let (n, _) = frame_pair_parts(inc.frame);
+        assert!(clips[0].range().contains(&(o as usize)), "the walk fades out");
+        assert!(clips[1].range().contains(&(n as usize)), "the run fades in");
+        for k in 0..16 {
+            let d = (k as f32 + 0.5) / 16.0;
+            assert_ne!(
+                fade_keeps(out.variant, d),
+                fade_keeps(inc.variant, d),
+                "complementary dither"
+            );
+        }
+    }
+    // After the fade time, one copy each again.
+    for _ in 0..10 {
+        crowd.simulate(0.05);
+        crowd.select_over(&cam, &policy, &lookup, timing, 0.05);
+    }
+    assert_eq!(crowd.instances[Level::Skinned as usize].len(), seen);
 }
 
 #[test]

@@ -364,20 +364,24 @@ impl InstanceBuffer {
 /// the image-based representations, then interpolated).
 pub const JOINT_SAMPLES_PER_FRAME: usize = 4;
 
-/// The clip's joints at `frames × per_frame` evenly spaced times over `frames / fps`
-/// seconds: per sample, per bone, rotation (xyzw) then translation xyz + uniform scale.
+/// The joints at `per_frame` evenly spaced times in each frame of `timeline` (from the
+/// frame's time to the next frame's, within its clip): per sample, per bone, rotation (xyzw)
+/// then translation xyz + uniform scale.
 pub fn joint_samples(
     character: &Character,
-    clip: Option<usize>,
-    frames: usize,
-    fps: f32,
+    timeline: &crate::timeline::Timeline,
     per_frame: usize,
 ) -> Vec<[[f32; 4]; 2]> {
-    let n = frames.max(1) * per_frame.max(1);
-    let mut out = Vec::with_capacity(n * character.bones.len().max(1));
-    for k in 0..n {
-        let t = k as f32 / (fps.max(1e-3) * per_frame.max(1) as f32);
-        let pose = Pose::sample_index(character, clip, t);
+    let per_frame = per_frame.max(1);
+    let frames = timeline.samples();
+    let frames = if frames.is_empty() { vec![(None, 0.0)] } else { frames };
+    let step = 1.0 / (timeline.fps.max(1e-3) * per_frame as f32);
+    let mut out = Vec::with_capacity(frames.len() * per_frame * character.bones.len().max(1));
+    for (clip, t0) in frames
+        .iter()
+        .flat_map(|&(c, t)| (0..per_frame).map(move |k| (c, t + k as f32 * step)))
+    {
+        let pose = Pose::sample_index(character, clip, t0);
         if character.bones.is_empty() {
             out.push([[0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]]);
         }
@@ -459,12 +463,11 @@ impl GpuMeshCrowd {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         character: &Character,
-        clip: Option<usize>,
-        frames: usize,
-        fps: f32,
+        timeline: &crate::timeline::Timeline,
         rigid: Option<&FrameVertices>,
         triangle_labels: &[u32],
     ) -> Result<Self, GpuError> {
+        let frames = timeline.frames().max(1);
         if let Some(r) = rigid
             && (r.vertex_count != character.vertices.len() || r.frames() != frames.max(1))
         {
@@ -518,7 +521,7 @@ impl GpuMeshCrowd {
                 &[Some(stream1)],
             )
         });
-        let samples = joint_samples(character, clip, frames, fps, JOINT_SAMPLES_PER_FRAME);
+        let samples = joint_samples(character, timeline, JOINT_SAMPLES_PER_FRAME);
         let joints = storage(device, "crowd joints", bytemuck::cast_slice(&samples));
         let rigid_data = rigid.map(packed_frames).unwrap_or_default();
         let rigid_frames = storage(device, "crowd rigid frames", bytemuck::cast_slice(&rigid_data));
@@ -718,7 +721,7 @@ impl ImageCrowd {
             .iter()
             .map(|i| Instance {
                 view: i.view.min(self.view_count.saturating_sub(1)),
-                frame: i.frame % self.frames.max(1),
+                frame: crate::crowd::wrap_frame_pair(i.frame, self.frames.max(1)),
                 ..*i
             })
             .collect();
@@ -958,7 +961,7 @@ impl CrowdRenderers {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         character: &Character,
-        clip: Option<usize>,
+        timeline: &crate::timeline::Timeline,
         triangle_labels: &[u32],
         pack: Option<&crate::pack::LoadedPack>,
         reps: Option<&Representations>,
@@ -980,16 +983,14 @@ impl CrowdRenderers {
         let rigid = reps
             .and_then(|r| r.rigid.as_ref())
             .filter(|r| r.frames() == timing.frames && r.vertex_count == character.vertices.len());
-        let meshes = GpuMeshCrowd::new(
-            device,
-            queue,
-            character,
-            clip,
-            timing.frames,
-            timing.fps,
-            rigid,
-            triangle_labels,
-        )?;
+        if timeline.frames() != timing.frames.max(1) {
+            return Err(GpuError::Unsupported(format!(
+                "the clips give {} frames but the bake has {}",
+                timeline.frames(),
+                timing.frames
+            )));
+        }
+        let meshes = GpuMeshCrowd::new(device, queue, character, timeline, rigid, triangle_labels)?;
         let parts = vertex_parts(character, triangle_labels);
         Ok(Self {
             meshes,

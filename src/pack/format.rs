@@ -5,8 +5,9 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 pub const FORMAT_NAME: &str = "polypostor-pack";
-/// Version 3 added [`Manifest::checksums`]; older packs are refused with "re-bake".
-pub const FORMAT_VERSION: u32 = 4;
+/// Version 3 added [`Manifest::checksums`], version 5 the clip table ([`Manifest::clips`]:
+/// several clips in one pack); older packs are refused with "re-bake".
+pub const FORMAT_VERSION: u32 = 5;
 
 /// Size and CRC-32 (IEEE, as zlib and PNG compute it) of one file of a pack or
 /// representations folder.
@@ -147,9 +148,16 @@ pub struct Manifest {
     pub format: String,
     pub version: u32,
     pub character: String,
+    /// The first clip's name (`None`: the rest pose).
     pub clip: Option<String>,
     pub fps: f32,
+    /// Frames of every clip together ([`Manifest::clips`]).
     pub frames: u32,
+    /// The clips, one after another in the frame sequence: name, first frame, frame count,
+    /// whether it loops, measured ground speed ([`crate::timeline`]). Every frame-indexed
+    /// table of the pack (positions, frame keys) runs over all of them; each clip loops over
+    /// its own frames. Every view's key images serve every clip.
+    pub clips: Vec<crate::timeline::ClipSpan>,
     pub key_frame: u32,
     pub resolution: u32,
     pub parts: Vec<String>,
@@ -162,4 +170,11 @@ pub struct Manifest {
     /// `indices.bin`, every atlas); the loader reads nothing that is not listed here.
     #[serde(default)]
     pub checksums: Checksums,
+}
+
+impl Manifest {
+    /// The frame after `f` as its clip plays (a clip's last frame is followed by its first).
+    pub fn next_frame(&self, f: usize) -> usize {
+        crate::timeline::next_frame(&self.clips, f)
+    }
 }

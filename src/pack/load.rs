@@ -361,6 +361,8 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
     const FILE: &str = "manifest.json";
     let manifest: Manifest = parse_manifest(dir, FILE, FORMAT_NAME, FORMAT_VERSION)?;
     check_timing(FILE, manifest.fps, manifest.frames, manifest.key_frame)?;
+    crate::timeline::validate(&manifest.clips, manifest.frames as usize)
+        .map_err(|e| damaged(format!("{FILE}: {e}")))?;
     check_resolution_views(FILE, manifest.resolution, manifest.views.len())?;
     let parts = manifest.parts.len();
     if parts == 0 || parts > MAX_PARTS {
@@ -496,12 +498,17 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
                     return Err(damaged(format!("{w}: frame {f} names key {k}, which it does not have")));
                 }
                 if k > 0 {
-                    // The run time interpolates each frame's polygon towards both neighbours.
+                    // The run time interpolates each frame's polygon towards both neighbours in
+                    // its clip.
                     let key = &part.extra_keys[k - 1];
                     let inside =
                         |g: u64| (g + frames - u64::from(key.frame_start)) % frames < u64::from(key.frame_count);
+                    let (next, prev) = (
+                        crate::timeline::next_frame(&manifest.clips, f) as u64,
+                        crate::timeline::prev_frame(&manifest.clips, f) as u64,
+                    );
                     let f = f as u64;
-                    if !inside(f) || !inside((f + 1) % frames) || !inside((f + frames - 1) % frames) {
+                    if !inside(f) || !inside(next) || !inside(prev) {
                         return Err(damaged(format!(
                             "{w}: frame {f} is drawn from key {k}, whose polygon does not cover it and both its neighbours"
                         )));

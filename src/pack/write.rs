@@ -258,6 +258,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
         clip: clip.map(String::from),
         fps: bake.options.fps,
         frames: frames as u32,
+        clips: bake.timeline.spans.clone(),
         key_frame: bake.key_frame as u32,
         resolution: bake.options.resolution,
         parts: bake.segmentation.parts.iter().map(|p| p.name.clone()).collect(),

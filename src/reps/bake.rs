@@ -12,7 +12,7 @@ use super::{
 };
 use crate::animation::{Pose, skin_vertices};
 use crate::bake::pipeline::{BakeError, Progress};
-use crate::bake::renders::{frame_times, sample_frames, view_cameras};
+use crate::bake::renders::{sample_timeline, view_cameras};
 use crate::bake::viewpoints::{Coverage, directions};
 use crate::character::Character;
 use crate::gpu::{CharacterRenderer, DrawOptions, GpuCharacter, GpuContext, RenderTarget, Shading, SkinningMode};
@@ -29,6 +29,8 @@ pub struct RepsOptions {
     pub resolution: u32,
     pub fps: f32,
     pub clip: Option<usize>,
+    /// Further clips after `clip`, as [`crate::bake::pipeline::BakeOptions::extra_clips`].
+    pub extra_clips: Vec<usize>,
     /// The texture key-frame (NP3D images).
     pub key_frame: usize,
     pub set: RepSet,
@@ -186,16 +188,16 @@ pub fn bake_representations_sharing(
     progress: &(dyn Fn(Progress) + Sync),
     cancel: &AtomicBool,
 ) -> Result<Representations, BakeError> {
-    let duration = options
-        .clip
-        .and_then(|i| character.clips.get(i))
-        .map_or(0.0, |c| c.duration_secs);
-    let times = frame_times(duration, options.fps);
-    let frames = times.len();
+    let clips: Vec<Option<usize>> = std::iter::once(options.clip)
+        .chain(options.extra_clips.iter().map(|&c| Some(c)))
+        .collect();
+    let timeline = crate::timeline::Timeline::measured(character, &clips, options.fps)?;
+    let samples = timeline.samples();
+    let frames = samples.len();
     if options.key_frame >= frames {
         return Err(BakeError::KeyFrame(options.key_frame, frames));
     }
-    let (poses, points) = sample_frames(character, options.clip, &times);
+    let (poses, points) = sample_timeline(character, &samples);
     let dirs = directions(options.views.max(1), options.coverage);
     let shared = shared.filter(|s| s.complete(dirs.len(), frames, options.resolution, options.key_frame));
     let cameras = match &shared {
@@ -350,6 +352,7 @@ pub fn bake_representations_sharing(
         clip: clip_name.map(String::from),
         fps: options.fps,
         frames: frames as u32,
+        clips: timeline.spans.clone(),
         key_frame: options.key_frame as u32,
         resolution: r,
         views: dirs
@@ -674,16 +677,11 @@ pub fn bake_folder(
     let mut reuse = None;
     // The other representations' whole-character images, composited from the Polypostor's
     // part renders as the bake makes them (each view is rendered once).
-    let mut shared = (job.set.polypostor && (job.set.impostor || job.set.np3d)).then(|| {
-        let frames = crate::bake::renders::frame_times(
-            o.clip
-                .and_then(|i| job.character.clips.get(i))
-                .map_or(0.0, |c| c.duration_secs),
-            o.fps,
-        )
-        .len();
-        SharedRenders::new(o.views.max(1), frames, o.resolution, job.set)
-    });
+    let frames = crate::timeline::Timeline::new(job.character, &o.clip_list(), o.fps)
+        .map_err(BakeError::from)?
+        .frames();
+    let mut shared = (job.set.polypostor && (job.set.impostor || job.set.np3d))
+        .then(|| SharedRenders::new(o.views.max(1), frames, o.resolution, job.set));
     let mut on_view = |v: &crate::bake::pipeline::ViewRenders| {
         if let Some(s) = shared.as_mut() {
             crate::bake::profile::in_root("other representations", || s.add(v));
@@ -739,6 +737,7 @@ pub fn bake_folder(
             resolution: o.resolution,
             fps: o.fps,
             clip: o.clip,
+            extra_clips: o.extra_clips.clone(),
             key_frame: key,
             set: job.set,
             np3d_triangles: NP3D_TRIANGLES,

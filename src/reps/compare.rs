@@ -218,7 +218,7 @@ impl<'a> Renders<'a> {
             pos: [0.0, 0.0],
             facing: [0.0, 1.0],
             view: view as u32,
-            frame: t.floor() as u32,
+            frame: crate::crowd::looping_pair(t.floor() as u32, self.assets.timing().frames as u32),
             blend: t.fract(),
             variant: 0,
         });

@@ -27,8 +27,9 @@ use crate::pack::{PackCamera, PackError};
 
 pub const REPS_FILE: &str = "representations.json";
 pub const REPS_FORMAT: &str = "polypostor-representations";
-/// Version 2 added [`RepsManifest::checksums`]; older folders are refused with "re-bake".
-pub const REPS_VERSION: u32 = 2;
+/// Version 2 added [`RepsManifest::checksums`], version 3 the clip table ([`RepsManifest::clips`]);
+/// older folders are refused with "re-bake".
+pub const REPS_VERSION: u32 = 3;
 
 /// Which representations a bake produces.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -124,9 +125,13 @@ pub struct RepsManifest {
     pub character: String,
     /// The glTF the representations were baked from (meshes draw from it).
     pub character_path: Option<String>,
+    /// The first clip's name (`None`: the rest pose).
     pub clip: Option<String>,
     pub fps: f32,
+    /// Frames of every clip together.
     pub frames: u32,
+    /// The clips one after another ([`crate::timeline`]), as in the pack.
+    pub clips: Vec<crate::timeline::ClipSpan>,
     /// The texture key-frame (NP3D images; the pack's key frame when one was baked).
     pub key_frame: u32,
     pub resolution: u32,
@@ -430,6 +435,8 @@ pub fn load_representations(dir: &Path) -> Result<Representations, PackError> {
     const FILE: &str = REPS_FILE;
     let manifest: RepsManifest = crate::pack::parse_manifest(dir, FILE, REPS_FORMAT, REPS_VERSION)?;
     check_timing(FILE, manifest.fps, manifest.frames, manifest.key_frame)?;
+    crate::timeline::validate(&manifest.clips, manifest.frames as usize)
+        .map_err(|e| damaged(format!("{FILE}: {e}")))?;
     check_resolution_views(FILE, manifest.resolution, manifest.views.len())?;
     for (v, view) in manifest.views.iter().enumerate() {
         let what = format!("{FILE}: view {v}");

@@ -1,0 +1,489 @@
+//! The frames of a bake: one or several clips sampled at one rate, one after another. A
+//! whole-character pack holds every clip of the character in one frame sequence; each clip
+//! loops over its own frames ([`Timeline::next`] wraps within the clip), and the key images
+//! of a view are shared by every frame of every clip.
+//!
+//! Each clip also gets its measured **ground speed** ([`ground_speed`]), which the crowd uses
+//! to play it at the rate its agent walks, so feet do not slide.
+
+use glam::{Vec2, Vec3};
+use serde::{Deserialize, Serialize};
+
+use crate::animation::{Pose, skin_vertices};
+use crate::character::Character;
+use crate::limits::LimitError;
+
+/// Most clips in one bake.
+pub const MAX_CLIPS: usize = 256;
+
+/// One clip's frames in a timeline.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ClipSpan {
+    /// The clip's name (`(rest pose)` for the rest pose).
+    pub name: String,
+    /// Its first frame in the timeline.
+    pub start: u32,
+    /// How many frames it has (at least 1).
+    pub frames: u32,
+    /// Whether it loops (every glTF clip is played as a loop).
+    #[serde(default = "yes")]
+    pub looping: bool,
+    /// Ground speed when played at its own rate, in the character's world units per second
+    /// ([`ground_speed`]); 0 for a clip standing still.
+    #[serde(default)]
+    pub ground_speed: f32,
+}
+
+fn yes() -> bool {
+    true
+}
+
+impl ClipSpan {
+    /// The frames `start..start + frames`.
+    pub fn range(&self) -> std::ops::Range<usize> {
+        self.start as usize..(self.start + self.frames) as usize
+    }
+}
+
+/// Clips one after another at one frame rate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Timeline {
+    pub fps: f32,
+    pub spans: Vec<ClipSpan>,
+    /// The character's clip index of each span (`None`: the rest pose).
+    pub clips: Vec<Option<usize>>,
+}
+
+/// The name a rest-pose span is given.
+pub const REST_POSE: &str = "(rest pose)";
+
+impl Timeline {
+    /// The clips `clips` of `character` (in that order; `None` is the rest pose) at `fps`.
+    /// Refuses an empty list, repeated clips, clips that do not exist and more than the
+    /// frame limit in all.
+    pub fn new(character: &Character, clips: &[Option<usize>], fps: f32) -> Result<Self, LimitError> {
+        if clips.is_empty() {
+            return Err(LimitError("no clip to bake".into()));
+        }
+        if clips.len() > MAX_CLIPS {
+            return Err(LimitError(format!(
+                "{} clips asked for, more than the limit of {MAX_CLIPS}",
+                clips.len()
+            )));
+        }
+        let mut spans = Vec::with_capacity(clips.len());
+        let mut total = 0usize;
+        for (n, &c) in clips.iter().enumerate() {
+            if clips[..n].contains(&c) {
+                return Err(LimitError(format!(
+                    "clip '{}' is asked for twice",
+                    name_of(character, c)
+                )));
+            }
+            let clip =
+                match c {
+                    Some(i) => Some(character.clips.get(i).ok_or_else(|| {
+                        LimitError(format!("clip {i} does not exist ({} clips)", character.clips.len()))
+                    })?),
+                    None => None,
+                };
+            let duration = clip.map_or(0.0, |c| c.duration_secs);
+            let frames = if duration > 0.0 {
+                crate::limits::frame_count(duration, fps).map_err(|e| {
+                    LimitError(format!(
+                        "clip '{}': {e}; bake a shorter clip or a lower --fps",
+                        name_of(character, c)
+                    ))
+                })?
+            } else {
+                1
+            };
+            spans.push(ClipSpan {
+                name: name_of(character, c),
+                start: total as u32,
+                frames: frames as u32,
+                looping: true,
+                ground_speed: 0.0,
+            });
+            total += frames;
+            if total > crate::limits::MAX_FRAMES {
+                return Err(LimitError(format!(
+                    "the clips have {total} frames or more at {fps} fps together, more than the limit of {}: bake fewer clips or a lower --fps",
+                    crate::limits::MAX_FRAMES
+                )));
+            }
+        }
+        Ok(Self {
+            fps,
+            spans,
+            clips: clips.to_vec(),
+        })
+    }
+
+    /// As [`Timeline::new`], with every span's [`ClipSpan::ground_speed`] measured.
+    pub fn measured(character: &Character, clips: &[Option<usize>], fps: f32) -> Result<Self, LimitError> {
+        let mut t = Self::new(character, clips, fps)?;
+        for (span, &c) in t.spans.iter_mut().zip(&t.clips) {
+            span.ground_speed = ground_speed(character, c);
+        }
+        Ok(t)
+    }
+
+    /// Frames in all.
+    pub fn frames(&self) -> usize {
+        self.spans.last().map_or(0, |s| (s.start + s.frames) as usize)
+    }
+
+    /// Each frame's clip and time in it (seconds).
+    pub fn samples(&self) -> Vec<(Option<usize>, f32)> {
+        let mut out = Vec::with_capacity(self.frames());
+        for (s, &c) in self.spans.iter().zip(&self.clips) {
+            out.extend((0..s.frames).map(|k| (c, k as f32 / self.fps)));
+        }
+        out
+    }
+
+    /// The span holding frame `f` (the last one past the end).
+    pub fn span_of(&self, f: usize) -> usize {
+        span_of(&self.spans, f)
+    }
+
+    /// The frame after `f` as its clip plays (a loop's last frame is followed by its first).
+    pub fn next(&self, f: usize) -> usize {
+        next_frame(&self.spans, f)
+    }
+
+    /// The frame before `f` as its clip plays.
+    pub fn prev(&self, f: usize) -> usize {
+        prev_frame(&self.spans, f)
+    }
+
+    /// A one-clip timeline for tests and single-clip callers: `frames` frames, one loop.
+    pub fn single(name: &str, frames: usize, fps: f32) -> Self {
+        Self {
+            fps,
+            spans: vec![ClipSpan {
+                name: name.into(),
+                start: 0,
+                frames: frames.max(1) as u32,
+                looping: true,
+                ground_speed: 0.0,
+            }],
+            clips: vec![None],
+        }
+    }
+}
+
+/// The clip names of a `--clips` list: comma-separated names (each must exist, none twice),
+/// or `all` for every clip of the character in file order.
+pub fn parse_clip_list(list: &str, character: &Character) -> Result<Vec<String>, String> {
+    let list = list.trim();
+    if list.eq_ignore_ascii_case("all") {
+        if character.clips.is_empty() {
+            return Err("the character has no clips".into());
+        }
+        return Ok(character.clips.iter().map(|c| c.name.clone()).collect());
+    }
+    let mut out: Vec<String> = Vec::new();
+    for n in list.split(',').map(str::trim) {
+        if n.is_empty() {
+            return Err(format!("'{list}' has an empty clip name"));
+        }
+        if character.find_clip(n).is_none() {
+            return Err(format!(
+                "no clip named '{n}' (clips: {})",
+                character
+                    .clips
+                    .iter()
+                    .map(|k| k.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+        if out.iter().any(|o| o == n) {
+            return Err(format!("clip '{n}' is named twice"));
+        }
+        out.push(n.to_string());
+    }
+    if out.len() > MAX_CLIPS {
+        return Err(format!("{} clips, more than the limit of {MAX_CLIPS}", out.len()));
+    }
+    Ok(out)
+}
+
+fn name_of(character: &Character, c: Option<usize>) -> String {
+    c.and_then(|i| character.clips.get(i))
+        .map_or_else(|| REST_POSE.to_string(), |c| c.name.clone())
+}
+
+/// The span holding frame `f` in a table of consecutive spans (the last one past the end;
+/// 0 for an empty table).
+pub fn span_of(spans: &[ClipSpan], f: usize) -> usize {
+    let i = spans.partition_point(|s| (s.start as usize) <= f);
+    i.saturating_sub(1).min(spans.len().saturating_sub(1))
+}
+
+/// The frame after `f` as its clip plays (a looping clip's last frame is followed by its
+/// first; a clip that does not loop holds its last frame).
+pub fn next_frame(spans: &[ClipSpan], f: usize) -> usize {
+    let Some(s) = spans.get(span_of(spans, f)) else {
+        return f;
+    };
+    let r = s.range();
+    if f + 1 < r.end {
+        f + 1
+    } else if s.looping {
+        r.start
+    } else {
+        r.end.saturating_sub(1).max(r.start)
+    }
+}
+
+/// The frame before `f` as its clip plays.
+pub fn prev_frame(spans: &[ClipSpan], f: usize) -> usize {
+    let Some(s) = spans.get(span_of(spans, f)) else {
+        return f;
+    };
+    let r = s.range();
+    if f > r.start {
+        f - 1
+    } else if s.looping {
+        r.end.saturating_sub(1).max(r.start)
+    } else {
+        r.start
+    }
+}
+
+/// Checks a clip table against a frame count: consecutive spans from 0 covering exactly
+/// `frames` frames, each at least one frame, speeds finite and non-negative, names short.
+pub fn validate(spans: &[ClipSpan], frames: usize) -> Result<(), String> {
+    if spans.is_empty() {
+        return Err("the clip table is empty".into());
+    }
+    if spans.len() > MAX_CLIPS {
+        return Err(format!("{} clips, more than the limit of {MAX_CLIPS}", spans.len()));
+    }
+    let mut at = 0u64;
+    for (i, s) in spans.iter().enumerate() {
+        if s.start as u64 != at {
+            return Err(format!("clip {i} ('{}') starts at frame {}, not {at}", s.name, s.start));
+        }
+        if s.frames == 0 {
+            return Err(format!("clip {i} ('{}') has no frames", s.name));
+        }
+        if !(s.ground_speed.is_finite() && s.ground_speed >= 0.0) {
+            return Err(format!("clip {i} ('{}') has ground speed {}", s.name, s.ground_speed));
+        }
+        if s.name.len() > 1024 {
+            return Err(format!("clip {i}'s name is {} bytes long", s.name.len()));
+        }
+        at += s.frames as u64;
+    }
+    if at != frames as u64 {
+        return Err(format!("the clips hold {at} frames but the bake has {frames}"));
+    }
+    Ok(())
+}
+
+/// Samples per clip used to measure its ground speed.
+const SPEED_SAMPLES: usize = 48;
+
+/// How fast a clip moves over the ground when played at its own rate, in the character's world
+/// units per second: the horizontal speed of its root motion (the mesh's centre from one loop
+/// to the next) minus that of its planted feet (the vertices in contact with the ground, the
+/// lowest band over the clip). A clip that walks forward has planted feet that stay put
+/// (speed = root motion); one that walks in place has planted feet that slide back at the
+/// walking speed (speed = foot travel); an idle clip has neither (0).
+pub fn ground_speed(character: &Character, clip: Option<usize>) -> f32 {
+    let (root, feet) = ground_velocities(character, clip);
+    let speed = (root - feet).length();
+    if speed.is_finite() { speed } else { 0.0 }
+}
+
+/// The horizontal velocities (x, z) behind [`ground_speed`]: the root motion's and the
+/// planted feet's (zero vectors for the rest pose, an empty clip or an empty mesh).
+pub fn ground_velocities(character: &Character, clip: Option<usize>) -> (Vec2, Vec2) {
+    let none = (Vec2::ZERO, Vec2::ZERO);
+    let Some(c) = clip.and_then(|i| character.clips.get(i)) else {
+        return none;
+    };
+    let d = c.duration_secs;
+    if !(d > 0.0) || character.vertices.is_empty() {
+        return none;
+    }
+    let n = SPEED_SAMPLES;
+    let dt = d / n as f32;
+    // Sample n + 1 times: the last one is the first of the next loop (root motion shows there).
+    let pos: Vec<Vec<Vec3>> = (0..=n)
+        .map(|k| {
+            let t = k as f32 * dt;
+            // Just before the end for the last sample: the clip wraps at its duration.
+            let t = if k == n { d * (1.0 - 1e-4) } else { t };
+            skin_vertices(character, &Pose::sample(character, c, t)).0
+        })
+        .collect();
+    let (lo, hi) = pos
+        .iter()
+        .flatten()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.y), hi.max(p.y))
+        });
+    if !(hi > lo) {
+        return none;
+    }
+    // Root motion: the mean position's horizontal travel over the loop.
+    let mean = |ps: &[Vec3]| ps.iter().copied().sum::<Vec3>() / ps.len() as f32;
+    let root = {
+        let a = mean(&pos[0]);
+        let b = mean(&pos[n]);
+        Vec2::new(b.x - a.x, b.z - a.z) / (d * (1.0 - 1e-4))
+    };
+    // Planted feet: vertices within 2 % of the height of the lowest point in two consecutive
+    // samples; their mean horizontal velocity, averaged over the samples with contact.
+    let band = lo + 0.02 * (hi - lo);
+    let mut sum = Vec2::ZERO;
+    let mut weight = 0.0f32;
+    for k in 0..n {
+        let (a, b) = (&pos[k], &pos[k + 1]);
+        let step_dt = if k + 1 == n {
+            d * (1.0 - 1e-4) - k as f32 * dt
+        } else {
+            dt
+        };
+        let mut v = Vec2::ZERO;
+        let mut m = 0usize;
+        for (p, q) in a.iter().zip(b) {
+            if p.y <= band && q.y <= band {
+                v += Vec2::new(q.x - p.x, q.z - p.z);
+                m += 1;
+            }
+        }
+        if m > 0 && step_dt > 0.0 {
+            sum += v / (m as f32 * step_dt);
+            weight += 1.0;
+        }
+    }
+    let feet = if weight > 0.0 { sum / weight } else { Vec2::ZERO };
+    (root, feet)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clips_follow_each_other_and_loop_on_their_own() {
+        let c = crate::default_character::generate();
+        let all: Vec<Option<usize>> = (0..c.clips.len()).map(Some).collect();
+        let t = Timeline::new(&c, &all, 10.0).unwrap();
+        let mut at = 0;
+        for (s, clip) in t.spans.iter().zip(&c.clips) {
+            assert_eq!(s.start as usize, at);
+            assert_eq!(
+                s.frames as usize,
+                crate::limits::frame_count(clip.duration_secs, 10.0).unwrap()
+            );
+            at += s.frames as usize;
+        }
+        assert_eq!(t.frames(), at);
+        assert_eq!(t.samples().len(), at);
+        validate(&t.spans, at).unwrap();
+        // Brute force: next and prev against the clip each frame is in.
+        for f in 0..at {
+            let s = t.spans.iter().find(|s| s.range().contains(&f)).unwrap();
+            let r = s.range();
+            let local = f - r.start;
+            assert_eq!(t.next(f), r.start + (local + 1) % r.len());
+            assert_eq!(t.prev(f), r.start + (local + r.len() - 1) % r.len());
+            assert_eq!(t.prev(t.next(f)), f);
+            assert_eq!(&t.spans[t.span_of(f)], s);
+        }
+        // A repeated clip, a missing one and an empty list are refused.
+        assert!(Timeline::new(&c, &[Some(0), Some(0)], 10.0).is_err());
+        assert!(Timeline::new(&c, &[Some(99)], 10.0).is_err());
+        assert!(Timeline::new(&c, &[], 10.0).is_err());
+        // A damaged table is named.
+        let mut bad = t.spans.clone();
+        bad[1].start += 1;
+        assert!(validate(&bad, at).unwrap_err().contains("starts at frame"));
+        assert!(validate(&t.spans, at + 1).unwrap_err().contains("hold"));
+    }
+
+    #[test]
+    fn ground_speed_of_walking_in_place_and_of_standing_still() {
+        let c = crate::default_character::generate();
+        let walk = ground_speed(&c, c.find_clip("Walk"));
+        let run = ground_speed(&c, c.find_clip("Run"));
+        let idle = ground_speed(&c, c.find_clip("Idle"));
+        // A 1.8 m person walks at about 1–2 m/s and runs faster; idling goes nowhere.
+        assert!((0.6..2.5).contains(&walk), "walk {walk}");
+        assert!(run > walk * 1.2, "run {run} walk {walk}");
+        assert!(idle < 0.1 * walk, "idle {idle}");
+        assert_eq!(ground_speed(&c, None), 0.0);
+    }
+
+    #[test]
+    fn root_motion_and_foot_travel_give_the_same_speed_at_any_scale() {
+        use crate::character::{Channel, ChannelValues, Interpolation};
+        let mut c = crate::default_character::generate();
+        let walk = c.find_clip("Walk").unwrap();
+        let (root, feet) = ground_velocities(&c, Some(walk));
+        // The generated Walk walks in place: no root motion, feet sliding back.
+        assert!(root.length() < 0.05 * feet.length(), "root {root} feet {feet}");
+        let in_place = ground_speed(&c, Some(walk));
+        // The same walk carried forward by its root at the speed its feet slid back: the feet
+        // now stay planted, and the speed is the root's.
+        let r = c.skeleton.nodes.iter().position(|n| n.parent.is_none()).unwrap();
+        let rest = c.skeleton.nodes[r].rest;
+        let d = c.clips[walk].duration_secs;
+        let v = -feet;
+        // The root has no parent: its translation is in world space. Its keys are linear, so
+        // adding the travel at each key time is exact.
+        let step = |t: f32| Vec3::new(v.x, 0.0, v.y) * t;
+        let clip = &mut c.clips[walk];
+        match clip
+            .channels
+            .iter_mut()
+            .find(|ch| ch.node == r && matches!(ch.values, ChannelValues::Translation(_)))
+        {
+            Some(ch) => {
+                assert_eq!(ch.interpolation, Interpolation::Linear);
+                let times = ch.times.clone();
+                if let ChannelValues::Translation(vals) = &mut ch.values {
+                    for (x, t) in vals.iter_mut().zip(times) {
+                        *x += step(t);
+                    }
+                }
+            }
+            None => clip.channels.push(Channel {
+                node: r,
+                interpolation: Interpolation::Linear,
+                times: vec![0.0, d],
+                values: ChannelValues::Translation(vec![rest.translation, rest.translation + step(d)]),
+            }),
+        }
+        let (root2, feet2) = ground_velocities(&c, Some(walk));
+        assert!(feet2.length() < 0.1 * in_place, "feet {feet2}");
+        assert!((root2 - v).length() < 0.1 * in_place, "root {root2} against {v}");
+        let moving = ground_speed(&c, Some(walk));
+        assert!(
+            (moving - in_place).abs() < 0.1 * in_place,
+            "{moving} against {in_place}"
+        );
+        // A hundred times larger: a hundred times faster.
+        let mut big = crate::default_character::generate();
+        let r = big.skeleton.nodes.iter().position(|n| n.parent.is_none()).unwrap();
+        big.skeleton.nodes[r].rest.scale *= 100.0;
+        big.skeleton.nodes[r].rest.translation *= 100.0;
+        // The root's animated translation is in world units too.
+        for clip in &mut big.clips {
+            for ch in clip.channels.iter_mut().filter(|ch| ch.node == r) {
+                if let ChannelValues::Translation(vals) = &mut ch.values {
+                    vals.iter_mut().for_each(|x| *x *= 100.0);
+                }
+            }
+        }
+        let scaled = ground_speed(&big, Some(walk));
+        assert!((scaled / in_place - 100.0).abs() < 1.0, "{scaled} against {in_place}");
+    }
+}
