@@ -1012,7 +1012,13 @@ fn compare_cmd(
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());
     }
-    println!("memory (one character, one clip, all {total_views} views)");
+    println!(
+        "memory (one character, {}, all {total_views} views)",
+        match assets.timeline.spans.len() {
+            1 => "one clip".to_string(),
+            n => format!("{n} clips"),
+        }
+    );
     println!(
         "  {:<11} {:>10} {:>10} {:>12} {:>14}",
         "", "textures", "geometry", "total", "block-compr."
@@ -1050,6 +1056,22 @@ fn compare_cmd(
             e.worst_view,
             e.worst_view_psnr
         );
+    }
+    // A whole-character pack: each clip's error per representation.
+    if assets.timeline.spans.len() > 1 {
+        println!("per clip: mean PSNR dB / SSIM");
+        print!("  {:<11}", "");
+        for c in &assets.timeline.spans {
+            print!(" {:>16}", c.name);
+        }
+        println!();
+        for e in &errors {
+            print!("  {:<11}", e.representation);
+            for c in &e.per_clip {
+                print!(" {:>9.2} / {:.3}", c.psnr, c.ssim);
+            }
+            println!();
+        }
     }
     println!(
         "wrote memory.png, error.png, ssim.png, quality.png and compare.json in {}",
@@ -1351,6 +1373,25 @@ fn bench_crowd(
             "crowd rendering, {width}×{height} offscreen on {}, {frames} frames per figure",
             ctx.adapter_description()
         );
+        // The pack's clips and what the agents do with them.
+        let gaits = polypostor::crowd::Gaits::new(&assets.timeline.spans, assets.timeline.fps);
+        let n = scene.crowd.gait_counts();
+        for (i, c) in assets.timeline.spans.iter().enumerate() {
+            let role = if gaits.walk == Some(i) {
+                format!("walk ({} agents)", n[0])
+            } else if gaits.run == Some(i) {
+                format!("run ({} agents)", n[1])
+            } else {
+                "stand".into()
+            };
+            eprintln!(
+                "  clip {:<14} {:>4} frames, ground speed {:.3}/s: {role}",
+                c.name, c.frames, c.ground_speed
+            );
+        }
+        if n[2] > 0 {
+            eprintln!("  {} agents standing", n[2]);
+        }
     }
     let mut rows = Vec::new();
     for &count in counts {

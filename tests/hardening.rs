@@ -614,9 +614,13 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
         .err()
         .unwrap();
     assert!(
-        // The pack's own per-frame tables (vertex blocks, key tables) may catch it first.
+        // The pack's own per-frame tables (clip table, vertex blocks, key tables) may catch it
+        // first.
         e.contains("frames")
-            && (e.contains("disagree") || e.contains("past the end") || e.contains("frame keys for 9 frames")),
+            && (e.contains("disagree")
+                || e.contains("past the end")
+                || e.contains("frame keys for 9 frames")
+                || e.contains("the clips hold 10 frames but the bake has 9")),
         "{e}"
     );
     // A byte flipped anywhere in the data: the checksum names the file.

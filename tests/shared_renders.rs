@@ -69,6 +69,7 @@ fn check(character: &polypostor::Character, label: &str) {
         resolution: options.resolution,
         fps: options.fps,
         clip,
+        extra_clips: Vec::new(),
         key_frame: bake.key_frame,
         set: RepSet::ALL,
         np3d_triangles: 400,

@@ -336,7 +336,11 @@ fn agents_walk_run_and_stand_in_their_shares_with_their_feet_on_the_ground() {
         for inst in &crowd.instances[Level::Polypostor as usize] {
             let (f0, f1) = frame_pair_parts(inst.frame);
             let c = clips.iter().find(|c| c.range().contains(&(f0 as usize))).unwrap();
-            assert!(c.range().contains(&(f1 as usize)), "{f0} → {f1} leaves clip {}", c.name);
+            assert!(
+                c.range().contains(&(f1 as usize)),
+                "{f0} -> {f1} leaves clip {}",
+                c.name
+            );
             assert_eq!(f1 as usize, crate::timeline::next_frame(&clips, f0 as usize));
         }
     }

@@ -390,6 +390,13 @@ impl EditorApp {
             }
             Command::ShowCrowd(show) => self.crowd.open = show,
             Command::Export(req) => {
+                // The clip set chosen is the project's from now on (Ctrl+B bakes it too).
+                if let Some(doc) = self.doc.as_mut()
+                    && doc.project.clips != req.clips
+                {
+                    doc.project.clips = req.clips.clone();
+                    doc.dirty = true;
+                }
                 let options = polypostor::bake::pipeline::BakeOptions {
                     views: req.views,
                     resolution: req.resolution,
@@ -442,14 +449,19 @@ impl EditorApp {
         if set.polypostor {
             self.views.set_source(Some(&out));
         }
-        let clip = self
-            .playback
-            .clip
+        // The project's clip set (a whole-character pack), else the clip being viewed.
+        let set_clips: Vec<usize> = doc.project.clips.iter().filter_map(|n| c.find_clip(n)).collect();
+        let clip = set_clips
+            .first()
+            .copied()
+            .or(self.playback.clip)
             .or_else(|| c.find_clip("Walk"))
             .or((!c.clips.is_empty()).then_some(0));
+        let extra_clips = set_clips.iter().skip(1).copied().collect();
         let req = super::crowd::BakeRequest {
             character_path: doc.character_path.clone(),
             clip,
+            extra_clips,
             segmentation,
             caps: doc.project.caps.clone(),
             overrides: doc.project.overrides.clone(),
@@ -771,7 +783,7 @@ impl EditorApp {
             && !self.crowd.busy()
             && let Some(doc) = &self.doc
         {
-            self.export.show(doc);
+            self.export.show(doc, self.playback.clip);
         }
         if bake && self.doc.is_some() {
             self.send(Command::BakeCrowd);
@@ -899,7 +911,7 @@ impl EditorApp {
                     .clicked()
                     && let Some(doc) = &self.doc
                 {
-                    self.export.show(doc);
+                    self.export.show(doc, self.playback.clip);
                 }
                 ui.separator();
                 if ui.add(egui::Button::new("Quit").shortcut_text("Ctrl+Q")).clicked() {

@@ -13,7 +13,7 @@ use glam::Vec3;
 
 use polypostor::crowd::lod::{Level, LodDistances, LodPolicy};
 use polypostor::crowd::scene::{CrowdAssets, CrowdScene};
-use polypostor::gpu::{Camera, RenderTarget};
+use polypostor::gpu::{Camera, PolypostorStyle, RenderTarget};
 
 use super::app::LogLevel;
 use super::viewport::{OrbitCamera, ViewportResources};
@@ -62,6 +62,8 @@ pub struct PreviewStats {
     pub select_ms: f64,
     pub upload_ms: f64,
     pub draw_calls: usize,
+    /// Agents walking, running and standing idle.
+    pub gaits: [usize; 3],
     /// Visible characters not drawn last frame (the crowd thinned to keep the window
     /// answering).
     pub skipped: usize,
@@ -88,6 +90,10 @@ type JobDone = (
 pub struct CrowdPanel {
     pub open: bool,
     pub count: usize,
+    /// Shares of agents walking, running and standing idle.
+    pub behaviour: polypostor::crowd::Behaviour,
+    /// How strongly each agent's body parts are tinted (0: every character alike).
+    pub variation: f32,
     pub mode: PreviewMode,
     pub lod: LodDistances,
     pub paused: bool,
@@ -111,6 +117,8 @@ impl Default for CrowdPanel {
         Self {
             open: false,
             count: 2000,
+            behaviour: Default::default(),
+            variation: PolypostorStyle::default().tint,
             mode: PreviewMode::Mixed,
             lod: LodDistances::default(),
             paused: false,
@@ -138,6 +146,8 @@ pub struct BakeRequest {
     pub character: Arc<polypostor::Character>,
     pub character_path: PathBuf,
     pub clip: Option<usize>,
+    /// Clips after `clip` in the same whole-character pack.
+    pub extra_clips: Vec<usize>,
     pub segmentation: polypostor::bake::segment::Segmentation,
     pub caps: polypostor::bake::caps::CapOverrides,
     pub overrides: polypostor::bake::overrides::BakeOverrides,
@@ -182,6 +192,7 @@ impl CrowdPanel {
                     .map(|k| k.name.clone());
                 let options = polypostor::bake::pipeline::BakeOptions {
                     clip: req.clip,
+                    extra_clips: req.extra_clips.clone(),
                     overrides: req.overrides.clone(),
                     ..req.options.clone()
                 };
@@ -400,6 +411,26 @@ impl CrowdPanel {
             ui.add(egui::Slider::new(&mut self.lod.hysteresis, 0.0..=0.5).text("hysteresis"));
             self.lod.impostor_below = self.lod.impostor_below.min(self.lod.mesh_above);
         });
+        // What the agents do: the pack's clips by measured ground speed.
+        let gaits = polypostor::crowd::Gaits::new(&assets.timeline.spans, assets.timeline.fps);
+        ui.label("Behaviour (shares of the crowd):");
+        let b = &mut self.behaviour;
+        ui.add_enabled(
+            gaits.walk.is_some(),
+            egui::Slider::new(&mut b.walk, 0.0..=1.0).text("walking"),
+        );
+        ui.add_enabled(
+            gaits.run.is_some(),
+            egui::Slider::new(&mut b.run, 0.0..=1.0).text("running"),
+        )
+        .on_disabled_hover_text("the pack has no clip moving clearly faster than its walk");
+        ui.add_enabled(
+            !gaits.idle.is_empty(),
+            egui::Slider::new(&mut b.idle, 0.0..=1.0).text("standing"),
+        )
+        .on_disabled_hover_text("the pack has no clip that stands still");
+        ui.add(egui::Slider::new(&mut self.variation, 0.0..=1.0).text("appearance variation"))
+            .on_hover_text("How strongly each character's body parts are tinted (0: all alike)");
         ui.checkbox(&mut self.paused, "Paused (P)");
         ui.horizontal(|ui| {
             ui.label("Camera:");
@@ -454,6 +485,36 @@ impl CrowdPanel {
                         metres(p.speed.1)
                     ),
                 );
+            });
+        ui.add_space(4.0);
+        // Per clip: what it is used for, its measured speed, and how many agents play it.
+        egui::Grid::new("crowd clips")
+            .num_columns(4)
+            .striped(true)
+            .show(ui, |ui| {
+                ui.strong("clip");
+                ui.strong("frames");
+                ui.strong("ground speed");
+                ui.strong("agents");
+                ui.end_row();
+                for (i, c) in assets.timeline.spans.iter().enumerate() {
+                    let (role, n) = if gaits.walk == Some(i) {
+                        ("walk", stats.gaits[0])
+                    } else if gaits.run == Some(i) {
+                        ("run", stats.gaits[1])
+                    } else {
+                        ("stand", 0)
+                    };
+                    ui.label(format!("{} ({role})", c.name));
+                    ui.label(c.frames.to_string());
+                    ui.label(format!("{}/s", metres(c.ground_speed)));
+                    ui.label(match role {
+                        "stand" if gaits.idle.len() == 1 || gaits.walk.is_none() => stats.gaits[2].to_string(),
+                        "stand" => format!("{} standing in all", stats.gaits[2]),
+                        _ => n.to_string(),
+                    });
+                    ui.end_row();
+                }
             });
         if stats.skipped > 0 {
             ui.add(
@@ -541,6 +602,8 @@ impl CrowdPanel {
             assets: assets.clone(),
             generation: *generation,
             count: self.count,
+            behaviour: self.behaviour,
+            variation: self.variation,
             policy: self.policy(),
             paused: self.paused,
             camera: self.camera.camera(),
@@ -584,6 +647,8 @@ pub struct CrowdCallback {
     assets: Arc<CrowdAssets>,
     generation: u64,
     count: usize,
+    behaviour: polypostor::crowd::Behaviour,
+    variation: f32,
     policy: LodPolicy,
     paused: bool,
     camera: Camera,
@@ -654,6 +719,9 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
         if crowd.scene.crowd.params.count != self.count {
             crowd.scene.respawn(params);
         }
+        // A new behaviour mix: agents take it up as they next change gait (no jump).
+        crowd.scene.crowd.params.behaviour = self.behaviour;
+        crowd.scene.style.tint = self.variation;
         crowd.scene.crowd.set_paused(self.paused);
         if crowd.drawn_as != Some((self.policy, self.count)) {
             crowd.scene.draw_budget = usize::MAX;
@@ -691,6 +759,7 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
             out.select_ms = s.frame.select_secs * 1e3;
             out.upload_ms = s.upload_secs * 1e3;
             out.draw_calls = s.draw_calls;
+            out.gaits = crowd.scene.crowd.gait_counts();
             out.error = None;
             for l in Level::ALL {
                 out.available[l as usize] = crowd.scene.renderers.has(l);

@@ -7,7 +7,6 @@ use std::path::{Path, PathBuf};
 
 use polypostor::bake::overrides::OverrideBasis;
 use polypostor::bake::pipeline::PngCompression;
-use polypostor::bake::renders::frame_times;
 use polypostor::reps::RepSet;
 use polypostor::reps::compare::estimate;
 
@@ -21,6 +20,9 @@ pub struct ExportDialog {
     pub resolution: u32,
     pub fps: f32,
     pub png: PngCompression,
+    /// Per clip of the character, whether it goes into the pack (several: one
+    /// whole-character pack sharing its key images).
+    pub clips: Vec<bool>,
     /// Why the folder typed cannot receive the export (checked when the text changes).
     folder_check: Option<(String, Option<String>)>,
 }
@@ -35,6 +37,7 @@ impl Default for ExportDialog {
             resolution: polypostor::bake::renders::DEFAULT_RESOLUTION,
             fps: polypostor::bake::renders::DEFAULT_FPS,
             png: PngCompression::default(),
+            clips: Vec::new(),
             folder_check: None,
         }
     }
@@ -49,6 +52,8 @@ pub struct ExportRequest {
     pub resolution: u32,
     pub fps: f32,
     pub png: PngCompression,
+    /// The clips to bake, in the character's order (the project's clip set from now on).
+    pub clips: Vec<String>,
 }
 
 fn mb(bytes: u64) -> String {
@@ -56,8 +61,15 @@ fn mb(bytes: u64) -> String {
 }
 
 impl ExportDialog {
-    /// Opens the dialog with a default folder beside the project.
-    pub fn show(&mut self, doc: &Document) {
+    /// Opens the dialog with a default folder beside the project, and the project's clip set
+    /// (or the clip being viewed) ticked.
+    pub fn show(&mut self, doc: &Document, viewed: Option<usize>) {
+        let names: Vec<&str> = doc.character.clips.iter().map(|c| c.name.as_str()).collect();
+        self.clips = if doc.project.clips.is_empty() {
+            (0..names.len()).map(|i| Some(i) == viewed).collect()
+        } else {
+            names.iter().map(|n| doc.project.clips.iter().any(|c| c == n)).collect()
+        };
         if self.folder.is_empty() {
             let dir = doc
                 .project_file
@@ -76,10 +88,17 @@ impl ExportDialog {
         }
         let mut request = None;
         let mut close = false;
-        let duration = clip
-            .and_then(|i| doc.character.clips.get(i))
-            .map_or(0.0, |c| c.duration_secs);
-        let frames = frame_times(duration, self.fps).len();
+        if self.clips.len() != doc.character.clips.len() {
+            self.clips = (0..doc.character.clips.len()).map(|i| Some(i) == clip).collect();
+        }
+        let chosen: Vec<Option<usize>> = if doc.character.clips.is_empty() {
+            vec![None]
+        } else {
+            (0..self.clips.len()).filter(|&i| self.clips[i]).map(Some).collect()
+        };
+        let frames = polypostor::timeline::Timeline::new(&doc.character, &chosen, self.fps)
+            .map(|t| t.frames())
+            .unwrap_or(0);
         super::modal(ctx, "export dialog").show(ctx, |ui| {
             ui.set_width(520.0);
             ui.heading("Export crowd assets");
@@ -94,6 +113,34 @@ impl ExportDialog {
                     ui.checkbox(&mut self.set.impostor, "Impostor");
                     ui.checkbox(&mut self.set.np3d, "NP3D");
                     ui.checkbox(&mut self.set.rigid, "Rigid");
+                });
+                ui.end_row();
+                ui.label("Clips");
+                ui.vertical(|ui| {
+                    ui.horizontal_wrapped(|ui| {
+                        for (on, c) in self.clips.iter_mut().zip(&doc.character.clips) {
+                            ui.checkbox(on, &c.name);
+                        }
+                    });
+                    if self.clips.len() > 1 {
+                        ui.horizontal(|ui| {
+                            if ui.small_button("all").clicked() {
+                                self.clips.iter_mut().for_each(|c| *c = true);
+                            }
+                            if ui.small_button("only the viewed one").clicked() {
+                                for (i, c) in self.clips.iter_mut().enumerate() {
+                                    *c = Some(i) == clip;
+                                }
+                            }
+                        });
+                    }
+                    if self.clips.iter().filter(|&&c| c).count() > 1 {
+                        ui.label(
+                            egui::RichText::new("one whole-character pack: every clip shares the key images")
+                                .small()
+                                .weak(),
+                        );
+                    }
                 });
                 ui.end_row();
                 ui.label("Views");
@@ -202,7 +249,8 @@ impl ExportDialog {
             if let Some(p) = &folder_problem {
                 ui.label(egui::RichText::new(format!("⚠ {p}")).color(ui.visuals().warn_fg_color));
             }
-            let nothing = !(self.set.polypostor || self.set.any_other());
+            let no_clip = !doc.character.clips.is_empty() && !self.clips.iter().any(|&c| c);
+            let nothing = !(self.set.polypostor || self.set.any_other()) || no_clip;
             ui.add_space(6.0);
             ui.horizontal(|ui| {
                 let ok = !nothing && !folder.is_empty() && folder_problem.is_none();
@@ -214,13 +262,22 @@ impl ExportDialog {
                         resolution: self.resolution,
                         fps: self.fps,
                         png: self.png,
+                        clips: self
+                            .clips
+                            .iter()
+                            .zip(&doc.character.clips)
+                            .filter(|(on, _)| **on)
+                            .map(|(_, c)| c.name.clone())
+                            .collect(),
                     });
                     close = true;
                 }
                 if ui.button("Cancel").clicked() || ui.input(|i| i.key_pressed(egui::Key::Escape)) {
                     close = true;
                 }
-                if nothing {
+                if no_clip {
+                    ui.label(egui::RichText::new("choose at least one clip").weak());
+                } else if nothing {
                     ui.label(egui::RichText::new("choose at least one representation").weak());
                 }
             });

@@ -56,6 +56,17 @@ pub struct ErrorRow {
     pub samples: Vec<ErrorSample>,
     /// Per compared view (in the order given): mean PSNR and SSIM over all display times.
     pub per_view: Vec<ViewError>,
+    /// Per clip of a whole-character pack (in the pack's order): mean PSNR and SSIM over the
+    /// clip's display times.
+    pub per_clip: Vec<ClipError>,
+}
+
+/// One representation's error over one clip's display times.
+#[derive(Clone, Debug, Serialize)]
+pub struct ClipError {
+    pub clip: String,
+    pub psnr: f64,
+    pub ssim: f64,
 }
 
 /// One representation's error from one view, over every display time.
@@ -189,7 +200,14 @@ impl<'a> Renders<'a> {
         };
         let (device, queue) = (&self.ctx.device, &self.ctx.queue);
         let fps = self.assets.timing().fps.max(1e-3);
-        let pose = Pose::sample_index(&self.assets.character, self.assets.clip, t / fps);
+        // Time `t` in the timeline: its clip, and the time in that clip (a clip's last frame
+        // runs on into its own first).
+        let tl = &self.assets.timeline;
+        let f = t.max(0.0).floor() as usize;
+        let span = tl.span_of(f);
+        let clip = tl.clips.get(span).copied().unwrap_or(self.assets.clip);
+        let local = t - tl.spans.get(span).map_or(0.0, |s| s.start as f32);
+        let pose = Pose::sample_index(&self.assets.character, clip, local / fps);
         self.renderer.render(
             device,
             queue,
@@ -218,7 +236,10 @@ impl<'a> Renders<'a> {
             pos: [0.0, 0.0],
             facing: [0.0, 1.0],
             view: view as u32,
-            frame: crate::crowd::looping_pair(t.floor() as u32, self.assets.timing().frames as u32),
+            frame: {
+                let f = t.max(0.0).floor() as usize;
+                crate::crowd::frame_pair(f as u32, self.assets.timeline.next(f) as u32)
+            },
             blend: t.fract(),
             variant: 0,
         });
@@ -319,6 +340,20 @@ pub fn errors(
                 mean(&|s| s.time_frames.fract() != 0.0),
             );
             let worst = per_view.iter().min_by(|a, b| a.psnr.total_cmp(&b.psnr)).copied();
+            let per_clip = assets
+                .timeline
+                .spans
+                .iter()
+                .map(|c| {
+                    let r = c.range();
+                    let (psnr, ssim) = mean(&|s| r.contains(&(s.time_frames.floor() as usize)));
+                    ClipError {
+                        clip: c.name.clone(),
+                        psnr,
+                        ssim,
+                    }
+                })
+                .collect();
             ErrorRow {
                 representation: level.name().into(),
                 mean_psnr: all.0,
@@ -331,6 +366,7 @@ pub fn errors(
                 worst_view_psnr: worst.map_or(0.0, |w| w.psnr),
                 samples,
                 per_view,
+                per_clip,
             }
         })
         .collect())
@@ -380,8 +416,8 @@ mod tests {
 /// Memory of each representation estimated before baking (uncompressed bytes, textures and
 /// geometry): exact for classic impostors (a colour and a normal image per view per frame);
 /// for Polypostors and NP3D from densities measured on the default character (atlas texels
-/// per view ≈ 0.47 r² colour + a quarter for normals; 20 vertices per part and frame; extra
-/// key images up to the default budget);
+/// per view ≈ 0.53 r² + 23 r with the extra key images, plus a quarter for normals; 20
+/// vertices per part and frame);
 /// skinned and rigid from the mesh (the character's textures with their mipmaps).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Estimate {
@@ -408,14 +444,20 @@ pub fn estimate(
         parts as u64,
         vertices as u64,
     );
-    let atlas = v * r2 * 47 / 100 * 4 * 5 / 4;
+    // Atlas texels per view, key images after the first included (`bake::keys`, default
+    // budget): about 0.53 r² + 23 r (the crops' padding weighs more at low resolution),
+    // measured on the default character at 64² and 128² (0.89 r² and 0.71 r²); colour 4
+    // bytes a texel plus the quarter-size normal atlas.
+    let r = resolution as u64;
+    let atlas = v * (r2 * 53 / 100 + 23 * r) * 5;
     let texture_bytes = texture_bytes * 4 / 3;
-    let poly_geometry = v * p * f * 20 * 4 + v * p * 18 * 3 * 2;
-    // Extra key images (`bake::keys`): the default budget lets a view's added images spend
-    // half again its first ones, each with its own polygon.
-    let keys = 1.0 + crate::bake::keys::KeyOptions::default().budget;
+    // Per view, part and frame 20 positions of 4 bytes, about 10 % more for the extra keys'
+    // polygons (they hold only the frames they draw); per view and part the UVs and
+    // triangles. Against the packs written (default character, 24 views, 128²): one clip
+    // 4 % under, four clips 14 % over (their idle key images crop tighter).
+    let poly_geometry = v * p * f * 20 * 4 * 11 / 10 + v * p * 18 * 3 * 2;
     Estimate {
-        polypostor: ((atlas + poly_geometry) as f64 * keys) as u64,
+        polypostor: atlas + poly_geometry,
         impostor: v * f * r2 * 4 * 2,
         np3d: v * r2 * 4 + f * 220 * 24 + 400 * 3 * 2,
         rigid: f * n * 24 + n * 8 + texture_bytes,

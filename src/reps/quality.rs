@@ -207,6 +207,7 @@ mod tests {
                     worst_frame: i as u32,
                 })
                 .collect(),
+            per_clip: Vec::new(),
         }
     }
 
