@@ -572,7 +572,7 @@ impl Crowd {
             return;
         }
         for i in 0..self.agents.pos.len() {
-            let gait = choose_gait(&mut self.rng, &self.params.behaviour, &gaits);
+            let gait = choose_gait(&mut self.rng, &self.params.behaviour, &gaits, false);
             start_gait(&mut self.agents, &mut self.rng, &gaits, i, gait, None);
             let span = &gaits.clips[self.agents.clip[i] as usize];
             self.agents.clock[i] = self.rng.range(0.0, span.frames as f32 / gaits.fps);
@@ -640,7 +640,7 @@ impl Crowd {
             if let Some(g) = &self.gaits {
                 a.gait_timer[i] -= dt;
                 if a.gait_timer[i] <= 0.0 {
-                    let gait = choose_gait(&mut self.rng, &self.params.behaviour, g);
+                    let gait = choose_gait(&mut self.rng, &self.params.behaviour, g, true);
                     start_gait(a, &mut self.rng, g, i, gait, Some(&self.params));
                 }
                 if a.clip_fade[i] < 1.0 {
@@ -906,13 +906,18 @@ pub fn clip_frame(clock: &mut f32, fps: f32, start: u32, n: u32) -> (u32, f32) {
 }
 
 /// A gait drawn from the behaviour's shares among those the pack has clips for (walking when
-/// none has).
-fn choose_gait(rng: &mut Rng, b: &Behaviour, g: &Gaits) -> Gait {
-    let w = |x: f32, ok: bool| if ok && x.is_finite() { x.max(0.0) } else { 0.0 };
+/// none has). `steady`: for an agent changing gait, each share divided by how long that gait
+/// lasts, so that at any moment the shares of agents walking, running and standing are the
+/// behaviour's (standing spells are shorter than walks).
+fn choose_gait(rng: &mut Rng, b: &Behaviour, g: &Gaits, steady: bool) -> Gait {
+    let w = |x: f32, ok: bool, (lo, hi): (f32, f32)| {
+        let x = if ok && x.is_finite() { x.max(0.0) } else { 0.0 };
+        if steady { x / (0.5 * (lo + hi)) } else { x }
+    };
     let weights = [
-        w(b.walk, g.walk.is_some()),
-        w(b.run, g.run.is_some()),
-        w(b.idle, !g.idle.is_empty()),
+        w(b.walk, g.walk.is_some(), MOVING_SECS),
+        w(b.run, g.run.is_some(), MOVING_SECS),
+        w(b.idle, !g.idle.is_empty(), IDLE_SECS),
     ];
     let total: f32 = weights.iter().sum();
     if !(total > 0.0) {

@@ -702,3 +702,26 @@ fn a_crowd_too_heavy_for_the_machine_thins_out_evenly_and_recovers() {
     assert!(next_budget(10_000, 2.0, 10_000) < next_budget(10_000, 0.2, 10_000));
     assert_eq!(next_budget(10_000, 0.16, 10_000), 5_000);
 }
+
+#[test]
+fn the_behaviour_shares_hold_as_agents_change_gait() {
+    let mut crowd = Crowd::new(CrowdParams {
+        count: 2000,
+        seed: 8,
+        ..Default::default()
+    });
+    crowd.set_clips(&four_clips(), 10.0);
+    // Two minutes: every agent has changed gait many times (spells of 2 to 12 s).
+    let mut changes = 0usize;
+    for _ in 0..1200 {
+        let before = crowd.agents.gait.clone();
+        crowd.simulate(0.1);
+        changes += before.iter().zip(&crowd.agents.gait).filter(|(a, b)| a != b).count();
+    }
+    assert!(changes > 10_000, "{changes} gait changes");
+    let n = crowd.gait_counts();
+    let total = crowd.len() as f32;
+    for (k, want) in [0.6f32, 0.2, 0.2].into_iter().enumerate() {
+        assert!((n[k] as f32 / total - want).abs() < 0.05, "gait {k}: {n:?}");
+    }
+}

@@ -475,16 +475,21 @@ impl CrowdPanel {
                         p.scale()
                     ),
                 );
-                row(
-                    ui,
-                    "spacing / speed",
-                    format!(
-                        "{} apart, {}–{} /s",
-                        metres(p.min_distance),
-                        metres(p.speed.0),
-                        metres(p.speed.1)
-                    ),
-                );
+                // Speeds come from the clips (below) when the pack measured them.
+                if assets.timeline.spans.iter().any(|c| c.ground_speed > 0.0) {
+                    row(ui, "spacing", format!("{} apart", metres(p.min_distance)));
+                } else {
+                    row(
+                        ui,
+                        "spacing / speed",
+                        format!(
+                            "{} apart, {}–{} /s",
+                            metres(p.min_distance),
+                            metres(p.speed.0),
+                            metres(p.speed.1)
+                        ),
+                    );
+                }
             });
         ui.add_space(4.0);
         // Per clip: what it is used for, its measured speed, and how many agents play it.
@@ -507,7 +512,11 @@ impl CrowdPanel {
                     };
                     ui.label(format!("{} ({role})", c.name));
                     ui.label(c.frames.to_string());
-                    ui.label(format!("{}/s", metres(c.ground_speed)));
+                    ui.label(if role != "stand" {
+                        format!("{}/s", metres(c.ground_speed))
+                    } else {
+                        "still".into()
+                    });
                     ui.label(match role {
                         "stand" if gaits.idle.len() == 1 || gaits.walk.is_none() => stats.gaits[2].to_string(),
                         "stand" => format!("{} standing in all", stats.gaits[2]),
