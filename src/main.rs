@@ -333,10 +333,54 @@ fn inspect(file: &Path, json: bool) -> anyhow::Result<()> {
     match polypostor::import_path(file) {
         Ok(c) => {
             let s = c.summary();
+            // How each clip moves (what a crowd does with it).
+            let motion: Vec<(String, polypostor::timeline::ClipMotion)> = (0..c.clips.len())
+                .map(|i| {
+                    (
+                        c.clips[i].name.clone(),
+                        polypostor::timeline::measure_motion(&c, Some(i)),
+                    )
+                })
+                .collect();
             if json {
-                println!("{}", serde_json::to_string_pretty(&s)?);
+                let mut v = serde_json::to_value(&s)?;
+                v["clip_motion"] = motion
+                    .iter()
+                    .map(|(name, m)| {
+                        serde_json::json!({
+                            "name": name,
+                            "ground_speed": m.ground_speed(),
+                            "loops": m.loops(),
+                            "locomotion": m.is_locomotion(),
+                            "closure": m.closure,
+                            "contact": m.contact,
+                            "spread": m.spread,
+                        })
+                    })
+                    .collect();
+                println!("{}", serde_json::to_string_pretty(&v)?);
             } else {
                 print!("{}", s.to_text());
+                if !motion.is_empty() {
+                    println!("clip motion (ground speed in scene units/s; closure, contact and spread as measured)");
+                    for (name, m) in &motion {
+                        println!(
+                            "  {:<24} {:>8.3}/s  {:<16} closure {:.3}  contact {:.2}  spread {:.2}",
+                            name,
+                            m.ground_speed(),
+                            if m.is_locomotion() {
+                                "locomotion"
+                            } else if m.loops() {
+                                "loops in place"
+                            } else {
+                                "does not loop"
+                            },
+                            m.closure,
+                            m.contact,
+                            m.spread
+                        );
+                    }
+                }
             }
             Ok(())
         }

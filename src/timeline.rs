@@ -25,7 +25,8 @@ pub struct ClipSpan {
     pub start: u32,
     /// How many frames it has (at least 1).
     pub frames: u32,
-    /// Whether it loops (every glTF clip is played as a loop).
+    /// Whether it loops: its last pose comes back to its first ([`ClipMotion::loops`]). A clip
+    /// that does not (a fall, a sit) holds its last frame instead of wrapping.
     #[serde(default = "yes")]
     pub looping: bool,
     /// Ground speed when played at its own rate, in the character's world units per second
@@ -120,11 +121,14 @@ impl Timeline {
         })
     }
 
-    /// As [`Timeline::new`], with every span's [`ClipSpan::ground_speed`] measured.
+    /// As [`Timeline::new`], with every span's [`ClipSpan::ground_speed`] and
+    /// [`ClipSpan::looping`] measured ([`measure_motion`]).
     pub fn measured(character: &Character, clips: &[Option<usize>], fps: f32) -> Result<Self, LimitError> {
         let mut t = Self::new(character, clips, fps)?;
         for (span, &c) in t.spans.iter_mut().zip(&t.clips) {
-            span.ground_speed = ground_speed(character, c);
+            let m = measure_motion(character, c);
+            span.ground_speed = m.ground_speed();
+            span.looping = m.loops();
         }
         Ok(t)
     }
@@ -288,22 +292,81 @@ pub fn validate(spans: &[ClipSpan], frames: usize) -> Result<(), String> {
 /// Samples per clip used to measure its ground speed.
 const SPEED_SAMPLES: usize = 48;
 
+/// How a clip moves, measured on the skinned mesh at [`SPEED_SAMPLES`] times over one loop.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ClipMotion {
+    /// Horizontal velocity (x, z) of the mesh's mean position from one loop to the next.
+    pub root: Vec2,
+    /// Horizontal velocity of the contact point: per sample the lowest vertex's velocity to
+    /// the next sample, the median of those along their main direction.
+    pub feet: Vec2,
+    /// How far the last pose is from the first once the root motion is taken out: mean
+    /// vertex distance over the clip's height (about 0 for a clip that loops).
+    pub closure: f32,
+    /// Share of the samples whose contact point moves within half the ground speed of
+    /// `feet` (1 for a clip going nowhere).
+    pub contact: f32,
+    /// Mean distance of each sample's contact velocity from `feet`, over the ground speed
+    /// (small: the feet slide back evenly, as in a walk; large for a jump or a punch).
+    pub spread: f32,
+    /// Top minus bottom of the mesh over the clip.
+    pub height: f32,
+}
+
+/// Least ground speed of locomotion, in heights per second (9 cm/s for a 1.8 m person):
+/// slower, a clip stands (a dance that drifts, a sway).
+pub const LOCOMOTION_MIN_SPEED: f32 = 0.05;
+
+/// Largest [`ClipMotion::closure`] of a clip that loops.
+pub const LOOP_CLOSURE: f32 = 0.1;
+/// Least [`ClipMotion::contact`] and largest [`ClipMotion::spread`] of locomotion (a run's
+/// flight phases keep its contact point steady only about half the time).
+pub const LOCOMOTION_CONTACT: f32 = 0.4;
+pub const LOCOMOTION_SPREAD: f32 = 1.0;
+
+impl ClipMotion {
+    /// Whether the clip's last pose comes back to its first (so the crowd may loop it).
+    pub fn loops(&self) -> bool {
+        self.closure <= LOOP_CLOSURE
+    }
+
+    /// Whether it is steady locomotion: it loops and its contact point moves evenly (a walk, a
+    /// run, a trot; not a jump, a fall or a sit).
+    pub fn is_locomotion(&self) -> bool {
+        self.loops()
+            && self.contact >= LOCOMOTION_CONTACT
+            && self.spread <= LOCOMOTION_SPREAD
+            && (self.root - self.feet).length() >= LOCOMOTION_MIN_SPEED * self.height
+    }
+
+    /// The ground speed: root motion minus planted-feet velocity for locomotion, 0 otherwise.
+    pub fn ground_speed(&self) -> f32 {
+        let v = (self.root - self.feet).length();
+        if self.is_locomotion() && v.is_finite() { v } else { 0.0 }
+    }
+}
+
 /// How fast a clip moves over the ground when played at its own rate, in the character's world
-/// units per second: the horizontal speed of its root motion (the mesh's centre from one loop
-/// to the next) minus that of its planted feet (the vertices in contact with the ground, the
-/// lowest band over the clip). A clip that walks forward has planted feet that stay put
-/// (speed = root motion); one that walks in place has planted feet that slide back at the
-/// walking speed (speed = foot travel); an idle clip has neither (0).
+/// units per second ([`measure_motion`]): the horizontal speed of its root motion minus that of
+/// its planted feet. A clip that walks forward has planted feet that stay put (speed = root
+/// motion); one that walks in place has planted feet that slide back at the walking speed
+/// (speed = foot travel); an idle clip has neither (0); a clip that is not steady locomotion
+/// (does not loop, is mostly in the air, or its feet move unevenly: a jump, a fall) counts 0.
 pub fn ground_speed(character: &Character, clip: Option<usize>) -> f32 {
-    let (root, feet) = ground_velocities(character, clip);
-    let speed = (root - feet).length();
-    if speed.is_finite() { speed } else { 0.0 }
+    measure_motion(character, clip).ground_speed()
 }
 
 /// The horizontal velocities (x, z) behind [`ground_speed`]: the root motion's and the
 /// planted feet's (zero vectors for the rest pose, an empty clip or an empty mesh).
 pub fn ground_velocities(character: &Character, clip: Option<usize>) -> (Vec2, Vec2) {
-    let none = (Vec2::ZERO, Vec2::ZERO);
+    let m = measure_motion(character, clip);
+    (m.root, m.feet)
+}
+
+/// Measures how `clip` moves ([`ClipMotion`]); the rest pose, an empty clip or an empty mesh
+/// gives a still clip that loops.
+pub fn measure_motion(character: &Character, clip: Option<usize>) -> ClipMotion {
+    let none = ClipMotion::default();
     let Some(c) = clip.and_then(|i| character.clips.get(i)) else {
         return none;
     };
@@ -313,12 +376,12 @@ pub fn ground_velocities(character: &Character, clip: Option<usize>) -> (Vec2, V
     }
     let n = SPEED_SAMPLES;
     let dt = d / n as f32;
+    let end = d * (1.0 - 1e-4);
     // Sample n + 1 times: the last one is the first of the next loop (root motion shows there).
     let pos: Vec<Vec<Vec3>> = (0..=n)
         .map(|k| {
-            let t = k as f32 * dt;
             // Just before the end for the last sample: the clip wraps at its duration.
-            let t = if k == n { d * (1.0 - 1e-4) } else { t };
+            let t = if k == n { end } else { k as f32 * dt };
             skin_vertices(character, &Pose::sample(character, c, t)).0
         })
         .collect();
@@ -331,40 +394,68 @@ pub fn ground_velocities(character: &Character, clip: Option<usize>) -> (Vec2, V
     if !(hi > lo) {
         return none;
     }
+    let height = hi - lo;
     // Root motion: the mean position's horizontal travel over the loop.
     let mean = |ps: &[Vec3]| ps.iter().copied().sum::<Vec3>() / ps.len() as f32;
-    let root = {
+    let travel = {
         let a = mean(&pos[0]);
         let b = mean(&pos[n]);
-        Vec2::new(b.x - a.x, b.z - a.z) / (d * (1.0 - 1e-4))
+        Vec3::new(b.x - a.x, 0.0, b.z - a.z)
     };
-    // Planted feet: vertices within 2 % of the height of the lowest point in two consecutive
-    // samples; their mean horizontal velocity, averaged over the samples with contact.
-    let band = lo + 0.02 * (hi - lo);
-    let mut sum = Vec2::ZERO;
-    let mut weight = 0.0f32;
+    let root = Vec2::new(travel.x, travel.z) / end;
+    let closure = pos[0]
+        .iter()
+        .zip(&pos[n])
+        .map(|(a, b)| (*b - travel - *a).length())
+        .sum::<f32>()
+        / (pos[0].len() as f32 * height);
+    // The contact point: per pair of consecutive samples, the horizontal velocity of the
+    // sample's lowest vertex (the foot on the ground in a walk; in a run's flight, the foot
+    // about to land). Feet: the median of those along their main direction, so flight phases
+    // and foot changes (a minority of samples) do not move it.
+    let mut velocities = Vec::with_capacity(n);
     for k in 0..n {
         let (a, b) = (&pos[k], &pos[k + 1]);
-        let step_dt = if k + 1 == n {
-            d * (1.0 - 1e-4) - k as f32 * dt
-        } else {
-            dt
-        };
-        let mut v = Vec2::ZERO;
-        let mut m = 0usize;
-        for (p, q) in a.iter().zip(b) {
-            if p.y <= band && q.y <= band {
-                v += Vec2::new(q.x - p.x, q.z - p.z);
-                m += 1;
-            }
-        }
-        if m > 0 && step_dt > 0.0 {
-            sum += v / (m as f32 * step_dt);
-            weight += 1.0;
+        let step_dt = if k + 1 == n { end - k as f32 * dt } else { dt };
+        let low = (0..a.len()).min_by(|&x, &y| a[x].y.total_cmp(&a[y].y)).unwrap_or(0);
+        if step_dt > 0.0 {
+            velocities.push(Vec2::new(b[low].x - a[low].x, b[low].z - a[low].z) / step_dt);
         }
     }
-    let feet = if weight > 0.0 { sum / weight } else { Vec2::ZERO };
-    (root, feet)
+    let sum: Vec2 = velocities.iter().copied().sum();
+    let dir = sum.normalize_or_zero();
+    let feet = if dir == Vec2::ZERO {
+        Vec2::ZERO
+    } else {
+        let mut along: Vec<f32> = velocities.iter().map(|v| v.dot(dir)).collect();
+        along.sort_by(f32::total_cmp);
+        dir * along[along.len() / 2]
+    };
+    // How steadily the contact point moves at the feet's velocity: the share of samples within
+    // half the ground speed of it.
+    let speed = (root - feet).length();
+    let contact = if speed > 1e-6 * height {
+        velocities
+            .iter()
+            .filter(|v| (**v - feet).length() <= 0.5 * speed)
+            .count() as f32
+            / velocities.len().max(1) as f32
+    } else {
+        1.0
+    };
+    let spread = if velocities.is_empty() || speed <= 1e-6 * height {
+        0.0
+    } else {
+        velocities.iter().map(|v| (*v - feet).length()).sum::<f32>() / (velocities.len() as f32 * speed)
+    };
+    ClipMotion {
+        root,
+        feet,
+        closure: if closure.is_finite() { closure } else { f32::INFINITY },
+        contact,
+        spread: if spread.is_finite() { spread } else { f32::INFINITY },
+        height,
+    }
 }
 
 #[cfg(test)]
@@ -485,5 +576,38 @@ mod tests {
         }
         let scaled = ground_speed(&big, Some(walk));
         assert!((scaled / in_place - 100.0).abs() < 1.0, "{scaled} against {in_place}");
+    }
+
+    #[test]
+    fn a_clip_that_does_not_come_back_neither_loops_nor_walks() {
+        use crate::character::{Channel, ChannelValues, Interpolation};
+        let mut c = crate::default_character::generate();
+        let walk = c.find_clip("Walk").unwrap();
+        let idle = c.find_clip("Idle").unwrap();
+        let m = measure_motion(&c, Some(walk));
+        assert!(m.loops() && m.is_locomotion(), "{m:?}");
+        let m = measure_motion(&c, Some(idle));
+        assert!(m.loops() && !m.is_locomotion() && m.ground_speed() == 0.0, "{m:?}");
+        // The walk sinking by a third of its height over the clip (a fall, a sit): its last
+        // pose is not its first.
+        let r = c.skeleton.nodes.iter().position(|n| n.parent.is_none()).unwrap();
+        let rest = c.skeleton.nodes[r].rest.translation;
+        let d = c.clips[walk].duration_secs;
+        let clip = &mut c.clips[walk];
+        clip.channels
+            .retain(|ch| !(ch.node == r && matches!(ch.values, ChannelValues::Translation(_))));
+        clip.channels.push(Channel {
+            node: r,
+            interpolation: Interpolation::Linear,
+            times: vec![0.0, d],
+            values: ChannelValues::Translation(vec![rest, rest - Vec3::new(0.0, 0.6, 0.0)]),
+        });
+        let m = measure_motion(&c, Some(walk));
+        assert!(!m.loops() && !m.is_locomotion() && m.ground_speed() == 0.0, "{m:?}");
+        let t = Timeline::measured(&c, &[Some(walk), Some(idle)], 10.0).unwrap();
+        assert!(!t.spans[0].looping && t.spans[1].looping);
+        // A clip that does not loop holds its last frame.
+        assert_eq!(t.next(9), 9);
+        assert_eq!(t.prev(0), 0);
     }
 }
