@@ -297,14 +297,15 @@ const SPEED_SAMPLES: usize = 48;
 pub struct ClipMotion {
     /// Horizontal velocity (x, z) of the mesh's mean position from one loop to the next.
     pub root: Vec2,
-    /// Horizontal velocity of the contact point: per sample the lowest vertex's velocity to
-    /// the next sample, the median of those along their main direction.
+    /// Horizontal velocity of the contact point: per sample on the ground, the lowest vertex's
+    /// velocity to the next sample; the median of those along their main direction.
     pub feet: Vec2,
     /// How far the last pose is from the first once the root motion is taken out: mean
     /// vertex distance over the clip's height (about 0 for a clip that loops).
     pub closure: f32,
-    /// Share of the samples whose contact point moves within half the ground speed of
-    /// `feet` (1 for a clip going nowhere).
+    /// Share of the samples on the ground (lowest vertex within 3 % of the height of the
+    /// ground, the fifth-lowest of the samples' lowest points) whose contact point moves within half the ground speed of `feet`
+    /// (1 for a clip going nowhere; 0 when under a fifth of the samples are on the ground).
     pub contact: f32,
     /// Mean distance of each sample's contact velocity from `feet`, over the ground speed
     /// (small: the feet slide back evenly, as in a walk; large for a jump or a punch).
@@ -410,18 +411,31 @@ pub fn measure_motion(character: &Character, clip: Option<usize>) -> ClipMotion 
         .sum::<f32>()
         / (pos[0].len() as f32 * height);
     // The contact point: per pair of consecutive samples, the horizontal velocity of the
-    // sample's lowest vertex (the foot on the ground in a walk; in a run's flight, the foot
-    // about to land). Feet: the median of those along their main direction, so flight phases
-    // and foot changes (a minority of samples) do not move it.
-    let mut velocities = Vec::with_capacity(n);
+    // sample's lowest vertex (the foot on the ground). Feet: the median of those on the ground
+    // along their main direction, so foot changes (a minority of samples) do not move it.
+    let mut samples: Vec<(Vec2, f32)> = Vec::with_capacity(n);
     for k in 0..n {
         let (a, b) = (&pos[k], &pos[k + 1]);
         let step_dt = if k + 1 == n { end - k as f32 * dt } else { dt };
         let low = (0..a.len()).min_by(|&x, &y| a[x].y.total_cmp(&a[y].y)).unwrap_or(0);
         if step_dt > 0.0 {
-            velocities.push(Vec2::new(b[low].x - a[low].x, b[low].z - a[low].z) / step_dt);
+            samples.push((Vec2::new(b[low].x - a[low].x, b[low].z - a[low].z) / step_dt, a[low].y));
         }
     }
+    // Only samples on the ground (the lowest vertex within 3 % of the height of the ground:
+    // the lowest fifth of the samples' lowest points, so a single deep landing does not set
+    // it): a run's flight phases are left out.
+    let ground = {
+        let mut lows: Vec<f32> = samples.iter().map(|s| s.1).collect();
+        lows.sort_by(f32::total_cmp);
+        lows.get(lows.len() / 5).copied().unwrap_or(lo)
+    };
+    let velocities: Vec<Vec2> = samples
+        .iter()
+        .filter(|s| s.1 <= ground + 0.03 * height)
+        .map(|s| s.0)
+        .collect();
+    let grounded = velocities.len() as f32 / n as f32;
     let sum: Vec2 = velocities.iter().copied().sum();
     let dir = sum.normalize_or_zero();
     let feet = if dir == Vec2::ZERO {
@@ -452,7 +466,8 @@ pub fn measure_motion(character: &Character, clip: Option<usize>) -> ClipMotion 
         root,
         feet,
         closure: if closure.is_finite() { closure } else { f32::INFINITY },
-        contact,
+        // Steady on the ground, and on the ground a fifth of the time at least.
+        contact: if grounded >= 0.2 { contact } else { 0.0 },
         spread: if spread.is_finite() { spread } else { f32::INFINITY },
         height,
     }
