@@ -1425,8 +1425,10 @@ fn bench_crowd(
                 format!("walk ({} agents)", n[0])
             } else if gaits.run == Some(i) {
                 format!("run ({} agents)", n[1])
-            } else {
+            } else if gaits.idle.contains(&i) {
                 "stand".into()
+            } else {
+                "not played (does not loop)".into()
             };
             eprintln!(
                 "  clip {:<14} {:>4} frames, ground speed {:.3}/s: {role}",

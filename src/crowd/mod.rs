@@ -184,7 +184,11 @@ impl Gaits {
         let moving: Vec<usize> = (0..clips.len())
             .filter(|&i| fastest > 0.0 && clips[i].ground_speed > 0.1 * fastest)
             .collect();
-        let idle = (0..clips.len()).filter(|i| !moving.contains(i)).collect();
+        // Standing: still clips that loop (an idle, a wave), not a fall or a sit that ends
+        // elsewhere; those only when nothing else stands.
+        let still: Vec<usize> = (0..clips.len()).filter(|i| !moving.contains(i)).collect();
+        let looping: Vec<usize> = still.iter().copied().filter(|&i| clips[i].looping).collect();
+        let idle = if looping.is_empty() { still } else { looping };
         let by_speed = |a: &usize, b: &usize| clips[*a].ground_speed.total_cmp(&clips[*b].ground_speed);
         let walk = moving.iter().copied().min_by(by_speed);
         let run = moving

@@ -27,7 +27,8 @@ pub struct CrowdAssets {
     pub labels: Vec<u32>,
     pub pack: Option<LoadedPack>,
     pub reps: Option<Representations>,
-    /// The character's size over the baked clip, in metres.
+    /// The character's size in metres: height and length from the clip it walks in (else the
+    /// first), the culling sphere over every clip the crowd plays.
     pub size: CharacterSize,
 }
 
@@ -143,7 +144,25 @@ impl CrowdAssets {
                 .map(|&l| l as u32)
                 .collect()
         });
-        let size = CharacterSize::measure_clips(&c, &timeline.clips);
+        // The character's size from the clip it walks in (else the first): a fall or a jump
+        // would make it look longer or taller than it is, and the crowd would spread out. The
+        // culling sphere holds every clip the crowd plays (those that loop).
+        let gaits = super::Gaits::new(&timeline.spans, fps);
+        let sizing = gaits.walk.and_then(|w| timeline.clips.get(w).copied()).unwrap_or(clip);
+        let mut size = CharacterSize::measure(&c, sizing);
+        let played: Vec<Option<usize>> = timeline
+            .clips
+            .iter()
+            .zip(&timeline.spans)
+            .filter(|(_, s)| s.looping)
+            .map(|(c, _)| *c)
+            .collect();
+        if played.len() > 1 {
+            let all = CharacterSize::measure_clips(&c, &played);
+            size.centre = all.centre;
+            size.radius = all.radius;
+            size.ground_y = size.ground_y.min(all.ground_y);
+        }
         Ok(Self {
             character: c,
             character_path: path,

@@ -261,6 +261,11 @@ fn clips_sort_into_walk_run_and_idle_by_measured_speed() {
     close[1].ground_speed = 1.4;
     let g = Gaits::new(&close, 10.0);
     assert_eq!((g.walk, g.run), (Some(0), None));
+    // A fall that does not loop is not stood in while a looping idle exists.
+    let mut fall = four_clips();
+    fall.push(span("Death", 57, 10, 0.0));
+    fall[4].looping = false;
+    assert_eq!(Gaits::new(&fall, 10.0).idle, vec![2, 3]);
     let still = vec![span("Idle", 0, 20, 0.0)];
     let g = Gaits::new(&still, 10.0);
     assert_eq!((g.walk, g.run, g.idle.clone()), (None, None, vec![0]));

@@ -507,17 +507,20 @@ impl CrowdPanel {
                         ("walk", stats.gaits[0])
                     } else if gaits.run == Some(i) {
                         ("run", stats.gaits[1])
-                    } else {
+                    } else if gaits.idle.contains(&i) {
                         ("stand", 0)
+                    } else {
+                        ("unused", 0)
                     };
                     ui.label(format!("{} ({role})", c.name));
                     ui.label(c.frames.to_string());
-                    ui.label(if role != "stand" {
+                    ui.label(if role == "walk" || role == "run" {
                         format!("{}/s", metres(c.ground_speed))
                     } else {
                         "still".into()
                     });
                     ui.label(match role {
+                        "unused" => "does not loop".to_string(),
                         "stand" if gaits.idle.len() == 1 || gaits.walk.is_none() => stats.gaits[2].to_string(),
                         "stand" => format!("{} standing in all", stats.gaits[2]),
                         _ => n.to_string(),
