@@ -757,6 +757,9 @@ pub struct GpuImpostors {
     base: ImageCrowd,
     /// Bytes on the GPU (sheets and views).
     pub gpu_bytes: u64,
+    /// Per frame of the timeline, the tile drawn (sheets holding every other frame).
+    frame_map: Option<Vec<u32>>,
+    mapped: Vec<Instance>,
 }
 
 impl GpuImpostors {
@@ -774,6 +777,23 @@ impl GpuImpostors {
         reps: &Representations,
         data: &crate::reps::ImpostorData,
     ) -> Result<Self, GpuError> {
+        Self::from_sheets_mapped(device, queue, reps, data, None)
+    }
+
+    /// [`GpuImpostors::from_sheets`] for sheets holding a subset of the frames
+    /// ([`crate::reps::far_frames`]): `frame_map` gives, per frame of the timeline, the tile
+    /// drawn for it.
+    pub fn from_sheets_mapped(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        reps: &Representations,
+        data: &crate::reps::ImpostorData,
+        frame_map: Option<Vec<u32>>,
+    ) -> Result<Self, GpuError> {
+        let frames = match &frame_map {
+            Some(m) => m.iter().copied().max().map_or(1, |x| x + 1),
+            None => reps.manifest.frames,
+        };
         let (color, cb) = texture_array(
             device,
             queue,
@@ -795,13 +815,15 @@ impl GpuImpostors {
             reps,
             Vec::new(),
             vec![color, normal],
-            [data.columns as f32, data.rows as f32, reps.manifest.frames as f32, 0.0],
+            [data.columns as f32, data.rows as f32, frames as f32, 0.0],
             [0; 4],
             6,
         );
         Ok(Self {
             gpu_bytes: cb + nb + base.views_bytes,
             base,
+            frame_map,
+            mapped: Vec::new(),
         })
     }
 
@@ -813,7 +835,22 @@ impl GpuImpostors {
         style: &PolypostorStyle,
         instances: &[Instance],
     ) {
-        self.base.prepare(device, queue, clip_from_world, style, instances);
+        match &self.frame_map {
+            Some(map) => {
+                let last = map.len().saturating_sub(1);
+                let tile = |f: u32| map[(f as usize).min(last)];
+                self.mapped.clear();
+                self.mapped.extend(instances.iter().map(|i| {
+                    let (a, b) = crate::crowd::frame_pair_parts(i.frame);
+                    Instance {
+                        frame: crate::crowd::frame_pair(tile(a), tile(b)),
+                        ..*i
+                    }
+                }));
+                self.base.prepare(device, queue, clip_from_world, style, &self.mapped);
+            }
+            None => self.base.prepare(device, queue, clip_from_world, style, instances),
+        }
     }
 
     /// One draw call of `count` quads.
@@ -1002,11 +1039,20 @@ impl CrowdRenderers {
             far_impostor: reps
                 .and_then(|r| r.impostor.as_ref().map(|d| (r, d)))
                 .map(|(r, d)| {
-                    GpuImpostors::from_sheets(
+                    // A long timeline (a whole-character pack): every other frame of each clip.
+                    let (subset, map) = match crate::reps::far_frames(&r.manifest.clips, r.manifest.frames as usize) {
+                        Some((keep, map)) => (Some(d.frames_subset(&keep)), Some(map)),
+                        None => (None, None),
+                    };
+                    GpuImpostors::from_sheets_mapped(
                         device,
                         queue,
                         r,
-                        &d.downsampled_split(FAR_IMPOSTOR_FACTOR, 2 * FAR_IMPOSTOR_FACTOR),
+                        &subset
+                            .as_ref()
+                            .unwrap_or(d)
+                            .downsampled_split(FAR_IMPOSTOR_FACTOR, 2 * FAR_IMPOSTOR_FACTOR),
+                        map,
                     )
                 })
                 .transpose()?,

@@ -181,6 +181,36 @@ impl ImpostorData {
         self.downsampled_split(factor, factor)
     }
 
+    /// The sheets holding only the frames `keep` (in that order), re-tiled as the bake tiles
+    /// that many frames. Frames past the sheets are left out.
+    pub fn frames_subset(&self, keep: &[usize]) -> ImpostorData {
+        let frames = (self.columns * self.rows) as usize;
+        let keep: Vec<usize> = keep.iter().copied().filter(|&f| f < frames).collect();
+        let columns = bake::sheet_columns(keep.len());
+        let rows = (keep.len() as u32).div_ceil(columns).max(1);
+        let cut = |sheets: &[image::RgbaImage]| -> Vec<image::RgbaImage> {
+            sheets
+                .iter()
+                .map(|sheet| {
+                    let (tw, th) = (sheet.width() / self.columns.max(1), sheet.height() / self.rows.max(1));
+                    let mut out = image::RgbaImage::new(columns * tw, rows * th);
+                    for (i, &f) in keep.iter().enumerate() {
+                        let tile = sheet_tile_rect(sheet, f as u32, self.columns, tw, th);
+                        let (x, y) = ((i as u32 % columns) * tw, (i as u32 / columns) * th);
+                        image::imageops::replace(&mut out, &tile, x as i64, y as i64);
+                    }
+                    out
+                })
+                .collect()
+        };
+        ImpostorData {
+            columns,
+            rows,
+            color: cut(&self.color),
+            normal: cut(&self.normal),
+        }
+    }
+
     /// [`ImpostorData::downsampled`] with the colour sheets at `1/color_factor` and the normal
     /// sheets at `1/normal_factor` (lighting is smoother than colour; the shader samples both
     /// by texture coordinate, so they need not match). Where either factor does not divide
@@ -421,6 +451,43 @@ fn frame_vertex_bytes(v: &FrameVertices) -> Vec<u8> {
     out
 }
 
+/// A `w × h` tile of a sheet (`columns` per row).
+fn sheet_tile_rect(sheet: &image::RgbaImage, index: u32, columns: u32, w: u32, h: u32) -> image::RgbaImage {
+    let (x, y) = ((index % columns.max(1)) * w, (index / columns.max(1)) * h);
+    image::imageops::crop_imm(sheet, x, y, w, h).to_image()
+}
+
+/// Far impostors of a long timeline play at half the frame rate: the frames kept (every
+/// other frame of each clip, from its first) and, per frame of the timeline, the kept frame
+/// drawn for it (the kept frame at or before it in its clip). `None` for a timeline of at
+/// most [`FAR_HALF_RATE_ABOVE`] frames (kept whole).
+pub fn far_frames(clips: &[crate::timeline::ClipSpan], frames: usize) -> Option<(Vec<usize>, Vec<u32>)> {
+    if frames <= FAR_HALF_RATE_ABOVE || clips.is_empty() {
+        return None;
+    }
+    let mut keep = Vec::new();
+    let mut map = vec![0u32; frames];
+    for c in clips {
+        let r = c.range();
+        for f in r.clone() {
+            let local = f - r.start;
+            if local % 2 == 0 {
+                keep.push(f);
+            }
+            if let Some(m) = map.get_mut(f) {
+                // The kept frame at or before it in its clip: the last one kept so far.
+                *m = (keep.len() - 1) as u32;
+            }
+        }
+    }
+    Some((keep, map))
+}
+
+/// Timelines longer than this many frames get far impostors at half the frame rate
+/// ([`far_frames`]): their sheets grow with every clip's frames, and far characters are a few
+/// dozen pixels tall.
+pub const FAR_HALF_RATE_ABOVE: usize = 32;
+
 /// A tile of a sheet (`columns` per row, `size²` each).
 pub fn sheet_tile(sheet: &image::RgbaImage, index: u32, columns: u32, size: u32) -> image::RgbaImage {
     let (x, y) = ((index % columns) * size, (index / columns) * size);
@@ -620,6 +687,59 @@ pub fn write_representations(reps: &Representations, dir: &Path) -> Result<u64, 
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
+    #[test]
+    fn far_impostors_of_a_long_timeline_keep_every_other_frame_of_each_clip() {
+        use crate::timeline::ClipSpan;
+        let span = |start: u32, frames: u32| ClipSpan {
+            name: format!("c{start}"),
+            start,
+            frames,
+            looping: true,
+            ground_speed: 0.0,
+        };
+        // Short timelines are kept whole.
+        assert!(far_frames(&[span(0, 10)], 10).is_none());
+        // Clips of 10, 7 and 20 frames (37): kept 0,2,..,8 | 10,12,14,16 | 17,19,..,35.
+        let clips = [span(0, 10), span(10, 7), span(17, 20)];
+        let (keep, map) = far_frames(&clips, 37).unwrap();
+        assert_eq!(keep.len(), 5 + 4 + 10);
+        for (f, &m) in map.iter().enumerate() {
+            // Brute force: the kept frame at or before f in f's clip.
+            let c = clips.iter().find(|c| c.range().contains(&f)).unwrap();
+            let want = (c.start as usize..=f)
+                .rev()
+                .find(|g| (g - c.start as usize) % 2 == 0)
+                .unwrap();
+            assert_eq!(keep[m as usize], want, "frame {f}");
+        }
+        // The sheets of the kept frames hold exactly those tiles, re-tiled.
+        let (columns, rows, t) = (7u32, 6u32, 4u32);
+        let mut sheet = image::RgbaImage::new(columns * t, rows * t);
+        for f in 0..37u32 {
+            let (x, y) = ((f % columns) * t, (f / columns) * t);
+            for dy in 0..t {
+                for dx in 0..t {
+                    sheet.put_pixel(x + dx, y + dy, image::Rgba([f as u8, dx as u8, dy as u8, 255]));
+                }
+            }
+        }
+        let data = ImpostorData {
+            columns,
+            rows,
+            color: vec![sheet.clone()],
+            normal: vec![sheet],
+        };
+        let sub = data.frames_subset(&keep);
+        assert_eq!(sub.columns, bake::sheet_columns(keep.len()));
+        assert!(sub.columns * sub.rows >= keep.len() as u32);
+        for (i, &f) in keep.iter().enumerate() {
+            let tile = sheet_tile(&sub.color[0], i as u32, sub.columns, t);
+            assert_eq!(tile.get_pixel(1, 2).0, [f as u8, 1, 2, 255], "tile {i}");
+            assert_eq!(tile, sheet_tile(&sub.normal[0], i as u32, sub.columns, t));
+        }
+    }
 
     /// Against a direct computation on a 4×4 sheet of 2×2-texel blocks: a full block
     /// keeps its mean colour and majority part, a block a quarter covered is transparent, a
@@ -669,8 +789,6 @@ mod tests {
         assert_eq!(split.normal[0].get_pixel(0, 0).0[3], 2);
         assert_eq!(d.downsampled_split(2, 3).normal[0].dimensions(), (4, 4));
     }
-
-    use super::*;
 
     #[test]
     fn rep_set_parses_lists_and_rejects_unknown_words() {
