@@ -137,6 +137,13 @@ enum BenchWhat {
         /// Only these representations (comma-separated; default: every one baked, and mixed).
         #[arg(long, value_delimiter = ',')]
         representations: Vec<String>,
+        /// Another baked folder (any character) sharing the crowd; repeat for more (at most 7).
+        #[arg(long = "with")]
+        with: Vec<PathBuf>,
+        /// Shares of the crowd, comma-separated: the pack's character first, then each
+        /// --with (default: equal).
+        #[arg(long, value_delimiter = ',')]
+        shares: Vec<f32>,
         /// Folder for the plot (crowd_fps.png) and the figures (crowd_fps.json).
         #[arg(long, default_value = "bench-crowd")]
         out: PathBuf,
@@ -291,6 +298,8 @@ fn main() -> ExitCode {
                     pack,
                     character,
                     representations,
+                    with,
+                    shares,
                     out,
                     width,
                     height,
@@ -302,9 +311,9 @@ fn main() -> ExitCode {
             pack,
             character,
             &representations,
+            (&with, &shares),
             &out,
-            width,
-            height,
+            (width, height),
             json,
         ),
         None => {
@@ -1356,9 +1365,9 @@ fn bench_crowd(
     pack: Option<PathBuf>,
     character: Option<PathBuf>,
     only: &[String],
+    (with, shares): (&[PathBuf], &[f32]),
     out: &Path,
-    width: u32,
-    height: u32,
+    (width, height): (u32, u32),
     json: bool,
 ) -> anyhow::Result<()> {
     use polypostor::crowd::lod::{Level, LodDistances, LodPolicy};
@@ -1366,6 +1375,32 @@ fn bench_crowd(
     if counts.is_empty() || counts.iter().any(|&c| c == 0 || c > 1_000_000) || frames == 0 {
         anyhow::bail!("--counts must list crowd sizes from 1 to 1,000,000 and --frames must be at least 1");
     }
+    if with.len() + 1 > polypostor::crowd::MAX_SPECIES {
+        anyhow::bail!(
+            "--with: {} characters in one crowd, at most {}",
+            with.len() + 1,
+            polypostor::crowd::MAX_SPECIES
+        );
+    }
+    let shares = if shares.is_empty() {
+        vec![1.0; with.len() + 1]
+    } else {
+        shares.to_vec()
+    };
+    if shares.len() != with.len() + 1
+        || shares.iter().any(|s| !s.is_finite() || *s < 0.0)
+        || !(shares.iter().sum::<f32>() > 0.0)
+    {
+        anyhow::bail!(
+            "--shares: give {} numbers ≥ 0, not all 0 (the pack's character, then each --with)",
+            with.len() + 1
+        );
+    }
+    // The other characters load (and are checked) before any work.
+    let guests = with
+        .iter()
+        .map(|d| CrowdAssets::load(d, None, None).map_err(|e| anyhow::anyhow!("--with {e}")))
+        .collect::<anyhow::Result<Vec<_>>>()?;
     let shots: Vec<String> = counts.iter().map(|c| format!("crowd_{c}.png")).collect();
     let mut names = vec!["crowd_fps.png", "crowd_fps.json"];
     names.extend(shots.iter().map(String::as_str));
@@ -1388,7 +1423,12 @@ fn bench_crowd(
     let assets = CrowdAssets::load(&dir, character.as_deref(), None).map_err(|e| anyhow::anyhow!(e))?;
     let (device, queue) = (&ctx.device, &ctx.queue);
     let target = polypostor::gpu::RenderTarget::new(device, width, height);
-    let mut scene = CrowdScene::new(device, queue, &assets, assets.crowd_params(counts[0]))?;
+    let mut scene = if guests.is_empty() {
+        CrowdScene::new(device, queue, &assets, assets.crowd_params(counts[0]))?
+    } else {
+        let all: Vec<&CrowdAssets> = std::iter::once(&assets).chain(&guests).collect();
+        CrowdScene::mixed(device, queue, &all, &shares, counts[0], true)?
+    };
     // Characters only: no ground, so each figure is the representation's own cost.
     scene.ground = false;
     let mut reps: Vec<(&str, LodPolicy)> = Level::ALL
@@ -1438,6 +1478,18 @@ fn bench_crowd(
         if n[2] > 0 {
             eprintln!("  {} agents standing", n[2]);
         }
+        if !guests.is_empty() {
+            let per_kind = scene.crowd.kind_counts();
+            let names = std::iter::once(&assets).chain(&guests);
+            for ((a, n), share) in names.zip(per_kind).zip(&shares) {
+                eprintln!(
+                    "  character {:<16} share {share:.2}: {n} agents, {:.2} m tall, {} clips",
+                    a.character.name,
+                    a.size.height,
+                    a.timeline.spans.len()
+                );
+            }
+        }
     }
     let mut rows = Vec::new();
     for &count in counts {
@@ -1475,6 +1527,10 @@ fn bench_crowd(
             texels: assets.resolution() as f32,
             ..Default::default()
         });
+        // A first frame long enough to end the level cross-fades the switch of representation
+        // started (the picture shows the mix settled, not half-dithered).
+        let settle = scene.crowd.params.fade_secs + 0.05;
+        scene.frame(device, queue, &target, &camera, &mix, settle, wgpu::Color::BLACK);
         scene.frame(device, queue, &target, &camera, &mix, 1.0 / 60.0, wgpu::Color::BLACK);
         let shot = target.read_color(device, queue)?;
         std::fs::create_dir_all(out)?;
@@ -1483,25 +1539,33 @@ fn bench_crowd(
         let poly = per_rep.iter().find(|r| r.0 == "polypostor").map(|r| r.1);
         // GPU bytes per representation: the impostor level alone draws the full-resolution
         // sheets, the mix its far characters from the quarter-resolution ones.
-        let r = &scene.renderers;
-        let mix_bytes = r.gpu_bytes(Level::Skinned)
-            + r.polypostor.as_ref().map_or(0, |p| p.gpu_bytes)
-            + r.far_impostor.as_ref().map_or(0, |p| p.gpu_bytes);
+        // Summed over every character of the crowd.
+        let all = || std::iter::once(&scene.renderers).chain(&scene.guests);
+        let sum = |f: &dyn Fn(&polypostor::gpu::CrowdRenderers) -> Option<u64>| -> Option<u64> {
+            all().map(f).reduce(|a, b| Some(a? + b?)).flatten()
+        };
+        let far = sum(&|r| Some(r.far_impostor.as_ref().map_or(0, |p| p.gpu_bytes))).unwrap_or(0);
+        let full = sum(&|r| Some(r.impostor.as_ref().map_or(0, |p| p.gpu_bytes))).unwrap_or(0);
+        let poly_bytes = sum(&|r| r.polypostor.as_ref().map(|p| p.gpu_bytes));
+        let mix_bytes = scene.gpu_bytes(Level::Skinned) + poly_bytes.unwrap_or(0) + far;
         let bytes_of = |name: &str| -> Option<u64> {
             match name {
-                "impostor" => r.impostor.as_ref().map(|p| p.gpu_bytes),
+                "impostor" => sum(&|r| r.impostor.as_ref().map(|p| p.gpu_bytes)),
                 "mixed" => Some(mix_bytes),
-                _ => Level::ALL.iter().find(|l| l.name() == name).map(|l| r.gpu_bytes(*l)),
+                _ => Level::ALL
+                    .iter()
+                    .find(|l| l.name() == name)
+                    .map(|l| scene.gpu_bytes(*l)),
             }
         };
-        if !json && let Some(poly) = r.polypostor.as_ref().map(|p| p.gpu_bytes) {
+        if !json && let Some(poly) = poly_bytes {
             eprintln!(
                 "  {count:>7} GPU memory: mix {:.1} MB ({:.2}× the Polypostor's {:.1} MB; far impostors {:.1} MB, full-resolution impostors {:.1} MB)",
                 mix_bytes as f64 / 1e6,
                 mix_bytes as f64 / poly.max(1) as f64,
                 poly as f64 / 1e6,
-                r.far_impostor.as_ref().map_or(0, |p| p.gpu_bytes) as f64 / 1e6,
-                r.impostor.as_ref().map_or(0, |p| p.gpu_bytes) as f64 / 1e6,
+                far as f64 / 1e6,
+                full as f64 / 1e6,
             );
         }
         for (name, fps, last) in per_rep {
@@ -1659,7 +1723,7 @@ fn bench_sim(agents: usize, frames: usize, json: bool) -> anyhow::Result<()> {
         let s = crowd.frame(1.0 / 60.0, &camera, &policy, &views, clip);
         let t = std::time::Instant::now();
         polypostor::crowd::sort_by_view(
-            &crowd.instances[Level::Polypostor as usize],
+            &crowd.instances[0][Level::Polypostor as usize],
             137,
             clip.frames as u32,
             &mut sorted,
@@ -1667,7 +1731,7 @@ fn bench_sim(agents: usize, frames: usize, json: bool) -> anyhow::Result<()> {
         );
         staging.clear();
         staging.extend_from_slice(bytemuck::cast_slice(&sorted));
-        for (l, list) in crowd.instances.iter().enumerate() {
+        for (l, list) in crowd.instances[0].iter().enumerate() {
             if l != Level::Polypostor as usize {
                 staging.extend_from_slice(bytemuck::cast_slice(list));
             }

@@ -194,6 +194,66 @@ fn representations_compare_and_bench_crowd_work_end_to_end() {
         }
     }
     assert!(bench_out.join("crowd_fps.png").is_file());
+    // Two characters in one crowd (the same folder twice), a quarter and three quarters.
+    let mixed = polypostor(&[
+        "bench",
+        "crowd",
+        "--pack",
+        out.to_str().unwrap(),
+        "--with",
+        out.to_str().unwrap(),
+        "--shares",
+        "1,3",
+        "--counts",
+        "40",
+        "--frames",
+        "1",
+        "--representations",
+        "impostor,mixed",
+        "--width",
+        "320",
+        "--height",
+        "180",
+        "--out",
+        bench_out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&mixed.stderr);
+    assert!(mixed.status.success(), "{err}");
+    assert!(
+        err.contains("share 1.00: 10 agents") && err.contains("share 3.00: 30 agents"),
+        "{err}"
+    );
+    for (shares, why) in [
+        ("1", "give 2 numbers"),
+        ("1,-1", "give 2 numbers"),
+        ("0,0", "not all 0"),
+    ] {
+        let bad = polypostor(&[
+            "bench",
+            "crowd",
+            "--pack",
+            out.to_str().unwrap(),
+            "--with",
+            out.to_str().unwrap(),
+            "--shares",
+            shares,
+        ]);
+        assert_eq!(bad.status.code(), Some(1), "--shares {shares}");
+        assert!(String::from_utf8_lossy(&bad.stderr).contains(why), "--shares {shares}");
+    }
+    let bad = polypostor(&[
+        "bench",
+        "crowd",
+        "--pack",
+        out.to_str().unwrap(),
+        "--with",
+        dir.join("nothing-here").to_str().unwrap(),
+    ]);
+    assert_eq!(bad.status.code(), Some(1));
+    assert!(
+        String::from_utf8_lossy(&bad.stderr).contains("--with"),
+        "names the argument"
+    );
     let bad = polypostor(&[
         "bench",
         "crowd",

@@ -219,6 +219,46 @@ impl Gaits {
     }
 }
 
+/// Most characters (packs) one crowd mixes: the first and up to seven others.
+pub const MAX_SPECIES: usize = 8;
+
+/// A character sharing the crowd with the first one (another pack): its size, the world
+/// length its images span, its clips and baked views. Agents of it walk at its own clips'
+/// speeds and are drawn by its own renderers ([`Crowd::instances`]`[kind]`).
+#[derive(Clone, Debug)]
+pub struct Species {
+    pub size: CharacterSize,
+    /// World length the baked images' texels span along their height ([`CrowdParams::height`]).
+    pub height: f32,
+    /// [`CrowdParams::stride_speed`] for it (used when it has no clip table).
+    pub stride_speed: f32,
+    pub gaits: Option<Gaits>,
+    pub views: ViewLookup,
+    pub timing: ClipTiming,
+}
+
+impl Species {
+    /// A character of `size` (framing as in [`CrowdParams::for_character`]) with its clip
+    /// table (`clips` empty: one clip of `timing`), baked view directions and timing.
+    pub fn new(
+        size: CharacterSize,
+        framing: Option<f32>,
+        clips: &[crate::timeline::ClipSpan],
+        views: &[Vec3],
+        timing: ClipTiming,
+    ) -> Self {
+        let p = CrowdParams::for_character(1, size, framing);
+        Self {
+            size,
+            height: p.height,
+            stride_speed: p.stride_speed,
+            gaits: (!clips.is_empty()).then(|| Gaits::new(clips, timing.fps)),
+            views: ViewLookup::new(views),
+            timing,
+        }
+    }
+}
+
 impl Default for CrowdParams {
     fn default() -> Self {
         Self {
@@ -264,6 +304,15 @@ impl CrowdParams {
     pub fn scale(&self) -> f32 {
         self.size.scale()
     }
+
+    /// Widens the spacing (minimum distance, ground per agent) to what a character of `size`
+    /// needs, when it is bigger: a crowd mixing characters spaces everyone for the largest.
+    pub fn spaced_for(&mut self, size: &CharacterSize) {
+        let d = Self::default();
+        let s = size.scale();
+        self.min_distance = self.min_distance.max(d.min_distance * s);
+        self.density = self.density.min(d.density / (s * s));
+    }
 }
 
 /// Agents, one entry per agent in each vector (structure of arrays: the per-frame passes
@@ -287,6 +336,9 @@ pub struct Agents {
     pub level: Vec<Level>,
     /// View chosen last frame (0 for meshes).
     pub view: Vec<u32>,
+    /// Which character the agent is: 0 the crowd's own ([`Crowd::params`]), `k` the
+    /// species `k - 1` of [`Crowd::mix`].
+    pub kind: Vec<u8>,
     /// The clip playing (an index into [`Gaits::clips`]; 0 without a clip table).
     pub clip: Vec<u16>,
     /// What the agent is doing.
@@ -479,8 +531,11 @@ pub struct Crowd {
     /// The pack's clips by gait ([`Crowd::set_clips`]); `None`: one clip, played at the rate
     /// the agent walks against [`CrowdParams::stride_speed`].
     gaits: Option<Gaits>,
-    /// Instances per level, rebuilt by [`Crowd::select`].
-    pub instances: [Vec<Instance>; Level::COUNT],
+    /// The other characters sharing the crowd ([`Crowd::mix`]): kind `k` is `species[k - 1]`.
+    species: Vec<Species>,
+    /// Instances per kind of character (0: the crowd's own; `k`: species `k - 1`) and per
+    /// level, rebuilt by [`Crowd::select`].
+    pub instances: Vec<[Vec<Instance>; Level::COUNT]>,
 }
 
 impl Crowd {
@@ -536,6 +591,7 @@ impl Crowd {
             agents.variant.push(rng.next_u64() as u32 & VARIANT_SEED_MASK);
             agents.level.push(Level::Polypostor);
             agents.view.push(0);
+            agents.kind.push(0);
             agents.clip.push(0);
             agents.gait.push(Gait::Walk);
             agents.gait_timer.push(rng.range(0.0, MOVING_SECS.1));
@@ -555,7 +611,8 @@ impl Crowd {
             paused: false,
             selections: 0,
             gaits: None,
-            instances: Default::default(),
+            species: Vec::new(),
+            instances: vec![Default::default()],
         }
     }
 
@@ -567,22 +624,110 @@ impl Crowd {
     /// agent starts afresh (a random gait, a random phase). An empty table: one clip, played
     /// at the rate agents walk against [`CrowdParams::stride_speed`].
     pub fn set_clips(&mut self, clips: &[crate::timeline::ClipSpan], fps: f32) {
-        let gaits = Gaits::new(clips, fps);
-        if clips.is_empty() {
-            self.gaits = None;
-            for c in &mut self.agents.clip {
-                *c = 0;
-            }
-            return;
-        }
+        self.gaits = (!clips.is_empty()).then(|| Gaits::new(clips, fps));
         for i in 0..self.agents.pos.len() {
-            let gait = choose_gait(&mut self.rng, &self.params.behaviour, &gaits, false);
-            start_gait(&mut self.agents, &mut self.rng, &gaits, i, gait, None);
-            let span = &gaits.clips[self.agents.clip[i] as usize];
-            self.agents.clock[i] = self.rng.range(0.0, span.frames as f32 / gaits.fps);
-            self.agents.clip_fade[i] = 1.0;
+            if self.agents.kind[i] == 0 {
+                self.restart(i);
+            }
         }
-        self.gaits = Some(gaits);
+    }
+
+    /// Mixes other characters into the crowd: `species[k]` becomes kind `k + 1`, and the
+    /// agents are dealt out in proportion to `shares` (the crowd's own character first, then
+    /// each species; any scale, only the ratios count), at random places on the ground; every
+    /// agent starts afresh. Spacing stays the crowd's ([`CrowdParams::spaced_for`] the largest
+    /// before [`Crowd::new`]). Errors: more than [`MAX_SPECIES`] characters, a share count
+    /// that does not match, or shares that are negative, not finite or all zero.
+    pub fn mix(&mut self, species: Vec<Species>, shares: &[f32]) -> Result<(), String> {
+        if species.len() + 1 > MAX_SPECIES {
+            return Err(format!(
+                "{} characters in one crowd: at most {MAX_SPECIES}",
+                species.len() + 1
+            ));
+        }
+        if shares.len() != species.len() + 1 {
+            return Err(format!("{} shares for {} characters", shares.len(), species.len() + 1));
+        }
+        if shares.iter().any(|s| !s.is_finite() || *s < 0.0) || !(shares.iter().sum::<f32>() > 0.0) {
+            return Err(format!(
+                "shares {shares:?}: each must be a finite number ≥ 0, not all 0"
+            ));
+        }
+        let n = self.agents.pos.len();
+        // Exact counts (cumulative rounding), dealt to a random order of the agents.
+        let total: f64 = shares.iter().map(|&s| s as f64).sum();
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        for i in 0..n {
+            let j = i + self.rng.below(n - i);
+            order.swap(i, j);
+        }
+        let mut so_far = 0.0f64;
+        let mut from = 0usize;
+        for (k, &share) in shares.iter().enumerate() {
+            so_far += share as f64;
+            let to = if k + 1 == shares.len() {
+                n
+            } else {
+                ((so_far / total * n as f64).round() as usize).min(n)
+            };
+            for &i in &order[from..to.max(from)] {
+                self.agents.kind[i as usize] = k as u8;
+            }
+            from = to.max(from);
+        }
+        self.species = species;
+        self.instances = vec![Default::default(); self.species.len() + 1];
+        for i in 0..n {
+            self.restart(i);
+        }
+        Ok(())
+    }
+
+    /// The characters mixed in by [`Crowd::mix`] (kind `k` is `species()[k - 1]`).
+    pub fn species(&self) -> &[Species] {
+        &self.species
+    }
+
+    /// Agents of each kind (the crowd's own character first).
+    pub fn kind_counts(&self) -> Vec<usize> {
+        let mut n = vec![0; self.species.len() + 1];
+        for &k in &self.agents.kind {
+            n[(k as usize).min(self.species.len())] += 1;
+        }
+        n
+    }
+
+    /// Agent `i` starts afresh with its kind's clips: a random gait and phase (or, without a
+    /// clip table, clip 0 at a speed in proportion to its character's stride).
+    fn restart(&mut self, i: usize) {
+        let k = self.agents.kind[i] as usize;
+        let (gaits, stride) = match k {
+            0 => (self.gaits.as_ref(), self.params.stride_speed),
+            _ => (self.species[k - 1].gaits.as_ref(), self.species[k - 1].stride_speed),
+        };
+        let a = &mut self.agents;
+        a.clip_fade[i] = 1.0;
+        // Nothing to fade from: its last level and view may be another character's.
+        a.fade[i] = 1.0;
+        a.seen[i] = 0;
+        a.view[i] = 0;
+        match gaits {
+            Some(g) => {
+                let gait = choose_gait(&mut self.rng, &self.params.behaviour, g, false);
+                start_gait(a, &mut self.rng, g, i, gait, None);
+                let span = &g.clips[a.clip[i] as usize];
+                a.clock[i] = self.rng.range(0.0, span.frames as f32 / g.fps);
+            }
+            None => {
+                a.clip[i] = 0;
+                a.gait[i] = Gait::Walk;
+                if k != 0 {
+                    let (lo, hi) = self.params.speed;
+                    let ratio = stride / self.params.stride_speed.max(1e-12);
+                    a.speed[i] = self.rng.range(lo, hi.max(lo)) * ratio;
+                }
+            }
+        }
     }
 
     /// The clip table by gait, when the crowd has one ([`Crowd::set_clips`]).
@@ -631,7 +776,6 @@ impl Crowd {
         // spread stays `wander` (uniform on ±√3 has unit variance).
         let keep = (-dt / TURN_MEMORY_SECS).exp();
         let kick = self.params.wander * (1.0 - keep * keep).max(0.0).sqrt() * 3f32.sqrt();
-        let stride = self.params.stride_speed.max(1e-6);
         let fade_step = if self.params.fade_secs > 0.0 {
             dt / self.params.fade_secs
         } else {
@@ -639,9 +783,14 @@ impl Crowd {
         };
         let a = &mut self.agents;
         for i in 0..a.pos.len() {
+            let k = a.kind[i] as usize;
+            let (gaits, stride) = match k {
+                0 => (self.gaits.as_ref(), self.params.stride_speed),
+                _ => (self.species[k - 1].gaits.as_ref(), self.species[k - 1].stride_speed),
+            };
             // Gait: reconsidered every few seconds; the clip it plays sets the pace.
-            let mut clock_rate = a.rate[i] * a.speed[i] / stride;
-            if let Some(g) = &self.gaits {
+            let mut clock_rate = a.rate[i] * a.speed[i] / stride.max(1e-6);
+            if let Some(g) = gaits {
                 a.gait_timer[i] -= dt;
                 if a.gait_timer[i] <= 0.0 {
                     let gait = choose_gait(&mut self.rng, &self.params.behaviour, g, true);
@@ -732,20 +881,35 @@ impl Crowd {
         let previous_selection = self.selections;
         self.selections = self.selections.wrapping_add(1).max(1);
         let now = self.selections;
-        for list in &mut self.instances {
+        for list in self.instances.iter_mut().flatten() {
             list.clear();
         }
         let frustum = Frustum::from_clip_from_world(&camera.clip_from_world);
-        let h = self.params.height;
-        // The character's bounding sphere over the clip (about its centre, turned with the
-        // agent: the horizontal offset is added to the radius instead).
-        let size = &self.params.size;
-        let offset = Vec2::new(size.centre.x, size.centre.z).length();
-        let radius = size.radius + offset + 0.5 * self.params.min_distance;
-        let frames = clip.frames.max(1);
+        // Each kind of character's bounding sphere over its clips (about its centre, turned
+        // with the agent: the horizontal offset is added to the radius instead).
+        let mut radii = [0.0f32; MAX_SPECIES];
+        for (k, r) in radii.iter_mut().enumerate().take(self.species.len() + 1) {
+            let size = if k == 0 {
+                &self.params.size
+            } else {
+                &self.species[k - 1].size
+            };
+            let offset = Vec2::new(size.centre.x, size.centre.z).length();
+            *r = size.radius + offset + 0.5 * self.params.min_distance;
+        }
         let mut stats = FrameStats::default();
         let a = &mut self.agents;
         for i in 0..a.pos.len() {
+            let k = a.kind[i] as usize;
+            let (size, h, views, timing, gaits) = match k {
+                0 => (&self.params.size, self.params.height, views, clip, self.gaits.as_ref()),
+                _ => {
+                    let s = &self.species[k - 1];
+                    (&s.size, s.height, &s.views, s.timing, s.gaits.as_ref())
+                }
+            };
+            let radius = radii[k];
+            let frames = timing.frames.max(1);
             let p = a.pos[i];
             let centre = Vec3::new(p.x, size.centre.y, p.y);
             if !frustum.sphere_visible(centre, radius) {
@@ -786,14 +950,14 @@ impl Crowd {
             };
             // Clocks start non-negative and only grow; wrap them every 64 loops so the
             // blend keeps its precision however long the crowd runs.
-            let (start, n) = match &self.gaits {
+            let (start, n) = match gaits {
                 Some(g) => {
                     let s = &g.clips[(a.clip[i] as usize).min(g.clips.len() - 1)];
                     (s.start, s.frames)
                 }
                 None => (0, frames as u32),
             };
-            let (frame, blend) = clip_frame(&mut a.clock[i], clip.fps, start, n);
+            let (frame, blend) = clip_frame(&mut a.clock[i], timing.fps, start, n);
             // A new level, or a new baked view of the same image-based level: fade.
             // The mix's far impostors (under a quarter of a pixel per texel: a few dozen pixels
             // tall) switch views with a cut: there a view change is hardly visible, and they are
@@ -828,17 +992,18 @@ impl Crowd {
             let f = if fade_step.is_finite() { a.fade[i] } else { 1.0 };
             if f < 1.0 {
                 let (from, from_view) = a.fade_from[i];
-                self.instances[from as usize].push(Instance {
+                let lists = &mut self.instances[k];
+                lists[from as usize].push(Instance {
                     view: from_view,
                     variant: record.variant | fade_bits(f, true),
                     ..record
                 });
-                self.instances[level as usize].push(Instance {
+                lists[level as usize].push(Instance {
                     variant: record.variant | fade_bits(f, false),
                     ..record
                 });
                 a.fade[i] = f + fade_step;
-            } else if let Some(g) = &self.gaits
+            } else if let Some(g) = gaits
                 && a.clip_fade[i] < 1.0
                 && fade_step.is_finite()
                 && was_drawn
@@ -847,25 +1012,28 @@ impl Crowd {
                 // comes in (meshes and images alike).
                 let (old, ref mut old_clock) = a.clip_from[i];
                 let s = &g.clips[(old as usize).min(g.clips.len() - 1)];
-                let (frame, blend) = clip_frame(old_clock, clip.fps, s.start, s.frames);
+                let (frame, blend) = clip_frame(old_clock, timing.fps, s.start, s.frames);
                 let c = a.clip_fade[i];
-                self.instances[level as usize].push(Instance {
+                let list = &mut self.instances[k][level as usize];
+                list.push(Instance {
                     frame,
                     blend,
                     variant: record.variant | fade_bits(c, true),
                     ..record
                 });
-                self.instances[level as usize].push(Instance {
+                list.push(Instance {
                     variant: record.variant | fade_bits(c, false),
                     ..record
                 });
             } else {
-                self.instances[level as usize].push(record);
+                self.instances[k][level as usize].push(record);
             }
             stats.visible += 1;
         }
-        for (n, list) in stats.per_level.iter_mut().zip(&self.instances) {
-            *n = list.len();
+        for lists in &self.instances {
+            for (n, list) in stats.per_level.iter_mut().zip(lists) {
+                *n += list.len();
+            }
         }
         stats
     }

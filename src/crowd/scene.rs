@@ -8,7 +8,7 @@ use std::time::Instant;
 use glam::Vec3;
 
 use super::lod::{Level, LodPolicy};
-use super::{CharacterSize, ClipTiming, Crowd, CrowdCamera, CrowdParams, FrameStats};
+use super::{CharacterSize, ClipTiming, Crowd, CrowdCamera, CrowdParams, FrameStats, Species};
 use crate::bake::viewpoints::ViewLookup;
 use crate::character::Character;
 use crate::gpu::{Camera, CrowdRenderers, GpuError, PolypostorStyle, RenderTarget};
@@ -265,6 +265,17 @@ impl CrowdAssets {
         CrowdParams::for_character(count, self.size, self.framing())
     }
 
+    /// This character as another kind in someone else's crowd ([`Crowd::mix`]).
+    pub fn species(&self) -> Species {
+        Species::new(
+            self.size,
+            self.framing(),
+            &self.timeline.spans,
+            &self.view_directions(),
+            self.timing(),
+        )
+    }
+
     /// Texels of the baked images along the character's height (the LOD switch unit).
     pub fn resolution(&self) -> u32 {
         self.pack
@@ -289,7 +300,13 @@ pub struct SceneStats {
 /// A crowd with its renderers.
 pub struct CrowdScene {
     pub crowd: Crowd,
+    /// The renderers of the crowd's own character (kind 0).
     pub renderers: CrowdRenderers,
+    /// The renderers of each character mixed in ([`CrowdScene::mixed`]): kind `k` is
+    /// `guests[k - 1]`.
+    pub guests: Vec<CrowdRenderers>,
+    /// The characters mixed in and every kind's share (kept for [`CrowdScene::respawn`]).
+    mix: Option<(Vec<Species>, Vec<f32>)>,
     pub views: ViewLookup,
     pub timing: ClipTiming,
     /// The baked clips the agents play ([`Crowd::set_clips`]).
@@ -395,6 +412,8 @@ impl CrowdScene {
             crowd,
             clips: assets.timeline.spans.clone(),
             renderers,
+            guests: Vec::new(),
+            mix: None,
             views: ViewLookup::new(&assets.view_directions()),
             timing,
             style: PolypostorStyle::default(),
@@ -404,12 +423,97 @@ impl CrowdScene {
         })
     }
 
-    /// A new crowd of `params` (same renderers).
+    /// A crowd of several characters: `count` agents of `assets[0]`, `assets[1]`, … dealt
+    /// out in proportion to `shares` (one per character; only the ratios count), each at its
+    /// real size, playing its own clips, drawn by its own renderers; spaced for the largest.
+    /// Errors: no character, more than [`super::MAX_SPECIES`], shares that do not match or
+    /// are all zero, or a character that cannot be drawn.
+    pub fn mixed(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        assets: &[&CrowdAssets],
+        shares: &[f32],
+        count: usize,
+        full_impostors: bool,
+    ) -> Result<Self, GpuError> {
+        let Some((first, others)) = assets.split_first() else {
+            return Err(GpuError::Unsupported("a crowd needs at least one character".into()));
+        };
+        let species: Vec<Species> = others.iter().map(|a| a.species()).collect();
+        let params = spaced(first.crowd_params(count), &species);
+        let mut scene = Self::with_impostors(device, queue, first, params, full_impostors)?;
+        for a in others {
+            let mut r = CrowdRenderers::new(
+                device,
+                queue,
+                &a.character,
+                &a.timeline,
+                &a.labels,
+                a.pack.as_ref(),
+                a.reps.as_ref(),
+                a.timing(),
+                full_impostors,
+            )?;
+            r.ground_half_extent = 0.0;
+            scene.guests.push(r);
+        }
+        scene
+            .crowd
+            .mix(species.clone(), shares)
+            .map_err(GpuError::Unsupported)?;
+        scene.mix = Some((species, shares.to_vec()));
+        Ok(scene)
+    }
+
+    /// A new crowd of `params` (same renderers, same characters and shares; spacing widened
+    /// for the largest character mixed in).
     pub fn respawn(&mut self, params: CrowdParams) {
         let paused = self.crowd.paused();
+        let params = match &self.mix {
+            Some((species, _)) => spaced(params, species),
+            None => params,
+        };
         self.crowd = Crowd::new(params);
         self.crowd.set_clips(&self.clips, self.timing.fps);
+        if let Some((species, shares)) = &self.mix {
+            // Checked when the mix was made.
+            let _ = self.crowd.mix(species.clone(), shares);
+        }
         self.crowd.set_paused(paused);
+    }
+
+    /// New shares of the characters mixed in ([`CrowdScene::mixed`]; one per character):
+    /// agents are dealt out again where they stand, each starting afresh. A crowd of one
+    /// character takes only `[x]`.
+    pub fn set_shares(&mut self, shares: &[f32]) -> Result<(), String> {
+        match &mut self.mix {
+            Some((_, old)) if old.as_slice() == shares => Ok(()),
+            Some((species, old)) => {
+                self.crowd.mix(species.clone(), shares)?;
+                *old = shares.to_vec();
+                Ok(())
+            }
+            None if shares.len() == 1 => Ok(()),
+            None => Err(format!("{} shares for one character", shares.len())),
+        }
+    }
+
+    /// The shares the characters were dealt out in (one, 1, for a crowd of one character).
+    pub fn shares(&self) -> Vec<f32> {
+        self.mix.as_ref().map_or_else(|| vec![1.0], |(_, s)| s.clone())
+    }
+
+    /// Bytes on the GPU for `level`, over every character of the crowd.
+    pub fn gpu_bytes(&self, level: Level) -> u64 {
+        std::iter::once(&self.renderers)
+            .chain(&self.guests)
+            .map(|r| r.gpu_bytes(level))
+            .sum()
+    }
+
+    /// Each kind of character's renderers (the crowd's own first).
+    fn all_renderers(&mut self) -> impl Iterator<Item = &mut CrowdRenderers> {
+        std::iter::once(&mut self.renderers).chain(self.guests.iter_mut())
     }
 
     /// Simulates `dt`, selects for `camera` (a `width × height` viewport) and draws into
@@ -439,25 +543,37 @@ impl CrowdScene {
         };
         let mut frame = self.crowd.frame(dt, &view, policy, &self.views, self.timing);
         // The mix draws its far characters from the quarter-resolution impostors.
-        self.renderers.use_far_impostors = matches!(policy, LodPolicy::Mixed(_));
+        let far = matches!(policy, LodPolicy::Mixed(_));
+        for r in self.all_renderers() {
+            r.use_far_impostors = far;
+        }
         let t = Instant::now();
+        // The ground is drawn once, under the crowd's own character.
         self.renderers.ground_half_extent = if self.ground { self.crowd.half_extent } else { 0.0 };
         self.renderers.ground_y = self.crowd.params.size.ground_y;
         self.renderers.ground_scale = self.crowd.params.scale();
         self.fall_back();
-        let skipped = thin_out(&mut self.crowd.instances, self.draw_budget);
-        for (n, list) in frame.per_level.iter_mut().zip(&self.crowd.instances) {
-            *n = list.len();
+        let skipped = thin_out(self.crowd.instances.as_flattened_mut(), self.draw_budget);
+        frame.per_level = [0; Level::COUNT];
+        for lists in &self.crowd.instances {
+            for (n, list) in frame.per_level.iter_mut().zip(lists) {
+                *n += list.len();
+            }
         }
-        let draw_calls = self.renderers.render(
-            device,
-            queue,
-            target,
-            clip_from_world,
-            &self.style,
-            &self.crowd.instances,
-            clear,
-        );
+        // Every character's instances uploaded, then drawn in one pass.
+        let renderers = std::iter::once(&mut self.renderers).chain(self.guests.iter_mut());
+        for (r, lists) in renderers.zip(&self.crowd.instances) {
+            r.prepare(device, queue, clip_from_world, &self.style, lists);
+        }
+        let mut encoder = device.create_command_encoder(&Default::default());
+        let mut draw_calls = 0;
+        {
+            let mut pass = target.begin_pass(&mut encoder, "crowd", clear);
+            for r in std::iter::once(&self.renderers).chain(&self.guests) {
+                draw_calls += r.draw(&mut pass);
+            }
+        }
+        queue.submit([encoder.finish()]);
         SceneStats {
             frame,
             upload_secs: t.elapsed().as_secs_f64(),
@@ -485,18 +601,29 @@ impl CrowdScene {
     /// Moves instances of levels that are not loaded to a loaded one (impostor → polypostor
     /// → skinned; rigid → skinned; NP3D → polypostor → skinned).
     fn fall_back(&mut self) {
-        for level in [Level::Impostor, Level::Np3d, Level::Polypostor, Level::Rigid] {
-            if self.renderers.has(level) || self.crowd.instances[level as usize].is_empty() {
-                continue;
+        let renderers = std::iter::once(&self.renderers).chain(&self.guests);
+        for (r, lists) in renderers.zip(self.crowd.instances.iter_mut()) {
+            for level in [Level::Impostor, Level::Np3d, Level::Polypostor, Level::Rigid] {
+                if r.has(level) || lists[level as usize].is_empty() {
+                    continue;
+                }
+                let to = match level {
+                    Level::Impostor | Level::Np3d if r.has(Level::Polypostor) => Level::Polypostor,
+                    _ => Level::Skinned,
+                };
+                let moved = std::mem::take(&mut lists[level as usize]);
+                lists[to as usize].extend(moved);
             }
-            let to = match level {
-                Level::Impostor | Level::Np3d if self.renderers.has(Level::Polypostor) => Level::Polypostor,
-                _ => Level::Skinned,
-            };
-            let moved = std::mem::take(&mut self.crowd.instances[level as usize]);
-            self.crowd.instances[to as usize].extend(moved);
         }
     }
+}
+
+/// `params` with the spacing widened for the largest of `species` ([`CrowdParams::spaced_for`]).
+fn spaced(mut params: CrowdParams, species: &[Species]) -> CrowdParams {
+    for s in species {
+        params.spaced_for(&s.size);
+    }
+    params
 }
 
 /// The camera of `bench crowd`: at the edge of the crowd, looking across it from 10 m up

@@ -101,7 +101,7 @@ fn culling_keeps_what_the_camera_sees_and_drops_what_is_behind_it() {
     let clip = ClipTiming { frames: 10, fps: 10.0 };
     let stats = crowd.select(&cam, &LodPolicy::Only(Level::Polypostor), &views, clip);
     assert!(stats.visible > 0);
-    let kept: Vec<Vec2> = crowd.instances[Level::Polypostor as usize]
+    let kept: Vec<Vec2> = crowd.instances[0][Level::Polypostor as usize]
         .iter()
         .map(|i| Vec2::new(i.pos[0], i.pos[1]))
         .collect();
@@ -146,7 +146,7 @@ fn the_view_is_the_camera_direction_in_the_character_frame() {
             &lookup,
             ClipTiming { frames: 1, fps: 10.0 },
         );
-        let inst = crowd.instances[Level::Impostor as usize][0];
+        let inst = crowd.instances[0][Level::Impostor as usize][0];
         let want = crate::bake::viewpoints::nearest(&views, Vec3::new(0.0, 2.0, 10.0)).unwrap();
         assert_eq!(inst.view as usize, want, "heading {heading}");
     }
@@ -194,7 +194,7 @@ fn instances_carry_the_animation_frame_and_blend() {
     let lookup = ViewLookup::new(&directions(24, Coverage::UpperHemisphere));
     let clip = ClipTiming { frames: 10, fps: 10.0 };
     crowd.select(&cam, &LodPolicy::Only(Level::Polypostor), &lookup, clip);
-    let list = &crowd.instances[Level::Polypostor as usize];
+    let list = &crowd.instances[0][Level::Polypostor as usize];
     assert_eq!(list.len(), 50, "all in view from above");
     for inst in list {
         let (f0, f1) = frame_pair_parts(inst.frame);
@@ -226,7 +226,7 @@ fn long_runs_keep_the_frame_in_range_and_the_blend_precise() {
         "{:?}",
         crowd.agents.clock
     );
-    for inst in &crowd.instances[Level::Impostor as usize] {
+    for inst in &crowd.instances[0][Level::Impostor as usize] {
         let (f0, f1) = frame_pair_parts(inst.frame);
         assert!(f0 < 10 && f1 < 10 && (0.0..1.0).contains(&inst.blend));
     }
@@ -338,7 +338,7 @@ fn agents_walk_run_and_stand_in_their_shares_with_their_feet_on_the_ground() {
         }
         // Every record plays frames of its own clip, blending towards the next in that clip.
         crowd.select_over(&cam, &LodPolicy::Only(Level::Polypostor), &lookup, timing, 0.05);
-        for inst in &crowd.instances[Level::Polypostor as usize] {
+        for inst in &crowd.instances[0][Level::Polypostor as usize] {
             let (f0, f1) = frame_pair_parts(inst.frame);
             let c = clips.iter().find(|c| c.range().contains(&(f0 as usize))).unwrap();
             assert!(
@@ -372,7 +372,7 @@ fn a_change_of_clip_cross_fades_between_the_two_clips() {
     let timing = ClipTiming { frames: 57, fps: 10.0 };
     let policy = LodPolicy::Only(Level::Skinned);
     crowd.select_over(&cam, &policy, &lookup, timing, 0.05);
-    let seen = crowd.instances[Level::Skinned as usize].len();
+    let seen = crowd.instances[0][Level::Skinned as usize].len();
     assert!(seen > 100);
     // Everyone breaks into a run now.
     crowd.params.behaviour = Behaviour {
@@ -386,7 +386,7 @@ fn a_change_of_clip_cross_fades_between_the_two_clips() {
     crowd.simulate(0.05);
     assert_eq!(crowd.gait_counts(), [0, 200, 0]);
     crowd.select_over(&cam, &policy, &lookup, timing, 0.05);
-    let list = &crowd.instances[Level::Skinned as usize];
+    let list = &crowd.instances[0][Level::Skinned as usize];
     assert_eq!(
         list.len(),
         2 * seen,
@@ -412,7 +412,7 @@ fn a_change_of_clip_cross_fades_between_the_two_clips() {
         crowd.simulate(0.05);
         crowd.select_over(&cam, &policy, &lookup, timing, 0.05);
     }
-    assert_eq!(crowd.instances[Level::Skinned as usize].len(), seen);
+    assert_eq!(crowd.instances[0][Level::Skinned as usize].len(), seen);
 }
 
 #[test]
@@ -480,7 +480,7 @@ fn a_crowd_of_any_size_is_the_reference_crowd_scaled() {
         for _ in 0..40 {
             crowd.simulate(1.0 / 30.0);
             crowd.select(&cam, &policy, &views, clip);
-            out.push(crowd.instances.clone());
+            out.push(crowd.instances[0].clone());
         }
         (crowd.half_extent, out)
     };
@@ -566,7 +566,7 @@ fn level_and_view_switches_cross_fade_for_the_fade_time() {
     let copies = |c: &Crowd| -> Vec<(Level, Instance)> {
         Level::ALL
             .iter()
-            .flat_map(|&l| c.instances[l as usize].iter().map(move |i| (l, *i)))
+            .flat_map(|&l| c.instances[0][l as usize].iter().map(move |i| (l, *i)))
             .collect()
     };
     let complementary = |a: u32, b: u32| {
@@ -729,4 +729,115 @@ fn the_behaviour_shares_hold_as_agents_change_gait() {
     for (k, want) in [0.6f32, 0.2, 0.2].into_iter().enumerate() {
         assert!((n[k] as f32 / total - want).abs() < 0.05, "gait {k}: {n:?}");
     }
+}
+
+/// A second character: a long-bodied quadruped-like one, 0.9 m tall and 2.4 m long (so
+/// bigger than the person by its length), walking at 2.0 and trotting at 3.5 units/s, its
+/// clips at 12 fps and 40 baked views.
+fn beast() -> Species {
+    let size = CharacterSize::from_bounds(Vec3::new(-0.3, 0.0, -1.2), Vec3::new(0.3, 0.9, 1.2));
+    let clips = vec![
+        span("Pace", 0, 16, 2.0),
+        span("Trot", 16, 9, 3.5),
+        span("Sniff", 25, 30, 0.0),
+    ];
+    Species::new(
+        size,
+        None,
+        &clips,
+        &directions(40, Coverage::UpperHemisphere),
+        ClipTiming { frames: 55, fps: 12.0 },
+    )
+}
+
+/// Two characters in one crowd: agents dealt out in the shares asked (exactly, at random
+/// places), each walking its own character's clips at their speeds with feet on the ground
+/// (brute force per agent per step), drawn from its own kind's lists with its own frames and
+/// views, everyone spaced for the larger character; bad mixes are refused.
+#[test]
+fn two_characters_share_a_crowd_in_their_shares_each_walking_its_own_clips() {
+    let person = four_clips();
+    let beast = beast();
+    let mut params = CrowdParams {
+        count: 2000,
+        seed: 21,
+        ..Default::default()
+    };
+    params.spaced_for(&beast.size);
+    assert!(
+        params.min_distance > CrowdParams::default().min_distance * 1.3,
+        "spaced for the beast"
+    );
+    let mut crowd = Crowd::new(params.clone());
+    crowd.set_clips(&person, 10.0);
+    crowd.mix(vec![beast.clone()], &[3.0, 1.0]).unwrap();
+    assert_eq!(crowd.kind_counts(), vec![1500, 500]);
+    // Dealt at random: the beasts are not one block of the ground.
+    let beasts: Vec<Vec2> = (0..crowd.len())
+        .filter(|&i| crowd.agents.kind[i] == 1)
+        .map(|i| crowd.agents.pos[i])
+        .collect();
+    let mean = beasts.iter().copied().sum::<Vec2>() / beasts.len() as f32;
+    assert!(mean.length() < 0.1 * crowd.half_extent, "beasts centred at {mean}");
+    // Each kind's agents play their own clips at their own speeds.
+    let g = beast.gaits.as_ref().unwrap();
+    for i in 0..crowd.len() {
+        let a = &crowd.agents;
+        let clips = if a.kind[i] == 0 { &person } else { &g.clips };
+        let c = &clips[a.clip[i] as usize];
+        if a.gait[i] == Gait::Idle {
+            assert_eq!(a.speed[i], 0.0);
+        } else {
+            assert!((a.speed[i] / c.ground_speed - 1.0).abs() <= SPEED_SPREAD + 1e-4);
+        }
+    }
+    let cam = camera(Vec3::new(0.0, 200.0, -250.0), Vec3::ZERO, 800.0, 600.0);
+    let person_views = ViewLookup::new(&directions(24, Coverage::UpperHemisphere));
+    let timing = ClipTiming { frames: 57, fps: 10.0 };
+    let mut checked = [0usize; 2];
+    for _ in 0..40 {
+        let before = crowd.agents.clone();
+        crowd.simulate(0.05);
+        let a = &crowd.agents;
+        for i in 0..crowd.len() {
+            if a.clip[i] != before.clip[i] || a.gait[i] == Gait::Idle {
+                continue;
+            }
+            let k = a.kind[i] as usize;
+            let c = if k == 0 {
+                &person[a.clip[i] as usize]
+            } else {
+                &g.clips[a.clip[i] as usize]
+            };
+            let moved = a.pos[i].distance(before.pos[i]);
+            let carried = (a.clock[i] - before.clock[i]) * c.ground_speed;
+            assert!((moved - carried).abs() < 1e-4 * (1.0 + moved), "agent {i} (kind {k})");
+            checked[k] += 1;
+        }
+        crowd.select_over(&cam, &LodPolicy::Only(Level::Impostor), &person_views, timing, 0.05);
+        assert_eq!(crowd.instances.len(), 2);
+        for (k, lists) in crowd.instances.iter().enumerate() {
+            let (clips, views) = if k == 0 { (&person, 24) } else { (&g.clips, 40) };
+            for inst in &lists[Level::Impostor as usize] {
+                let (f0, f1) = frame_pair_parts(inst.frame);
+                assert_eq!(f1 as usize, crate::timeline::next_frame(clips, f0 as usize), "kind {k}");
+                assert!(inst.view < views, "kind {k}: view {}", inst.view);
+            }
+        }
+    }
+    assert!(checked[0] > 5_000 && checked[1] > 1_000, "{checked:?}");
+    // Spaced for the larger one, whoever stands next to whom.
+    assert!(closest_pair(&crowd.agents.pos) >= params.min_distance * (1.0 - 1e-5));
+    // Refused: share count, negative or all-zero shares, too many characters.
+    for shares in [&[1.0][..], &[1.0, -1.0], &[0.0, 0.0], &[1.0, f32::NAN]] {
+        assert!(crowd.mix(vec![beast.clone()], shares).is_err(), "{shares:?}");
+    }
+    assert!(
+        crowd
+            .mix(vec![beast.clone(); MAX_SPECIES], &[1.0; MAX_SPECIES + 1])
+            .is_err()
+    );
+    // All of one kind: everyone is the beast.
+    crowd.mix(vec![beast.clone()], &[0.0, 1.0]).unwrap();
+    assert_eq!(crowd.kind_counts(), vec![0, 2000]);
 }

@@ -58,6 +58,7 @@ pub enum PathPurpose {
     Open,
     SaveAs,
     OpenCrowd,
+    AddToCrowd,
 }
 
 impl PathPurpose {
@@ -67,6 +68,7 @@ impl PathPurpose {
             PathPurpose::Open => "Open project",
             PathPurpose::SaveAs => "Save project as",
             PathPurpose::OpenCrowd => "Open a baked folder in the crowd preview",
+            PathPurpose::AddToCrowd => "Add another baked character to the crowd",
         }
     }
     fn hint(self) -> &'static str {
@@ -75,6 +77,7 @@ impl PathPurpose {
             PathPurpose::Open => "project folder, project.json, or .glb/.gltf",
             PathPurpose::SaveAs => "project folder or .json file to write",
             PathPurpose::OpenCrowd => "folder written by bake --representation all",
+            PathPurpose::AddToCrowd => "folder written by bake --representation all (of any character)",
         }
     }
     fn command(self, path: PathBuf) -> Command {
@@ -83,6 +86,7 @@ impl PathPurpose {
             PathPurpose::Open => Command::Open(path),
             PathPurpose::SaveAs => Command::SaveAs(path),
             PathPurpose::OpenCrowd => Command::OpenCrowd(path),
+            PathPurpose::AddToCrowd => Command::AddToCrowd(path),
         }
     }
 }
@@ -388,6 +392,8 @@ impl EditorApp {
                 let character = self.doc.as_ref().map(|d| d.character_path.clone());
                 self.crowd.start_open(folder, character);
             }
+            Command::AddToCrowd(folder) => self.crowd.start_add(folder),
+            Command::RemoveFromCrowd(k) => self.crowd.remove_guest(k),
             Command::ShowCrowd(show) => self.crowd.open = show,
             Command::Export(req) => {
                 // The clip set chosen is the project's from now on (Ctrl+B bakes it too).
@@ -710,7 +716,9 @@ impl EditorApp {
                     .set_title(purpose.title())
                     .add_filter("Project or glTF", &["json", "glb", "gltf"])
                     .pick_file(),
-                PathPurpose::SaveAs | PathPurpose::OpenCrowd => dialog.set_title(purpose.title()).pick_folder(),
+                PathPurpose::SaveAs | PathPurpose::OpenCrowd | PathPurpose::AddToCrowd => {
+                    dialog.set_title(purpose.title()).pick_folder()
+                }
             };
             let _ = tx.send(picked);
         });
@@ -1783,6 +1791,14 @@ impl eframe::App for EditorApp {
                 egui::ScrollArea::vertical().show(ui, |ui| {
                     if self.crowd.open {
                         self.crowd.controls(ui, fps);
+                        match self.crowd.asks.take() {
+                            Some(super::crowd::PanelAsk::Browse) => self.ask_path(PathPurpose::AddToCrowd),
+                            Some(super::crowd::PanelAsk::TypePath) => {
+                                self.prompt = Some(PathPrompt::new(PathPurpose::AddToCrowd))
+                            }
+                            Some(super::crowd::PanelAsk::Remove(k)) => self.send(Command::RemoveFromCrowd(k)),
+                            None => {}
+                        }
                     } else if self.tab == SideTab::Segment && self.doc.is_some() {
                         let doc = self.doc.as_mut().unwrap();
                         self.segment.controls(ui, doc);

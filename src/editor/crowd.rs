@@ -64,6 +64,8 @@ pub struct PreviewStats {
     pub draw_calls: usize,
     /// Agents walking, running and standing idle.
     pub gaits: [usize; 3],
+    /// Agents of each character (the opened one first, then each added one).
+    pub per_kind: Vec<usize>,
     /// Visible characters not drawn last frame (the crowd thinned to keep the window
     /// answering).
     pub skipped: usize,
@@ -72,6 +74,8 @@ pub struct PreviewStats {
 
 struct Job {
     what: String,
+    /// The folder opens as another character of the crowd, not in place of it.
+    adds_guest: bool,
     started: Instant,
     progress: Arc<Mutex<polypostor::bake::eta::Eta>>,
     cancel: Arc<AtomicBool>,
@@ -85,6 +89,24 @@ type JobDone = (
     CrowdAssets,
     Option<(Arc<polypostor::bake::pipeline::Bake>, String)>,
 );
+
+/// Another baked character in the crowd preview, with its share of the agents.
+pub struct Guest {
+    pub folder: PathBuf,
+    pub assets: Arc<CrowdAssets>,
+    pub share: f32,
+}
+
+/// What the crowd panel asks of the app.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PanelAsk {
+    /// A folder to add to the crowd, from the file dialog.
+    Browse,
+    /// A folder to add to the crowd, typed.
+    TypePath,
+    /// Remove the `k`-th added character.
+    Remove(usize),
+}
 
 /// The preview's state (UI side).
 pub struct CrowdPanel {
@@ -102,6 +124,12 @@ pub struct CrowdPanel {
     pub stats: Arc<Mutex<PreviewStats>>,
     pub assets: Option<(u64, Arc<CrowdAssets>)>,
     pub folder: Option<PathBuf>,
+    /// Share of the crowd that is the opened character (against [`CrowdPanel::guests`]').
+    pub own_share: f32,
+    /// Other baked characters sharing the crowd.
+    pub guests: Vec<Guest>,
+    /// What the panel asks the app for (a folder to add, a guest to remove).
+    pub asks: Option<PanelAsk>,
     next_generation: u64,
     job: Option<Job>,
     /// The last bake this session made, and into which folder (the next bake there only
@@ -133,6 +161,9 @@ impl Default for CrowdPanel {
             stats: Default::default(),
             assets: None,
             folder: None,
+            own_share: 1.0,
+            guests: Vec::new(),
+            asks: None,
             next_generation: 1,
             job: None,
             last_bake: None,
@@ -176,6 +207,7 @@ impl CrowdPanel {
         let (p, c) = (progress.clone(), cancel.clone());
         self.job = Some(Job {
             what: format!("Baking {} for the crowd", req.character.name),
+            adds_guest: false,
             started: Instant::now(),
             progress,
             cancel,
@@ -238,6 +270,7 @@ impl CrowdPanel {
         let (tx, rx) = channel();
         self.job = Some(Job {
             what: format!("Opening {}", folder.display()),
+            adds_guest: false,
             started: Instant::now(),
             progress: Arc::new(Mutex::new(polypostor::bake::eta::Eta::starting("loading", 1))),
             cancel: Arc::new(AtomicBool::new(false)),
@@ -256,10 +289,79 @@ impl CrowdPanel {
         });
     }
 
+    /// Opens another baked character (a folder, with the character its representations
+    /// name) on a background thread, to share the crowd with the one open.
+    pub fn start_add(&mut self, folder: PathBuf) {
+        if self.job.is_some() {
+            return;
+        }
+        if self.guests.len() + 1 >= polypostor::crowd::MAX_SPECIES {
+            self.messages.push((
+                LogLevel::Error,
+                format!(
+                    "crowd preview: at most {} characters in one crowd",
+                    polypostor::crowd::MAX_SPECIES
+                ),
+            ));
+            return;
+        }
+        let (tx, rx) = channel();
+        self.job = Some(Job {
+            what: format!("Adding {}", folder.display()),
+            adds_guest: true,
+            started: Instant::now(),
+            progress: Arc::new(Mutex::new(polypostor::bake::eta::Eta::starting("loading", 1))),
+            cancel: Arc::new(AtomicBool::new(false)),
+            rx,
+        });
+        std::thread::spawn(move || {
+            let r = CrowdAssets::load(&folder, None, None).map(|a| (folder, a, None));
+            let _ = tx.send(r);
+        });
+    }
+
+    /// Removes the `k`-th added character from the crowd.
+    pub fn remove_guest(&mut self, k: usize) {
+        if k < self.guests.len() {
+            let g = self.guests.remove(k);
+            self.messages.push((
+                LogLevel::Info,
+                format!("crowd preview: {} removed", g.assets.character.name),
+            ));
+            self.bump_generation();
+        }
+    }
+
+    /// A new crowd scene on the next frame (characters added or removed).
+    fn bump_generation(&mut self) {
+        if let Some((g, _)) = &mut self.assets {
+            *g = self.next_generation;
+            self.next_generation += 1;
+        }
+    }
+
     /// Picks up a finished job.
     pub fn poll(&mut self) {
         let Some(job) = &self.job else { return };
         match job.rx.try_recv() {
+            Ok(Ok((folder, assets, _))) if job.adds_guest => {
+                self.messages.push((
+                    LogLevel::Info,
+                    format!(
+                        "crowd preview: {} ({}) added ({:.1} s)",
+                        assets.character.name,
+                        folder.display(),
+                        job.started.elapsed().as_secs_f64()
+                    ),
+                ));
+                self.guests.push(Guest {
+                    folder,
+                    assets: Arc::new(assets),
+                    share: 1.0,
+                });
+                self.bump_generation();
+                self.job = None;
+            }
             Ok(Ok((folder, assets, bake))) => {
                 if let Some((b, what)) = bake {
                     self.messages.push((
@@ -393,6 +495,49 @@ impl CrowdPanel {
                 }
             }
         });
+        // Several baked characters in one crowd, in chosen shares.
+        let agents = |k: usize| stats.per_kind.get(k).copied().unwrap_or(0);
+        egui::Grid::new("crowd characters")
+            .num_columns(4)
+            .striped(true)
+            .show(ui, |ui| {
+                ui.strong("character");
+                ui.strong("share");
+                ui.strong("agents");
+                ui.label("");
+                ui.end_row();
+                ui.label(assets.character.name.as_str());
+                ui.add_enabled(
+                    !self.guests.is_empty(),
+                    egui::Slider::new(&mut self.own_share, 0.0..=1.0).show_value(false),
+                );
+                ui.label(agents(0).to_string());
+                ui.label("");
+                ui.end_row();
+                for (k, g) in self.guests.iter_mut().enumerate() {
+                    ui.label(g.assets.character.name.as_str())
+                        .on_hover_text(g.folder.display().to_string());
+                    ui.add(egui::Slider::new(&mut g.share, 0.0..=1.0).show_value(false));
+                    ui.label(agents(k + 1).to_string());
+                    if ui.small_button("✖").on_hover_text("Remove from the crowd").clicked() {
+                        self.asks = Some(PanelAsk::Remove(k));
+                    }
+                    ui.end_row();
+                }
+            });
+        ui.horizontal(|ui| {
+            let room = self.guests.len() + 1 < polypostor::crowd::MAX_SPECIES && self.job.is_none();
+            if ui
+                .add_enabled(room, egui::Button::new("Add character…"))
+                .on_hover_text("Another baked folder (any character, any size) shares this crowd")
+                .clicked()
+            {
+                self.asks = Some(PanelAsk::Browse);
+            }
+            if ui.add_enabled(room, egui::Button::new("Add by path…")).clicked() {
+                self.asks = Some(PanelAsk::TypePath);
+            }
+        });
         egui::ComboBox::from_label("representation")
             .selected_text(self.mode.label())
             .show_ui(ui, |ui| {
@@ -463,8 +608,12 @@ impl CrowdPanel {
                 row(ui, "draw calls", stats.draw_calls.to_string());
                 row(ui, "agents / visible", format!("{} / {}", stats.agents, stats.visible));
 
-                // The size the crowd follows (measured over the clip, in the file's metres).
-                let p = assets.crowd_params(stats.agents);
+                // The size the crowd follows (measured over the clip, in the file's metres),
+                // spaced for the largest character mixed in.
+                let mut p = assets.crowd_params(stats.agents);
+                for g in &self.guests {
+                    p.spaced_for(&g.assets.size);
+                }
                 row(
                     ui,
                     "character",
@@ -475,6 +624,28 @@ impl CrowdPanel {
                         p.scale()
                     ),
                 );
+                for g in &self.guests {
+                    let a = &g.assets;
+                    let gaits = polypostor::crowd::Gaits::new(&a.timeline.spans, a.timeline.fps);
+                    let speed = |c: Option<usize>| {
+                        c.map_or("none".to_string(), |c| {
+                            format!("{}/s", metres(a.timeline.spans[c].ground_speed))
+                        })
+                    };
+                    row(
+                        ui,
+                        a.character.name.as_str(),
+                        format!(
+                            "{} tall, {} long; {} clips (walk {}, run {}, {} standing)",
+                            metres(a.size.height),
+                            metres(a.size.length),
+                            a.timeline.spans.len(),
+                            speed(gaits.walk),
+                            speed(gaits.run),
+                            gaits.idle.len()
+                        ),
+                    );
+                }
                 // Speeds come from the clips (below) when the pack measured them.
                 if assets.timeline.spans.iter().any(|c| c.ground_speed > 0.0) {
                     row(ui, "spacing", format!("{} apart", metres(p.min_distance)));
@@ -610,8 +781,18 @@ impl CrowdPanel {
             return;
         };
         let ppp = ui.ctx().pixels_per_point();
+        // Every character's share (all zero: equal shares).
+        let mut shares: Vec<f32> = std::iter::once(self.own_share)
+            .chain(self.guests.iter().map(|g| g.share))
+            .map(|s| if s.is_finite() { s.max(0.0) } else { 0.0 })
+            .collect();
+        if !(shares.iter().sum::<f32>() > 0.0) {
+            shares.iter_mut().for_each(|s| *s = 1.0);
+        }
         let callback = CrowdCallback {
             assets: assets.clone(),
+            guests: self.guests.iter().map(|g| g.assets.clone()).collect(),
+            shares,
             generation: *generation,
             count: self.count,
             behaviour: self.behaviour,
@@ -657,6 +838,10 @@ pub struct CrowdGpu {
 /// One frame's crowd draw request.
 pub struct CrowdCallback {
     assets: Arc<CrowdAssets>,
+    /// Other characters sharing the crowd.
+    guests: Vec<Arc<CrowdAssets>>,
+    /// Shares of the agents: the opened character, then each guest.
+    shares: Vec<f32>,
     generation: u64,
     count: usize,
     behaviour: polypostor::crowd::Behaviour,
@@ -692,7 +877,15 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
             .is_none_or(|c| c.generation != self.generation || (full && !c.scene.renderers.has_full_impostors()));
         if stale {
             res.crowd = None;
-            match CrowdScene::with_impostors(device, queue, &self.assets, params.clone(), full) {
+            let scene = if self.guests.is_empty() {
+                CrowdScene::with_impostors(device, queue, &self.assets, params.clone(), full)
+            } else {
+                let all: Vec<&CrowdAssets> = std::iter::once(&*self.assets)
+                    .chain(self.guests.iter().map(|g| &**g))
+                    .collect();
+                CrowdScene::mixed(device, queue, &all, &self.shares, self.count, full)
+            };
+            match scene {
                 Ok(scene) => {
                     let target = res.new_target(device, w, h);
                     let blit = res.blit_group(device, &target);
@@ -731,6 +924,11 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
         if crowd.scene.crowd.params.count != self.count {
             crowd.scene.respawn(params);
         }
+        let mix_error = crowd
+            .scene
+            .set_shares(&self.shares)
+            .err()
+            .map(|e| format!("cannot mix these characters: {e}"));
         // A new behaviour mix: agents take it up as they next change gait (no jump).
         crowd.scene.crowd.params.behaviour = self.behaviour;
         crowd.scene.style.tint = self.variation;
@@ -772,10 +970,11 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
             out.upload_ms = s.upload_secs * 1e3;
             out.draw_calls = s.draw_calls;
             out.gaits = crowd.scene.crowd.gait_counts();
-            out.error = None;
+            out.per_kind = crowd.scene.crowd.kind_counts();
+            out.error = mix_error;
             for l in Level::ALL {
                 out.available[l as usize] = crowd.scene.renderers.has(l);
-                out.gpu_bytes[l as usize] = crowd.scene.renderers.gpu_bytes(l);
+                out.gpu_bytes[l as usize] = crowd.scene.gpu_bytes(l);
             }
         }
         Vec::new()

@@ -30,6 +30,10 @@ pub enum Command {
     BakeCrowd,
     /// Open a baked folder in the crowd preview.
     OpenCrowd(PathBuf),
+    /// Adds another baked character (folder) to the crowd preview.
+    AddToCrowd(PathBuf),
+    /// Removes the `k`-th character added to the crowd preview.
+    RemoveFromCrowd(usize),
     /// Show the crowd preview (true) or the character (false).
     ShowCrowd(bool),
     Undo,

@@ -196,6 +196,36 @@ fn crowd_preview_opens_a_baked_folder_and_draws_the_chosen_representation() {
     let stats = h.state().crowd.stats.lock().unwrap().clone();
     assert_eq!(stats.per_level[Level::Np3d as usize], stats.visible);
     assert!(stats.draw_calls >= 1);
+    let one = stats.gpu_bytes[Level::Np3d as usize];
+
+    // A second character shares the crowd (the same folder again), a quarter of it; then it
+    // is removed.
+    h.state_mut().send(Command::AddToCrowd(out.clone()));
+    let started = std::time::Instant::now();
+    while h.state().crowd.guests.is_empty() {
+        assert!(started.elapsed().as_secs() < 60, "the character was not added");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        h.run_steps(1);
+    }
+    h.state_mut().crowd.own_share = 0.75;
+    h.state_mut().crowd.guests[0].share = 0.25;
+    h.run_steps(1);
+    h.render().expect("render");
+    let stats = h.state().crowd.stats.lock().unwrap().clone();
+    assert!(stats.error.is_none(), "{:?}", stats.error);
+    assert_eq!(stats.per_kind, vec![225, 75]);
+    assert_eq!(
+        stats.gpu_bytes[Level::Np3d as usize],
+        2 * one,
+        "each character on the GPU"
+    );
+    h.get_by_label("Add character…");
+    h.state_mut().send(Command::RemoveFromCrowd(0));
+    h.run_steps(1);
+    h.render().expect("render");
+    let stats = h.state().crowd.stats.lock().unwrap().clone();
+    assert!(h.state().crowd.guests.is_empty());
+    assert_eq!(stats.per_kind, vec![300]);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
