@@ -1423,11 +1423,14 @@ fn bench_crowd(
     let assets = CrowdAssets::load(&dir, character.as_deref(), None).map_err(|e| anyhow::anyhow!(e))?;
     let (device, queue) = (&ctx.device, &ctx.queue);
     let target = polypostor::gpu::RenderTarget::new(device, width, height);
+    // The full-resolution impostor sheets only when the impostor level alone is measured
+    // (the mix draws from the far ones).
+    let full = only.is_empty() || only.iter().any(|n| n == "impostor");
     let mut scene = if guests.is_empty() {
-        CrowdScene::new(device, queue, &assets, assets.crowd_params(counts[0]))?
+        CrowdScene::with_impostors(device, queue, &assets, assets.crowd_params(counts[0]), full)?
     } else {
         let all: Vec<&CrowdAssets> = std::iter::once(&assets).chain(&guests).collect();
-        CrowdScene::mixed(device, queue, &all, &shares, counts[0], true)?
+        CrowdScene::mixed(device, queue, &all, &shares, counts[0], full)?
     };
     // Characters only: no ground, so each figure is the representation's own cost.
     scene.ground = false;

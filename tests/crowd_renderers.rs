@@ -72,10 +72,28 @@ fn every_representation_draws_close_to_the_mesh() {
     // The written manifest adds the checksum of every file it wrote; the rest is the same.
     assert_eq!(
         loaded.manifest.checksums.len(),
-        6 * 2 + 3,
+        6 * 2 + 6 * 2 + 3,
         "{:?}",
         loaded.manifest.checksums.keys()
     );
+    // The far impostors are baked beside the full sheets, reduced for the mix's switch
+    // distance (a quarter of the texels for colour, an eighth for normals, every frame of a
+    // 10-frame clip), and come back as written; the far-only load leaves the full sheets on
+    // disk until they are asked for.
+    let far_info = reps.manifest.far_impostor.clone().expect("far impostors baked");
+    assert_eq!((far_info.color_factor, far_info.normal_factor), (4, 8));
+    assert_eq!(far_info.frames, (0..10).collect::<Vec<u32>>());
+    let far = reps.far_impostor.as_ref().unwrap();
+    let want = reps.impostor.as_ref().unwrap().downsampled_split(4, 8);
+    assert_eq!((&far.color, &far.normal), (&want.color, &want.normal));
+    let got = loaded.far_impostor.as_ref().unwrap();
+    assert_eq!((&got.color, &got.normal), (&far.color, &far.normal));
+    let far_only = polypostor::reps::load_representations_far(&out).unwrap();
+    assert!(far_only.impostor.is_none() && far_only.far_impostor.is_some());
+    let full = polypostor::reps::load_full_impostors(&out, &far_only.manifest)
+        .unwrap()
+        .unwrap();
+    assert_eq!(&full.color, &reps.impostor.as_ref().unwrap().color);
     let mut without_sums = loaded.manifest.clone();
     without_sums.checksums.clear();
     assert_eq!(without_sums, reps.manifest);
@@ -97,8 +115,18 @@ fn every_representation_draws_close_to_the_mesh() {
     let labels: Vec<u32> = seg.labels.iter().map(|&l| l as u32).collect();
     let timing = ClipTiming { frames, fps: 10.0 };
     let timeline = polypostor::timeline::Timeline::new(&c, &[Some(0)], 10.0).unwrap();
-    let mut crowd =
-        CrowdRenderers::new(device, queue, &c, &timeline, &labels, None, Some(&loaded), timing, true).unwrap();
+    let mut crowd = CrowdRenderers::new(
+        device,
+        queue,
+        &c,
+        &timeline,
+        &labels,
+        None,
+        Some(&loaded),
+        timing,
+        loaded.impostor.as_ref(),
+    )
+    .unwrap();
     for level in [Level::Skinned, Level::Rigid, Level::Impostor, Level::Np3d] {
         assert!(crowd.has(level), "{level:?}");
         assert!(crowd.gpu_bytes(level) > 0, "{level:?}");
@@ -403,4 +431,38 @@ fn every_representation_draws_close_to_the_mesh() {
     std::fs::write(out.join("impostor_color_003.png"), b"not a png").unwrap();
     let e = load_representations(&out).unwrap_err().to_string();
     assert!(e.contains("impostor_color_003.png"), "{e}");
+    // The far-only load does not read the full sheets; asking for them names the damage.
+    let far_only = polypostor::reps::load_representations_far(&out).unwrap();
+    let e = polypostor::reps::load_full_impostors(&out, &far_only.manifest)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("impostor_color_003.png"), "{e}");
+    std::fs::write(out.join("far_impostor_normal_002.png"), b"not a png").unwrap();
+    let e = polypostor::reps::load_representations_far(&out)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("far_impostor_normal_002.png"), "{e}");
+    // A far table that does not match the clips, or reduced by a factor that does not
+    // divide the resolution, is refused before any image is read.
+    let manifest_path = out.join("representations.json");
+    let text = std::fs::read_to_string(&manifest_path).unwrap();
+    let original: serde_json::Value = serde_json::from_str(&text).unwrap();
+    for (key, value, why) in [
+        ("color_factor", serde_json::json!(3), "do not fit"),
+        ("color_factor", serde_json::json!(256), "do not fit"),
+        (
+            "frames",
+            serde_json::json!([1, 2, 3, 4, 5, 6, 7, 8, 9, 0]),
+            "far impostors hold frames",
+        ),
+    ] {
+        let mut m = original.clone();
+        m["far_impostor"][key] = value.clone();
+        std::fs::write(&manifest_path, serde_json::to_string(&m).unwrap()).unwrap();
+        let e = polypostor::reps::load_representations_far(&out)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(why), "{key} = {value}: {e}");
+    }
+    std::fs::write(&manifest_path, &text).unwrap();
 }

@@ -630,7 +630,7 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
         "rigid.bin",
         "np3d.bin",
         "normal_000.png",
-        "impostor_color_001.png",
+        "far_impostor_color_001.png",
     ] {
         let d = dir.join(format!("flip-{name}"));
         common::copy_folder(pack, &d);
@@ -643,6 +643,18 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
             .unwrap_or_else(|| panic!("{name}: a flipped byte loaded"));
         assert!(e.contains(name) && e.contains("checksum"), "{name}: {e}");
     }
+    // The full-resolution impostor sheets are read when the impostor level is first drawn on
+    // its own (the mix draws from the far ones): a flipped byte is named then.
+    let name = "impostor_color_001.png";
+    let d = dir.join(format!("flip-{name}"));
+    common::copy_folder(pack, &d);
+    let mut bytes = std::fs::read(d.join(name)).unwrap();
+    let k = bytes.len() / 2;
+    bytes[k] ^= 0x10;
+    std::fs::write(d.join(name), &bytes).unwrap();
+    let assets = polypostor::crowd::scene::CrowdAssets::load(&d, Some(&default_glb()), None).unwrap();
+    let e = assets.full_impostors().err().expect("a flipped byte loaded");
+    assert!(e.contains(name) && e.contains("checksum"), "{name}: {e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -30,6 +30,11 @@ pub struct CrowdAssets {
     /// The character's size in metres: height and length from the clip it walks in (else the
     /// first), the culling sphere over every clip the crowd plays.
     pub size: CharacterSize,
+    /// The folder loaded.
+    pub dir: PathBuf,
+    /// The full-resolution impostor sheets, read from `dir` when first asked for
+    /// ([`CrowdAssets::full_impostors`]): the mix draws from the far ones.
+    full_impostors: std::sync::OnceLock<Result<Option<crate::reps::ImpostorData>, String>>,
 }
 
 impl CrowdAssets {
@@ -52,7 +57,7 @@ impl CrowdAssets {
             None
         };
         let reps = if has(crate::reps::REPS_FILE) {
-            Some(crate::reps::load_representations(dir).map_err(|e| format!("{}: {e}", dir.display()))?)
+            Some(crate::reps::load_representations_far(dir).map_err(|e| format!("{}: {e}", dir.display()))?)
         } else {
             None
         };
@@ -172,7 +177,36 @@ impl CrowdAssets {
             pack,
             reps,
             size,
+            dir: dir.to_owned(),
+            full_impostors: Default::default(),
         })
+    }
+
+    /// Whether [`CrowdAssets::full_impostors`] answers at once (read, failed, or nothing to
+    /// read).
+    pub fn full_impostors_ready(&self) -> bool {
+        self.reps
+            .as_ref()
+            .is_none_or(|r| r.impostor.is_some() || r.manifest.impostor.is_none())
+            || self.full_impostors.get().is_some()
+    }
+
+    /// The full-resolution impostor sheets (`None` when none were baked), read from the folder
+    /// the first time (seconds for a big bake: hundreds of megabytes); the error names what is
+    /// wrong when the folder changed since it was opened.
+    pub fn full_impostors(&self) -> Result<Option<&crate::reps::ImpostorData>, String> {
+        let Some(reps) = &self.reps else { return Ok(None) };
+        if let Some(i) = &reps.impostor {
+            return Ok(Some(i));
+        }
+        self.full_impostors
+            .get_or_init(|| {
+                crate::reps::load_full_impostors(&self.dir, &reps.manifest)
+                    .map_err(|e| format!("{}: {e}", self.dir.display()))
+            })
+            .as_ref()
+            .map(Option::as_ref)
+            .map_err(Clone::clone)
     }
 }
 
@@ -395,17 +429,7 @@ impl CrowdScene {
         full_impostors: bool,
     ) -> Result<Self, GpuError> {
         let timing = assets.timing();
-        let renderers = CrowdRenderers::new(
-            device,
-            queue,
-            &assets.character,
-            &assets.timeline,
-            &assets.labels,
-            assets.pack.as_ref(),
-            assets.reps.as_ref(),
-            timing,
-            full_impostors,
-        )?;
+        let renderers = renderers_of(device, queue, assets, full_impostors)?;
         let mut crowd = Crowd::new(params);
         crowd.set_clips(&assets.timeline.spans, timing.fps);
         Ok(Self {
@@ -443,17 +467,7 @@ impl CrowdScene {
         let params = spaced(first.crowd_params(count), &species);
         let mut scene = Self::with_impostors(device, queue, first, params, full_impostors)?;
         for a in others {
-            let mut r = CrowdRenderers::new(
-                device,
-                queue,
-                &a.character,
-                &a.timeline,
-                &a.labels,
-                a.pack.as_ref(),
-                a.reps.as_ref(),
-                a.timing(),
-                full_impostors,
-            )?;
+            let mut r = renderers_of(device, queue, a, full_impostors)?;
             r.ground_half_extent = 0.0;
             scene.guests.push(r);
         }
@@ -616,6 +630,32 @@ impl CrowdScene {
             }
         }
     }
+}
+
+/// Every representation of `assets` on the GPU (the full-resolution impostor sheets, read
+/// from the folder when not yet, only when `full_impostors`).
+fn renderers_of(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    assets: &CrowdAssets,
+    full_impostors: bool,
+) -> Result<CrowdRenderers, GpuError> {
+    let full = if full_impostors {
+        assets.full_impostors().map_err(GpuError::Unsupported)?
+    } else {
+        None
+    };
+    CrowdRenderers::new(
+        device,
+        queue,
+        &assets.character,
+        &assets.timeline,
+        &assets.labels,
+        assets.pack.as_ref(),
+        assets.reps.as_ref(),
+        assets.timing(),
+        full,
+    )
 }
 
 /// `params` with the spacing widened for the largest of `species` ([`CrowdParams::spaced_for`]).

@@ -132,6 +132,8 @@ pub struct CrowdPanel {
     pub asks: Option<PanelAsk>,
     next_generation: u64,
     job: Option<Job>,
+    /// The generation whose full-resolution impostor sheets are being (or were) read.
+    full_requested: Option<u64>,
     /// The last bake this session made, and into which folder (the next bake there only
     /// re-does what changed).
     pub last_bake: Option<(PathBuf, Arc<polypostor::bake::pipeline::Bake>)>,
@@ -166,6 +168,7 @@ impl Default for CrowdPanel {
             asks: None,
             next_generation: 1,
             job: None,
+            full_requested: None,
             last_bake: None,
             messages: Vec::new(),
         }
@@ -780,6 +783,21 @@ impl CrowdPanel {
             );
             return;
         };
+        // The impostor level on its own draws from the full-resolution sheets: read them in
+        // the background (hundreds of megabytes for a big bake), never on the UI thread.
+        let all = || std::iter::once(assets).chain(self.guests.iter().map(|g| &g.assets));
+        if self.mode == PreviewMode::Only(Level::Impostor) {
+            if self.full_requested != Some(*generation) {
+                self.full_requested = Some(*generation);
+                let list: Vec<Arc<CrowdAssets>> = all().cloned().collect();
+                std::thread::spawn(move || {
+                    for a in list {
+                        let _ = a.full_impostors();
+                    }
+                });
+            }
+        }
+        let reading_full = self.mode == PreviewMode::Only(Level::Impostor) && !all().all(|a| a.full_impostors_ready());
         let ppp = ui.ctx().pixels_per_point();
         // Every character's share (all zero: equal shares).
         let mut shares: Vec<f32> = std::iter::once(self.own_share)
@@ -809,6 +827,16 @@ impl CrowdPanel {
         };
         ui.painter()
             .add(egui_wgpu::Callback::new_paint_callback(rect, callback));
+        if reading_full {
+            ui.painter().text(
+                rect.center_top() + egui::vec2(0.0, 12.0),
+                egui::Align2::CENTER_TOP,
+                "Reading the full-resolution impostor sheets… (the far ones are drawn meanwhile)",
+                egui::FontId::proportional(14.0),
+                egui::Color32::from_gray(230),
+            );
+            ui.ctx().request_repaint_after(std::time::Duration::from_millis(200));
+        }
         ui.painter().text(
             rect.left_bottom() + egui::vec2(8.0, -8.0),
             egui::Align2::LEFT_BOTTOM,
@@ -869,8 +897,12 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
         let [w, h] = [self.size_px[0].max(1), self.size_px[1].max(1)];
         let params = self.assets.crowd_params(self.count);
         // Full-resolution impostor sheets only for the impostor level on its own (the mix
-        // draws far characters from quarter-resolution ones): loaded when first asked for.
-        let full = matches!(self.policy, LodPolicy::Only(Level::Impostor));
+        // draws far characters from the far ones), once read from the folder in the
+        // background ([`CrowdPanel::viewport`]); the far ones stand in meanwhile.
+        let full = matches!(self.policy, LodPolicy::Only(Level::Impostor))
+            && std::iter::once(&self.assets)
+                .chain(&self.guests)
+                .all(|a| a.full_impostors_ready());
         let stale = res
             .crowd
             .as_ref()

@@ -990,8 +990,9 @@ pub struct CrowdRenderers {
 
 impl CrowdRenderers {
     /// Builds what the inputs allow: meshes always (skinned; rigid when `reps` has rigid
-    /// frames), the Polypostor from `pack`, impostors (far ones always, full-resolution ones
-    /// when `full_impostors`) and NP3D from `reps`. Frames and rate come from the pack, else
+    /// frames), the Polypostor from `pack`, impostors (far ones always, from `reps`' baked far
+    /// sheets or reduced from its full ones; full-resolution ones from `full_impostors`, the
+    /// sheets of `reps`' views) and NP3D from `reps`. Frames and rate come from the pack, else
     /// from `reps`, else `fallback`.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
@@ -1003,7 +1004,7 @@ impl CrowdRenderers {
         pack: Option<&crate::pack::LoadedPack>,
         reps: Option<&Representations>,
         fallback: crate::crowd::ClipTiming,
-        full_impostors: bool,
+        full_impostors: Option<&crate::reps::ImpostorData>,
     ) -> Result<Self, GpuError> {
         let timing = pack
             .map(|p| crate::crowd::ClipTiming {
@@ -1033,29 +1034,41 @@ impl CrowdRenderers {
             meshes,
             polypostor: pack.map(|p| GpuPolypostors::new(device, queue, p)).transpose()?,
             impostor: reps
-                .filter(|r| full_impostors && r.impostor.is_some())
-                .map(|r| GpuImpostors::new(device, queue, r))
+                .zip(full_impostors)
+                .map(|(r, d)| GpuImpostors::from_sheets(device, queue, r, d))
                 .transpose()?,
-            far_impostor: reps
-                .and_then(|r| r.impostor.as_ref().map(|d| (r, d)))
-                .map(|(r, d)| {
-                    // A long timeline (a whole-character pack): every other frame of each clip.
-                    let (subset, map) = match crate::reps::far_frames(&r.manifest.clips, r.manifest.frames as usize) {
-                        Some((keep, map)) => (Some(d.frames_subset(&keep)), Some(map)),
-                        None => (None, None),
-                    };
-                    GpuImpostors::from_sheets_mapped(
-                        device,
-                        queue,
-                        r,
-                        &subset
-                            .as_ref()
-                            .unwrap_or(d)
-                            .downsampled_split(FAR_IMPOSTOR_FACTOR, 2 * FAR_IMPOSTOR_FACTOR),
-                        map,
-                    )
-                })
-                .transpose()?,
+            far_impostor: match reps.and_then(|r| r.far_impostor.as_ref().map(|f| (r, f))) {
+                // Baked (representations format 4).
+                Some((r, far)) => Some(GpuImpostors::from_sheets_mapped(
+                    device,
+                    queue,
+                    r,
+                    far,
+                    crate::reps::far_frame_map(&r.manifest),
+                )?),
+                // Representations made in memory: reduced here.
+                None => reps
+                    .and_then(|r| r.impostor.as_ref().map(|d| (r, d)))
+                    .map(|(r, d)| {
+                        // A long timeline (a whole-character pack): every other frame of each clip.
+                        let (subset, map) = match crate::reps::far_frames(&r.manifest.clips, r.manifest.frames as usize)
+                        {
+                            Some((keep, map)) => (Some(d.frames_subset(&keep)), Some(map)),
+                            None => (None, None),
+                        };
+                        GpuImpostors::from_sheets_mapped(
+                            device,
+                            queue,
+                            r,
+                            &subset
+                                .as_ref()
+                                .unwrap_or(d)
+                                .downsampled_split(FAR_IMPOSTOR_FACTOR, 2 * FAR_IMPOSTOR_FACTOR),
+                            map,
+                        )
+                    })
+                    .transpose()?,
+            },
             use_far_impostors: false,
             np3d: reps
                 .filter(|r| r.np3d.is_some())

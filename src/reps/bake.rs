@@ -8,7 +8,7 @@ use glam::Vec3;
 
 use super::{
     FrameVertices, ImpostorData, ImpostorInfo, Np3dData, Np3dInfo, REPS_FORMAT, REPS_VERSION, RepSet, RepView,
-    Representations, RepsManifest, RigidInfo,
+    Representations, RepsManifest, RigidInfo, far_factor, far_impostor_sheets,
 };
 use crate::animation::{Pose, skin_vertices};
 use crate::bake::pipeline::{BakeError, Progress};
@@ -343,6 +343,11 @@ pub fn bake_representations_sharing(
     });
     let rigid = set.rigid.then(|| frame_vertices(character, &poses, None));
 
+    // The mix's far impostors, at the resolution its default switch distance asks for.
+    let factor = far_factor(crate::crowd::lod::LodDistances::default().impostor_below, r);
+    let far = impostor
+        .as_ref()
+        .map(|i| far_impostor_sheets(i, &timeline.spans, frames, r, factor));
     let columns = (cameras.len() as f64).sqrt().ceil().max(1.0) as u32;
     let manifest = RepsManifest {
         format: REPS_FORMAT.into(),
@@ -367,6 +372,7 @@ pub fn bake_representations_sharing(
             columns: i.columns,
             rows: i.rows,
         }),
+        far_impostor: far.as_ref().map(|(info, _)| info.clone()),
         np3d: np3d.as_ref().map(|n| Np3dInfo {
             vertex_count: n.frames.vertex_count as u32,
             index_count: n.indices.len() as u32,
@@ -380,6 +386,7 @@ pub fn bake_representations_sharing(
     Ok(Representations {
         manifest,
         impostor,
+        far_impostor: far.map(|(_, data)| data),
         np3d,
         rigid,
     })

@@ -27,9 +27,10 @@ use crate::pack::{PackCamera, PackError};
 
 pub const REPS_FILE: &str = "representations.json";
 pub const REPS_FORMAT: &str = "polypostor-representations";
-/// Version 2 added [`RepsManifest::checksums`], version 3 the clip table ([`RepsManifest::clips`]);
-/// older folders are refused with "re-bake".
-pub const REPS_VERSION: u32 = 3;
+/// Version 2 added [`RepsManifest::checksums`], version 3 the clip table ([`RepsManifest::clips`]),
+/// version 4 the far impostors ([`RepsManifest::far_impostor`]); older folders are refused
+/// with "re-bake".
+pub const REPS_VERSION: u32 = 4;
 
 /// Which representations a bake produces.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -99,6 +100,22 @@ pub struct ImpostorInfo {
     pub rows: u32,
 }
 
+/// The far impostors the three-level mix draws its distant characters with, baked beside the
+/// full sheets: `far_impostor_color_NNN.png` at `1 / color_factor` of the resolution and
+/// `far_impostor_normal_NNN.png` at `1 / normal_factor`, `columns × rows` tiles holding the
+/// timeline frames `frames` (all of them, or every other frame of each clip for a timeline
+/// of more than [`FAR_HALF_RATE_ABOVE`] frames, [`far_frames`]). The factors come from the
+/// switch distance ([`far_factor`]): impostors are drawn below a quarter of a screen pixel
+/// per baked texel, so a quarter of the texels still gives one texel a pixel.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FarImpostorInfo {
+    pub columns: u32,
+    pub rows: u32,
+    pub color_factor: u32,
+    pub normal_factor: u32,
+    pub frames: Vec<u32>,
+}
+
 /// NP3D impostors: `np3d.bin` holds `index_count` u16 indices, then `vertex_count` u32
 /// source vertex numbers (which character vertex each one is), then per frame
 /// `vertex_count` × (position xyz f32, normal xyz f32); `np3d_color.png` tiles one
@@ -137,6 +154,9 @@ pub struct RepsManifest {
     pub resolution: u32,
     pub views: Vec<RepView>,
     pub impostor: Option<ImpostorInfo>,
+    /// Present whenever `impostor` is.
+    #[serde(default)]
+    pub far_impostor: Option<FarImpostorInfo>,
     pub np3d: Option<Np3dInfo>,
     pub rigid: Option<RigidInfo>,
     /// Size and CRC-32 of every data file (filled in by [`write_representations`]); the
@@ -315,7 +335,11 @@ pub struct Np3dData {
 #[derive(Clone, Debug)]
 pub struct Representations {
     pub manifest: RepsManifest,
+    /// The full-resolution sheets (`None` when not baked, or not loaded:
+    /// [`load_representations_far`]).
     pub impostor: Option<ImpostorData>,
+    /// The far impostors' sheets ([`FarImpostorInfo`]).
+    pub far_impostor: Option<ImpostorData>,
     pub np3d: Option<Np3dData>,
     pub rigid: Option<FrameVertices>,
 }
@@ -345,7 +369,8 @@ impl RepBytes {
 impl Representations {
     /// Memory of the impostors as stored (colour + normal RGBA8 per view per frame).
     pub fn impostor_bytes(&self) -> Option<RepBytes> {
-        self.impostor.as_ref()?;
+        // From the manifest: the sheets may not be loaded ([`load_representations_far`]).
+        self.manifest.impostor.as_ref()?;
         let r = self.manifest.resolution as u64;
         let tiles = self.manifest.views.len() as u64 * self.manifest.frames as u64;
         Some(RepBytes::new(tiles * r * r * 4 * 2, 0))
@@ -488,6 +513,61 @@ pub fn far_frames(clips: &[crate::timeline::ClipSpan], frames: usize) -> Option<
 /// dozen pixels tall.
 pub const FAR_HALF_RATE_ABOVE: usize = 32;
 
+/// The factor the far impostors' colour sheets are reduced by for a mix that switches to
+/// impostors below `impostor_below` screen pixels per baked texel: the largest power of two
+/// at most `1 / impostor_below` (and at most 16) that divides `resolution` and leaves tiles
+/// of at least 8 texels; 1 where none does.
+pub fn far_factor(impostor_below: f32, resolution: u32) -> u32 {
+    let most = if impostor_below.is_finite() && impostor_below > 0.0 {
+        (1.0 / impostor_below).floor().clamp(1.0, 16.0) as u32
+    } else {
+        1
+    };
+    let mut f = 1;
+    while f * 2 <= most && resolution % (f * 2) == 0 && resolution / (f * 2) >= 8 {
+        f *= 2;
+    }
+    f
+}
+
+/// The far impostors of `full` (every frame of the timeline of `clips`, `frames` long, at
+/// `resolution`): the frames [`far_frames`] keeps, colour reduced by `factor` and normals by
+/// twice that where it divides (lighting is smoother than colour).
+pub fn far_impostor_sheets(
+    full: &ImpostorData,
+    clips: &[crate::timeline::ClipSpan],
+    frames: usize,
+    resolution: u32,
+    factor: u32,
+) -> (FarImpostorInfo, ImpostorData) {
+    let (keep, subset) = match far_frames(clips, frames) {
+        Some((keep, _)) => {
+            let s = full.frames_subset(&keep);
+            (keep, Some(s))
+        }
+        None => ((0..frames).collect(), None),
+    };
+    let normal_factor = if resolution % (2 * factor) == 0 && resolution / (2 * factor) >= 4 {
+        2 * factor
+    } else {
+        factor
+    };
+    let data = subset.as_ref().unwrap_or(full).downsampled_split(factor, normal_factor);
+    let info = FarImpostorInfo {
+        columns: data.columns,
+        rows: data.rows,
+        color_factor: factor,
+        normal_factor,
+        frames: keep.iter().map(|&f| f as u32).collect(),
+    };
+    (info, data)
+}
+
+/// Per frame of the timeline, the far impostors' tile drawn for it (`None`: tile = frame).
+pub fn far_frame_map(manifest: &RepsManifest) -> Option<Vec<u32>> {
+    far_frames(&manifest.clips, manifest.frames as usize).map(|(_, map)| map)
+}
+
 /// A tile of a sheet (`columns` per row, `size²` each).
 pub fn sheet_tile(sheet: &image::RgbaImage, index: u32, columns: u32, size: u32) -> image::RgbaImage {
     let (x, y) = ((index % columns) * size, (index / columns) * size);
@@ -498,6 +578,51 @@ pub fn sheet_tile(sheet: &image::RgbaImage, index: u32, columns: u32, size: u32)
 /// size, index and checksum (a damaged file gives a clear error naming it, never a panic
 /// later or an allocation beyond what the folder really holds).
 pub fn load_representations(dir: &Path) -> Result<Representations, PackError> {
+    load_representations_with(dir, true)
+}
+
+/// [`load_representations`] without the full-resolution impostor sheets where far ones were
+/// baked (what the three-level mix draws with; a fraction of the memory and load time): the
+/// full sheets load later with [`load_full_impostors`].
+pub fn load_representations_far(dir: &Path) -> Result<Representations, PackError> {
+    load_representations_with(dir, false)
+}
+
+/// The full-resolution impostor sheets of a folder loaded by [`load_representations_far`]
+/// (`None` when none were baked), checked against the manifest as the loader checks them.
+pub fn load_full_impostors(dir: &Path, manifest: &RepsManifest) -> Result<Option<ImpostorData>, PackError> {
+    let files = crate::pack::FolderReader {
+        dir,
+        manifest_file: REPS_FILE,
+        checksums: &manifest.checksums,
+    };
+    read_impostor_sheets(&files, manifest)
+}
+
+fn read_impostor_sheets(
+    files: &crate::pack::FolderReader,
+    manifest: &RepsManifest,
+) -> Result<Option<ImpostorData>, PackError> {
+    let Some(info) = &manifest.impostor else {
+        return Ok(None);
+    };
+    let r = manifest.resolution;
+    let size = [info.columns * r, info.rows * r];
+    let mut color = Vec::new();
+    let mut normal = Vec::new();
+    for v in 0..manifest.views.len() as u32 {
+        color.push(files.png(&impostor_file("color", v), size)?);
+        normal.push(files.png(&impostor_file("normal", v), size)?);
+    }
+    Ok(Some(ImpostorData {
+        columns: info.columns,
+        rows: info.rows,
+        color,
+        normal,
+    }))
+}
+
+fn load_representations_with(dir: &Path, full_impostors: bool) -> Result<Representations, PackError> {
     use crate::pack::{FolderReader, check_camera, check_direction, check_resolution_views, check_timing};
     const FILE: &str = REPS_FILE;
     let manifest: RepsManifest = crate::pack::parse_manifest(dir, FILE, REPS_FORMAT, REPS_VERSION)?;
@@ -535,6 +660,49 @@ pub fn load_representations(dir: &Path) -> Result<Representations, PackError> {
         let size = [info.columns * r, info.rows * r];
         textures.extend(std::iter::repeat_n(size, 2 * views as usize));
     }
+    let far_sizes = match (&manifest.impostor, &manifest.far_impostor) {
+        (None, None) => None,
+        (Some(_), None) => {
+            return Err(damaged(format!(
+                "{FILE}: impostors without their far sheets (far_impostor)"
+            )));
+        }
+        (None, Some(_)) => return Err(damaged(format!("{FILE}: far impostors without impostors"))),
+        (Some(_), Some(far)) => {
+            let want: Vec<u32> = match far_frames(&manifest.clips, frames) {
+                Some((keep, _)) => keep.iter().map(|&f| f as u32).collect(),
+                None => (0..manifest.frames).collect(),
+            };
+            if far.frames != want {
+                return Err(damaged(format!(
+                    "{FILE}: far impostors hold frames {:?}…, the clip table asks for {:?}…",
+                    &far.frames[..far.frames.len().min(4)],
+                    &want[..want.len().min(4)]
+                )));
+            }
+            let n = want.len() as u64;
+            let tiles = u64::from(far.columns) * u64::from(far.rows);
+            let factor_ok = |f: u32| f.is_power_of_two() && f <= 64 && r % f == 0;
+            if far.columns == 0
+                || far.rows == 0
+                || tiles < n
+                || tiles >= n + u64::from(far.columns)
+                || !side_ok(far.columns)
+                || !side_ok(far.rows)
+                || !factor_ok(far.color_factor)
+                || !factor_ok(far.normal_factor)
+            {
+                return Err(damaged(format!(
+                    "{FILE}: far impostor sheets of {}×{} tiles reduced {}× / {}× do not fit {n} frames of {r}²",
+                    far.columns, far.rows, far.color_factor, far.normal_factor
+                )));
+            }
+            let size = |f: u32| [far.columns * (r / f), far.rows * (r / f)];
+            textures.extend(std::iter::repeat_n(size(far.color_factor), views as usize));
+            textures.extend(std::iter::repeat_n(size(far.normal_factor), views as usize));
+            Some((size(far.color_factor), size(far.normal_factor)))
+        }
+    };
     let np3d_layout = match &manifest.np3d {
         None => None,
         Some(info) => {
@@ -575,23 +743,27 @@ pub fn load_representations(dir: &Path) -> Result<Representations, PackError> {
         manifest_file: FILE,
         checksums: &manifest.checksums,
     };
-    let impostor = match &manifest.impostor {
-        None => None,
-        Some(info) => {
-            let size = [info.columns * r, info.rows * r];
+    let impostor = if full_impostors {
+        read_impostor_sheets(&files, &manifest)?
+    } else {
+        None
+    };
+    let far_impostor = match (far_sizes, &manifest.far_impostor) {
+        (Some((cs, ns)), Some(far)) => {
             let mut color = Vec::new();
             let mut normal = Vec::new();
             for v in 0..views {
-                color.push(files.png(&impostor_file("color", v), size)?);
-                normal.push(files.png(&impostor_file("normal", v), size)?);
+                color.push(files.png(&impostor_file("far_color", v), cs)?);
+                normal.push(files.png(&impostor_file("far_normal", v), ns)?);
             }
             Some(ImpostorData {
-                columns: info.columns,
-                rows: info.rows,
+                columns: far.columns,
+                rows: far.rows,
                 color,
                 normal,
             })
         }
+        _ => None,
     };
     let np3d = match np3d_layout {
         None => None,
@@ -636,13 +808,18 @@ pub fn load_representations(dir: &Path) -> Result<Representations, PackError> {
     Ok(Representations {
         manifest,
         impostor,
+        far_impostor,
         np3d,
         rigid,
     })
 }
 
+/// `impostor_{kind}_NNN.png`; the far sheets are `far_impostor_{color,normal}_NNN.png`.
 fn impostor_file(kind: &str, view: u32) -> String {
-    format!("impostor_{kind}_{view:03}.png")
+    match kind.strip_prefix("far_") {
+        Some(k) => format!("far_impostor_{k}_{view:03}.png"),
+        None => format!("impostor_{kind}_{view:03}.png"),
+    }
 }
 
 /// Writes the representations into `dir` (an existing folder, e.g. the pack's temporary
@@ -656,6 +833,12 @@ pub fn write_representations(reps: &Representations, dir: &Path) -> Result<u64, 
         for (v, (c, n)) in i.color.iter().zip(&i.normal).enumerate() {
             put(&impostor_file("color", v as u32), &png_bytes(c)?)?;
             put(&impostor_file("normal", v as u32), &png_bytes(n)?)?;
+        }
+    }
+    if let Some(i) = &reps.far_impostor {
+        for (v, (c, n)) in i.color.iter().zip(&i.normal).enumerate() {
+            put(&impostor_file("far_color", v as u32), &png_bytes(c)?)?;
+            put(&impostor_file("far_normal", v as u32), &png_bytes(n)?)?;
         }
     }
     if let Some(n) = &reps.np3d {
@@ -688,6 +871,35 @@ pub fn write_representations(reps: &Representations, dir: &Path) -> Result<u64, 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn far_impostors_are_reduced_as_the_switch_distance_allows() {
+        // A quarter of a pixel per texel: a quarter of the texels, on any resolution that
+        // divides and keeps tiles of at least 8 texels.
+        assert_eq!(far_factor(0.25, 128), 4);
+        assert_eq!(far_factor(0.25, 64), 4);
+        assert_eq!(far_factor(0.25, 100), 4);
+        assert_eq!(far_factor(0.25, 16), 2);
+        assert_eq!(far_factor(0.25, 8), 1);
+        assert_eq!(far_factor(0.25, 129), 1);
+        assert_eq!(far_factor(0.1, 128), 8);
+        assert_eq!(far_factor(0.001, 1024), 16);
+        for bad in [1.0, 2.0, 0.0, -1.0, f32::NAN, f32::INFINITY] {
+            assert_eq!(far_factor(bad, 128), 1, "{bad}");
+        }
+        // Brute force over small cases: the largest power of two meeting every condition.
+        for r in 1..200u32 {
+            for below in [0.3f32, 0.2, 0.12] {
+                let most = (1.0 / below).floor() as u32;
+                let want = (0..5)
+                    .map(|k| 1u32 << k)
+                    .filter(|&f| f <= most && r % f == 0 && (f == 1 || r / f >= 8))
+                    .max()
+                    .unwrap();
+                assert_eq!(far_factor(below, r), want, "{below} at {r}");
+            }
+        }
+    }
 
     #[test]
     fn far_impostors_of_a_long_timeline_keep_every_other_frame_of_each_clip() {
