@@ -120,13 +120,21 @@ impl Canvas {
 
 /// The cross-fade between two key images of a part: the pixel at `(x, y)` shows the key the
 /// interval ends with when `crossfade_threshold(x, y) < a` (`a`: how far into the interval),
-/// else the key it starts with. A 4×4 ordered-dither (Bayer) matrix, the same in
-/// `shaders/polypostor.wgsl`: no blending order to get right, no background showing through
-/// where the two keys overlap, and on average exactly `(1 − a)·first + a·second`.
+/// else the key it starts with. An 8×8 ordered-dither (Bayer) matrix, the same in
+/// `shaders/crowd_common.wgsl`: no blending order to get right, no background showing through
+/// where the two keys overlap, and on average exactly `(1 − a)·first + a·second`. 64 levels
+/// rather than 16: a cross-fade lasting more than 16 frames trades an even share of the
+/// pixels every frame instead of a sixteenth every other frame (temporal stability).
 pub fn crossfade_threshold(x: u32, y: u32) -> f32 {
-    const BAYER: [u32; 16] = [0, 8, 2, 10, 12, 4, 14, 6, 3, 11, 1, 9, 15, 7, 13, 5];
-    (BAYER[((y & 3) * 4 + (x & 3)) as usize] as f32 + 0.5) / 16.0
+    (BAYER_8X8[((y & 7) * 8 + (x & 7)) as usize] as f32 + 0.5) / 64.0
 }
+
+/// The 8×8 Bayer matrix (row by row): `M₂ₙ = [[4M, 4M + 2], [4M + 3, 4M + 1]]` from `M₁ = [0]`.
+pub const BAYER_8X8: [u32; 64] = [
+    0, 32, 8, 40, 2, 34, 10, 42, 48, 16, 56, 24, 50, 18, 58, 26, 12, 44, 4, 36, 14, 46, 6, 38, 60, 28, 52, 20, 62, 30,
+    54, 22, 3, 35, 11, 43, 1, 33, 9, 41, 51, 19, 59, 27, 49, 17, 57, 25, 15, 47, 7, 39, 13, 45, 5, 37, 63, 31, 55, 23,
+    61, 29, 53, 21,
+];
 
 /// PSNR in dB for an RMSE on a 0..1 scale (capped at 99 dB for a perfect match).
 pub fn psnr(rmse: f64) -> f64 {
@@ -158,6 +166,42 @@ pub fn tile_canvas(tile: &PartTile) -> Canvas {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The dither: every level once; each 2×2 block holds one threshold of each quarter
+    /// (so any fraction is spread evenly, not in clumps); the share of pixels kept below a
+    /// threshold `a` is `a` to within one level; and the shader's table is this one.
+    #[test]
+    fn the_dither_matrix_is_an_even_bayer_matrix_shared_with_the_shaders() {
+        let mut seen = BAYER_8X8.to_vec();
+        seen.sort_unstable();
+        assert_eq!(seen, (0..64).collect::<Vec<u32>>());
+        for by in 0..4 {
+            for bx in 0..4 {
+                let mut q: Vec<u32> = (0..4)
+                    .map(|k| BAYER_8X8[((2 * by + k / 2) * 8 + 2 * bx + k % 2) as usize] / 16)
+                    .collect();
+                q.sort_unstable();
+                assert_eq!(q, [0, 1, 2, 3], "block ({bx}, {by})");
+            }
+        }
+        for k in 0..=128 {
+            let a = k as f32 / 128.0;
+            let kept = (0..64).filter(|&i| crossfade_threshold(i % 8, i / 8) < a).count();
+            assert!((kept as f32 / 64.0 - a).abs() <= 1.0 / 64.0, "{a}: {kept}");
+        }
+        // Periodic in 8 pixels.
+        assert_eq!(crossfade_threshold(3, 5), crossfade_threshold(3 + 8, 5 + 16));
+        let wgsl = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/crowd_common.wgsl")).unwrap();
+        let start = wgsl.find("array<u32, 64>(").expect("the shader's table") + "array<u32, 64>(".len();
+        let end = start + wgsl[start..].find(')').unwrap();
+        let table: Vec<u32> = wgsl[start..end]
+            .split(',')
+            .map(|t| t.trim().trim_end_matches('u'))
+            .filter(|t| !t.is_empty())
+            .map(|t| t.parse().unwrap())
+            .collect();
+        assert_eq!(table, BAYER_8X8);
+    }
 
     #[test]
     fn identity_texturing_reproduces_the_texture() {

@@ -110,8 +110,9 @@ pub struct CrowdParams {
     /// The character's size: culling spheres, cameras and ground. Default value:
     /// [`CharacterSize::reference`].
     pub size: CharacterSize,
-    /// Seconds a character takes to cross-fade (dithered) from one level of detail, baked
-    /// view or clip to the next; 0 switches with a cut. Default value: 0.25.
+    /// Seconds a character takes to cross-fade (dithered) from one baked view or clip to
+    /// the next, and a level of detail to the next in [`LEVEL_FADE_SCALE`] times that; 0
+    /// switches with a cut. Default value: 0.25.
     pub fade_secs: f32,
     /// What agents spend their time doing, when the pack has clips to do it with
     /// ([`Crowd::set_clips`]). Default value: [`Behaviour::default`].
@@ -154,6 +155,13 @@ pub enum Gait {
 pub const MOVING_SECS: (f32, f32) = (4.0, 12.0);
 /// Seconds an agent stands idle before it reconsiders.
 pub const IDLE_SECS: (f32, f32) = (2.0, 6.0);
+/// A level-of-detail cross-fade lasts this many times [`CrowdParams::fade_secs`]: two levels
+/// differ more than two neighbouring views or clips of one level do (a Polypostor against an
+/// impostor of a thin character: a third of its pixels), and the dither trades a share of the
+/// pixels every frame in proportion to how fast the fade runs, so a slower fade spreads the
+/// same change over more frames (temporal stability, `bench stability`).
+pub const LEVEL_FADE_SCALE: f32 = 2.0;
+
 /// Spread of a moving agent's speed about its clip's measured ground speed (its animation
 /// rate follows, so its feet keep to the ground).
 pub const SPEED_SPREAD: f32 = 0.1;
@@ -1002,7 +1010,11 @@ impl Crowd {
                     variant: record.variant | fade_bits(f, false),
                     ..record
                 });
-                a.fade[i] = f + fade_step;
+                a.fade[i] = f + if from != level {
+                    fade_step / LEVEL_FADE_SCALE
+                } else {
+                    fade_step
+                };
             } else if let Some(g) = gaits
                 && a.clip_fade[i] < 1.0
                 && fade_step.is_finite()

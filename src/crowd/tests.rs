@@ -579,10 +579,10 @@ fn level_and_view_switches_cross_fade_for_the_fade_time() {
     crowd.select_over(&cam(200.0, 0.0), &policy, &views, clip, 1.0 / 30.0);
     assert_eq!(copies(&crowd).len(), 1);
     assert_eq!(copies(&crowd)[0].0, Level::Impostor);
-    // Near enough for the Polypostor: two copies for 0.25 s.
+    // Near enough for the Polypostor: two copies for 0.5 s (a level fade is twice a view's).
     let dt = 1.0 / 30.0;
     let mut frames_faded = 0;
-    for step in 0..20 {
+    for step in 0..30 {
         crowd.select_over(&cam(20.0, 0.0), &policy, &views, clip, dt);
         let c = copies(&crowd);
         if step == 0 {
@@ -600,8 +600,9 @@ fn level_and_view_switches_cross_fade_for_the_fade_time() {
             assert_eq!(c[0].1.variant >> 24, 0, "drawn whole after the fade");
         }
     }
-    // 0.25 s at 30 frames a second: 8 frames (the last at t = 7/7.5).
-    assert_eq!(frames_faded, 8);
+    // 0.5 s at 30 frames a second: 15 frames (the last at t = 14/15).
+    assert_eq!(LEVEL_FADE_SCALE, 2.0);
+    assert_eq!(frames_faded, 15);
     // Turning round the character at the same distance: the view changes, and fades.
     let before = copies(&crowd)[0].1.view;
     let mut angle = 0.0f32;
