@@ -1461,17 +1461,14 @@ fn bench_crowd(
             ctx.adapter_description()
         );
         // The pack's clips and what the agents do with them.
+        use polypostor::crowd::Gait;
         let gaits = polypostor::crowd::Gaits::new(&assets.timeline.spans, assets.timeline.fps);
         let n = scene.crowd.gait_counts();
         for (i, c) in assets.timeline.spans.iter().enumerate() {
-            let role = if gaits.walk == Some(i) {
-                format!("walk ({} agents)", n[0])
-            } else if gaits.run == Some(i) {
-                format!("run ({} agents)", n[1])
-            } else if gaits.idle.contains(&i) {
-                "stand".into()
-            } else {
-                "not played (does not loop)".into()
+            let role = match gaits.role(i) {
+                Some(g @ (Gait::Walk | Gait::Run)) => format!("{} ({} agents)", g.name(), n[g as usize]),
+                Some(g) => g.name().to_string(),
+                None => "not played (does not loop)".into(),
             };
             eprintln!(
                 "  clip {:<14} {:>4} frames, ground speed {:.3}/s: {role}",

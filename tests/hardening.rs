@@ -624,6 +624,15 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
         "{e}"
     );
     // A byte flipped anywhere in the data: the checksum names the file.
+    let flipped = |name: &str| {
+        let d = dir.join(format!("flip-{name}"));
+        common::copy_folder(pack, &d);
+        let mut bytes = std::fs::read(d.join(name)).unwrap();
+        let k = bytes.len() / 2;
+        bytes[k] ^= 0x10;
+        std::fs::write(d.join(name), &bytes).unwrap();
+        d
+    };
     for name in [
         "vertices.bin",
         "indices.bin",
@@ -632,13 +641,7 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
         "normal_000.png",
         "far_impostor_color_001.png",
     ] {
-        let d = dir.join(format!("flip-{name}"));
-        common::copy_folder(pack, &d);
-        let mut bytes = std::fs::read(d.join(name)).unwrap();
-        let k = bytes.len() / 2;
-        bytes[k] ^= 0x10;
-        std::fs::write(d.join(name), &bytes).unwrap();
-        let e = polypostor::crowd::scene::CrowdAssets::load(&d, Some(&default_glb()), None)
+        let e = polypostor::crowd::scene::CrowdAssets::load(&flipped(name), Some(&default_glb()), None)
             .err()
             .unwrap_or_else(|| panic!("{name}: a flipped byte loaded"));
         assert!(e.contains(name) && e.contains("checksum"), "{name}: {e}");
@@ -646,13 +649,7 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
     // The full-resolution impostor sheets are read when the impostor level is first drawn on
     // its own (the mix draws from the far ones): a flipped byte is named then.
     let name = "impostor_color_001.png";
-    let d = dir.join(format!("flip-{name}"));
-    common::copy_folder(pack, &d);
-    let mut bytes = std::fs::read(d.join(name)).unwrap();
-    let k = bytes.len() / 2;
-    bytes[k] ^= 0x10;
-    std::fs::write(d.join(name), &bytes).unwrap();
-    let assets = polypostor::crowd::scene::CrowdAssets::load(&d, Some(&default_glb()), None).unwrap();
+    let assets = polypostor::crowd::scene::CrowdAssets::load(&flipped(name), Some(&default_glb()), None).unwrap();
     let e = assets.full_impostors().err().expect("a flipped byte loaded");
     assert!(e.contains(name) && e.contains("checksum"), "{name}: {e}");
     std::fs::remove_dir_all(&dir).unwrap();

@@ -151,6 +151,17 @@ pub enum Gait {
     Idle = 2,
 }
 
+impl Gait {
+    /// A word for people: "walk", "run", "stand".
+    pub fn name(self) -> &'static str {
+        match self {
+            Gait::Walk => "walk",
+            Gait::Run => "run",
+            Gait::Idle => "stand",
+        }
+    }
+}
+
 /// Seconds an agent keeps walking or running before it reconsiders (uniform in this range).
 pub const MOVING_SECS: (f32, f32) = (4.0, 12.0);
 /// Seconds an agent stands idle before it reconsiders.
@@ -210,6 +221,20 @@ impl Gaits {
             walk,
             run,
             idle,
+        }
+    }
+
+    /// What clip `i` is used for: the gait it is played in, or `None` (a clip that neither
+    /// moves nor loops: not played).
+    pub fn role(&self, i: usize) -> Option<Gait> {
+        if self.walk == Some(i) {
+            Some(Gait::Walk)
+        } else if self.run == Some(i) {
+            Some(Gait::Run)
+        } else if self.idle.contains(&i) {
+            Some(Gait::Idle)
+        } else {
+            None
         }
     }
 

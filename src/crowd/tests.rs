@@ -266,6 +266,17 @@ fn clips_sort_into_walk_run_and_idle_by_measured_speed() {
     fall.push(span("Death", 57, 10, 0.0));
     fall[4].looping = false;
     assert_eq!(Gaits::new(&fall, 10.0).idle, vec![2, 3]);
+    let roles: Vec<Option<Gait>> = (0..5).map(|i| Gaits::new(&fall, 10.0).role(i)).collect();
+    assert_eq!(
+        roles,
+        [
+            Some(Gait::Walk),
+            Some(Gait::Run),
+            Some(Gait::Idle),
+            Some(Gait::Idle),
+            None
+        ]
+    );
     let still = vec![span("Idle", 0, 20, 0.0)];
     let g = Gaits::new(&still, 10.0);
     assert_eq!((g.walk, g.run, g.idle.clone()), (None, None, vec![0]));

@@ -267,37 +267,22 @@ impl CrowdPanel {
 
     /// Opens a baked folder on a background thread.
     pub fn start_open(&mut self, folder: PathBuf, character: Option<PathBuf>) {
-        if self.job.is_some() {
-            return;
-        }
-        let (tx, rx) = channel();
-        self.job = Some(Job {
-            what: format!("Opening {}", folder.display()),
-            adds_guest: false,
-            started: Instant::now(),
-            progress: Arc::new(Mutex::new(polypostor::bake::eta::Eta::starting("loading", 1))),
-            cancel: Arc::new(AtomicBool::new(false)),
-            rx,
-        });
-        std::thread::spawn(move || {
+        let what = format!("Opening {}", folder.display());
+        self.start_loading(what, false, move || {
             // The open character first; a folder baked from another character (its clip or
             // frames do not match) opens with the character it names.
-            let r = CrowdAssets::load(&folder, character.as_deref(), None)
+            CrowdAssets::load(&folder, character.as_deref(), None)
                 .or_else(|e| match character {
                     Some(_) => CrowdAssets::load(&folder, None, None).map_err(|_| e),
                     None => Err(e),
                 })
-                .map(|a| (folder, a, None));
-            let _ = tx.send(r);
+                .map(|a| (folder, a, None))
         });
     }
 
     /// Opens another baked character (a folder, with the character its representations
     /// name) on a background thread, to share the crowd with the one open.
     pub fn start_add(&mut self, folder: PathBuf) {
-        if self.job.is_some() {
-            return;
-        }
         if self.guests.len() + 1 >= polypostor::crowd::MAX_SPECIES {
             self.messages.push((
                 LogLevel::Error,
@@ -308,18 +293,33 @@ impl CrowdPanel {
             ));
             return;
         }
+        let what = format!("Adding {}", folder.display());
+        self.start_loading(what, true, move || {
+            CrowdAssets::load(&folder, None, None).map(|a| (folder, a, None))
+        });
+    }
+
+    /// Runs `load` on a background thread as the panel's job (none when one runs already).
+    fn start_loading(
+        &mut self,
+        what: String,
+        adds_guest: bool,
+        load: impl FnOnce() -> Result<JobDone, String> + Send + 'static,
+    ) {
+        if self.job.is_some() {
+            return;
+        }
         let (tx, rx) = channel();
         self.job = Some(Job {
-            what: format!("Adding {}", folder.display()),
-            adds_guest: true,
+            what,
+            adds_guest,
             started: Instant::now(),
             progress: Arc::new(Mutex::new(polypostor::bake::eta::Eta::starting("loading", 1))),
             cancel: Arc::new(AtomicBool::new(false)),
             rx,
         });
         std::thread::spawn(move || {
-            let r = CrowdAssets::load(&folder, None, None).map(|a| (folder, a, None));
-            let _ = tx.send(r);
+            let _ = tx.send(load());
         });
     }
 
@@ -677,27 +677,19 @@ impl CrowdPanel {
                 ui.strong("agents");
                 ui.end_row();
                 for (i, c) in assets.timeline.spans.iter().enumerate() {
-                    let (role, n) = if gaits.walk == Some(i) {
-                        ("walk", stats.gaits[0])
-                    } else if gaits.run == Some(i) {
-                        ("run", stats.gaits[1])
-                    } else if gaits.idle.contains(&i) {
-                        ("stand", 0)
-                    } else {
-                        ("unused", 0)
-                    };
-                    ui.label(format!("{} ({role})", c.name));
+                    use polypostor::crowd::Gait;
+                    let role = gaits.role(i);
+                    ui.label(format!("{} ({})", c.name, role.map_or("unused", Gait::name)));
                     ui.label(c.frames.to_string());
-                    ui.label(if role == "walk" || role == "run" {
-                        format!("{}/s", metres(c.ground_speed))
-                    } else {
-                        "still".into()
+                    ui.label(match role {
+                        Some(Gait::Walk | Gait::Run) => format!("{}/s", metres(c.ground_speed)),
+                        _ => "still".into(),
                     });
                     ui.label(match role {
-                        "unused" => "does not loop".to_string(),
-                        "stand" if gaits.idle.len() == 1 || gaits.walk.is_none() => stats.gaits[2].to_string(),
-                        "stand" => format!("{} standing in all", stats.gaits[2]),
-                        _ => n.to_string(),
+                        None => "does not loop".to_string(),
+                        Some(Gait::Idle) if gaits.idle.len() == 1 || gaits.walk.is_none() => stats.gaits[2].to_string(),
+                        Some(Gait::Idle) => format!("{} standing in all", stats.gaits[2]),
+                        Some(g) => stats.gaits[g as usize].to_string(),
                     });
                     ui.end_row();
                 }
