@@ -39,8 +39,11 @@ pub struct Atlas {
     pub rects: Vec<Option<AtlasRect>>,
 }
 
-/// Padding texels around each crop.
-pub const PADDING: u32 = 2;
+/// Padding texels around each crop: one is all bilinear filtering reads past the polygon's
+/// bounds. Crops are an even number of texels on each side and sit at even positions, so
+/// each maps onto whole texels of the half-resolution normal atlas and a normal sampled
+/// anywhere in the polygon never reads a neighbouring crop (it was 2, with crops anywhere).
+pub const PADDING: u32 = 1;
 
 /// Packs `items` (per part: colour tile, normal tile, polygon bounds `[min_x, min_y, max_x,
 /// max_y]` in tile pixels, or `None`).
@@ -55,6 +58,15 @@ pub fn pack_atlas(items: &[Option<(&image::RgbaImage, &image::RgbaImage, [f32; 4
                 let y0 = (b[1].floor() as i64 - PADDING as i64).clamp(0, th - 1);
                 let x1 = (b[2].ceil() as i64 + PADDING as i64).clamp(x0 + 1, tw);
                 let y1 = (b[3].ceil() as i64 + PADDING as i64).clamp(y0 + 1, th);
+                // Even sides: one more texel after (or before, at the tile's edge).
+                let even = |lo: i64, hi: i64, side: i64| match (hi - lo) % 2 {
+                    0 => (lo, hi),
+                    _ if hi < side => (lo, hi + 1),
+                    _ if lo > 0 => (lo - 1, hi),
+                    _ => (lo, hi),
+                };
+                let (x0, x1) = even(x0, x1, tw);
+                let (y0, y1) = even(y0, y1, th);
                 (x0 as u32, y0 as u32, (x1 - x0) as u32, (y1 - y0) as u32)
             })
         })
@@ -90,7 +102,8 @@ pub fn pack_atlas(items: &[Option<(&image::RgbaImage, &image::RgbaImage, [f32; 4
                 if w > width || (transposed && cw == ch) {
                     continue;
                 }
-                for (x, y) in window_maxima(&sky, w as usize).into_iter().enumerate() {
+                // Even positions only (crops are even, so the skyline stays even).
+                for (x, y) in window_maxima(&sky, w as usize).into_iter().enumerate().step_by(2) {
                     if best.is_none_or(|(_, by, bh, _)| (y + h, y) < (by + bh, by)) {
                         best = Some((x as u32, y, h, transposed));
                     }
@@ -274,6 +287,16 @@ mod tests {
             }
         }
         assert_eq!(a.normal.dimensions(), (a.width / 2, a.height / 2));
+        // Even places and sides (each crop on whole texels of the half-resolution normals),
+        // and one texel of padding at least round every polygon, inside its tile.
+        for (r, b) in rects.iter().zip(&bounds) {
+            assert!(r.x % 2 == 0 && r.y % 2 == 0 && r.w % 2 == 0 && r.h % 2 == 0, "{r:?}");
+            let (cw, ch) = if r.transposed { (r.h, r.w) } else { (r.w, r.h) };
+            let pad = |lo: u32, len: u32, b0: f32, b1: f32| {
+                (lo == 0 || lo as f32 <= b0.floor() - 1.0) && (lo + len == 64 || (lo + len) as f32 >= b1.ceil() + 1.0)
+            };
+            assert!(pad(r.src_x, cw, b[0], b[2]) && pad(r.src_y, ch, b[1], b[3]), "{r:?} round {b:?}");
+        }
     }
 
     #[test]
