@@ -295,7 +295,10 @@ mod tests {
             let pad = |lo: u32, len: u32, b0: f32, b1: f32| {
                 (lo == 0 || lo as f32 <= b0.floor() - 1.0) && (lo + len == 64 || (lo + len) as f32 >= b1.ceil() + 1.0)
             };
-            assert!(pad(r.src_x, cw, b[0], b[2]) && pad(r.src_y, ch, b[1], b[3]), "{r:?} round {b:?}");
+            assert!(
+                pad(r.src_x, cw, b[0], b[2]) && pad(r.src_y, ch, b[1], b[3]),
+                "{r:?} round {b:?}"
+            );
         }
     }
 

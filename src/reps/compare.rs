@@ -416,7 +416,7 @@ mod tests {
 /// Memory of each representation estimated before baking (uncompressed bytes, textures and
 /// geometry): exact for classic impostors (a colour and a normal image per view per frame);
 /// for Polypostors and NP3D from densities measured on the default character (atlas texels
-/// per view ≈ 0.53 r² + 23 r with the extra key images, plus a quarter for normals; 20
+/// per view ≈ 0.48 r² + 21 r with the extra key images, plus a quarter for normals; 20
 /// vertices per part and frame);
 /// skinned and rigid from the mesh (the character's textures with their mipmaps).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -445,16 +445,17 @@ pub fn estimate(
         vertices as u64,
     );
     // Atlas texels per view, key images after the first included (`bake::keys`, default
-    // budget): about 0.53 r² + 23 r (the crops' padding weighs more at low resolution),
-    // measured on the default character at 64² and 128² (0.89 r² and 0.71 r²); colour 4
-    // bytes a texel plus the quarter-size normal atlas.
+    // budget): about 0.48 r² + 21 r (the crops' padding weighs more at low resolution),
+    // measured on the default character at 64² and 128² (0.89 r² and 0.72 r² with two texels
+    // of padding, 9–10 % less with one: 0.65 r² at 128²); colour 4 bytes a texel plus the
+    // quarter-size normal atlas.
     let r = resolution as u64;
-    let atlas = v * (r2 * 53 / 100 + 23 * r) * 5;
+    let atlas = v * (r2 * 48 / 100 + 21 * r) * 5;
     let texture_bytes = texture_bytes * 4 / 3;
     // Per view, part and frame 20 positions of 4 bytes, about 10 % more for the extra keys'
     // polygons (they hold only the frames they draw); per view and part the UVs and
-    // triangles. Against the packs written (default character, 24 views, 128²): one clip
-    // 4 % under, four clips 14 % over (their idle key images crop tighter).
+    // triangles. Against the packs written (default character, 128²): one clip at 24 views
+    // 4 % under, four clips at 137 views 8 % over (their idle key images crop tighter).
     let poly_geometry = v * p * f * 20 * 4 * 11 / 10 + v * p * 18 * 3 * 2;
     Estimate {
         polypostor: atlas + poly_geometry,
