@@ -186,6 +186,10 @@ enum BenchWhat {
         /// Frames to time (after 30 warm-up frames).
         #[arg(long, default_value_t = 300)]
         frames: usize,
+        /// Two characters with clip tables: people walking, running and standing (70 %) and
+        /// a long, low four-legged one with its own clips and views (30 %).
+        #[arg(long)]
+        mixed: bool,
         /// Print one JSON object instead of a table.
         #[arg(long)]
         json: bool,
@@ -268,8 +272,14 @@ fn main() -> ExitCode {
         }) => compare_cmd(&pack_dir, character.as_deref(), views, out, json),
         Some(Command::Bake(args)) => bake_cmd(args),
         Some(Command::Bench {
-            what: BenchWhat::Sim { agents, frames, json },
-        }) => bench_sim(agents, frames, json),
+            what:
+                BenchWhat::Sim {
+                    agents,
+                    frames,
+                    mixed,
+                    json,
+                },
+        }) => bench_sim(agents, frames, mixed, json),
         Some(Command::Bench {
             what:
                 BenchWhat::Stability {
@@ -1686,14 +1696,52 @@ fn bench_stability(
 
 /// `bench sim`: a 1600×900 camera at the edge of the crowd looking across it from 10 m up,
 /// 137 hemisphere views, a 10-frame clip, the default three-level mix; one thread.
-fn bench_sim(agents: usize, frames: usize, json: bool) -> anyhow::Result<()> {
+fn bench_sim(agents: usize, frames: usize, mixed: bool, json: bool) -> anyhow::Result<()> {
     use polypostor::bake::viewpoints::{Coverage, ViewLookup, directions};
     use polypostor::crowd::lod::{Level, LodDistances, LodPolicy};
     use polypostor::crowd::{ClipTiming, Crowd, CrowdCamera, CrowdParams};
-    let mut crowd = Crowd::new(CrowdParams {
+    let mut params = CrowdParams {
         count: agents,
         ..Default::default()
-    });
+    };
+    // `--mixed`: the default character's four clips (speeds as measured) and a quadruped-like
+    // character 0.9 m tall and 2.4 m long, its own three clips at 12 fps and 40 views.
+    let span = |name: &str, start: u32, frames: u32, ground_speed: f32| polypostor::timeline::ClipSpan {
+        name: name.into(),
+        start,
+        frames,
+        looping: true,
+        ground_speed,
+    };
+    let beast_size =
+        polypostor::crowd::CharacterSize::from_bounds(glam::Vec3::new(-0.3, 0.0, -1.2), glam::Vec3::new(0.3, 0.9, 1.2));
+    if mixed {
+        params.spaced_for(&beast_size);
+    }
+    let mut crowd = Crowd::new(params);
+    if mixed {
+        crowd.set_clips(
+            &[
+                span("Walk", 0, 10, 1.73),
+                span("Run", 10, 7, 4.74),
+                span("Idle", 17, 20, 0.0),
+                span("Wave", 37, 20, 0.0),
+            ],
+            10.0,
+        );
+        let beast = polypostor::crowd::Species::new(
+            beast_size,
+            None,
+            &[
+                span("Pace", 0, 16, 2.0),
+                span("Trot", 16, 9, 3.5),
+                span("Sniff", 25, 30, 0.0),
+            ],
+            &directions(40, Coverage::UpperHemisphere),
+            ClipTiming { frames: 55, fps: 12.0 },
+        );
+        crowd.mix(vec![beast], &[0.7, 0.3]).map_err(anyhow::Error::msg)?;
+    }
     let (w, h, fov) = (1600.0f32, 900.0f32, 50f32.to_radians());
     let eye = glam::Vec3::new(0.0, 10.0, -crowd.half_extent - 5.0);
     let cam = polypostor::gpu::Camera {
@@ -1711,7 +1759,10 @@ fn bench_sim(agents: usize, frames: usize, json: bool) -> anyhow::Result<()> {
     };
     let views = ViewLookup::new(&directions(137, Coverage::UpperHemisphere));
     let policy = LodPolicy::Mixed(LodDistances::default());
-    let clip = ClipTiming { frames: 10, fps: 10.0 };
+    let clip = ClipTiming {
+        frames: if mixed { 57 } else { 10 },
+        fps: 10.0,
+    };
     let mut sim = Vec::with_capacity(frames);
     let mut sel = Vec::with_capacity(frames);
     let mut up = Vec::with_capacity(frames);
@@ -1722,18 +1773,20 @@ fn bench_sim(agents: usize, frames: usize, json: bool) -> anyhow::Result<()> {
     for k in 0..frames + 30 {
         let s = crowd.frame(1.0 / 60.0, &camera, &policy, &views, clip);
         let t = std::time::Instant::now();
-        polypostor::crowd::sort_by_view(
-            &crowd.instances[0][Level::Polypostor as usize],
-            137,
-            clip.frames as u32,
-            &mut sorted,
-            &mut ranges,
-        );
         staging.clear();
-        staging.extend_from_slice(bytemuck::cast_slice(&sorted));
-        for (l, list) in crowd.instances[0].iter().enumerate() {
-            if l != Level::Polypostor as usize {
-                staging.extend_from_slice(bytemuck::cast_slice(list));
+        for lists in &crowd.instances {
+            polypostor::crowd::sort_by_view(
+                &lists[Level::Polypostor as usize],
+                137,
+                clip.frames as u32,
+                &mut sorted,
+                &mut ranges,
+            );
+            staging.extend_from_slice(bytemuck::cast_slice(&sorted));
+            for (l, list) in lists.iter().enumerate() {
+                if l != Level::Polypostor as usize {
+                    staging.extend_from_slice(bytemuck::cast_slice(list));
+                }
             }
         }
         std::hint::black_box(&staging);

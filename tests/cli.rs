@@ -316,3 +316,22 @@ fn a_bake_on_opengl_matches_the_default_backend() {
     assert_eq!(a["views"].as_array().map(Vec::len), Some(3));
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// `bench sim --mixed`: two characters with clip tables (people walking, running and
+/// standing; a long four-legged character with its own clips and views) run and are selected.
+#[test]
+fn bench_sim_runs_a_crowd_of_two_characters() {
+    let out = polypostor(&["bench", "sim", "--agents", "500", "--frames", "5", "--mixed", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    assert_eq!(v["agents"], 500);
+    let visible = v["visible"].as_u64().unwrap();
+    let drawn: u64 = v["per_level"]
+        .as_object()
+        .unwrap()
+        .values()
+        .map(|x| x.as_u64().unwrap())
+        .sum();
+    assert!(visible > 0 && drawn >= visible, "{v}");
+    assert!(v["cpu_ms"]["mean"].as_f64().unwrap() > 0.0);
+}
