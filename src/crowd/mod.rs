@@ -268,6 +268,10 @@ pub struct Species {
     pub gaits: Option<Gaits>,
     pub views: ViewLookup,
     pub timing: ClipTiming,
+    /// Texels of its baked images along its height (its bake's resolution): the mix's switch
+    /// points are ratios of screen pixels to these, whatever resolution the policy was set
+    /// for (0: the policy's own).
+    pub texels: f32,
 }
 
 impl Species {
@@ -288,6 +292,7 @@ impl Species {
             gaits: (!clips.is_empty()).then(|| Gaits::new(clips, timing.fps)),
             views: ViewLookup::new(views),
             timing,
+            texels: 0.0,
         }
     }
 }
@@ -930,6 +935,16 @@ impl Crowd {
             let offset = Vec2::new(size.centre.x, size.centre.z).length();
             *r = size.radius + offset + 0.5 * self.params.min_distance;
         }
+        // Screen pixels of each kind scaled to the policy's texels (a pack baked at half the
+        // resolution switches to its Polypostor at half the distance).
+        let mut texel_scale = [1.0f32; MAX_SPECIES];
+        if let LodPolicy::Mixed(d) = policy {
+            for (k, s) in self.species.iter().enumerate() {
+                if s.texels > 0.0 && s.texels.is_finite() {
+                    texel_scale[k + 1] = d.texels / s.texels;
+                }
+            }
+        }
         let mut stats = FrameStats::default();
         let a = &mut self.agents;
         for i in 0..a.pos.len() {
@@ -950,7 +965,7 @@ impl Crowd {
             }
             let to_eye = camera.eye - centre;
             let distance = to_eye.length().max(1e-3);
-            let pixels = h * camera.focal_px / distance;
+            let pixels = h * camera.focal_px / distance * texel_scale[k];
             let previous = a.level[i];
             let level = policy.choose(pixels, previous);
             a.level[i] = level;

@@ -301,13 +301,16 @@ impl CrowdAssets {
 
     /// This character as another kind in someone else's crowd ([`Crowd::mix`]).
     pub fn species(&self) -> Species {
-        Species::new(
-            self.size,
-            self.framing(),
-            &self.timeline.spans,
-            &self.view_directions(),
-            self.timing(),
-        )
+        Species {
+            texels: self.resolution() as f32,
+            ..Species::new(
+                self.size,
+                self.framing(),
+                &self.timeline.spans,
+                &self.view_directions(),
+                self.timing(),
+            )
+        }
     }
 
     /// Texels of the baked images along the character's height (the LOD switch unit).

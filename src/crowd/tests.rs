@@ -853,3 +853,66 @@ fn two_characters_share_a_crowd_in_their_shares_each_walking_its_own_clips() {
     crowd.mix(vec![beast.clone()], &[0.0, 1.0]).unwrap();
     assert_eq!(crowd.kind_counts(), vec![0, 2000]);
 }
+
+/// In a mix of packs baked at different resolutions, each character's level comes from its
+/// own pixel-to-texel ratio: brute force per visible agent against the policy fed the
+/// ratio worked out here (a 64-texel copy of the person switches at half the distance).
+#[test]
+fn each_character_switches_level_at_its_own_bake_resolution() {
+    let person = four_clips();
+    let params = CrowdParams {
+        count: 600,
+        seed: 4,
+        ..Default::default()
+    };
+    let mut crowd = Crowd::new(params.clone());
+    crowd.set_clips(&person, 10.0);
+    let views24 = directions(24, Coverage::UpperHemisphere);
+    let copy = Species {
+        texels: 64.0,
+        ..Species::new(
+            params.size,
+            Some(params.height),
+            &person,
+            &views24,
+            ClipTiming { frames: 57, fps: 10.0 },
+        )
+    };
+    crowd.mix(vec![copy], &[1.0, 1.0]).unwrap();
+    let policy = LodPolicy::Mixed(LodDistances::default());
+    let eye = Vec3::new(0.0, 6.0, -crowd.half_extent - 4.0);
+    let (w, h) = (1600.0, 900.0);
+    let cam = camera(eye, Vec3::ZERO, w, h);
+    crowd.select(
+        &cam,
+        &policy,
+        &ViewLookup::new(&views24),
+        ClipTiming { frames: 57, fps: 10.0 },
+    );
+    let mut checked = [[0usize; 3]; 2];
+    for (k, lists) in crowd.instances.iter().enumerate() {
+        for (slot, level) in [Level::Skinned, Level::Polypostor, Level::Impostor]
+            .into_iter()
+            .enumerate()
+        {
+            for inst in &lists[level as usize] {
+                let i = (0..crowd.len())
+                    .find(|&i| crowd.agents.pos[i] == Vec2::from(inst.pos))
+                    .unwrap();
+                assert_eq!(crowd.agents.kind[i] as usize, k);
+                let centre = Vec3::new(inst.pos[0], params.size.centre.y, inst.pos[1]);
+                let distance = (eye - centre).length().max(1e-3);
+                let pixels = params.height * cam.focal_px / distance * if k == 1 { 2.0 } else { 1.0 };
+                assert_eq!(policy.choose(pixels, Level::Polypostor), level, "kind {k}, {pixels} px");
+                checked[k][slot] += 1;
+            }
+        }
+    }
+    // Many agents checked; the low-resolution copy stays a mesh further out.
+    let total: usize = checked.iter().flatten().sum();
+    assert!(total > 200, "{checked:?}");
+    assert!(
+        checked[1][0] > checked[0][0],
+        "the low-resolution copy is a mesh further out: {checked:?}"
+    );
+}
