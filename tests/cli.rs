@@ -164,13 +164,14 @@ fn representations_compare_and_bench_crowd_work_end_to_end() {
     }
 
     let bench_out = dir.join("bench");
-    let bench = polypostor(&[
-        "bench",
-        "crowd",
-        "--pack",
-        out.to_str().unwrap(),
-        "--counts",
-        "40,80",
+    let pack = out.to_str().unwrap();
+    // `bench crowd --pack <the bake>` with `args`, small and quick.
+    let bench_crowd = |args: &[&str]| {
+        let mut all = vec!["bench", "crowd", "--pack", pack];
+        all.extend_from_slice(args);
+        polypostor(&all)
+    };
+    let small = [
         "--frames",
         "1",
         "--width",
@@ -179,8 +180,8 @@ fn representations_compare_and_bench_crowd_work_end_to_end() {
         "180",
         "--out",
         bench_out.to_str().unwrap(),
-        "--json",
-    ]);
+    ];
+    let bench = bench_crowd(&[&["--counts", "40,80", "--json"][..], &small].concat());
     assert!(bench.status.success(), "{}", String::from_utf8_lossy(&bench.stderr));
     let rows: serde_json::Value = serde_json::from_slice(&bench.stdout).expect("a JSON list");
     let rows = rows.as_array().unwrap();
@@ -195,28 +196,22 @@ fn representations_compare_and_bench_crowd_work_end_to_end() {
     }
     assert!(bench_out.join("crowd_fps.png").is_file());
     // Two characters in one crowd (the same folder twice), a quarter and three quarters.
-    let mixed = polypostor(&[
-        "bench",
-        "crowd",
-        "--pack",
-        out.to_str().unwrap(),
-        "--with",
-        out.to_str().unwrap(),
-        "--shares",
-        "1,3",
-        "--counts",
-        "40",
-        "--frames",
-        "1",
-        "--representations",
-        "impostor,mixed",
-        "--width",
-        "320",
-        "--height",
-        "180",
-        "--out",
-        bench_out.to_str().unwrap(),
-    ]);
+    let mixed = bench_crowd(
+        &[
+            &[
+                "--with",
+                pack,
+                "--shares",
+                "1,3",
+                "--counts",
+                "40",
+                "--representations",
+                "impostor,mixed",
+            ][..],
+            &small,
+        ]
+        .concat(),
+    );
     let err = String::from_utf8_lossy(&mixed.stderr);
     assert!(mixed.status.success(), "{err}");
     assert!(
@@ -228,27 +223,11 @@ fn representations_compare_and_bench_crowd_work_end_to_end() {
         ("1,-1", "give 2 numbers"),
         ("0,0", "not all 0"),
     ] {
-        let bad = polypostor(&[
-            "bench",
-            "crowd",
-            "--pack",
-            out.to_str().unwrap(),
-            "--with",
-            out.to_str().unwrap(),
-            "--shares",
-            shares,
-        ]);
+        let bad = bench_crowd(&["--with", pack, "--shares", shares]);
         assert_eq!(bad.status.code(), Some(1), "--shares {shares}");
         assert!(String::from_utf8_lossy(&bad.stderr).contains(why), "--shares {shares}");
     }
-    let bad = polypostor(&[
-        "bench",
-        "crowd",
-        "--pack",
-        out.to_str().unwrap(),
-        "--with",
-        dir.join("nothing-here").to_str().unwrap(),
-    ]);
+    let bad = bench_crowd(&["--with", dir.join("nothing-here").to_str().unwrap()]);
     assert_eq!(bad.status.code(), Some(1));
     assert!(
         String::from_utf8_lossy(&bad.stderr).contains("--with"),
