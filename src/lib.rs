@@ -1,5 +1,9 @@
 //! # Polypostor Studio — the library
 //!
+//! The baking library. What an engine needs at run time (loading packs, the crowd, the wgpu
+//! renderers, glTF import) is the `polypostor-runtime` crate (`crates/polypostor-runtime`),
+//! whose modules are re-exported here under the same names.
+//!
 //! Everything the editor and the command line do, without any user interface: glTF import,
 //! the character model and its animation, the procedurally generated default character,
 //! headless GPU rendering, and the project document. The editor (`src/editor/`, binary only)
@@ -25,23 +29,18 @@
 //! - [`safe_fs`]: bounded reads of regular files, outputs that never clobber what the user
 //!   had, staging clean-up and temporary folders.
 
-pub mod animation;
+pub use polypostor_runtime::{
+    animation, character, crowd, default_character, gltf_write, import, limits, safe_fs, timeline,
+};
+
 pub mod bake;
-pub mod character;
-pub mod crowd;
-pub mod default_character;
 pub mod edit;
-pub mod gltf_write;
 pub mod gpu;
-pub mod import;
-pub mod limits;
 pub mod metrics;
 pub mod pack;
 pub mod plot;
 pub mod project;
 pub mod reps;
-pub mod safe_fs;
-pub mod timeline;
 
 pub use character::Character;
 pub use import::{ImportError, import_path};

@@ -19,8 +19,7 @@ use super::image_cost::PartTile;
 use super::part_fit::{PartFit, PartFitOptions, Span, fit_part_span};
 use super::raster::{Canvas, psnr, tile_canvas};
 
-/// Most key images per part and view the format and the renderer take.
-pub const MAX_KEYS: usize = 8;
+pub use crate::pack::MAX_KEYS;
 
 /// How a bake chooses each view's key images.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]

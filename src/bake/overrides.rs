@@ -225,14 +225,7 @@ impl BakeOverrides {
     }
 }
 
-/// `order` if it lists every part of `0..parts` exactly once.
-pub fn valid_order(order: &[usize], parts: usize) -> bool {
-    let mut seen = vec![false; parts];
-    order.len() == parts
-        && order
-            .iter()
-            .all(|&p| p < parts && !std::mem::replace(&mut seen[p], true))
-}
+pub use crate::pack::valid_order;
 
 #[cfg(test)]
 mod tests {

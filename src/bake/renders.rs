@@ -17,16 +17,7 @@ pub const DEFAULT_RESOLUTION: u32 = 128;
 /// Empty border around the framed character, relative to its half size.
 pub const FRAMING_MARGIN: f32 = 0.04;
 
-/// Sample times of a looping clip at `fps`: `0, 1/fps, …` strictly before the end (the end
-/// equals the start). At least one frame.
-pub fn frame_times(duration_secs: f32, fps: f32) -> Vec<f32> {
-    if !(duration_secs > 0.0) || !(fps > 0.0) {
-        return vec![0.0];
-    }
-    // Callers check the count first ([`crate::limits::frame_count`]); never more than the limit.
-    let n = crate::limits::frame_count(duration_secs, fps).unwrap_or(crate::limits::MAX_FRAMES);
-    (0..n).map(|k| k as f32 / fps).collect()
-}
+pub use crate::timeline::frame_times;
 
 /// Every part (with its caps) in one character; `ranges[p]` are part `p`'s index ranges.
 pub fn merge_parts(

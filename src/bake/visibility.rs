@@ -7,7 +7,7 @@
 //! set — found exactly by dynamic programming over subsets, `O(2^k·k²)` for `k` parts.
 
 /// Most parts [`draw_order`] accepts (2^k table entries).
-pub const MAX_PARTS: usize = 20;
+pub use crate::limits::MAX_PARTS;
 
 /// The drawing order (first drawn first) and the total weight of occlusions it gets wrong.
 #[derive(Clone, Debug, PartialEq)]

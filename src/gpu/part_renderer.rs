@@ -143,7 +143,7 @@ impl PartRenderer {
         let gpu = GpuCharacter::new(renderer, device, queue, merged);
         let camera_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("bake camera"),
-            size: std::mem::size_of::<super::gpu_data::FrameUniforms>() as u64,
+            size: std::mem::size_of::<polypostor_runtime::gpu::gpu_data::FrameUniforms>() as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });

@@ -1,23 +1,10 @@
-//! The Polypostor pack: a versioned, documented on-disk format (see `docs/PACK_FORMAT.md`)
-//! with a writer and a loader that validates everything it reads.
-//!
-//! A pack is a folder: `manifest.json`, `vertices.bin` (little-endian f32), `indices.bin`
-//! (little-endian u16) and one atlas PNG per view holding every part's key-frame colour
-//! (left half) and normal (right half) images.
+//! The Polypostor pack's writer and atlas packing; the format and its validating loader are
+//! the runtime crate's ([`polypostor_runtime::pack`], re-exported here).
+
+pub use polypostor_runtime::pack::*;
 
 mod atlas;
-mod format;
-mod load;
 mod write;
 
 pub use atlas::{Atlas, AtlasRect, dilate, pack_atlas};
-pub use format::{
-    Checksums, FORMAT_NAME, FORMAT_VERSION, FileSum, Manifest, ManifestKey, ManifestPart, ManifestView, PackCamera,
-};
-pub(crate) use load::{
-    FolderReader, check_camera, check_direction, check_resolution_views, check_texture_budget, check_timing,
-    parse_manifest,
-};
-pub use load::{LoadedPack, LoadedView, MAX_ATLAS_SIDE, MAX_PART_VERTICES, PackError, load_pack};
-pub(crate) use write::put_file;
 pub use write::{PackStats, write_folder_atomic, write_pack, write_pack_with};

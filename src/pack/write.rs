@@ -4,10 +4,10 @@
 use std::path::{Path, PathBuf};
 
 use super::atlas::pack_atlas;
-use super::format::{
-    Checksums, FORMAT_NAME, FORMAT_VERSION, FileSum, Manifest, ManifestKey, ManifestPart, ManifestView, PackCamera,
-};
 use crate::bake::pipeline::Bake;
+use crate::pack::{
+    Checksums, FORMAT_NAME, FORMAT_VERSION, Manifest, ManifestKey, ManifestPart, ManifestView, PackCamera, put_file,
+};
 
 /// Sizes of a written pack.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
@@ -106,14 +106,6 @@ pub fn write_folder_atomic<T>(out: &Path, fill: &dyn Fn(&Path) -> Result<T, Stri
             Err(e)
         }
     }
-}
-
-/// Writes `bytes` as `name` into `dir` and records its checksum.
-pub(crate) fn put_file(dir: &Path, name: &str, bytes: &[u8], sums: &mut Checksums) -> Result<(), String> {
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).map_err(|e| io(&path, e))?;
-    sums.insert(name.to_string(), FileSum::of(bytes));
-    Ok(())
 }
 
 fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> Result<PackStats, String> {

@@ -392,15 +392,7 @@ pub fn bake_representations_sharing(
     })
 }
 
-/// Columns of a sheet of `n` tiles: near square, with as few empty tiles as possible (10
-/// frames: 5 × 2 rather than 4 × 3).
-pub fn sheet_columns(n: usize) -> u32 {
-    let n = n.max(1);
-    let lo = (n as f64).sqrt().ceil() as usize;
-    (lo..=(2 * lo).min(n))
-        .min_by_key(|&c| (c * n.div_ceil(c) - n, c))
-        .unwrap_or(lo) as u32
-}
+pub use super::sheet_columns;
 
 /// A copy of the character whose unlit colour is the body part of each triangle (red: part
 /// mod 16, green: part / 16, each in fifteenths, linear), with every triangle's vertices its

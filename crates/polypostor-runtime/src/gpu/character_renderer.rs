@@ -133,7 +133,7 @@ impl RenderTarget {
 
     /// A render pass over the three targets, cleared (colour to `clear`, normal to
     /// transparent, depth to far).
-    pub(crate) fn begin_pass<'e>(
+    pub fn begin_pass<'e>(
         &'e self,
         encoder: &'e mut wgpu::CommandEncoder,
         label: &'static str,
@@ -144,7 +144,7 @@ impl RenderTarget {
 
     /// A render pass over the three targets that keeps the colour and normal images and
     /// clears depth to far.
-    pub(crate) fn begin_pass_over<'e>(
+    pub fn begin_pass_over<'e>(
         &'e self,
         encoder: &'e mut wgpu::CommandEncoder,
         label: &'static str,
@@ -446,17 +446,12 @@ impl CharacterRenderer {
         &self.material_layout
     }
 
-    pub(crate) fn pipeline(&self) -> &wgpu::RenderPipeline {
+    pub fn pipeline(&self) -> &wgpu::RenderPipeline {
         &self.pipeline
     }
 
     /// A group-0 bind group of a camera buffer and a bones buffer.
-    pub(crate) fn frame_group(
-        &self,
-        device: &wgpu::Device,
-        frame: &wgpu::Buffer,
-        bones: &wgpu::Buffer,
-    ) -> wgpu::BindGroup {
+    pub fn frame_group(&self, device: &wgpu::Device, frame: &wgpu::Buffer, bones: &wgpu::Buffer) -> wgpu::BindGroup {
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
             layout: &self.frame_layout,
@@ -646,7 +641,7 @@ fn upload_texture(device: &wgpu::Device, queue: &wgpu::Queue, t: &Texture) -> wg
 }
 
 /// Uniforms of a camera for one draw.
-pub(crate) fn frame_uniforms(camera: &Camera, aspect: f32, shading: Shading) -> FrameUniforms {
+pub fn frame_uniforms(camera: &Camera, aspect: f32, shading: Shading) -> FrameUniforms {
     let light = Vec3::new(-0.45, 0.65, 0.6).normalize();
     FrameUniforms {
         clip_from_world: camera.clip_from_world(aspect).to_cols_array_2d(),
@@ -660,7 +655,7 @@ pub(crate) fn frame_uniforms(camera: &Camera, aspect: f32, shading: Shading) -> 
 }
 
 /// Bone matrices of a pose in the uniform layout (identity past the pose's bones).
-pub(crate) fn bones_uniforms(pose: &Pose) -> Bones {
+pub fn bones_uniforms(pose: &Pose) -> Bones {
     let mut bones = Bones {
         m: [Mat4::IDENTITY.to_cols_array_2d(); MAX_BONES],
     };
@@ -672,7 +667,7 @@ pub(crate) fn bones_uniforms(pose: &Pose) -> Bones {
 
 impl GpuCharacter {
     /// Binds the vertex and index buffers.
-    pub(crate) fn bind_geometry<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>) {
+    pub fn bind_geometry<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>) {
         pass.set_vertex_buffer(0, self.stream0.slice(..));
         pass.set_vertex_buffer(1, self.stream1.slice(..));
         pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
@@ -700,7 +695,7 @@ impl GpuCharacter {
     }
 
     /// Draws index ranges with their materials (geometry must be bound).
-    pub(crate) fn draw_ranges<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, ranges: &[crate::character::Submesh]) {
+    pub fn draw_ranges<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, ranges: &[crate::character::Submesh]) {
         for s in ranges {
             if let Some((_, group)) = self.materials.get(s.material) {
                 pass.set_bind_group(1, group, &[]);

@@ -96,7 +96,7 @@ pub struct ManifestPart {
     /// The frame this key image is of (the view's key frame).
     #[serde(default)]
     pub key_frame: u32,
-    /// The part's further key images in this view ([`crate::bake::keys`]).
+    /// The part's further key images in this view (the bake's key choice).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub extra_keys: Vec<ManifestKey>,
     /// Per frame, the key it is drawn from: 0 this entry's image, `k` `extra_keys[k - 1]`.
@@ -177,4 +177,15 @@ impl Manifest {
     pub fn next_frame(&self, f: usize) -> usize {
         crate::timeline::next_frame(&self.clips, f)
     }
+}
+
+/// Most key images per part and view the format and the renderer take.
+pub const MAX_KEYS: usize = 8;
+
+/// Writes `bytes` as `name` into `dir` and records its checksum.
+pub fn put_file(dir: &std::path::Path, name: &str, bytes: &[u8], sums: &mut Checksums) -> Result<(), String> {
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+    sums.insert(name.to_string(), FileSum::of(bytes));
+    Ok(())
 }

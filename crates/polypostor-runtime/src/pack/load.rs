@@ -398,7 +398,7 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
                 view.parts.len()
             )));
         }
-        if !crate::bake::overrides::valid_order(&view.order.iter().map(|&o| o as usize).collect::<Vec<_>>(), parts) {
+        if !crate::pack::valid_order(&view.order.iter().map(|&o| o as usize).collect::<Vec<_>>(), parts) {
             return Err(damaged(format!(
                 "{what}: drawing order {:?} is not a permutation of the {parts} parts",
                 view.order
@@ -450,11 +450,11 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
                 frames,
             };
             first.check(&w, vertex_values, index_values, [aw, ah])?;
-            if part.extra_keys.len() + 1 > crate::bake::keys::MAX_KEYS {
+            if part.extra_keys.len() + 1 > crate::pack::MAX_KEYS {
                 return Err(damaged(format!(
                     "{w}: {} key images, more than {}",
                     part.extra_keys.len() + 1,
-                    crate::bake::keys::MAX_KEYS
+                    crate::pack::MAX_KEYS
                 )));
             }
             if part.extra_keys.is_empty() != part.frame_keys.is_empty() {
@@ -620,4 +620,12 @@ impl LoadedPack {
         let pos = self.vertices.get(start..start + vc * 2)?;
         Some((uv.to_vec(), pos.iter().map(|x| x * 2.0 - 1.0).collect()))
     }
+}
+/// `order` if it lists every part of `0..parts` exactly once.
+pub fn valid_order(order: &[usize], parts: usize) -> bool {
+    let mut seen = vec![false; parts];
+    order.len() == parts
+        && order
+            .iter()
+            .all(|&p| p < parts && !std::mem::replace(&mut seen[p], true))
 }

@@ -15,7 +15,7 @@ pub const MAX_FPS: f32 = 240.0;
 pub const MAX_FRAMES: usize = 10_000;
 /// Most body parts a segmentation may have (the exact visibility order is a dynamic
 /// programme over subsets of parts: `2^parts` table entries).
-pub const MAX_PARTS: usize = crate::bake::visibility::MAX_PARTS;
+pub const MAX_PARTS: usize = 20;
 /// Estimated peak memory a bake may need (images of the views in flight, key-frame images of
 /// every view, impostor sheets). A bake estimated above it is refused before it starts, with
 /// the settings that would fit.
@@ -42,7 +42,7 @@ pub const MAX_RENDER_PIXELS: u64 = 96 << 20;
 pub struct LimitError(pub String);
 
 /// Frames of a clip of `duration_secs` sampled at `fps` (at least one), or the limit it
-/// exceeds. The count matches [`crate::bake::renders::frame_times`].
+/// exceeds. The count matches [`crate::timeline::frame_times`].
 pub fn frame_count(duration_secs: f32, fps: f32) -> Result<usize, LimitError> {
     if !(duration_secs.is_finite() && fps.is_finite()) {
         return Err(LimitError(format!(
@@ -116,7 +116,7 @@ mod tests {
         ] {
             assert_eq!(
                 frame_count(d, f).unwrap(),
-                crate::bake::renders::frame_times(d, f).len(),
+                crate::timeline::frame_times(d, f).len(),
                 "{d} s at {f} fps"
             );
         }

@@ -1,6 +1,6 @@
 use super::*;
-use crate::bake::viewpoints::{Coverage, directions};
 use crate::gpu::{Camera, Projection};
+use crate::viewpoints::{Coverage, directions};
 use lod::LodDistances;
 
 fn camera(eye: Vec3, target: Vec3, w: f32, h: f32) -> CrowdCamera {
@@ -147,7 +147,7 @@ fn the_view_is_the_camera_direction_in_the_character_frame() {
             ClipTiming { frames: 1, fps: 10.0 },
         );
         let inst = crowd.instances[0][Level::Impostor as usize][0];
-        let want = crate::bake::viewpoints::nearest(&views, Vec3::new(0.0, 2.0, 10.0)).unwrap();
+        let want = crate::viewpoints::nearest(&views, Vec3::new(0.0, 2.0, 10.0)).unwrap();
         assert_eq!(inst.view as usize, want, "heading {heading}");
     }
 }

@@ -15,7 +15,7 @@ use std::time::Instant;
 
 use glam::{Mat4, Vec2, Vec3};
 
-use crate::bake::viewpoints::ViewLookup;
+use crate::viewpoints::ViewLookup;
 use frustum::Frustum;
 use grid::OccupancyGrid;
 use lod::{Level, LodPolicy};

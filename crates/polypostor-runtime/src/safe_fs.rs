@@ -416,7 +416,7 @@ pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
             dir.display()
         ));
     }
-    crate::project::write_atomic(path, bytes).map_err(|e| format!("{}: {e}", path.display()))
+    write_atomic(path, bytes).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Whether process `pid` is alive on this machine.
@@ -570,6 +570,35 @@ pub fn remove_temp_dirs() {
             let _ = std::fs::remove_dir_all(p);
         }
     }
+}
+
+/// Writes `bytes` to `path` atomically: a temporary file in the same folder, flushed, then
+/// renamed over the target.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir)?;
+    // What killed writers left here (never anything this tool did not write).
+    clean_stale_staging(dir);
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "file".into());
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        drop(f);
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
 }
 
 #[cfg(test)]

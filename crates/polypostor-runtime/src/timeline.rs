@@ -473,6 +473,17 @@ pub fn measure_motion(character: &Character, clip: Option<usize>) -> ClipMotion 
     }
 }
 
+/// Sample times of a looping clip at `fps`: `0, 1/fps, …` strictly before the end (the end
+/// equals the start). At least one frame.
+pub fn frame_times(duration_secs: f32, fps: f32) -> Vec<f32> {
+    if !(duration_secs > 0.0) || !(fps > 0.0) {
+        return vec![0.0];
+    }
+    // Callers check the count first ([`crate::limits::frame_count`]); never more than the limit.
+    let n = crate::limits::frame_count(duration_secs, fps).unwrap_or(crate::limits::MAX_FRAMES);
+    (0..n).map(|k| k as f32 / fps).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

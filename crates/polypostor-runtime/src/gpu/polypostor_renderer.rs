@@ -582,7 +582,7 @@ fn coarse_triangles(uvs: &[f32], step: usize) -> Option<Vec<u32>> {
     }
     let keep: Vec<usize> = (0..n).step_by(step).collect();
     let points: Vec<[f32; 2]> = keep.iter().map(|&k| [uvs[2 * k], uvs[2 * k + 1]]).collect();
-    let tris = crate::bake::triangulate::triangulate(&points).ok()?;
+    let tris = crate::triangulate::triangulate(&points).ok()?;
     Some(tris.iter().flatten().map(|&i| keep[i] as u32).collect())
 }
 

@@ -9,11 +9,11 @@ use glam::Vec3;
 
 use super::lod::{Level, LodPolicy};
 use super::{CharacterSize, ClipTiming, Crowd, CrowdCamera, CrowdParams, FrameStats, Species};
-use crate::bake::viewpoints::ViewLookup;
 use crate::character::Character;
 use crate::gpu::{Camera, CrowdRenderers, GpuError, PolypostorStyle, RenderTarget};
 use crate::pack::LoadedPack;
 use crate::reps::Representations;
+use crate::viewpoints::ViewLookup;
 
 /// Everything a crowd is drawn from.
 pub struct CrowdAssets {
@@ -143,7 +143,7 @@ impl CrowdAssets {
             ));
         }
         let labels = labels.unwrap_or_else(|| {
-            crate::bake::segment::auto_segment(&c)
+            crate::segment::auto_segment(&c)
                 .labels
                 .iter()
                 .map(|&l| l as u32)
