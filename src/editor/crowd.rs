@@ -843,7 +843,7 @@ impl CrowdPanel {
     }
 }
 
-/// The crowd's GPU state, kept in the viewport resources.
+/// The crowd's GPU state, an entry of egui_wgpu's callback resources beside the viewport's.
 pub struct CrowdGpu {
     generation: u64,
     scene: CrowdScene,
@@ -883,9 +883,40 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
         _encoder: &mut wgpu::CommandEncoder,
         resources: &mut egui_wgpu::CallbackResources,
     ) -> Vec<wgpu::CommandBuffer> {
-        let Some(res) = resources.get_mut::<ViewportResources>() else {
-            return Vec::new();
+        // The crowd's state is an entry of its own beside the viewport's (taken out while
+        // both are needed, then put back).
+        let mut slot = resources.remove::<CrowdGpu>();
+        if let Some(res) = resources.get_mut::<ViewportResources>() {
+            self.prepare_crowd(device, queue, res, &mut slot);
+        }
+        if let Some(crowd) = slot {
+            resources.insert(crowd);
+        }
+        Vec::new()
+    }
+
+    fn paint(
+        &self,
+        _info: egui::PaintCallbackInfo,
+        pass: &mut wgpu::RenderPass<'static>,
+        resources: &egui_wgpu::CallbackResources,
+    ) {
+        let (Some(res), Some(crowd)) = (resources.get::<ViewportResources>(), resources.get::<CrowdGpu>()) else {
+            return;
         };
+        res.blit(pass, &crowd.blit, true);
+    }
+}
+
+impl CrowdCallback {
+    /// Builds or updates the crowd's scene in `slot` and draws a frame into its target.
+    fn prepare_crowd(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        res: &mut ViewportResources,
+        slot: &mut Option<CrowdGpu>,
+    ) {
         let [w, h] = [self.size_px[0].max(1), self.size_px[1].max(1)];
         let params = self.assets.crowd_params(self.count);
         // Full-resolution impostor sheets only for the impostor level on its own (the mix
@@ -895,12 +926,11 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
             && std::iter::once(&self.assets)
                 .chain(&self.guests)
                 .all(|a| a.full_impostors_ready());
-        let stale = res
-            .crowd
+        let stale = slot
             .as_ref()
             .is_none_or(|c| c.generation != self.generation || (full && !c.scene.renderers.has_full_impostors()));
         if stale {
-            res.crowd = None;
+            *slot = None;
             let scene = if self.guests.is_empty() {
                 CrowdScene::with_impostors(device, queue, &self.assets, params.clone(), full)
             } else {
@@ -913,7 +943,7 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
                 Ok(scene) => {
                     let target = res.new_target(device, w, h);
                     let blit = res.blit_group(device, &target);
-                    res.crowd = Some(CrowdGpu {
+                    *slot = Some(CrowdGpu {
                         generation: self.generation,
                         scene,
                         target,
@@ -926,24 +956,23 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
                     if let Ok(mut s) = self.stats.lock() {
                         s.error = Some(format!("cannot draw this crowd: {e}"));
                     }
-                    return Vec::new();
+                    return;
                 }
             }
         }
-        let resize = res
-            .crowd
+        let resize = slot
             .as_ref()
             .is_some_and(|c| c.target.width != w || c.target.height != h);
         if resize {
             let target = res.new_target(device, w, h);
             let blit = res.blit_group(device, &target);
-            if let Some(c) = res.crowd.as_mut() {
+            if let Some(c) = slot.as_mut() {
                 c.target = target;
                 c.blit = blit;
             }
         }
-        let Some(crowd) = res.crowd.as_mut() else {
-            return Vec::new();
+        let Some(crowd) = slot.as_mut() else {
+            return;
         };
         if crowd.scene.crowd.params.count != self.count {
             crowd.scene.respawn(params);
@@ -1001,20 +1030,6 @@ impl egui_wgpu::CallbackTrait for CrowdCallback {
                 out.gpu_bytes[l as usize] = crowd.scene.gpu_bytes(l);
             }
         }
-        Vec::new()
-    }
-
-    fn paint(
-        &self,
-        _info: egui::PaintCallbackInfo,
-        pass: &mut wgpu::RenderPass<'static>,
-        resources: &egui_wgpu::CallbackResources,
-    ) {
-        let Some(res) = resources.get::<ViewportResources>() else {
-            return;
-        };
-        let Some(crowd) = &res.crowd else { return };
-        res.blit(pass, &crowd.blit, true);
     }
 }
 

@@ -39,7 +39,20 @@ pub enum Command {
     Undo,
     Redo,
     /// Bake and write the chosen representations, then preview them.
-    Export(super::export::ExportRequest),
+    Export(ExportRequest),
+}
+
+/// What the user asked to export.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExportRequest {
+    pub folder: PathBuf,
+    pub set: polypostor::reps::RepSet,
+    pub views: usize,
+    pub resolution: u32,
+    pub fps: f32,
+    pub png: polypostor::bake::pipeline::PngCompression,
+    /// The clips to bake, in the character's order (the project's clip set from now on).
+    pub clips: Vec<String>,
 }
 
 /// The open project and its loaded character.

@@ -10,7 +10,7 @@ use polypostor::bake::pipeline::PngCompression;
 use polypostor::reps::RepSet;
 use polypostor::reps::compare::estimate;
 
-use super::document::Document;
+use super::document::{Document, ExportRequest};
 
 pub struct ExportDialog {
     pub open: bool,
@@ -43,18 +43,6 @@ impl Default for ExportDialog {
     }
 }
 
-/// What the user asked to export.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ExportRequest {
-    pub folder: PathBuf,
-    pub set: RepSet,
-    pub views: usize,
-    pub resolution: u32,
-    pub fps: f32,
-    pub png: PngCompression,
-    /// The clips to bake, in the character's order (the project's clip set from now on).
-    pub clips: Vec<String>,
-}
 
 fn mb(bytes: u64) -> String {
     format!("{:.1} MB", bytes as f64 / 1e6)

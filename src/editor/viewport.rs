@@ -115,8 +115,6 @@ impl OrbitCamera {
 
 /// GPU state of the viewport, kept in egui_wgpu's callback resources.
 pub struct ViewportResources {
-    /// The crowd preview's scene (see `crowd.rs`).
-    pub crowd: Option<super::crowd::CrowdGpu>,
     renderer: CharacterRenderer,
     character: Option<(u64, GpuCharacter)>,
     target: Option<RenderTarget>,
@@ -215,7 +213,6 @@ impl ViewportResources {
             .write()
             .callback_resources
             .insert(ViewportResources {
-                crowd: None,
                 renderer,
                 character: None,
                 target: None,
