@@ -43,7 +43,6 @@ impl Default for ExportDialog {
     }
 }
 
-
 fn mb(bytes: u64) -> String {
     format!("{:.1} MB", bytes as f64 / 1e6)
 }

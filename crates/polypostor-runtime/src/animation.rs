@@ -12,7 +12,11 @@ use crate::character::{Channel, ChannelValues, Character, Clip, Interpolation, T
 /// every bone.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Pose {
+    /// Local transform of every skeleton node, indexed like `Skeleton::nodes`: the clip's
+    /// sampled values, and the node's rest transform for whatever the clip does not animate.
     pub locals: Vec<Transform>,
+    /// Matrix taking each node's space into the character's model space (the space above the
+    /// skeleton's roots, where skinned vertices land), indexed like `Skeleton::nodes`.
     pub world_from_node: Vec<Mat4>,
     /// `world_from_node[bone.node] * bone.inverse_bind`, one per bone.
     pub skin_from_bind: Vec<Mat4>,

@@ -21,6 +21,8 @@ pub enum BufferStorage {
 
 /// The output of [`write_gltf`].
 pub struct GltfFiles {
+    /// The `.gltf` document as pretty-printed JSON text; its one buffer's `uri` is the data URI
+    /// or the external file name.
     pub json: String,
     /// The external buffer, for [`BufferStorage::External`].
     pub bin: Option<Vec<u8>>,

@@ -28,6 +28,8 @@
 //! - [`default_character`], [`gltf_write`]: the built-in humanoid (a character to try the
 //!   run time with) and the small glTF writer it is saved with.
 
+#![deny(missing_docs)]
+
 pub mod animation;
 pub mod character;
 pub mod crowd;

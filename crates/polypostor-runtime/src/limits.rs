@@ -6,9 +6,11 @@
 pub const MAX_VIEWS: usize = 4096;
 /// Part image resolution range of a bake (`--resolution`), pixels per side.
 pub const MIN_RESOLUTION: u32 = 16;
+/// Largest part image resolution of a bake (`--resolution`), pixels per side.
 pub const MAX_RESOLUTION: u32 = 2048;
 /// Clip sampling rate range of a bake (`--fps`), frames per second.
 pub const MIN_FPS: f32 = 0.01;
+/// Highest clip sampling rate of a bake (`--fps`), frames per second.
 pub const MAX_FPS: f32 = 240.0;
 /// Most frames of one baked clip (clip duration × frame rate); packs and representation
 /// folders with more are refused as damaged.

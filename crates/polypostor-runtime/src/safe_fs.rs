@@ -23,17 +23,38 @@ pub const GENERATOR: &str = concat!("Polypostor Studio ", env!("CARGO_PKG_VERSIO
 /// The prefix every version's [`GENERATOR`] starts with.
 pub const GENERATOR_PREFIX: &str = "Polypostor Studio";
 
+/// Why a bounded read ([`read_regular`], [`read_regular_string`]) refused or failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum FsError {
+    /// The file could not be opened or read (missing, no permission, an I/O failure), or
+    /// [`read_regular_string`] found it is not UTF-8 text.
     #[error("cannot read '{path}': {message}")]
-    Io { path: PathBuf, message: String },
+    Io {
+        /// The file asked for.
+        path: PathBuf,
+        /// The operating system's error text (or the UTF-8 decoding error).
+        message: String,
+    },
+    /// The path (or the target of a symbolic link there) is not a regular file: a folder, a
+    /// FIFO, a device or a socket. It is refused before any byte is read.
     #[error("'{path}' is {kind}, not a regular file")]
-    NotRegular { path: PathBuf, kind: &'static str },
+    NotRegular {
+        /// The path asked for.
+        path: PathBuf,
+        /// What it is instead, in words ("a FIFO", "a folder"; see [`kind_of`]).
+        kind: &'static str,
+    },
+    /// The file holds more bytes than the read allows.
     #[error("'{path}' is {len} bytes, more than the limit of {limit} bytes for {what}")]
     TooLarge {
+        /// The file asked for.
         path: PathBuf,
+        /// Its size in bytes; for a file that grew while being read, the bytes read before
+        /// the read stopped (one past `limit`).
         len: u64,
+        /// Most bytes the read accepts.
         limit: u64,
+        /// What the limit is for, in words (e.g. "a manifest"), as the error message names it.
         what: &'static str,
     },
 }
@@ -500,7 +521,7 @@ fn staging_pid(name: &str) -> Option<u32> {
 }
 
 /// A temporary folder that is removed when dropped and when the process is interrupted
-/// (Ctrl-C / SIGTERM through [`install_interrupt_cleanup`]).
+/// (Ctrl-C / SIGTERM, by a handler that calls [`remove_temp_dirs`]).
 pub struct TempDir {
     path: PathBuf,
 }
@@ -549,6 +570,8 @@ impl TempDir {
         }
     }
 
+    /// Where the folder is (absolute, in the system's temporary folder); it exists until the
+    /// `TempDir` is dropped.
     pub fn path(&self) -> &Path {
         &self.path
     }

@@ -16,6 +16,8 @@ use crate::character::Character;
 /// A body part.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Part {
+    /// Display name, unique within an automatic segmentation (`Torso`, `Left Arm`,
+    /// `Front Right Leg`, `Tail`, ...).
     pub name: String,
     /// Display colour (sRGB bytes).
     pub color: [u8; 3],
@@ -24,6 +26,8 @@ pub struct Part {
 /// Per-triangle part labels and the parts they refer to.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Segmentation {
+    /// The parts, which `labels` index. In an automatic segmentation part 0 is the trunk
+    /// (`Torso`).
     pub parts: Vec<Part>,
     /// `labels[t]` is the part of triangle `t` of the character.
     pub labels: Vec<u16>,

@@ -49,7 +49,11 @@ impl ClipSpan {
 /// Clips one after another at one frame rate.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Timeline {
+    /// Frames per second every clip is sampled at (frame `k` of a span is `k / fps` seconds
+    /// into its clip).
     pub fps: f32,
+    /// Each clip's frames, in bake order: consecutive from frame 0, one span per entry of
+    /// `clips`.
     pub spans: Vec<ClipSpan>,
     /// The character's clip index of each span (`None`: the rest pose).
     pub clips: Vec<Option<usize>>,
@@ -290,7 +294,7 @@ pub fn validate(spans: &[ClipSpan], frames: usize) -> Result<(), String> {
 }
 
 /// Samples per clip used to measure its ground speed.
-const SPEED_SAMPLES: usize = 48;
+pub const SPEED_SAMPLES: usize = 48;
 
 /// How a clip moves, measured on the skinned mesh at [`SPEED_SAMPLES`] times over one loop.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -323,6 +327,8 @@ pub const LOOP_CLOSURE: f32 = 0.1;
 /// Least [`ClipMotion::contact`] and largest [`ClipMotion::spread`] of locomotion (a run's
 /// flight phases keep its contact point steady only about half the time).
 pub const LOCOMOTION_CONTACT: f32 = 0.4;
+/// Largest [`ClipMotion::spread`] of locomotion, a ratio to the ground speed: above it the
+/// contact point moves too unevenly for a walk or a run.
 pub const LOCOMOTION_SPREAD: f32 = 1.0;
 
 impl ClipMotion {

@@ -4,18 +4,31 @@
 
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation as _};
 
+/// Why a polygon could not be triangulated. Vertex and edge numbers are positions in the
+/// input (edge `i` runs from vertex `i` to vertex `i + 1`, wrapping).
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum TriangulateError {
+    /// Fewer than three vertices (how many were given).
     #[error("a polygon needs at least 3 vertices, got {0}")]
     TooFewVertices(usize),
+    /// A vertex is NaN or infinite, or outside the range the triangulation accepts (its number).
     #[error("polygon vertex {0} is not a finite point")]
     NotFinite(usize),
+    /// Two vertices are the same point (the earlier number, then the later).
     #[error("polygon vertices {0} and {1} coincide")]
     DuplicateVertex(usize, usize),
+    /// Edges cross, or an edge runs through a vertex: the first edge found crossing (0 when
+    /// the crossing shows only once every edge is in).
     #[error("the polygon is not simple (edge {0} crosses another edge)")]
     NotSimple(usize),
+    /// The triangles kept inside the polygon are not `n - 2` (a nearly degenerate polygon).
     #[error("triangulation gave {got} triangles instead of {want}")]
-    WrongCount { got: usize, want: usize },
+    WrongCount {
+        /// Triangles kept.
+        got: usize,
+        /// Triangles a simple polygon of this many vertices has (`n - 2`).
+        want: usize,
+    },
 }
 
 fn area2(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {

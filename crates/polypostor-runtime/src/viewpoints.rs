@@ -15,6 +15,7 @@ pub const DEFAULT_VIEW_COUNT: usize = 137;
 pub enum Coverage {
     /// Directions with y ≥ 0 (cameras at or above the horizon).
     UpperHemisphere,
+    /// Directions over the whole sphere, below the horizon too.
     FullSphere,
 }
 
@@ -77,6 +78,8 @@ fn cube_dir(face: usize, u: f32, v: f32) -> Vec3 {
 }
 
 impl ViewLookup {
+    /// The lookup for `views` (normalised here; the indices it returns are positions in
+    /// `views`). Building tests every view against every cell, so build it once per set of views.
     pub fn new(views: &[Vec3]) -> Self {
         let views: Vec<Vec3> = views.iter().map(|v| v.normalize_or_zero()).collect();
         // About fourteen cells per view (a few candidates each), at least a coarse grid.

@@ -31,8 +31,11 @@ pub struct Vertex {
 /// A local transform: translation, rotation, scale (applied scale first).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Transform {
+    /// Offset from the parent node's origin, in the parent's units (applied last).
     pub translation: Vec3,
+    /// Rotation as a unit quaternion, applied after the scale.
     pub rotation: Quat,
+    /// Per-axis scale factors, applied first (`Vec3::ONE`: none).
     pub scale: Vec3,
 }
 
@@ -43,16 +46,21 @@ impl Default for Transform {
 }
 
 impl Transform {
+    /// No translation, no rotation, unit scale.
     pub const IDENTITY: Self = Self {
         translation: Vec3::ZERO,
         rotation: Quat::IDENTITY,
         scale: Vec3::ONE,
     };
 
+    /// The parent-from-node matrix `T * R * S`.
     pub fn to_mat4(&self) -> Mat4 {
         Mat4::from_scale_rotation_translation(self.scale, self.rotation, self.translation)
     }
 
+    /// Splits an affine matrix into translation, rotation and scale. Shear cannot be represented
+    /// and is lost; a mirroring matrix gets a negative x scale; a singular one can give
+    /// non-finite parts.
     pub fn from_mat4(m: Mat4) -> Self {
         let (scale, rotation, translation) = m.to_scale_rotation_translation();
         Self {
@@ -66,6 +74,8 @@ impl Transform {
 /// A node of the skeleton hierarchy. Nodes are stored parents first.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Node {
+    /// Name from the file (`node{i}` with the file's node index when it has none; `root` for the
+    /// single node of a file without a skin). Not necessarily unique.
     pub name: String,
     /// Index of the parent node; always smaller than this node's index.
     pub parent: Option<usize>,
@@ -79,6 +89,7 @@ pub struct Node {
 /// The node hierarchy of the character.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Skeleton {
+    /// Every node, parents before children (a node's parent has a smaller index).
     pub nodes: Vec<Node>,
 }
 
@@ -118,14 +129,19 @@ impl Skeleton {
 /// that node's space.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bone {
+    /// Index into [`Skeleton::nodes`] of the node the bone follows.
     pub node: usize,
+    /// Takes bind-space vertices into the node's space as it was at bind time (identity for
+    /// meshes bound rigidly to their own node and for files without a skin).
     pub inverse_bind: Mat4,
 }
 
 /// How a sampler interpolates between keys (glTF's three modes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Interpolation {
+    /// Each key's value holds until the next key.
     Step,
+    /// Linear between keys (spherical linear for rotations).
     Linear,
     /// Values are stored as (in-tangent, value, out-tangent) triples per key.
     CubicSpline,
@@ -134,15 +150,20 @@ pub enum Interpolation {
 /// The animated property of a channel.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ChannelValues {
+    /// Translations, in the parent node's units.
     Translation(Vec<Vec3>),
+    /// Rotations as unit quaternions (cubic-spline tangents are left unnormalised).
     Rotation(Vec<Quat>),
+    /// Per-axis scales.
     Scale(Vec<Vec3>),
 }
 
 /// One animated property of one node.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Channel {
+    /// Index into [`Skeleton::nodes`] of the animated node.
     pub node: usize,
+    /// How values are interpolated between `times`.
     pub interpolation: Interpolation,
     /// Key times in seconds, strictly increasing.
     pub times: Vec<f32>,
@@ -153,17 +174,24 @@ pub struct Channel {
 /// An animation clip.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Clip {
+    /// Name from the file (`Animation {i}` with the file's animation index when it has none).
     pub name: String,
     /// End time of the last key of any channel, in seconds (the clip loops over `[0, duration)`).
     pub duration_secs: f32,
+    /// The animated properties; a node without a channel keeps its rest transform. Empty for a
+    /// clip all of whose channels were skipped (and for every clip of a file without a skin).
     pub channels: Vec<Channel>,
 }
 
 /// An RGBA8 texture, stored as sRGB-encoded bytes (as in the file).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Texture {
+    /// The image's name in the file, else its relative URI, else `image {i}` (the file's
+    /// image index).
     pub name: String,
+    /// Width in pixels (at most [`crate::import::MAX_TEXTURE_SIDE`] when imported).
     pub width: u32,
+    /// Height in pixels (at most [`crate::import::MAX_TEXTURE_SIDE`] when imported).
     pub height: u32,
     /// `width * height * 4` bytes, rows top to bottom.
     pub rgba8: Vec<u8>,
@@ -184,11 +212,14 @@ impl Texture {
 /// The part of a material the pipeline uses.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
+    /// Name from the file (`material {i}` when it has none; `default` for primitives without
+    /// a material).
     pub name: String,
     /// Linear RGBA multiplier of the texture and vertex colour.
     pub base_color_factor: [f32; 4],
     /// Index into [`Character::textures`].
     pub base_color_texture: Option<usize>,
+    /// Draw back faces too instead of culling them (glTF's `doubleSided`).
     pub double_sided: bool,
 }
 
@@ -210,27 +241,43 @@ pub struct Submesh {
     pub first_index: u32,
     /// Number of indices (a multiple of three).
     pub index_count: u32,
+    /// Index into [`Character::materials`].
     pub material: usize,
 }
 
 /// A skinned, animated character: what an import produces and every later stage consumes.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Character {
+    /// Display name: the default scene's name when it says something, else the file name
+    /// without its extension.
     pub name: String,
+    /// Vertices of the merged mesh, in bind space.
     pub vertices: Vec<Vertex>,
     /// Triangle list, counter-clockwise front faces.
     pub indices: Vec<u32>,
+    /// Ranges of `indices` with their material, one per imported triangle primitive, in
+    /// index order.
     pub submeshes: Vec<Submesh>,
+    /// Materials the submeshes use: each file material once, plus [`Material::default`] for
+    /// primitives without one.
     pub materials: Vec<Material>,
+    /// Base-colour textures the materials refer to (only those that loaded: a material whose
+    /// texture failed has none, and is drawn untextured).
     pub textures: Vec<Texture>,
+    /// The node hierarchy: skin joints, nodes that carry rigid meshes, and their ancestors (one
+    /// `root` node for a file without a skin).
     pub skeleton: Skeleton,
+    /// Skinning bones, which [`Vertex::bones`] index: every skin's joints in skin order, then one
+    /// per mesh node bound rigidly. At most 65,535.
     pub bones: Vec<Bone>,
+    /// Every animation clip of the file, in file order.
     pub clips: Vec<Clip>,
     /// Problems the import worked around, for the user to read.
     pub warnings: Vec<String>,
 }
 
 impl Character {
+    /// Number of triangles (`indices.len() / 3`).
     pub fn triangle_count(&self) -> usize {
         self.indices.len() / 3
     }

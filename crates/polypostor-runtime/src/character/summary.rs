@@ -7,40 +7,56 @@ use super::Character;
 /// One clip as the summary lists it.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ClipSummary {
+    /// The clip's name.
     pub name: String,
+    /// Length in seconds (time of its last key).
     pub duration_secs: f32,
+    /// Number of animated node properties the import kept.
     pub channels: usize,
 }
 
 /// One texture as the summary lists it.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct TextureSummary {
+    /// The texture's name (image name, else its URI, else `image {i}`).
     pub name: String,
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
 }
 
 /// Counts and names that describe a character at a glance.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Summary {
+    /// The character's name ([`Character::name`]).
     pub name: String,
+    /// Vertices of the merged mesh.
     pub vertices: usize,
+    /// Triangles of the merged mesh.
     pub triangles: usize,
     /// Number of skin joints.
     pub joints: usize,
+    /// Names of the skin joints, in skeleton order.
     pub joint_names: Vec<String>,
     /// Skeleton nodes including helper nodes (parents of the skeleton, prop carriers).
     pub nodes: usize,
+    /// Number of materials.
     pub materials: usize,
+    /// Every clip, in the character's order.
     pub clips: Vec<ClipSummary>,
+    /// Every texture, in the character's order.
     pub textures: Vec<TextureSummary>,
     /// Rest-pose bounds in scene units: `[min, max]`.
     pub bounds_min: [f32; 3],
+    /// Upper corner of the rest-pose bounds (see `bounds_min`).
     pub bounds_max: [f32; 3],
+    /// Problems the import worked around ([`Character::warnings`]).
     pub warnings: Vec<String>,
 }
 
 impl Summary {
+    /// The summary of `c` (skins its rest pose once, for the bounds).
     pub fn of(c: &Character) -> Self {
         // Bounds of the rest pose as it stands in the scene (bind-space coordinates can be
         // in any unit, scaled by the skeleton).

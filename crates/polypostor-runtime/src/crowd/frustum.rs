@@ -3,6 +3,8 @@
 
 use glam::{Mat4, Vec3, Vec4};
 
+/// The six planes of a camera's view volume (left, right, bottom, top, near, far) in world
+/// space, for culling bounding spheres.
 #[derive(Clone, Copy, Debug)]
 pub struct Frustum {
     /// Planes `n·p + d >= 0` inside, normals of unit length.
@@ -10,6 +12,8 @@ pub struct Frustum {
 }
 
 impl Frustum {
+    /// The planes of a clip-from-world (view-projection) matrix with wgpu's 0..1 depth,
+    /// normalised so that a plane's value at a point is its distance in world units.
     pub fn from_clip_from_world(m: &Mat4) -> Self {
         let (r0, r1, r2, r3) = (m.row(0), m.row(1), m.row(2), m.row(3));
         let planes = [r3 + r0, r3 - r0, r3 + r1, r3 - r1, r2, r3 - r2].map(|p| {

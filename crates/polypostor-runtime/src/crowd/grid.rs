@@ -7,11 +7,16 @@ use glam::Vec2;
 
 const EMPTY: u32 = u32::MAX;
 
+/// The grid over the square ground `[-half_extent, half_extent]²` (x, z): `dim`×`dim` inner
+/// cells plus the border ring, each holding at most one agent index. Cell arguments are
+/// indices into the whole grid, border included (rows of `dim + 2`), as
+/// [`OccupancyGrid::cell_of`] and [`OccupancyGrid::inner`] give them.
 #[derive(Clone, Debug)]
 pub struct OccupancyGrid {
     /// Cells along a side, the border ring excluded.
     dim: usize,
     stride: usize,
+    /// Width of a cell in world units (metres): at least the crowd's minimum distance.
     pub cell: f32,
     inv_cell: f32,
     half_extent: f32,
@@ -19,6 +24,8 @@ pub struct OccupancyGrid {
 }
 
 impl OccupancyGrid {
+    /// An empty grid of `dim`×`dim` cells `cell` wide (`dim` at least 1), centred on the origin;
+    /// `half_extent` is meant to be `dim · cell / 2`.
     pub fn new(dim: usize, cell: f32, half_extent: f32) -> Self {
         let stride = dim + 2;
         Self {
@@ -49,6 +56,7 @@ impl OccupancyGrid {
         (k / self.dim + 1) * self.stride + k % self.dim + 1
     }
 
+    /// Centre of inner cell `cell` on the ground (x, z). Not for cells of the border ring.
     pub fn centre(&self, cell: usize) -> Vec2 {
         let (x, z) = (cell % self.stride - 1, cell / self.stride - 1);
         Vec2::new(
@@ -57,14 +65,18 @@ impl OccupancyGrid {
         )
     }
 
+    /// The agent in `cell`; `None` when it is empty (or `cell` is out of range).
     pub fn get(&self, cell: usize) -> Option<u32> {
         self.cells.get(cell).copied().filter(|&a| a != EMPTY)
     }
 
+    /// Puts `agent` in `cell`, replacing whatever was there (`u32::MAX` reads back as empty).
+    /// Panics when `cell` is out of range.
     pub fn set(&mut self, cell: usize, agent: u32) {
         self.cells[cell] = agent;
     }
 
+    /// Empties `cell`. Panics when it is out of range.
     pub fn clear(&mut self, cell: usize) {
         self.cells[cell] = EMPTY;
     }

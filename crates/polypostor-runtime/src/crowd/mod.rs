@@ -89,6 +89,7 @@ impl CharacterSize {
 /// How a crowd is laid out and moves.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CrowdParams {
+    /// Number of agents. Default value: 1000.
     pub count: usize,
     /// Agents per square metre of ground. Default value: 0.25.
     pub density: f32,
@@ -117,6 +118,8 @@ pub struct CrowdParams {
     /// What agents spend their time doing, when the pack has clips to do it with
     /// ([`Crowd::set_clips`]). Default value: [`Behaviour::default`].
     pub behaviour: Behaviour,
+    /// Seed of the crowd's random numbers: equal parameters and seed give the same crowd, frame
+    /// for frame. Default value: 1.
     pub seed: u64,
 }
 
@@ -146,8 +149,11 @@ impl Default for Behaviour {
 /// What an agent is doing ([`Behaviour`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Gait {
+    /// Moving at the walk clip's pace (at [`CrowdParams::speed`] without a clip table).
     Walk = 0,
+    /// Moving at the run clip's pace.
     Run = 1,
+    /// Standing in place (speed 0), playing an idle clip.
     Idle = 2,
 }
 
@@ -181,6 +187,7 @@ pub const SPEED_SPREAD: f32 = 0.1;
 /// speed, and the ones standing still (idle).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Gaits {
+    /// The pack's clip table, as given: `walk`, `run` and `idle` index into it.
     pub clips: Vec<crate::timeline::ClipSpan>,
     /// Their frame rate.
     pub fps: f32,
@@ -260,13 +267,18 @@ pub const MAX_SPECIES: usize = 8;
 /// speeds and are drawn by its own renderers ([`Crowd::instances`]`[kind]`).
 #[derive(Clone, Debug)]
 pub struct Species {
+    /// Its size over its clips (its culling sphere).
     pub size: CharacterSize,
     /// World length the baked images' texels span along their height ([`CrowdParams::height`]).
     pub height: f32,
     /// [`CrowdParams::stride_speed`] for it (used when it has no clip table).
     pub stride_speed: f32,
+    /// Its clips by gait; `None`: one clip, played at the rate its agents walk against
+    /// `stride_speed`.
     pub gaits: Option<Gaits>,
+    /// Its baked view directions, to choose each of its agents' view from.
     pub views: ViewLookup,
+    /// Frames and frame rate of its baked animation.
     pub timing: ClipTiming,
     /// Texels of its baked images along its height (its bake's resolution): the mix's switch
     /// points are ratios of screen pixels to these, whatever resolution the policy was set
@@ -361,6 +373,7 @@ pub struct Agents {
     pub pos: Vec<Vec2>,
     /// Facing as a unit vector `(sin h, cos h)` for the heading `h` about +Y (0 faces +Z).
     pub facing: Vec<Vec2>,
+    /// Ground speed in metres per second (0 while standing idle).
     pub speed: Vec<f32>,
     /// Animation clock (seconds into the clip, before wrapping).
     pub clock: Vec<f32>,
@@ -410,6 +423,7 @@ pub struct Instance {
     /// 16..32: the next as its clip plays), see [`frame_pair`]; `blend` goes from the first
     /// to the second.
     pub frame: u32,
+    /// How far (0..1) the drawn frame has blended towards the next one in `frame`.
     pub blend: f32,
     /// Appearance seed in bits 0..24 ([`VARIANT_SEED_MASK`]); bits 24..31 a cross-fade amount
     /// `q` (0: drawn whole; 1..=127: drawn where the screen's dither threshold is below
@@ -524,7 +538,9 @@ pub fn sort_by_view(
 /// What the camera sees this frame: where, how big a pixel is.
 #[derive(Clone, Copy, Debug)]
 pub struct CrowdCamera {
+    /// Camera position in world space (metres).
     pub eye: Vec3,
+    /// View-projection matrix (wgpu's 0..1 depth): the culling frustum comes from it.
     pub clip_from_world: Mat4,
     /// Viewport height in pixels divided by `2·tan(fov_y / 2)`: a thing of height `h` at
     /// distance `d` covers `h · focal_px / d` pixels.
@@ -534,30 +550,44 @@ pub struct CrowdCamera {
 /// The animation the instances index into.
 #[derive(Clone, Copy, Debug)]
 pub struct ClipTiming {
+    /// Frames of the baked timeline, every clip back to back; without a clip table the one clip
+    /// loops over all of them.
     pub frames: usize,
+    /// Frames per second the timeline was baked at (agents' clocks turn into frames at it).
     pub fps: f32,
 }
 
 /// CPU seconds of each per-frame pass, and what came out.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct FrameStats {
+    /// The agents' motion ([`Crowd::simulate`]). Both timings stay 0 except from [`Crowd::frame`].
     pub simulate_secs: f64,
     /// Culling, level of detail, view and frame choice, instance records.
     pub select_secs: f64,
+    /// Agents inside the view frustum (each counted once, cross-fading or not).
     pub visible: usize,
+    /// Instance records written per level (index `level as usize`), every kind of character
+    /// together: a character in a cross-fade is drawn twice and counts twice.
     pub per_level: [usize; Level::COUNT],
 }
 
 impl FrameStats {
+    /// CPU seconds of the whole frame: simulation plus selection.
     pub fn cpu_secs(&self) -> f64 {
         self.simulate_secs + self.select_secs
     }
 }
 
+/// A crowd of agents on a square ground centred on the origin: their simulation on the CPU
+/// and, each frame, the per-instance records the renderers draw ([`Crowd::instances`]).
 pub struct Crowd {
+    /// Its parameters, for its own character (kind 0). The ground and the occupancy grid are
+    /// laid out once by [`Crowd::new`]: later changes to `count`, `density` or `min_distance`
+    /// do not move them.
     pub params: CrowdParams,
     /// Half the side of the square ground the agents walk on (centred on the origin).
     pub half_extent: f32,
+    /// Every agent's state.
     pub agents: Agents,
     grid: OccupancyGrid,
     /// Each agent's grid cell.
@@ -577,6 +607,10 @@ pub struct Crowd {
 }
 
 impl Crowd {
+    /// Places `params.count` agents at the centres of distinct random cells of a square ground
+    /// sized for `params.density` (at least two cells per agent), facing random ways, all of the
+    /// crowd's own character and walking; deterministic from `params.seed`. No clip table until
+    /// [`Crowd::set_clips`].
     pub fn new(params: CrowdParams) -> Self {
         // Lengths are the character's own (a mouse keeps millimetres apart): only a positive
         // floor, no absolute one.
@@ -782,18 +816,23 @@ impl Crowd {
         n
     }
 
+    /// Number of agents.
     pub fn len(&self) -> usize {
         self.agents.pos.len()
     }
 
+    /// Whether the crowd has no agents.
     pub fn is_empty(&self) -> bool {
         self.agents.pos.is_empty()
     }
 
+    /// Pauses or resumes the crowd: while paused, [`Crowd::simulate`] does nothing (agents
+    /// neither move nor animate).
     pub fn set_paused(&mut self, paused: bool) {
         self.paused = paused;
     }
 
+    /// Whether the crowd is paused ([`Crowd::set_paused`]).
     pub fn paused(&self) -> bool {
         self.paused
     }

@@ -1,14 +1,17 @@
 //! A small deterministic random number generator (SplitMix64): crowds are reproducible from a
 //! seed, so benchmarks and tests see the same agents every run.
 
+/// A SplitMix64 generator (its whole state is one `u64`); not for cryptography.
 #[derive(Clone, Debug)]
 pub struct Rng(u64);
 
 impl Rng {
+    /// A generator starting from `seed` (any value; equal seeds give equal sequences).
     pub fn new(seed: u64) -> Self {
         Self(seed)
     }
 
+    /// The next 64 uniformly distributed random bits.
     pub fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;

@@ -17,7 +17,11 @@ use crate::viewpoints::ViewLookup;
 
 /// Everything a crowd is drawn from.
 pub struct CrowdAssets {
+    /// The character baked, imported from `character_path` (its clips checked against the
+    /// bake's).
     pub character: Character,
+    /// The file the character was imported from: the one given, else the one the
+    /// representations name.
     pub character_path: PathBuf,
     /// The first clip baked (`None`: the rest pose).
     pub clip: Option<usize>,
@@ -25,7 +29,11 @@ pub struct CrowdAssets {
     pub timeline: crate::timeline::Timeline,
     /// Body part of each triangle (per-part tint of the meshes).
     pub labels: Vec<u32>,
+    /// The Polypostor pack in `dir` (`manifest.json`), when there is one.
     pub pack: Option<LoadedPack>,
+    /// The other representations in `dir` (impostors, NP3D, rigid frames), without the
+    /// full-resolution impostor sheets where far ones were baked ([`CrowdAssets::full_impostors`]).
+    /// At least one of `pack` and `reps` is present.
     pub reps: Option<Representations>,
     /// The character's size in metres: height and length from the clip it walks in (else the
     /// first), the culling sphere over every clip the crowd plays.
@@ -326,9 +334,12 @@ impl CrowdAssets {
 /// What one frame of a crowd scene cost and drew.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SceneStats {
+    /// The crowd's simulation and selection times and visible characters, with the records
+    /// drawn per level counted after the fall-back to loaded levels and the thinning.
     pub frame: FrameStats,
     /// Instance upload and command recording (CPU).
     pub upload_secs: f64,
+    /// Draw calls recorded for the characters of every kind (the ground not counted).
     pub draw_calls: usize,
     /// Character records not drawn this frame ([`CrowdScene::draw_budget`]).
     pub skipped: usize,
@@ -336,6 +347,7 @@ pub struct SceneStats {
 
 /// A crowd with its renderers.
 pub struct CrowdScene {
+    /// The agents: simulation, culling and the per-level instance records of each kind.
     pub crowd: Crowd,
     /// The renderers of the crowd's own character (kind 0).
     pub renderers: CrowdRenderers,
@@ -344,10 +356,15 @@ pub struct CrowdScene {
     pub guests: Vec<CrowdRenderers>,
     /// The characters mixed in and every kind's share (kept for [`CrowdScene::respawn`]).
     mix: Option<(Vec<Species>, Vec<f32>)>,
+    /// Nearest-view lookup over the baked view directions of the crowd's own character.
     pub views: ViewLookup,
+    /// Frames and rate of the crowd's own baked animation (what its instances' frame numbers
+    /// count).
     pub timing: ClipTiming,
     /// The baked clips the agents play ([`Crowd::set_clips`]).
     pub clips: Vec<crate::timeline::ClipSpan>,
+    /// Lighting and per-part tint of every level and kind. Default value:
+    /// `PolypostorStyle::default()`.
     pub style: PolypostorStyle,
     /// Draw the ground under the crowd.
     pub ground: bool,
@@ -705,6 +722,8 @@ pub struct Stability {
     /// Frames along the path, and how many of the mix's had a character in two levels or two
     /// views at once (fading).
     pub frames: usize,
+    /// Frames of the mix in which the character was drawn in two levels or two views at once
+    /// (cross-fading); at most `frames`.
     pub fading_frames: usize,
 }
 

@@ -4,21 +4,38 @@ use glam::camera::rh::proj::directx as proj;
 use glam::camera::rh::view::look_at_mat4;
 use glam::{Mat4, Vec3};
 
+/// How a [`Camera`] maps view space to clip space.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Projection {
     /// Vertical field of view in radians.
-    Perspective { fov_y_rad: f32 },
+    Perspective {
+        /// Full vertical angle of view, top edge to bottom edge, in radians.
+        fov_y_rad: f32,
+    },
     /// Half the visible height in world units (the width follows the aspect ratio).
-    Orthographic { half_height: f32 },
+    Orthographic {
+        /// Half the height of the view volume in world units, from its centre line to its top edge.
+        half_height: f32,
+    },
 }
 
+/// A look-at camera: an eye, the point it looks at, an up hint and a projection
+/// (right-handed, world units, wgpu's 0..1 depth).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
+    /// Position of the camera, world space.
     pub eye: Vec3,
+    /// The point looked at, world space (it projects to the centre of the image).
     pub target: Vec3,
+    /// World-space direction that appears upwards on screen; need not be orthogonal to the view
+    /// direction (+Z is used instead when it is parallel to it).
     pub up: Vec3,
+    /// Perspective or orthographic projection.
     pub projection: Projection,
+    /// Distance from the eye to the near clipping plane, world units (depth 0); above 0 for a
+    /// perspective camera.
     pub near: f32,
+    /// Distance from the eye to the far clipping plane, world units (depth 1); beyond `near`.
     pub far: f32,
 }
 
@@ -64,6 +81,8 @@ impl Camera {
         }
     }
 
+    /// View-space-from-world matrix (right-handed: the camera looks down -Z, +Y up on screen).
+    /// When `up` is parallel to the view direction, +Z stands in for it.
     pub fn view_from_world(&self) -> Mat4 {
         let up = if (self.eye - self.target).cross(self.up).length_squared() < 1e-10 {
             Vec3::Z
@@ -73,6 +92,8 @@ impl Camera {
         look_at_mat4(self.eye, self.target, up)
     }
 
+    /// Clip-space-from-view projection with wgpu's 0..1 depth (near plane 0, far plane 1).
+    /// `aspect`: width / height of the viewport (a non-finite or non-positive value counts as 1).
     pub fn clip_from_view(&self, aspect: f32) -> Mat4 {
         let aspect = if aspect.is_finite() && aspect > 0.0 {
             aspect
@@ -88,6 +109,7 @@ impl Camera {
         }
     }
 
+    /// Clip-space-from-world matrix: [`Self::view_from_world`], then [`Self::clip_from_view`].
     pub fn clip_from_world(&self, aspect: f32) -> Mat4 {
         self.clip_from_view(aspect) * self.view_from_world()
     }

@@ -14,6 +14,7 @@ pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrg
 pub const COLOR_BYTES_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 /// Normal target: view-space unit normal encoded as `n * 0.5 + 0.5`, alpha 1 on the character.
 pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+/// Depth target: 32-bit float in wgpu's 0..1 range, cleared to 1 (far); nearer fragments win.
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
 /// How colour is shaded.
@@ -39,9 +40,12 @@ pub enum SkinningMode {
 /// Options of one draw.
 #[derive(Clone, Copy, Debug)]
 pub struct DrawOptions {
+    /// Lit, or the base colour alone.
     pub shading: Shading,
     /// Linear RGBA clear colour of the colour target.
     pub clear_color: [f64; 4],
+    /// Also draw the ground grid on the y = 0 plane (blended over the colour, depth-tested but
+    /// not written, the normal target left as it is).
     pub grid: bool,
 }
 
@@ -57,21 +61,34 @@ impl Default for DrawOptions {
 
 /// Colour, normal and depth textures of one size.
 pub struct RenderTarget {
+    /// Width in pixels (at least 1).
     pub width: u32,
+    /// Height in pixels (at least 1).
     pub height: u32,
+    /// Colour image, [`COLOR_FORMAT`] (sRGB-encoded RGBA8).
     pub color: wgpu::Texture,
+    /// View of [`Self::color`] in its own sRGB format: the first colour attachment (linear
+    /// values written, encoded by the hardware).
     pub color_view: wgpu::TextureView,
     /// The colour image read as its stored (sRGB-encoded) bytes, without decoding: what a
     /// non-sRGB window wants to show as is. Only in targets made by
     /// [`RenderTarget::with_bytes_view`].
     pub color_bytes_view: Option<wgpu::TextureView>,
+    /// View-space normal image, [`NORMAL_FORMAT`] (`n * 0.5 + 0.5`; alpha 0 where nothing was
+    /// drawn).
     pub normal: wgpu::Texture,
+    /// View of [`Self::normal`]: the second colour attachment.
     pub normal_view: wgpu::TextureView,
+    /// Depth image, [`DEPTH_FORMAT`] (1 = far).
     pub depth: wgpu::Texture,
+    /// View of [`Self::depth`]: the depth attachment.
     pub depth_view: wgpu::TextureView,
 }
 
 impl RenderTarget {
+    /// Colour, normal and depth textures of `width × height` pixels (each side at least 1), usable
+    /// as attachments, copy sources and destinations and sampled textures; no
+    /// [`Self::color_bytes_view`].
     pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Self {
         Self::make(device, width, height, false)
     }
@@ -201,12 +218,18 @@ impl RenderTarget {
         }
     }
 
+    /// Copies the colour image back to the CPU (waiting for the GPU): its sRGB-encoded RGBA8
+    /// bytes, rows top to bottom.
     pub fn read_color(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<image::RgbaImage, GpuError> {
         read_rgba8(device, queue, &self.color)
     }
+    /// Copies the normal image back to the CPU: the view-space normal as `n * 0.5 + 0.5` in RGBA8,
+    /// rows top to bottom.
     pub fn read_normal(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<image::RgbaImage, GpuError> {
         read_rgba8(device, queue, &self.normal)
     }
+    /// Copies the depth image back to the CPU (through a shader on OpenGL: see
+    /// [`super::read_depth`]).
     pub fn read_depth(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<DepthImage, GpuError> {
         read_depth(device, queue, &self.depth)
     }
@@ -300,6 +323,8 @@ fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGrou
 }
 
 impl CharacterRenderer {
+    /// Builds the character and grid pipelines (drawing into a [`RenderTarget`]), their bind
+    /// group layouts and the base-colour sampler (trilinear, repeating).
     pub fn new(device: &wgpu::Device) -> Self {
         let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("frame"),
@@ -446,6 +471,8 @@ impl CharacterRenderer {
         &self.material_layout
     }
 
+    /// The skinned character pipeline (`character.wgsl`): group 0 the frame uniforms and bones,
+    /// group 1 a material; vertex buffers [`PositionNormal`] at slot 0 and [`Attributes`] at slot 1.
     pub fn pipeline(&self) -> &wgpu::RenderPipeline {
         &self.pipeline
     }
@@ -469,7 +496,8 @@ impl CharacterRenderer {
     }
 
     /// Records a draw of `character` into `target` (clearing it) on `encoder`. Call
-    /// [`GpuCharacter::prepare`] first so the uniforms hold this camera.
+    /// [`GpuCharacter::set_camera`] and [`GpuCharacter::set_pose`] first so the uniforms hold this
+    /// camera and pose.
     pub fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -704,6 +732,10 @@ impl GpuCharacter {
         }
     }
 
+    /// Uploads `c`: its bind-pose positions and normals (stream 0), static attributes (stream 1),
+    /// 32-bit indices, each texture with its mip chain, and per material its factor and texture
+    /// (white when it has none). The bones start as identity; call [`Self::set_pose`] and
+    /// [`Self::set_camera`] before drawing.
     pub fn new(renderer: &CharacterRenderer, device: &wgpu::Device, queue: &wgpu::Queue, c: &Character) -> Self {
         let bind_pose: Vec<PositionNormal> = c
             .vertices

@@ -23,16 +23,30 @@ impl AdapterPreference {
     }
 }
 
+/// Why no GPU context could be made, or an image could not be read back or drawn.
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
+    /// No adapter on any backend (native, then OpenGL): no usable GPU driver is installed.
     #[error("no GPU adapter found (install Vulkan or OpenGL drivers, e.g. mesa-vulkan-drivers)")]
     NoAdapter,
+    /// No adapter's name contains the text of [`AdapterPreference::Named`] (the text given).
     #[error("no adapter matches '{0}'")]
     NoMatchingAdapter(String),
+    /// No candidate adapter could create a device; reports the last one tried.
     #[error("cannot create a device on '{adapter}': {message}")]
-    Device { adapter: String, message: String },
+    Device {
+        /// Name of the adapter that refused.
+        adapter: String,
+        /// wgpu's reason.
+        message: String,
+    },
+    /// Copying a texture back to the CPU failed: waiting on the GPU, mapping the buffer, or an
+    /// unexpected size; the message says which.
     #[error("GPU readback failed: {0}")]
     Readback(String),
+    /// The assets cannot be drawn here: a representation that was not baked or could not be
+    /// read, data past this GPU's limits, a bake that does not match the character or is
+    /// inconsistent, or a crowd mix that cannot be made; the message says which.
     #[error("cannot draw this: {0}")]
     Unsupported(String),
 }
@@ -63,9 +77,14 @@ pub fn rank_adapter(info: &wgpu::AdapterInfo, pref: &AdapterPreference) -> (u32,
 
 /// A device and queue on the chosen adapter.
 pub struct GpuContext {
+    /// The wgpu instance the adapter was enumerated from (native backends, or OpenGL alone when
+    /// none of them had an adapter).
     pub instance: wgpu::Instance,
+    /// The adapter in use (see [`GpuContext::adapter_description`]).
     pub adapter: wgpu::Adapter,
+    /// The device, with wgpu's downlevel default limits raised to the adapter's texture sizes.
     pub device: wgpu::Device,
+    /// The device's command queue.
     pub queue: wgpu::Queue,
 }
 

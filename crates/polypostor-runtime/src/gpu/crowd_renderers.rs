@@ -451,6 +451,8 @@ pub struct GpuMeshCrowd {
     /// Bytes on the GPU of the skinned mesh (static mesh + textures + joint samples) and of
     /// the rigid mesh (static mesh + textures + frames).
     pub skinned_bytes: u64,
+    /// Bytes on the GPU of the rigid mesh: the static mesh and textures plus the pre-skinned
+    /// frames (16 bytes per vertex per frame; none when no rigid frames were given).
     pub rigid_bytes: u64,
 }
 
@@ -763,6 +765,9 @@ pub struct GpuImpostors {
 }
 
 impl GpuImpostors {
+    /// Impostors from `reps`' own full-resolution sheets. [`GpuError::Unsupported`] when `reps`
+    /// holds none (not baked, or left out by [`crate::reps::load_representations_far`]) or the
+    /// sheets exceed this GPU's texture limits.
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, reps: &Representations) -> Result<Self, GpuError> {
         let data = reps.impostor.as_ref().ok_or_else(|| {
             GpuError::Unsupported("no impostors were baked (bake with --representation impostor)".into())
@@ -827,6 +832,8 @@ impl GpuImpostors {
         })
     }
 
+    /// Uploads this frame's instances (views clamped, frames wrapped; with a frame map, each
+    /// frame replaced by the tile that holds it) and the uniforms of `clip_from_world` and `style`.
     pub fn prepare(
         &mut self,
         device: &wgpu::Device,
@@ -916,6 +923,8 @@ impl GpuNp3d {
         })
     }
 
+    /// Uploads this frame's instances (views clamped, frames wrapped) and the uniforms of
+    /// `clip_from_world` and `style`.
     pub fn prepare(
         &mut self,
         device: &wgpu::Device,
@@ -965,7 +974,10 @@ pub const FAR_IMPOSTOR_FACTOR: u32 = 4;
 
 /// Every representation of one character, ready to draw a crowd's per-level instances.
 pub struct CrowdRenderers {
+    /// Skinned meshes (always) and rigid ones (when the representations hold rigid frames that
+    /// match the character and the timeline).
     pub meshes: GpuMeshCrowd,
+    /// The Polypostor pack on the GPU, when a pack was given.
     pub polypostor: Option<GpuPolypostors>,
     /// Impostors at the baked resolution (the impostor level on its own; loaded on request).
     pub impostor: Option<GpuImpostors>,
@@ -975,6 +987,7 @@ pub struct CrowdRenderers {
     /// Draw the impostor level with [`CrowdRenderers::far_impostor`] (the mix) rather than
     /// the full-resolution sheets. Default value: false.
     pub use_far_impostors: bool,
+    /// NP3D impostors, when the representations hold them.
     pub np3d: Option<GpuNp3d>,
     counts: [usize; Level::COUNT],
     ground: Ground,

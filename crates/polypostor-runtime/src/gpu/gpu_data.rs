@@ -9,8 +9,12 @@ pub const MAX_BONES: usize = 256;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct FrameUniforms {
+    /// Clip-space-from-world matrix (view, then projection with wgpu's 0..1 depth), column-major.
     pub clip_from_world: [[f32; 4]; 4],
+    /// View-space-from-world matrix of the camera (right-handed, looking down -Z), column-major:
+    /// turns normals into view space for the normal target.
     pub view_from_world: [[f32; 4]; 4],
+    /// xyz: unit direction towards the light, in view space; w unused (0).
     pub light_dir_view: [f32; 4],
     /// x: shading (0 unlit, 1 lit), y: ambient, z: rim strength.
     pub params: [f32; 4],
@@ -20,6 +24,9 @@ pub struct FrameUniforms {
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 pub struct Bones {
+    /// Per bone, its skinning matrix from bind space to world space
+    /// (`world_from_node[bone.node] * inverse_bind`, [`crate::animation::Pose::skin_from_bind`]),
+    /// column-major; identity past the pose's bones.
     pub m: [[[f32; 4]; 4]; MAX_BONES],
 }
 
@@ -27,6 +34,7 @@ pub struct Bones {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct MaterialUniforms {
+    /// Linear RGBA multiplier of the base-colour texture and the vertex colour.
     pub base_color_factor: [f32; 4],
 }
 
@@ -34,7 +42,9 @@ pub struct MaterialUniforms {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct PositionNormal {
+    /// Position in bind space (GPU skinning), or already skinned into world space (CPU skinning).
     pub position: [f32; 3],
+    /// Unit normal, in the same space as `position`.
     pub normal: [f32; 3],
 }
 
@@ -42,8 +52,13 @@ pub struct PositionNormal {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct Attributes {
+    /// Texture coordinate of the base-colour texture.
     pub uv: [f32; 2],
+    /// Linear RGBA vertex colour (white when the file has none).
     pub color: [f32; 4],
+    /// Indices of the four bones that move this vertex, into [`Bones::m`] (read as `Uint16x4`;
+    /// the shader clamps them below [`MAX_BONES`]).
     pub bones: [u16; 4],
+    /// Weights of `bones`, summing to one.
     pub weights: [f32; 4],
 }

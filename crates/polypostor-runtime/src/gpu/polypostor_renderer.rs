@@ -52,6 +52,8 @@ struct PartGpu {
 pub struct PolypostorStyle {
     /// Lit with the normal atlas (false: the atlas colour as it is).
     pub lit: bool,
+    /// Share of the colour kept where the surface faces away from the light, 0 to 1 (the rest
+    /// follows `n·l`); unused when not `lit`. Default value: 0.35.
     pub ambient: f32,
     /// Per-part colour variation per instance, 0 (none) to 1.
     pub tint: f32,
@@ -111,6 +113,11 @@ pub struct GpuPolypostors {
 }
 
 impl GpuPolypostors {
+    /// Uploads `pack`: its vertex values as 16-bit pairs, the parts' records and per-frame key
+    /// tables, per view the full and two coarse index lists, and the views' colour and normal
+    /// atlases shelf-packed into the layers of two texture arrays. [`GpuError::Unsupported`] when
+    /// the pack has no views, more than 255 parts or 65536 part records, a vertex block at an odd
+    /// offset, or atlases past this GPU's texture limits.
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, pack: &LoadedPack) -> Result<Self, GpuError> {
         let m = &pack.manifest;
         let parts_per_view = m.parts.len().max(1) as u32;

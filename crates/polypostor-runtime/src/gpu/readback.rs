@@ -5,8 +5,12 @@ use super::GpuError;
 /// A depth image (wgpu's 0..1 range, 1 = far).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DepthImage {
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
+    /// `width × height` depth values, row by row from the top, each in 0..1 (1 = far,
+    /// what a [`super::RenderTarget`] clears depth to).
     pub data: Vec<f32>,
 }
 

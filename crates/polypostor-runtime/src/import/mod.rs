@@ -31,22 +31,47 @@ pub const MAX_TEXTURE_SIDE: u32 = crate::limits::MAX_IMPORT_TEXTURE_SIDE;
 /// Why a file could not be imported.
 #[derive(Debug, thiserror::Error)]
 pub enum ImportError {
+    /// The model file could not be read, or is not a regular file. (An external buffer that
+    /// cannot be read surfaces as [`ImportError::Invalid`], an unreadable image as a warning.)
     #[error("cannot read '{path}': {message}")]
-    Io { path: PathBuf, message: String },
+    Io {
+        /// The file that could not be read.
+        path: PathBuf,
+        /// What went wrong: the system's message, or what kind of file it is instead.
+        message: String,
+    },
+    /// The model file is larger than [`MAX_FILE_BYTES`].
     #[error("'{0}' is too large to import")]
     TooLarge(PathBuf),
+    /// The binary GLB container is malformed (header, length, chunk layout or chunk types).
     #[error("invalid GLB container: {0}")]
     Glb(String),
+    /// The glTF JSON is empty, starts with a byte-order mark, or does not parse as glTF.
     #[error("invalid JSON: {0}")]
     Json(String),
+    /// The asset's `version` or `minVersion` is not of the form `MAJOR.MINOR`.
     #[error("invalid glTF: {0}")]
     Validation(String),
+    /// A file this importer does not take: a glTF version other than 2.x, a required extension it
+    /// does not implement, more than 65,535 bones, or an accessor layout it cannot read.
     #[error("unsupported glTF: {0}")]
     Unsupported(String),
+    /// The file's data is inconsistent: missing or out-of-range references, a node hierarchy
+    /// that is not a forest, accessors of the wrong type or size, more nodes than
+    /// [`crate::limits::MAX_NODES`], or a buffer that could not be loaded where it is needed.
     #[error("invalid glTF data: {0}")]
     Invalid(String),
+    /// A buffer could not be loaded: no URI and no GLB BIN chunk, an unreadable or refused URI,
+    /// or fewer bytes than it declares. It reaches callers inside [`ImportError::Invalid`],
+    /// naming the buffer view that needed it.
     #[error("buffer {index}: {message}")]
-    Buffer { index: usize, message: String },
+    Buffer {
+        /// Index of the buffer in the file's `buffers`.
+        index: usize,
+        /// Why it could not be loaded.
+        message: String,
+    },
+    /// The default scene has no triangles to import (no meshes, or only points and lines).
     #[error("the default scene has no triangle meshes to import")]
     NoGeometry,
 }

@@ -4,6 +4,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+/// The [`Manifest::format`] of every pack; a manifest with another is refused as not a pack.
 pub const FORMAT_NAME: &str = "polypostor-pack";
 /// Version 3 added [`Manifest::checksums`], version 5 the clip table ([`Manifest::clips`]:
 /// several clips in one pack); older packs are refused with "re-bake".
@@ -13,11 +14,14 @@ pub const FORMAT_VERSION: u32 = 5;
 /// representations folder.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct FileSum {
+    /// Size of the file in bytes.
     pub bytes: u64,
+    /// CRC-32 of the file's whole content.
     pub crc32: u32,
 }
 
 impl FileSum {
+    /// The size and CRC-32 of a file holding `bytes`.
     pub fn of(bytes: &[u8]) -> Self {
         Self {
             bytes: bytes.len() as u64,
@@ -33,11 +37,16 @@ pub type Checksums = BTreeMap<String, FileSum>;
 /// `((p - center)·right, (p - center)·up) / half_size`, in [-1, 1] inside the frame.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PackCamera {
+    /// World point at the middle of the view frame (the camera's target), view-plane (0, 0).
     pub center: [f32; 3],
+    /// Unit world direction of the view plane's +x axis.
     pub right: [f32; 3],
+    /// Unit world direction of the view plane's +y axis.
     pub up: [f32; 3],
     /// Towards the camera.
     pub forward: [f32; 3],
+    /// Half the side of the view frame in world units: the world distance from `center`
+    /// that maps to ±1 on the view plane (positive; 1 for a perspective bake camera).
     pub half_size: f32,
 }
 
@@ -84,9 +93,13 @@ pub struct ManifestPart {
     /// 2 values each) then `frames × vertex_count` positions (view-plane coordinates
     /// `(x + 1) / 2, (y + 1) / 2`, 2 values each).
     pub vertex_offset: u64,
+    /// Vertices of the part's polygon (3 to [`crate::pack::MAX_PART_VERTICES`]): one UV each,
+    /// and one position per frame.
     pub vertex_count: u32,
     /// First u16 of this part's triangles in `indices.bin` (indices local to the part).
     pub index_offset: u64,
+    /// Indices of the part's triangles in `indices.bin`, three per triangle (a non-zero
+    /// multiple of 3).
     pub index_count: u32,
     /// The part's rectangle in the colour atlas, pixels `[x, y, w, h]`.
     pub atlas_rect: [u32; 4],
@@ -109,18 +122,27 @@ pub struct ManifestPart {
 /// A part's key image after its first, and its polygon.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ManifestKey {
+    /// The frame this key image is of (below [`Manifest::frames`]).
     pub key_frame: u32,
     /// As [`ManifestPart::vertex_offset`], but the block holds `frame_count` frames of
     /// positions, from `frame_start` round the loop (the frames this key's polygon was fitted
     /// to; every frame it draws and their neighbours).
     pub vertex_offset: u64,
+    /// Vertices of this key's polygon, as [`ManifestPart::vertex_count`].
     pub vertex_count: u32,
+    /// First u16 of this key's triangles in `indices.bin` (indices local to the key's block).
     pub index_offset: u64,
+    /// Indices of this key's triangles, a non-zero multiple of 3.
     pub index_count: u32,
+    /// This key image's rectangle in the view's colour atlas, pixels `[x, y, w, h]`.
     pub atlas_rect: [u32; 4],
+    /// The image is stored transposed in the atlas, as [`ManifestPart::transposed`].
     #[serde(default)]
     pub transposed: bool,
+    /// The first frame of the block's positions (below [`Manifest::frames`]); the frames
+    /// after it wrap from the pack's last frame to frame 0.
     pub frame_start: u32,
+    /// Frames of positions the block holds (1 to [`Manifest::frames`]).
     pub frame_count: u32,
 }
 
@@ -129,6 +151,8 @@ pub struct ManifestKey {
 pub struct ManifestView {
     /// Unit direction from the character towards the camera.
     pub direction: [f32; 3],
+    /// The orthographic camera the view was baked with: the frame of the parts' view-plane
+    /// positions (its `forward` is `direction`).
     pub camera: PackCamera,
     /// Colour atlas PNG file name (in the pack folder).
     pub atlas: String,
@@ -145,11 +169,16 @@ pub struct ManifestView {
 /// `manifest.json`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Manifest {
+    /// Always [`FORMAT_NAME`].
     pub format: String,
+    /// The format version the pack was written in; this build reads only [`FORMAT_VERSION`].
     pub version: u32,
+    /// Name of the character baked.
     pub character: String,
     /// The first clip's name (`None`: the rest pose).
     pub clip: Option<String>,
+    /// Frames per second every clip was sampled at ([`crate::limits::MIN_FPS`] to
+    /// [`crate::limits::MAX_FPS`]).
     pub fps: f32,
     /// Frames of every clip together ([`Manifest::clips`]).
     pub frames: u32,
@@ -158,13 +187,26 @@ pub struct Manifest {
     /// table of the pack (positions, frame keys) runs over all of them; each clip loops over
     /// its own frames. Every view's key images serve every clip.
     pub clips: Vec<crate::timeline::ClipSpan>,
+    /// The bake's key frame (below `frames`); a part's own key image may be of another frame
+    /// ([`ManifestPart::key_frame`]).
     pub key_frame: u32,
+    /// Pixels per side of the square part images the bake rendered and cut the atlas images
+    /// from ([`crate::limits::MIN_RESOLUTION`] to [`crate::limits::MAX_RESOLUTION`]).
     pub resolution: u32,
+    /// Body part names, by part number (1 to [`crate::limits::MAX_PARTS`]); every view's
+    /// `parts` and `order` index into this list.
     pub parts: Vec<String>,
+    /// The baked viewpoints; a view's index is its position in this list.
     pub views: Vec<ManifestView>,
+    /// File name of the vertex data in the pack folder (`vertices.bin`): little-endian
+    /// normalised u16 values ([`ManifestPart::vertex_offset`]).
     pub vertex_file: String,
+    /// Size of the vertex file in bytes (even: whole u16 values).
     pub vertex_bytes: u64,
+    /// File name of the triangle indices in the pack folder (`indices.bin`): little-endian
+    /// u16 values, local to each key's vertex block.
     pub index_file: String,
+    /// Size of the index file in bytes (even: whole u16 values).
     pub index_bytes: u64,
     /// Size and CRC-32 of every file the pack's data lives in (`vertices.bin`,
     /// `indices.bin`, every atlas); the loader reads nothing that is not listed here.

@@ -11,24 +11,54 @@ use crate::limits::{
     MAX_FPS, MAX_FRAMES, MAX_LOADED_TEXTURE_BYTES, MAX_PARTS, MAX_RESOLUTION, MAX_VIEWS, MIN_RESOLUTION,
 };
 
+/// Why a pack or representations folder could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum PackError {
+    /// A file of the folder could not be opened or read (missing, no permission, an I/O
+    /// failure).
     #[error("cannot read '{path}': {message}")]
-    Io { path: PathBuf, message: String },
+    Io {
+        /// The file that could not be read.
+        path: PathBuf,
+        /// The operating system's error text.
+        message: String,
+    },
+    /// The manifest is not JSON, or lacks a field or has one of the wrong type.
     #[error("{file} is not a valid manifest: {message}")]
-    Manifest { file: &'static str, message: String },
+    Manifest {
+        /// The manifest's file name (`manifest.json`, `representations.json`).
+        file: &'static str,
+        /// The JSON parser's error, with its line and column.
+        message: String,
+    },
+    /// The manifest's `format` names another kind of file: the folder is not of the kind
+    /// asked for.
     #[error("{file} is not a polypostor manifest (format '{found}')")]
-    NotAPack { file: &'static str, found: String },
+    NotAPack {
+        /// The manifest's file name.
+        file: &'static str,
+        /// The `format` string it holds.
+        found: String,
+    },
+    /// The manifest was written by a newer build, in a format version this one cannot read.
     #[error("{file} has version {found}, newer than this build reads ({current})")]
     Version {
+        /// The manifest's file name.
         file: &'static str,
+        /// The version the manifest holds.
         found: u32,
+        /// The only version this build reads.
         current: u32,
     },
+    /// The manifest is of an older format version, which this build no longer reads: the
+    /// folder has to be baked again.
     #[error("{file} has version {found}, older than this build reads ({current}): re-bake it")]
     OldVersion {
+        /// The manifest's file name.
         file: &'static str,
+        /// The version the manifest holds.
         found: u32,
+        /// The only version this build reads.
         current: u32,
     },
     /// The message starts with the file it concerns.
@@ -39,6 +69,8 @@ pub enum PackError {
 /// One view's data, checked.
 #[derive(Debug)]
 pub struct LoadedView {
+    /// The decoded colour atlas ([`ManifestView::atlas`](crate::pack::ManifestView::atlas)),
+    /// `atlas_size` pixels.
     pub atlas: image::RgbaImage,
     /// Half the atlas size in each direction.
     pub normals: image::RgbaImage,
@@ -47,11 +79,15 @@ pub struct LoadedView {
 /// A validated pack in memory.
 #[derive(Debug)]
 pub struct LoadedPack {
+    /// The manifest, every number, range and file name in it checked.
     pub manifest: Manifest,
     /// `vertices.bin` decoded to [0, 1] (see [`LoadedPack::part_vertices`] for view-plane
     /// positions).
     pub vertices: Vec<f32>,
+    /// `indices.bin`: every key's triangles as u16 vertex numbers local to its block, each
+    /// checked to be below the block's vertex count.
     pub indices: Vec<u16>,
+    /// Each view's decoded atlases, indexed like the manifest's views.
     pub views: Vec<LoadedView>,
 }
 
@@ -357,6 +393,9 @@ impl KeyBlock {
     }
 }
 
+/// Loads the pack in the folder `dir`: `manifest.json` and every file it names, validating
+/// all of it before anything is decoded (see the module docs). A damaged, forged, foreign or
+/// old pack gives a [`PackError`] naming the file and the fault.
 pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
     const FILE: &str = "manifest.json";
     let manifest: Manifest = parse_manifest(dir, FILE, FORMAT_NAME, FORMAT_VERSION)?;
@@ -588,8 +627,6 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
 }
 
 impl LoadedPack {
-    /// Part `p` of view `v`: UVs (atlas-normalised) and the positions at `frame` (view-plane
-    /// coordinates in [-1, 1]), as interleaved x, y values.
     /// As [`LoadedPack::part_vertices`] for the part's key image `key` (0 its first, `k` its
     /// `extra_keys[k - 1]`); `None` where that key's polygon was not fitted to `frame`.
     pub fn key_vertices(&self, v: usize, p: usize, key: usize, frame: usize) -> Option<(Vec<f32>, Vec<f32>)> {
@@ -611,6 +648,10 @@ impl LoadedPack {
         Some((uv.to_vec(), pos.iter().map(|x| x * 2.0 - 1.0).collect()))
     }
 
+    /// Part `p` of view `v` from its first key image: its UVs (atlas-normalised) and its
+    /// positions at `frame` (view-plane coordinates in [-1, 1]), as interleaved x, y values.
+    /// A frame past the end gives the last frame; `None` where the view or part does not
+    /// exist or the part is not drawn in that view.
     pub fn part_vertices(&self, v: usize, p: usize, frame: usize) -> Option<(Vec<f32>, Vec<f32>)> {
         let part = self.manifest.views.get(v)?.parts.get(p)?.as_ref()?;
         let vc = part.vertex_count as usize;

@@ -1,9 +1,9 @@
 //! The Polypostor pack: a versioned, documented on-disk format (see `docs/PACK_FORMAT.md`)
-//! with a writer and a loader that validates everything it reads.
+//! and a loader that validates everything it reads (the writer is the studio's).
 //!
-//! A pack is a folder: `manifest.json`, `vertices.bin` (little-endian f32), `indices.bin`
-//! (little-endian u16) and one atlas PNG per view holding every part's key-frame colour
-//! (left half) and normal (right half) images.
+//! A pack is a folder: `manifest.json`, `vertices.bin` (little-endian normalised u16: atlas
+//! UVs and view-plane positions), `indices.bin` (little-endian u16 triangles) and, per view,
+//! a colour atlas PNG holding every part's key images and a normal atlas at half its size.
 
 mod format;
 mod load;

@@ -21,7 +21,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::pack::{PackCamera, PackError};
 
+/// File name of the manifest of a representations folder ([`RepsManifest`]).
 pub const REPS_FILE: &str = "representations.json";
+/// The [`RepsManifest::format`] of every representations manifest; a manifest with another
+/// is refused.
 pub const REPS_FORMAT: &str = "polypostor-representations";
 /// Version 2 added [`RepsManifest::checksums`], version 3 the clip table ([`RepsManifest::clips`]),
 /// version 4 the far impostors ([`RepsManifest::far_impostor`]); older folders are refused
@@ -31,19 +34,25 @@ pub const REPS_VERSION: u32 = 4;
 /// Which representations a bake produces.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct RepSet {
+    /// The Polypostor pack.
     pub polypostor: bool,
+    /// Classic animated impostor sheets (with their far sheets).
     pub impostor: bool,
+    /// NP3D impostors.
     pub np3d: bool,
+    /// Rigid meshes, the full mesh pre-skinned at every frame.
     pub rigid: bool,
 }
 
 impl RepSet {
+    /// Every representation.
     pub const ALL: RepSet = RepSet {
         polypostor: true,
         impostor: true,
         np3d: true,
         rigid: true,
     };
+    /// The Polypostor pack alone.
     pub const POLYPOSTOR: RepSet = RepSet {
         polypostor: true,
         impostor: false,
@@ -85,6 +94,7 @@ impl RepSet {
 pub struct RepView {
     /// Unit direction from the character towards the camera.
     pub direction: [f32; 3],
+    /// The orthographic camera the view's images were rendered with.
     pub camera: PackCamera,
 }
 
@@ -92,7 +102,9 @@ pub struct RepView {
 /// tiles of `resolution²` pixels, frame `f` at column `f % columns`, row `f / columns`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ImpostorInfo {
+    /// Tiles per row of each sheet.
     pub columns: u32,
+    /// Rows of tiles: enough for every frame, with no row left empty.
     pub rows: u32,
 }
 
@@ -105,10 +117,17 @@ pub struct ImpostorInfo {
 /// per baked texel, so a quarter of the texels still gives one texel a pixel.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FarImpostorInfo {
+    /// Tiles per row of each far sheet.
     pub columns: u32,
+    /// Rows of tiles: enough for `frames`, with no row left empty.
     pub rows: u32,
+    /// How many times smaller the colour tiles are than `resolution` on each side: a power
+    /// of two that divides it (tiles of `resolution / color_factor` texels per side).
     pub color_factor: u32,
+    /// As `color_factor`, for the normal sheets (`color_factor` or twice it).
     pub normal_factor: u32,
+    /// The timeline frame each tile holds, tile by tile: every frame, or the ones
+    /// [`far_frames`] keeps.
     pub frames: Vec<u32>,
 }
 
@@ -118,8 +137,11 @@ pub struct FarImpostorInfo {
 /// key-frame colour image per view (`columns` per row, `resolution²` each).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Np3dInfo {
+    /// Vertices of the simplified mesh (3 to 65535: the indices are u16).
     pub vertex_count: u32,
+    /// Indices of its triangles, three per triangle.
     pub index_count: u32,
+    /// Key-frame images per row of `np3d_color.png` (1 to the number of views).
     pub columns: u32,
 }
 
@@ -127,19 +149,24 @@ pub struct Np3dInfo {
 /// f32) of the character's full mesh, pre-skinned.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RigidInfo {
+    /// Vertices of the character's full mesh, stored once per frame (at least 3).
     pub vertex_count: u32,
 }
 
 /// `representations.json`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RepsManifest {
+    /// Always [`REPS_FORMAT`].
     pub format: String,
+    /// The format version the folder was written in; this build reads only [`REPS_VERSION`].
     pub version: u32,
+    /// Name of the character baked.
     pub character: String,
     /// The glTF the representations were baked from (meshes draw from it).
     pub character_path: Option<String>,
     /// The first clip's name (`None`: the rest pose).
     pub clip: Option<String>,
+    /// Frames per second every clip was sampled at, as in the pack.
     pub fps: f32,
     /// Frames of every clip together.
     pub frames: u32,
@@ -147,13 +174,20 @@ pub struct RepsManifest {
     pub clips: Vec<crate::timeline::ClipSpan>,
     /// The texture key-frame (NP3D images; the pack's key frame when one was baked).
     pub key_frame: u32,
+    /// Pixels per side of each square image baked: every full impostor tile and every NP3D
+    /// key-frame image ([`crate::limits::MIN_RESOLUTION`] to
+    /// [`crate::limits::MAX_RESOLUTION`]).
     pub resolution: u32,
+    /// The baked viewpoints; every per-view file and image is in this order.
     pub views: Vec<RepView>,
+    /// The classic impostor sheets' layout (`None`: not baked).
     pub impostor: Option<ImpostorInfo>,
     /// Present whenever `impostor` is.
     #[serde(default)]
     pub far_impostor: Option<FarImpostorInfo>,
+    /// The NP3D mesh and image sheet layout (`None`: not baked).
     pub np3d: Option<Np3dInfo>,
+    /// The rigid meshes' layout (`None`: not baked).
     pub rigid: Option<RigidInfo>,
     /// Size and CRC-32 of every data file (filled in by [`write_representations`]); the
     /// loader reads nothing that is not listed here.
@@ -164,12 +198,18 @@ pub struct RepsManifest {
 /// Per-frame vertex data of a mesh (frame-major: frame `f`, vertex `v` at `f·count + v`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FrameVertices {
+    /// Vertices of the mesh in each frame.
     pub vertex_count: usize,
+    /// Every vertex's skinned position at every frame, in the character's space (as the
+    /// bake posed it).
     pub positions: Vec<[f32; 3]>,
+    /// Every vertex's skinned normal at every frame, laid out as `positions`.
     pub normals: Vec<[f32; 3]>,
 }
 
 impl FrameVertices {
+    /// Frames held: `positions.len() / vertex_count` (the positions' count for a mesh of no
+    /// vertices).
     pub fn frames(&self) -> usize {
         self.positions.len() / self.vertex_count.max(1)
     }
@@ -178,9 +218,14 @@ impl FrameVertices {
 /// Classic impostor sheets, one colour and one normal image per view.
 #[derive(Clone, Debug)]
 pub struct ImpostorData {
+    /// Tiles per row of each sheet.
     pub columns: u32,
+    /// Rows of tiles of each sheet.
     pub rows: u32,
+    /// One colour sheet per view (RGBA8, coverage in alpha), in the manifest's view order.
     pub color: Vec<image::RgbaImage>,
+    /// One normal sheet per view: the normal in RGB (each component `(n + 1) × 127.5`) and
+    /// the texel's body part number in alpha.
     pub normal: Vec<image::RgbaImage>,
 }
 
@@ -319,9 +364,12 @@ impl ImpostorData {
 /// The simplified mesh at every frame and the per-view key-frame images.
 #[derive(Clone, Debug)]
 pub struct Np3dData {
+    /// The simplified mesh's triangles, three u16 vertex numbers each (below
+    /// `frames.vertex_count`).
     pub indices: Vec<u16>,
     /// The character vertex each simplified vertex is.
     pub source: Vec<u32>,
+    /// The simplified mesh's positions and normals at every frame.
     pub frames: FrameVertices,
     /// One `resolution²` colour image per view (the key frame).
     pub images: Vec<image::RgbaImage>,
@@ -330,13 +378,16 @@ pub struct Np3dData {
 /// Representations in memory.
 #[derive(Clone, Debug)]
 pub struct Representations {
+    /// The manifest the data was loaded with, or will be written with.
     pub manifest: RepsManifest,
     /// The full-resolution sheets (`None` when not baked, or not loaded:
     /// [`load_representations_far`]).
     pub impostor: Option<ImpostorData>,
     /// The far impostors' sheets ([`FarImpostorInfo`]).
     pub far_impostor: Option<ImpostorData>,
+    /// The NP3D mesh and images (`None` when not baked).
     pub np3d: Option<Np3dData>,
+    /// The full mesh pre-skinned at every frame (`None` when not baked).
     pub rigid: Option<FrameVertices>,
 }
 
@@ -345,9 +396,14 @@ pub struct Representations {
 /// pack's own figure).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct RepBytes {
+    /// Bytes of the textures, uncompressed RGBA8.
     pub texture: u64,
+    /// Bytes of the vertex and index data.
     pub geometry: u64,
+    /// `texture + geometry`.
     pub total: u64,
+    /// `total` with the textures block-compressed at one byte per texel (a quarter of
+    /// `texture`).
     pub total_bc: u64,
 }
 
@@ -566,6 +622,7 @@ pub fn far_frame_map(manifest: &RepsManifest) -> Option<Vec<u32>> {
 
 /// A tile of a sheet (`columns` per row, `size²` each).
 pub fn sheet_tile(sheet: &image::RgbaImage, index: u32, columns: u32, size: u32) -> image::RgbaImage {
+    let columns = columns.max(1);
     let (x, y) = ((index % columns) * size, (index / columns) * size);
     image::imageops::crop_imm(sheet, x, y, size, size).to_image()
 }
