@@ -551,6 +551,10 @@ struct BakeArgs {
     /// Views on the whole sphere instead of the upper hemisphere.
     #[arg(long)]
     full_sphere: bool,
+    /// How the pack's atlases are stored: bc7 (block-compressed, in KTX2 files: what a GPU
+    /// samples) or png (lossless, for tools).
+    #[arg(long, default_value = "bc7")]
+    textures: String,
     /// Write per-view PNGs of the traced and fitted polygons into <out>/debug/.
     #[arg(long)]
     debug_images: bool,
@@ -626,6 +630,7 @@ impl BakeArgs {
             key_gain_db: 0.5,
             key_budget: 0.5,
             full_sphere: false,
+            textures: "bc7".into(),
             debug_images: false,
             representation: representation.into(),
         }
@@ -659,6 +664,8 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     if !(a.key_gain_db.is_finite() && a.key_gain_db >= 0.0 && a.key_gain_db <= 100.0) {
         anyhow::bail!("--key-gain-db {}: choose 0 to 100", a.key_gain_db);
     }
+    let textures = polypostor::bake::pipeline::TextureEncoding::parse(&a.textures)
+        .ok_or_else(|| anyhow::anyhow!("--textures {}: choose bc7 or png", a.textures))?;
     if !(a.key_budget.is_finite() && a.key_budget >= 0.0 && a.key_budget <= 16.0) {
         anyhow::bail!("--key-budget {}: choose 0 to 16", a.key_budget);
     }
@@ -775,6 +782,7 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
             min_gain_db: a.key_gain_db,
             budget: a.key_budget,
         },
+        textures,
         ..Default::default()
     };
     let out = match &a.out {

@@ -57,10 +57,51 @@ pub struct BakeOptions {
     /// The artist's corrections (per-view key frame, order, pins), applied where their basis
     /// matches this bake's views and frames.
     pub overrides: BakeOverrides,
-    /// How hard the pack's PNG atlases are compressed (lossless either way).
+    /// How the pack's atlases are stored: BC7 blocks in KTX2 files (what a GPU samples, a
+    /// quarter of RGBA8's bytes) or PNG (lossless, for tools).
+    pub textures: TextureEncoding,
+    /// How hard PNG textures are compressed (lossless either way).
     pub png: PngCompression,
     /// How many key images each view's parts get, and which ([`keys`]).
     pub keys: KeyOptions,
+}
+
+/// How a pack's atlases are written.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum TextureEncoding {
+    /// BC7 blocks in KTX2 containers (`atlas_NNN.ktx2`): uploaded as they are where the
+    /// adapter samples BC7, decoded to RGBA8 where it does not. Lossy (see the README's
+    /// figures).
+    #[default]
+    Bc7,
+    /// Lossless PNG (`atlas_NNN.png`) at [`BakeOptions::png`]'s level.
+    Png,
+}
+
+impl TextureEncoding {
+    /// Both encodings, BC7 first.
+    pub const ALL: [TextureEncoding; 2] = [TextureEncoding::Bc7, TextureEncoding::Png];
+
+    /// The name the command line takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            TextureEncoding::Bc7 => "bc7",
+            TextureEncoding::Png => "png",
+        }
+    }
+
+    /// The file extension of its textures.
+    pub fn extension(self) -> &'static str {
+        match self {
+            TextureEncoding::Bc7 => "ktx2",
+            TextureEncoding::Png => "png",
+        }
+    }
+
+    /// The encoding named `name` (`bc7` or `png`).
+    pub fn parse(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|t| t.name() == name)
+    }
 }
 
 /// PNG compression of the written textures: lossless at every level, trading write time for
@@ -124,6 +165,7 @@ impl Default for BakeOptions {
             key_frame_probe_views: 4,
             keep_frame_images: false,
             overrides: BakeOverrides::default(),
+            textures: TextureEncoding::default(),
             png: PngCompression::default(),
             keys: KeyOptions::default(),
         }

@@ -92,6 +92,9 @@ pub struct Settings {
     /// How key images were chosen (absent in reports from before several keys: one key).
     #[serde(default)]
     pub keys: Option<super::keys::KeyOptions>,
+    /// How the atlases were written (absent in reports from before BC7: PNG).
+    #[serde(default)]
+    pub textures: Option<super::pipeline::TextureEncoding>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -224,6 +227,7 @@ impl Report {
                 ..Default::default()
             },
             keys: s.keys.unwrap_or(super::keys::KeyOptions::SINGLE),
+            textures: s.textures.unwrap_or(super::pipeline::TextureEncoding::Png),
             ..Default::default()
         }
     }
@@ -341,6 +345,7 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
             frame_vertices: bake.options.fit.frame_vertices,
             final_vertices: bake.options.fit.final_vertices,
             keys: Some(bake.options.keys),
+            textures: Some(bake.options.textures),
         },
         seconds_total,
         stage_seconds: bake.stage_secs.clone(),

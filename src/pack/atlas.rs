@@ -45,6 +45,10 @@ pub struct Atlas {
 /// anywhere in the polygon never reads a neighbouring crop (it was 2, with crops anywhere).
 pub const PADDING: u32 = 1;
 
+/// Both sides of every colour atlas are multiples of this, so that the colour atlas and the
+/// half-resolution normal atlas are whole 4 × 4 blocks (BC7 compresses them block by block).
+pub const SIDE_MULTIPLE: u32 = 8;
+
 /// Packs `items` (per part: colour tile, normal tile, polygon bounds `[min_x, min_y, max_x,
 /// max_y]` in tile pixels, or `None`).
 pub fn pack_atlas(items: &[Option<(&image::RgbaImage, &image::RgbaImage, [f32; 4])>]) -> Atlas {
@@ -122,14 +126,20 @@ pub fn pack_atlas(items: &[Option<(&image::RgbaImage, &image::RgbaImage, [f32; 4
                 transposed,
             });
         }
-        // Even sizes: the normal atlas is exactly half.
-        let height = sky.iter().copied().max().unwrap_or(0).max(2).next_multiple_of(2);
+        // Sides in multiples of 8: the normal atlas is exactly half, in whole 4 × 4 blocks.
+        let height = sky
+            .iter()
+            .copied()
+            .max()
+            .unwrap_or(0)
+            .max(SIDE_MULTIPLE)
+            .next_multiple_of(SIDE_MULTIPLE);
         (height, rects)
     };
     // At most ~48 widths, so large resolutions stay cheap.
-    let lo = widest.max(2).next_multiple_of(2);
+    let lo = widest.max(SIDE_MULTIPLE).next_multiple_of(SIDE_MULTIPLE);
     let hi = (((area as f64).sqrt() * 2.0).ceil() as u32).max(lo);
-    let step = ((hi - lo) / 48).max(2).next_multiple_of(2);
+    let step = ((hi - lo) / 48).max(SIDE_MULTIPLE).next_multiple_of(SIDE_MULTIPLE);
     let (width, (height, rects)) = (lo..=hi)
         .step_by(step as usize)
         .flat_map(|w| orders.iter().map(move |o| (w, o)))

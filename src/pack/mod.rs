@@ -4,6 +4,7 @@
 pub use polypostor_runtime::pack::*;
 
 mod atlas;
+pub mod bc;
 mod write;
 
 pub use atlas::{Atlas, AtlasRect, dilate, pack_atlas};

@@ -4,10 +4,11 @@
 use std::path::{Path, PathBuf};
 
 use super::atlas::pack_atlas;
-use crate::bake::pipeline::Bake;
+use crate::bake::pipeline::{Bake, TextureEncoding};
 use crate::pack::{
     Checksums, FORMAT_NAME, FORMAT_VERSION, Manifest, ManifestKey, ManifestPart, ManifestView, PackCamera, put_file,
 };
+use polypostor_runtime::texture::BcFormat;
 
 /// Sizes of a written pack.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
@@ -145,11 +146,20 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
             extra_item.push(list);
         }
         let atlas = crate::bake::profile::in_root("atlas", || pack_atlas(&items));
-        let atlas_name = format!("atlas_{v:03}.png");
-        let normal_name = format!("normal_{v:03}.png");
-        for (name, img) in [(&atlas_name, &atlas.color), (&normal_name, &atlas.normal)] {
-            let bytes = crate::bake::profile::in_root("encode", || bake.options.png.encode(img))
-                .map_err(|e| io(&dir.join(name), &e))?;
+        let ext = bake.options.textures.extension();
+        let atlas_name = format!("atlas_{v:03}.{ext}");
+        let normal_name = format!("normal_{v:03}.{ext}");
+        let textures = [
+            (&atlas_name, &atlas.color, BcFormat::Bc7Srgb),
+            (&normal_name, &atlas.normal, BcFormat::Bc7Unorm),
+        ];
+        for (name, img, format) in textures {
+            let bytes = crate::bake::profile::in_root("encode", || match bake.options.textures {
+                TextureEncoding::Bc7 => super::bc::encode_ktx2(img, format)
+                    .ok_or_else(|| format!("{}×{} is not whole 4 × 4 blocks", img.width(), img.height())),
+                TextureEncoding::Png => bake.options.png.encode(img),
+            })
+            .map_err(|e| io(&dir.join(name), &e))?;
             crate::bake::profile::in_root("write", || put_file(dir, name, &bytes, &mut sums))?;
             stats.texture_bytes += img.width() as u64 * img.height() as u64 * 4;
         }

@@ -246,6 +246,7 @@ pub fn bake_representations_sharing(
         }
         if set.impostor {
             impostor = Some(ImpostorData {
+                color_blocks: Vec::new(),
                 columns,
                 rows,
                 color,
@@ -327,6 +328,7 @@ pub fn bake_representations_sharing(
         }
         if set.impostor {
             impostor = Some(ImpostorData {
+                color_blocks: Vec::new(),
                 columns,
                 rows,
                 color,
@@ -773,7 +775,15 @@ pub fn bake_folder(
                 .map_err(|e| format!("the copied representations do not load back: {e}"))?;
         }
         if let Some(r) = &reps {
-            crate::bake::profile::in_root("write", || super::write_representations(r, dir))?;
+            // Colour sheets as BC7 with the pack's textures; normal sheets stay PNG.
+            let bc7 = |img: &image::RgbaImage| {
+                crate::pack::bc::encode_ktx2(img, polypostor_runtime::texture::BcFormat::Bc7Srgb)
+            };
+            let encode: Option<super::ColorEncoder> = match job.options.textures {
+                crate::bake::pipeline::TextureEncoding::Bc7 => Some(&bc7),
+                crate::bake::pipeline::TextureEncoding::Png => None,
+            };
+            crate::bake::profile::in_root("write", || super::write_representations_with(r, dir, encode))?;
             super::load_representations(dir)
                 .map_err(|e| format!("the written representations do not load back: {e}"))?;
         }

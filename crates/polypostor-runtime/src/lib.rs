@@ -24,6 +24,7 @@
 //! - [`segment`]: body-part labels of the triangles (to tint meshes as the parts are tinted).
 //! - [`viewpoints`], [`triangulate`]: view directions and nearest-view lookup; the
 //!   triangulation of a part's polygon the Polypostor renderer draws.
+//! - [`texture`]: BC7 images in KTX2 files (what packs store their textures as) and their decoding.
 //! - [`limits`], [`safe_fs`]: every documented limit, and bounded reads of regular files.
 //! - [`default_character`], [`gltf_write`]: the built-in humanoid (a character to try the
 //!   run time with) and the small glTF writer it is saved with.
@@ -42,6 +43,7 @@ pub mod pack;
 pub mod reps;
 pub mod safe_fs;
 pub mod segment;
+pub mod texture;
 pub mod timeline;
 pub mod triangulate;
 pub mod viewpoints;

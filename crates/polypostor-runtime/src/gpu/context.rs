@@ -75,6 +75,10 @@ pub fn rank_adapter(info: &wgpu::AdapterInfo, pref: &AdapterPreference) -> (u32,
     (kind, backend)
 }
 
+/// Features a context asks for where the adapter has them: BC texture sampling (packs
+/// store their atlases as BC7; without it they are decoded and uploaded as RGBA8).
+pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::TEXTURE_COMPRESSION_BC;
+
 /// A device and queue on the chosen adapter.
 pub struct GpuContext {
     /// The wgpu instance the adapter was enumerated from (native backends, or OpenGL alone when
@@ -91,6 +95,13 @@ pub struct GpuContext {
 impl GpuContext {
     /// A headless context on the preferred adapter.
     pub fn new(pref: &AdapterPreference) -> Result<Self, GpuError> {
+        Self::with_features(pref, OPTIONAL_FEATURES)
+    }
+
+    /// [`GpuContext::new`] asking for `optional` features where the adapter has them (and
+    /// only those: `wgpu::Features::empty()` makes a device that samples no BC7, as on an
+    /// adapter without it).
+    pub fn with_features(pref: &AdapterPreference, optional: wgpu::Features) -> Result<Self, GpuError> {
         // Native backends first; OpenGL only when none of them has an adapter (probing GL
         // needlessly costs time and prints driver noise).
         let native = wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12;
@@ -125,6 +136,7 @@ impl GpuContext {
             let desc = wgpu::DeviceDescriptor {
                 label: Some("polypostor"),
                 required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),
+                required_features: adapter.features() & optional,
                 ..Default::default()
             };
             match pollster::block_on(adapter.request_device(&desc)) {

@@ -248,8 +248,18 @@ fn texture_array(
     label: &str,
     images: &[image::RgbaImage],
     format: wgpu::TextureFormat,
+    blocks: &[crate::texture::CompressedImage],
 ) -> Result<(wgpu::TextureView, u64), GpuError> {
     let (w, h) = images.first().map_or((1, 1), |i| i.dimensions());
+    // The BC7 blocks as they are where every layer has them and the device samples BC7.
+    let bc = device.features().contains(wgpu::Features::TEXTURE_COMPRESSION_BC)
+        && !blocks.is_empty()
+        && blocks.len() == images.len()
+        && blocks.iter().all(|b| [b.width, b.height] == [w, h]);
+    let format = match blocks.first() {
+        Some(b) if bc => b.format.wgpu_format(),
+        _ => format,
+    };
     let limits = device.limits();
     if images.len() as u32 > limits.max_texture_array_layers || w.max(h) > limits.max_texture_dimension_2d {
         return Err(GpuError::Unsupported(format!(
@@ -279,6 +289,16 @@ fn texture_array(
                 "{label}: layer {layer} has another size"
             )));
         }
+        let (data, bytes_per_row, rows) = if bc {
+            let b = &blocks[layer];
+            (
+                &b.blocks[..],
+                b.blocks_per_row() * crate::texture::BLOCK_BYTES as u32,
+                h / 4,
+            )
+        } else {
+            (&img.as_raw()[..], 4 * w, h)
+        };
         queue.write_texture(
             wgpu::TexelCopyTextureInfo {
                 texture: &texture,
@@ -290,11 +310,11 @@ fn texture_array(
                 },
                 aspect: wgpu::TextureAspect::All,
             },
-            img.as_raw(),
+            data,
             wgpu::TexelCopyBufferLayout {
                 offset: 0,
-                bytes_per_row: Some(4 * w),
-                rows_per_image: Some(h),
+                bytes_per_row: Some(bytes_per_row),
+                rows_per_image: Some(rows),
             },
             wgpu::Extent3d {
                 width: w,
@@ -307,7 +327,8 @@ fn texture_array(
         dimension: Some(wgpu::TextureViewDimension::D2Array),
         ..Default::default()
     });
-    Ok((view, 4 * w as u64 * h as u64 * images.len() as u64))
+    let texel_bytes = if bc { 1 } else { 4 };
+    Ok((view, texel_bytes * w as u64 * h as u64 * images.len() as u64))
 }
 
 /// How many layers to give a 2D texture array of `w`×`h` that holds `count` images. The
@@ -805,6 +826,7 @@ impl GpuImpostors {
             "impostor colour sheets",
             &data.color,
             wgpu::TextureFormat::Rgba8UnormSrgb,
+            &data.color_blocks,
         )?;
         let (normal, nb) = texture_array(
             device,
@@ -812,6 +834,7 @@ impl GpuImpostors {
             "impostor normal sheets",
             &data.normal,
             wgpu::TextureFormat::Rgba8Unorm,
+            &[],
         )?;
         let base = ImageCrowd::new(
             device,
@@ -900,6 +923,7 @@ impl GpuNp3d {
             "np3d images",
             &data.images,
             wgpu::TextureFormat::Rgba8UnormSrgb,
+            &[],
         )?;
         let base = ImageCrowd::new(
             device,

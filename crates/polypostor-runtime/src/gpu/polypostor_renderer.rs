@@ -8,6 +8,7 @@ use wgpu::util::DeviceExt;
 use super::{GpuError, RenderTarget, shaders};
 use crate::crowd::Instance;
 use crate::pack::LoadedPack;
+use crate::texture::BcFormat;
 
 /// Per-frame settings of the draw (keep in sync with `Frame` in the shader).
 #[repr(C)]
@@ -331,14 +332,48 @@ impl GpuPolypostors {
             })
         };
         let (pw, nw) = (pages.size, (pages.size / 2).max(1));
-        let atlas = array("polypostor atlases", pw, pw, wgpu::TextureFormat::Rgba8UnormSrgb);
-        let normals = array("polypostor normal atlases", nw, nw, wgpu::TextureFormat::Rgba8Unorm);
+        // BC7 pages where the pack stores its atlases so and the device samples BC7; else
+        // RGBA8 from the decoded atlases.
+        let bc = device.features().contains(wgpu::Features::TEXTURE_COMPRESSION_BC)
+            && pack
+                .views
+                .iter()
+                .all(|v| v.atlas_blocks.is_some() && v.normal_blocks.is_some());
+        let (color_format, normal_format) = if bc {
+            (BcFormat::Bc7Srgb.wgpu_format(), BcFormat::Bc7Unorm.wgpu_format())
+        } else {
+            (BcFormat::Bc7Srgb.rgba8_format(), BcFormat::Bc7Unorm.rgba8_format())
+        };
+        let atlas = array("polypostor atlases", pw, pw, color_format);
+        let normals = array("polypostor normal atlases", nw, nw, normal_format);
         for (vi, view) in pack.views.iter().enumerate() {
             let [ox, oy, layer] = pages.place[vi];
-            for (texture, img, shift) in [(&atlas, &view.atlas, 0), (&normals, &view.normals, 1)] {
+            let uploads = [
+                (&atlas, &view.atlas, view.atlas_blocks.as_ref(), 0),
+                (&normals, &view.normals, view.normal_blocks.as_ref(), 1),
+            ];
+            for (texture, img, blocks, shift) in uploads {
                 if img.width() == 0 || img.height() == 0 {
                     continue;
                 }
+                let (data, layout): (&[u8], _) = match blocks.filter(|_| bc) {
+                    Some(b) => (
+                        &b.blocks,
+                        wgpu::TexelCopyBufferLayout {
+                            offset: 0,
+                            bytes_per_row: Some(b.blocks_per_row() * crate::texture::BLOCK_BYTES as u32),
+                            rows_per_image: Some(b.height / 4),
+                        },
+                    ),
+                    None => (
+                        img.as_raw(),
+                        wgpu::TexelCopyBufferLayout {
+                            offset: 0,
+                            bytes_per_row: Some(4 * img.width()),
+                            rows_per_image: Some(img.height()),
+                        },
+                    ),
+                };
                 queue.write_texture(
                     wgpu::TexelCopyTextureInfo {
                         texture,
@@ -350,12 +385,8 @@ impl GpuPolypostors {
                         },
                         aspect: wgpu::TextureAspect::All,
                     },
-                    img.as_raw(),
-                    wgpu::TexelCopyBufferLayout {
-                        offset: 0,
-                        bytes_per_row: Some(4 * img.width()),
-                        rows_per_image: Some(img.height()),
-                    },
+                    data,
+                    layout,
                     wgpu::Extent3d {
                         width: img.width(),
                         height: img.height(),
@@ -364,11 +395,13 @@ impl GpuPolypostors {
                 );
             }
         }
+        // BC7: one byte a texel; RGBA8: four.
+        let texel_bytes = if bc { 1 } else { 4 };
         let gpu_bytes = (views.len() * std::mem::size_of::<ViewGpu>()
             + parts.len() * std::mem::size_of::<PartGpu>()
             + geometry.len() * 4
             + index_words.len() * 4) as u64
-            + 4 * pages.count as u64 * (pw as u64 * pw as u64 + nw as u64 * nw as u64);
+            + texel_bytes * pages.count as u64 * (pw as u64 * pw as u64 + nw as u64 * nw as u64);
         use super::crowd_renderers::{Entry, clamp_sampler, layout as bind_layout, pipeline as crowd_pipeline};
         let frame = super::crowd_renderers::uniform_buffer(device, "polypostor frame");
         let layout = bind_layout(
@@ -596,20 +629,25 @@ fn coarse_triangles(uvs: &[f32], step: usize) -> Option<Vec<u32>> {
 /// Where each view's atlas lies in the shared pages.
 #[derive(Debug)]
 struct AtlasPages {
-    /// Side of every (square) page, even.
+    /// Side of every (square) page, a multiple of [`PAGE_ALIGN`].
     size: u32,
     count: u32,
-    /// Per view: x, y (even, so the half-size normal atlas lands on whole texels) and page.
+    /// Per view: x, y (multiples of [`PAGE_ALIGN`], so the half-size normal atlas lands on
+    /// whole 4 × 4 blocks) and page.
     place: Vec<[u32; 3]>,
 }
 
-/// Shelf-packs rectangles of `sizes` (even) into as few square pages as fit: one page just
-/// large enough when everything fits under `max_side`, else pages of `max_side`. A 2-texel
-/// gutter keeps filtering from reading a neighbour. `None` when one rectangle is larger than
-/// `max_side`.
+/// Places and page sides are multiples of this: BC7 atlases are copied block by block, the
+/// normal atlas at half size.
+const PAGE_ALIGN: u32 = 8;
+
+/// Shelf-packs rectangles of `sizes` into as few square pages as fit: one page just large
+/// enough when everything fits under `max_side`, else pages of `max_side`. A gutter of at
+/// least 2 texels keeps filtering from reading a neighbour. `None` when one rectangle is
+/// larger than `max_side`.
 fn atlas_pages(sizes: &[[u32; 2]], max_side: u32) -> Option<AtlasPages> {
     const GUTTER: u32 = 2;
-    let max_side = max_side & !1;
+    let max_side = max_side & !(PAGE_ALIGN - 1);
     if sizes
         .iter()
         .any(|s| s[0] + GUTTER > max_side || s[1] + GUTTER > max_side)
@@ -622,7 +660,10 @@ fn atlas_pages(sizes: &[[u32; 2]], max_side: u32) -> Option<AtlasPages> {
         let mut place = vec![[0u32; 3]; sizes.len()];
         let (mut x, mut y, mut shelf, mut page) = (0u32, 0u32, 0u32, 0u32);
         for &i in &order {
-            let [w, h] = [(sizes[i][0] + 1) & !1, (sizes[i][1] + 1) & !1];
+            let [w, h] = [
+                sizes[i][0].next_multiple_of(PAGE_ALIGN),
+                sizes[i][1].next_multiple_of(PAGE_ALIGN),
+            ];
             if x + w > side {
                 x = 0;
                 y += shelf;
@@ -635,8 +676,8 @@ fn atlas_pages(sizes: &[[u32; 2]], max_side: u32) -> Option<AtlasPages> {
                 shelf = 0;
             }
             place[i] = [x, y, page];
-            x += w + GUTTER;
-            shelf = shelf.max(h + GUTTER);
+            x += (w + GUTTER).next_multiple_of(PAGE_ALIGN);
+            shelf = shelf.max((h + GUTTER).next_multiple_of(PAGE_ALIGN));
         }
         AtlasPages {
             size: side,
@@ -646,16 +687,16 @@ fn atlas_pages(sizes: &[[u32; 2]], max_side: u32) -> Option<AtlasPages> {
     };
     let area: u64 = sizes
         .iter()
-        .map(|s| (s[0] + GUTTER) as u64 * (s[1] + GUTTER) as u64)
+        .map(|s| (s[0] + GUTTER + PAGE_ALIGN) as u64 * (s[1] + GUTTER + PAGE_ALIGN) as u64)
         .sum();
-    let mut side = (((area as f64).sqrt() * 1.05) as u32).max(2);
+    let mut side = (((area as f64).sqrt() * 1.05) as u32).max(PAGE_ALIGN);
     while side < max_side {
-        side = (side + 1) & !1;
+        side = side.next_multiple_of(PAGE_ALIGN);
         let p = pack(side);
         if p.count == 1 {
             return Some(p);
         }
-        side += side / 16 + 2;
+        side += side / 16 + PAGE_ALIGN;
     }
     Some(pack(max_side))
 }
@@ -693,9 +734,9 @@ mod tests {
             .collect();
         for max in [8192, 1024, 512] {
             let p = atlas_pages(&sizes, max).unwrap();
-            assert!(p.size <= max && p.size.is_multiple_of(2));
+            assert!(p.size <= max && p.size.is_multiple_of(super::PAGE_ALIGN));
             for (i, a) in p.place.iter().enumerate() {
-                assert!(a[0].is_multiple_of(2) && a[1].is_multiple_of(2));
+                assert!(a[0].is_multiple_of(super::PAGE_ALIGN) && a[1].is_multiple_of(super::PAGE_ALIGN));
                 assert!(a[0] + sizes[i][0] <= p.size && a[1] + sizes[i][1] <= p.size, "{a:?}");
                 assert!(a[2] < p.count);
                 for (j, b) in p.place.iter().enumerate().skip(i + 1) {

@@ -8,7 +8,9 @@ use serde::{Deserialize, Serialize};
 pub const FORMAT_NAME: &str = "polypostor-pack";
 /// Version 3 added [`Manifest::checksums`], version 5 the clip table ([`Manifest::clips`]:
 /// several clips in one pack); older packs are refused with "re-bake".
-pub const FORMAT_VERSION: u32 = 5;
+pub const FORMAT_VERSION: u32 = 6;
+/// The oldest format version this build reads (5: the same manifest, textures only as PNG).
+pub const OLDEST_FORMAT_VERSION: u32 = 5;
 
 /// Size and CRC-32 (IEEE, as zlib and PNG compute it) of one file of a pack or
 /// representations folder.
@@ -171,7 +173,7 @@ pub struct ManifestView {
 pub struct Manifest {
     /// Always [`FORMAT_NAME`].
     pub format: String,
-    /// The format version the pack was written in; this build reads only [`FORMAT_VERSION`].
+    /// The format version the pack was written in; this build reads [`OLDEST_FORMAT_VERSION`](super::OLDEST_FORMAT_VERSION) to [`FORMAT_VERSION`](super::FORMAT_VERSION).
     pub version: u32,
     /// Name of the character baked.
     pub character: String,

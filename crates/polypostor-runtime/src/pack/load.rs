@@ -6,10 +6,11 @@
 
 use std::path::{Path, PathBuf};
 
-use super::format::{Checksums, FORMAT_NAME, FORMAT_VERSION, Manifest, PackCamera};
+use super::format::{Checksums, FORMAT_NAME, FORMAT_VERSION, Manifest, OLDEST_FORMAT_VERSION, PackCamera};
 use crate::limits::{
     MAX_FPS, MAX_FRAMES, MAX_LOADED_TEXTURE_BYTES, MAX_PARTS, MAX_RESOLUTION, MAX_VIEWS, MIN_RESOLUTION,
 };
+use crate::texture::{BcFormat, CompressedImage};
 
 /// Why a pack or representations folder could not be loaded.
 #[derive(Debug, thiserror::Error)]
@@ -74,6 +75,11 @@ pub struct LoadedView {
     pub atlas: image::RgbaImage,
     /// Half the atlas size in each direction.
     pub normals: image::RgbaImage,
+    /// The colour atlas's BC7 blocks when the pack stores it so (`.ktx2`): what a renderer
+    /// uploads where the adapter samples BC7; [`LoadedView::atlas`] is their decoding.
+    pub atlas_blocks: Option<CompressedImage>,
+    /// The normal atlas's BC7 blocks when the pack stores it so.
+    pub normal_blocks: Option<CompressedImage>,
 }
 
 /// A validated pack in memory.
@@ -133,8 +139,9 @@ pub(crate) fn parse_manifest<T: serde::de::DeserializeOwned>(
     dir: &Path,
     file: &'static str,
     format: &str,
-    version: u32,
+    versions: std::ops::RangeInclusive<u32>,
 ) -> Result<T, PackError> {
+    let version = *versions.end();
     let bytes = crate::safe_fs::read_regular(&dir.join(file), MAX_MANIFEST_BYTES, "a manifest").map_err(fs_error)?;
     #[derive(serde::Deserialize)]
     struct Head {
@@ -159,7 +166,7 @@ pub(crate) fn parse_manifest<T: serde::de::DeserializeOwned>(
             current: version,
         });
     }
-    if head.version < version {
+    if head.version < *versions.start() {
         return Err(PackError::OldVersion {
             file,
             found: head.version,
@@ -292,6 +299,24 @@ impl FolderReader<'_> {
         Ok(bytes)
     }
 
+    /// Reads the texture `name`: a KTX2 file of BC7 blocks (`.ktx2`, in `format`; decoded to
+    /// RGBA8 too, the blocks kept for adapters that sample BC7) or a PNG. Its size is checked
+    /// against `size` before anything is decoded.
+    pub fn texture(
+        &self,
+        name: &str,
+        size: [u32; 2],
+        format: BcFormat,
+    ) -> Result<(image::RgbaImage, Option<CompressedImage>), PackError> {
+        if name.ends_with(".ktx2") {
+            let bytes = self.read(name)?;
+            let c = crate::texture::read_ktx2(name, &bytes, size, format).map_err(damaged)?;
+            Ok((c.decode(), Some(c)))
+        } else {
+            Ok((self.png(name, size)?, None))
+        }
+    }
+
     /// Decodes the PNG `name` and checks its size against `size` before decoding.
     pub fn png(&self, name: &str, size: [u32; 2]) -> Result<image::RgbaImage, PackError> {
         let bytes = self.read(name)?;
@@ -398,7 +423,7 @@ impl KeyBlock {
 /// old pack gives a [`PackError`] naming the file and the fault.
 pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
     const FILE: &str = "manifest.json";
-    let manifest: Manifest = parse_manifest(dir, FILE, FORMAT_NAME, FORMAT_VERSION)?;
+    let manifest: Manifest = parse_manifest(dir, FILE, FORMAT_NAME, OLDEST_FORMAT_VERSION..=FORMAT_VERSION)?;
     check_timing(FILE, manifest.fps, manifest.frames, manifest.key_frame)?;
     crate::timeline::validate(&manifest.clips, manifest.frames as usize)
         .map_err(|e| damaged(format!("{FILE}: {e}")))?;
@@ -445,6 +470,18 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
         }
         for name in [&view.atlas, &view.normal_atlas] {
             member(dir, name)?;
+            let ktx2 = name.ends_with(".ktx2");
+            if !(name.ends_with(".png") || (ktx2 && manifest.version >= 6)) {
+                return Err(damaged(format!(
+                    "{what}: the texture {name} is neither a PNG nor (format 6 on) a KTX2 file"
+                )));
+            }
+            if ktx2 && !(view.atlas_size[0].is_multiple_of(8) && view.atlas_size[1].is_multiple_of(8)) {
+                return Err(damaged(format!(
+                    "{what}: a {}×{} atlas in KTX2 files: BC7 atlases are multiples of 8 texels a side",
+                    view.atlas_size[0], view.atlas_size[1]
+                )));
+            }
             if !names.insert(name.clone()) {
                 return Err(damaged(format!("{what}: the file {name} is named twice")));
             }
@@ -614,9 +651,14 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
     let mut views = Vec::with_capacity(manifest.views.len());
     for view in &manifest.views {
         let [aw, ah] = view.atlas_size;
-        let atlas = files.png(&view.atlas, [aw, ah])?;
-        let normals = files.png(&view.normal_atlas, [aw / 2, ah / 2])?;
-        views.push(LoadedView { atlas, normals });
+        let (atlas, atlas_blocks) = files.texture(&view.atlas, [aw, ah], BcFormat::Bc7Srgb)?;
+        let (normals, normal_blocks) = files.texture(&view.normal_atlas, [aw / 2, ah / 2], BcFormat::Bc7Unorm)?;
+        views.push(LoadedView {
+            atlas,
+            normals,
+            atlas_blocks,
+            normal_blocks,
+        });
     }
     Ok(LoadedPack {
         manifest,

@@ -10,7 +10,7 @@ mod load;
 
 pub use format::{
     Checksums, FORMAT_NAME, FORMAT_VERSION, FileSum, MAX_KEYS, Manifest, ManifestKey, ManifestPart, ManifestView,
-    PackCamera, put_file,
+    OLDEST_FORMAT_VERSION, PackCamera, put_file,
 };
 pub use load::valid_order;
 pub(crate) use load::{

@@ -227,6 +227,10 @@ pub struct ImpostorData {
     /// One normal sheet per view: the normal in RGB (each component `(n + 1) × 127.5`) and
     /// the texel's body part number in alpha.
     pub normal: Vec<image::RgbaImage>,
+    /// The colour sheets' BC7 blocks, one per view, when the folder stores them so
+    /// (`.ktx2`; empty otherwise): what a renderer uploads where the adapter samples BC7.
+    /// The normal sheets stay lossless (their alpha is an exact part number).
+    pub color_blocks: Vec<crate::texture::CompressedImage>,
 }
 
 impl ImpostorData {
@@ -265,6 +269,7 @@ impl ImpostorData {
                 .collect()
         };
         ImpostorData {
+            color_blocks: Vec::new(),
             columns,
             rows,
             color: cut(&self.color),
@@ -353,6 +358,7 @@ impl ImpostorData {
             normal.push(no);
         }
         ImpostorData {
+            color_blocks: Vec::new(),
             columns: self.columns,
             rows: self.rows,
             color,
@@ -652,6 +658,22 @@ pub fn load_full_impostors(dir: &Path, manifest: &RepsManifest) -> Result<Option
     read_impostor_sheets(&files, manifest)
 }
 
+/// A colour sheet of view `v` (`kind` `color` or `far_color`): BC7 in KTX2 when the
+/// folder lists that file, else PNG.
+fn color_sheet(
+    files: &crate::pack::FolderReader,
+    kind: &str,
+    v: u32,
+    size: [u32; 2],
+) -> Result<(image::RgbaImage, Option<crate::texture::CompressedImage>), PackError> {
+    let ktx2 = impostor_file_as(kind, v, "ktx2");
+    if files.checksums.contains_key(&ktx2) {
+        files.texture(&ktx2, size, crate::texture::BcFormat::Bc7Srgb)
+    } else {
+        Ok((files.png(&impostor_file(kind, v), size)?, None))
+    }
+}
+
 fn read_impostor_sheets(
     files: &crate::pack::FolderReader,
     manifest: &RepsManifest,
@@ -663,11 +685,18 @@ fn read_impostor_sheets(
     let size = [info.columns * r, info.rows * r];
     let mut color = Vec::new();
     let mut normal = Vec::new();
+    let mut color_blocks = Vec::new();
     for v in 0..manifest.views.len() as u32 {
-        color.push(files.png(&impostor_file("color", v), size)?);
+        let (c, blocks) = color_sheet(files, "color", v, size)?;
+        color.push(c);
+        color_blocks.extend(blocks);
         normal.push(files.png(&impostor_file("normal", v), size)?);
     }
+    if color_blocks.len() != color.len() {
+        color_blocks.clear();
+    }
     Ok(Some(ImpostorData {
+        color_blocks,
         columns: info.columns,
         rows: info.rows,
         color,
@@ -678,7 +707,7 @@ fn read_impostor_sheets(
 fn load_representations_with(dir: &Path, full_impostors: bool) -> Result<Representations, PackError> {
     use crate::pack::{FolderReader, check_camera, check_direction, check_resolution_views, check_timing};
     const FILE: &str = REPS_FILE;
-    let manifest: RepsManifest = crate::pack::parse_manifest(dir, FILE, REPS_FORMAT, REPS_VERSION)?;
+    let manifest: RepsManifest = crate::pack::parse_manifest(dir, FILE, REPS_FORMAT, REPS_VERSION..=REPS_VERSION)?;
     check_timing(FILE, manifest.fps, manifest.frames, manifest.key_frame)?;
     crate::timeline::validate(&manifest.clips, manifest.frames as usize)
         .map_err(|e| damaged(format!("{FILE}: {e}")))?;
@@ -805,11 +834,18 @@ fn load_representations_with(dir: &Path, full_impostors: bool) -> Result<Represe
         (Some((cs, ns)), Some(far)) => {
             let mut color = Vec::new();
             let mut normal = Vec::new();
+            let mut color_blocks = Vec::new();
             for v in 0..views {
-                color.push(files.png(&impostor_file("far_color", v), cs)?);
+                let (c, blocks) = color_sheet(&files, "far_color", v, cs)?;
+                color.push(c);
+                color_blocks.extend(blocks);
                 normal.push(files.png(&impostor_file("far_normal", v), ns)?);
             }
+            if color_blocks.len() != color.len() {
+                color_blocks.clear();
+            }
             Some(ImpostorData {
+                color_blocks,
                 columns: far.columns,
                 rows: far.rows,
                 color,
@@ -869,29 +905,71 @@ fn load_representations_with(dir: &Path, full_impostors: bool) -> Result<Represe
 
 /// `impostor_{kind}_NNN.png`; the far sheets are `far_impostor_{color,normal}_NNN.png`.
 fn impostor_file(kind: &str, view: u32) -> String {
+    impostor_file_as(kind, view, "png")
+}
+
+/// [`impostor_file`] with extension `ext` (`ktx2`: a colour sheet in BC7).
+fn impostor_file_as(kind: &str, view: u32, ext: &str) -> String {
     match kind.strip_prefix("far_") {
-        Some(k) => format!("far_impostor_{k}_{view:03}.png"),
-        None => format!("impostor_{kind}_{view:03}.png"),
+        Some(k) => format!("far_impostor_{k}_{view:03}.{ext}"),
+        None => format!("impostor_{kind}_{view:03}.{ext}"),
     }
 }
 
 /// Writes the representations into `dir` (an existing folder, e.g. the pack's temporary
 /// folder before it is moved into place), with the checksum of every file in the manifest.
-/// Returns the bytes written.
+/// Returns the bytes written. Every sheet is PNG; see [`write_representations_with`].
 pub fn write_representations(reps: &Representations, dir: &Path) -> Result<u64, String> {
+    write_representations_with(reps, dir, None)
+}
+
+/// Turns a colour sheet into a KTX2 file of BC7 blocks (`None`: keep it PNG).
+pub type ColorEncoder<'a> = &'a (dyn Fn(&image::RgbaImage) -> Option<Vec<u8>> + Sync);
+
+/// [`write_representations`], with the impostor colour sheets (full and far) written by
+/// `encode` as `.ktx2` files where it gives one (the normal sheets stay PNG: their alpha is
+/// an exact part number).
+pub fn write_representations_with(
+    reps: &Representations,
+    dir: &Path,
+    encode: Option<ColorEncoder>,
+) -> Result<u64, String> {
     let mut sums = crate::pack::Checksums::new();
     let mut put = |name: &str, bytes: &[u8]| crate::pack::put_file(dir, name, bytes, &mut sums);
     let png_bytes = |img: &image::RgbaImage| crate::safe_fs::encode_png(img, png::Compression::Balanced);
-    if let Some(i) = &reps.impostor {
-        for (v, (c, n)) in i.color.iter().zip(&i.normal).enumerate() {
-            put(&impostor_file("color", v as u32), &png_bytes(c)?)?;
-            put(&impostor_file("normal", v as u32), &png_bytes(n)?)?;
+    // Every colour sheet, encoded on all cores (BC7 encoding is most of the write).
+    let mut sheets: Vec<(&str, u32, &image::RgbaImage)> = Vec::new();
+    for (kind, data) in [("color", &reps.impostor), ("far_color", &reps.far_impostor)] {
+        if let Some(i) = data {
+            sheets.extend(i.color.iter().enumerate().map(|(v, c)| (kind, v as u32, c)));
         }
     }
-    if let Some(i) = &reps.far_impostor {
-        for (v, (c, n)) in i.color.iter().zip(&i.normal).enumerate() {
-            put(&impostor_file("far_color", v as u32), &png_bytes(c)?)?;
-            put(&impostor_file("far_normal", v as u32), &png_bytes(n)?)?;
+    let mut encoded: Vec<Option<Vec<u8>>> = vec![None; sheets.len()];
+    if let Some(encode) = encode {
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).max(1);
+        let chunk = sheets.len().div_ceil(threads).max(1);
+        std::thread::scope(|scope| {
+            for (out, jobs) in encoded.chunks_mut(chunk).zip(sheets.chunks(chunk)) {
+                scope.spawn(move || {
+                    for (o, (_, _, img)) in out.iter_mut().zip(jobs) {
+                        *o = encode(img);
+                    }
+                });
+            }
+        });
+    }
+    for ((kind, v, img), bytes) in sheets.into_iter().zip(encoded) {
+        match bytes {
+            Some(bytes) => put(&impostor_file_as(kind, v, "ktx2"), &bytes)?,
+            None => put(&impostor_file(kind, v), &png_bytes(img)?)?,
+        }
+    }
+    let mut put = |name: &str, bytes: &[u8]| crate::pack::put_file(dir, name, bytes, &mut sums);
+    for (kind, data) in [("normal", &reps.impostor), ("far_normal", &reps.far_impostor)] {
+        if let Some(i) = data {
+            for (v, n) in i.normal.iter().enumerate() {
+                put(&impostor_file(kind, v as u32), &png_bytes(n)?)?;
+            }
         }
     }
     if let Some(n) = &reps.np3d {
@@ -1001,6 +1079,7 @@ mod tests {
             }
         }
         let data = ImpostorData {
+            color_blocks: Vec::new(),
             columns,
             rows,
             color: vec![sheet.clone()],
@@ -1037,6 +1116,7 @@ mod tests {
             n.put_pixel(x, y, image::Rgba([128, 255, 128, 2]));
         }
         let d = ImpostorData {
+            color_blocks: Vec::new(),
             columns: 1,
             rows: 1,
             color: vec![c.clone()],

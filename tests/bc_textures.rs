@@ -1,0 +1,225 @@
+//! Block-compressed textures (issue 20): a pack written with BC7 atlases in KTX2 files reads
+//! back as the same pack as its PNG twin up to BC7's loss, draws the same on a device that
+//! samples BC7 as on one that decodes the blocks on the CPU, and its KTX2 files parse with an
+//! independent reader (the `ktx2` crate).
+
+mod common;
+
+use std::sync::atomic::AtomicBool;
+
+use polypostor::bake::caps::CapOverrides;
+use polypostor::bake::pipeline::{BakeOptions, KeyFrame, TextureEncoding, bake};
+use polypostor::bake::segment::auto_segment;
+use polypostor::crowd::Instance;
+use polypostor::gpu::{AdapterPreference, GpuContext, GpuPolypostors, PolypostorStyle, RenderTarget};
+use polypostor::pack::{load_pack, write_pack};
+
+fn psnr(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
+    psnr_where(a, b, |_| true, 4)
+}
+
+/// PSNR over the first `channels` channels of the texels where `keep` holds for `b`'s texel.
+fn psnr_where(
+    a: &image::RgbaImage,
+    b: &image::RgbaImage,
+    keep: impl Fn(&image::Rgba<u8>) -> bool,
+    channels: usize,
+) -> f64 {
+    let (mut se, mut n) = (0.0, 0usize);
+    for (p, q) in a.pixels().zip(b.pixels()) {
+        if !keep(q) {
+            continue;
+        }
+        for k in 0..channels {
+            se += (p[k] as f64 - q[k] as f64).powi(2);
+        }
+        n += channels;
+    }
+    let mse = se / n.max(1) as f64;
+    if mse == 0.0 {
+        f64::INFINITY
+    } else {
+        10.0 * (255.0f64 * 255.0 / mse).log10()
+    }
+}
+
+/// Every view of `pack` drawn at frame 2 by a renderer on `ctx`.
+fn draw_views(ctx: &GpuContext, pack: &polypostor::pack::LoadedPack) -> (Vec<image::RgbaImage>, u64) {
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let mut gpu = GpuPolypostors::new(device, queue, pack).unwrap();
+    let target = RenderTarget::new(device, 128, 128);
+    let style = PolypostorStyle {
+        lit: true,
+        tint: 0.0,
+        ..Default::default()
+    };
+    let frames = pack.manifest.frames;
+    let mut out = Vec::new();
+    for (v, view) in pack.manifest.views.iter().enumerate() {
+        let cam = &view.camera;
+        let camera = cam.to_camera(cam.half_size * 4.0, cam.half_size, cam.half_size * 8.0);
+        let instance = Instance {
+            pos: [0.0, 0.0],
+            facing: [0.0, 1.0],
+            view: v as u32,
+            frame: polypostor::crowd::looping_pair(2, frames),
+            blend: 0.0,
+            variant: 3,
+        };
+        gpu.render(device, queue, &target, camera.clip_from_world(1.0), &style, &[instance])
+            .unwrap();
+        out.push(target.read_color(device, queue).unwrap());
+    }
+    (out, gpu.gpu_bytes)
+}
+
+#[test]
+fn bc7_packs_load_draw_and_parse_like_their_png_twins() {
+    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let c = polypostor::default_character::generate();
+    let seg = auto_segment(&c);
+    let options = BakeOptions {
+        views: 4,
+        resolution: 128,
+        key_frame: KeyFrame::Frame(0),
+        ..Default::default()
+    };
+    assert_eq!(options.textures, TextureEncoding::Bc7, "BC7 is the default");
+    let b = bake(
+        &ctx,
+        &c,
+        &seg,
+        &CapOverrides::default(),
+        &options,
+        &|_| {},
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    let dir = common::temp_dir("bc-textures");
+    let (bc_dir, png_dir) = (dir.join("bc7.pack"), dir.join("png.pack"));
+    let bc_stats = write_pack(&b, &c.name, Some("Walk"), &bc_dir).unwrap();
+    let mut png_bake = b;
+    png_bake.options.textures = TextureEncoding::Png;
+    let png_stats = write_pack(&png_bake, &c.name, Some("Walk"), &png_dir).unwrap();
+    let (bc, png) = (load_pack(&bc_dir).unwrap(), load_pack(&png_dir).unwrap());
+
+    // Same geometry, same atlases up to BC7's loss; the blocks kept for upload.
+    assert_eq!(bc.vertices, png.vertices);
+    assert_eq!(bc.indices, png.indices);
+    assert_eq!(bc_stats.texture_bytes, png_stats.texture_bytes);
+    for (v, (a, b)) in bc.views.iter().zip(&png.views).enumerate() {
+        assert!(bc.manifest.views[v].atlas.ends_with(".ktx2"));
+        assert!(png.manifest.views[v].atlas.ends_with(".png"));
+        assert!(a.atlas_blocks.is_some() && a.normal_blocks.is_some());
+        assert!(b.atlas_blocks.is_none());
+        assert_eq!(a.atlas.dimensions(), b.atlas.dimensions());
+        assert_eq!(a.atlas.width() % 8, 0);
+        assert_eq!(a.atlas.height() % 8, 0);
+        // Colour everywhere; normals (RGB) where the normal atlas holds a surface.
+        let (pc, pn) = (
+            psnr(&a.atlas, &b.atlas),
+            psnr_where(&a.normals, &b.normals, |q| q[3] > 0, 3),
+        );
+        println!("view {v}: BC7 colour atlas {pc:.1} dB, normals {pn:.1} dB");
+        assert!(
+            pc > 35.0 && pn > 25.0,
+            "view {v}: BC7 atlas {pc:.1} dB, normals {pn:.1} dB"
+        );
+        assert!(
+            pc.is_finite(),
+            "BC7 is lossy: identical atlases mean nothing was compressed"
+        );
+        // The blocks are a quarter of RGBA8.
+        let blocks = a.atlas_blocks.as_ref().unwrap();
+        assert_eq!(blocks.blocks.len() as u32, a.atlas.width() * a.atlas.height());
+    }
+
+    // An independent KTX2 reader agrees on the container.
+    let name = &bc.manifest.views[0].atlas;
+    let bytes = std::fs::read(bc_dir.join(name)).unwrap();
+    let reader = ktx2::Reader::new(&bytes[..]).expect("a valid KTX2 file");
+    let h = reader.header();
+    assert_eq!(h.format, Some(ktx2::Format::BC7_SRGB_BLOCK));
+    assert_eq!([h.pixel_width, h.pixel_height], bc.manifest.views[0].atlas_size);
+    assert_eq!(h.level_count, 1);
+    assert_eq!(h.supercompression_scheme, None);
+    let level = reader.levels().next().unwrap();
+    assert_eq!(level.data, &bc.views[0].atlas_blocks.as_ref().unwrap().blocks[..]);
+    match reader.dfd_blocks().first().expect("a data format descriptor") {
+        ktx2::dfd::Block::Basic(b) => {
+            assert_eq!(b.color_model, Some(ktx2::ColorModel::BC7));
+            assert_eq!(b.transfer_function, Some(ktx2::TransferFunction::SRGB));
+        }
+        other => panic!("not a basic descriptor: {other:?}"),
+    }
+    let normal_bytes = std::fs::read(bc_dir.join(&bc.manifest.views[0].normal_atlas)).unwrap();
+    let normal = ktx2::Reader::new(&normal_bytes[..]).unwrap();
+    assert_eq!(normal.header().format, Some(ktx2::Format::BC7_UNORM_BLOCK));
+
+    // Drawn on a device that samples BC7 and on one that cannot (the loader's decoding is
+    // uploaded instead): the same pictures; a quarter of the texture memory.
+    let plain = GpuContext::with_features(&AdapterPreference::SoftwareFirst, wgpu::Features::empty()).unwrap();
+    assert!(!plain.device.features().contains(wgpu::Features::TEXTURE_COMPRESSION_BC));
+    let (decoded, decoded_bytes) = draw_views(&plain, &bc);
+    let (from_png, _) = draw_views(&plain, &png);
+    if ctx.device.features().contains(wgpu::Features::TEXTURE_COMPRESSION_BC) {
+        let (sampled, sampled_bytes) = draw_views(&ctx, &bc);
+        for (v, (a, b)) in sampled.iter().zip(&decoded).enumerate() {
+            let p = psnr(a, b);
+            assert!(p > 50.0, "view {v}: BC7 sampled vs decoded on the CPU: {p:.1} dB");
+        }
+        assert!(sampled_bytes < decoded_bytes, "{sampled_bytes} vs {decoded_bytes}");
+    } else {
+        println!("this adapter samples no BC7: only the decoding path was drawn");
+    }
+    for (v, (a, b)) in decoded.iter().zip(&from_png).enumerate() {
+        let p = psnr(a, b);
+        println!("view {v}: BC7 pack vs PNG pack drawn (lit): {p:.1} dB");
+        assert!(p > 30.0, "view {v}: BC7 pack vs PNG pack drawn: {p:.1} dB");
+    }
+}
+
+#[test]
+fn damaged_ktx2_atlases_are_named() {
+    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let c = polypostor::default_character::generate();
+    let options = BakeOptions {
+        views: 2,
+        resolution: 32,
+        key_frame: KeyFrame::Frame(0),
+        ..Default::default()
+    };
+    let b = bake(
+        &ctx,
+        &c,
+        &auto_segment(&c),
+        &CapOverrides::default(),
+        &options,
+        &|_| {},
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    let dir = common::temp_dir("bc-damaged");
+    let out = dir.join("p.pack");
+    write_pack(&b, &c.name, Some("Walk"), &out).unwrap();
+    let name = load_pack(&out).unwrap().manifest.views[1].atlas.clone();
+    let path = out.join(&name);
+    let good = std::fs::read(&path).unwrap();
+    // A forged level length, resealed so only the KTX2 check can catch it.
+    let mut bad = good.clone();
+    bad[88..96].copy_from_slice(&(1u64 << 40).to_le_bytes());
+    std::fs::write(&path, &bad).unwrap();
+    common::reseal(&out.join("manifest.json"));
+    let e = load_pack(&out).unwrap_err().to_string();
+    assert!(e.contains(&name) && e.contains("level data"), "{e}");
+    // Another format.
+    let mut bad = good.clone();
+    bad[12..16].copy_from_slice(&145u32.to_le_bytes());
+    std::fs::write(&path, &bad).unwrap();
+    common::reseal(&out.join("manifest.json"));
+    let e = load_pack(&out).unwrap_err().to_string();
+    assert!(e.contains(&name) && e.contains("Vulkan format"), "{e}");
+    std::fs::write(&path, &good).unwrap();
+    common::reseal(&out.join("manifest.json"));
+    assert!(load_pack(&out).is_ok());
+}
