@@ -332,7 +332,7 @@ fn special_files_are_never_read() {
         "indices.bin",
         "rigid.bin",
         "np3d.bin",
-        "atlas_001.png",
+        "atlas_001.ktx2",
         "manifest.json",
         "representations.json",
     ] {
@@ -350,8 +350,8 @@ fn special_files_are_never_read() {
     // A FIFO where an atlas should be: refused at once, no hang.
     let d = dir.join("fifo");
     common::copy_folder(pack, &d);
-    std::fs::remove_file(d.join("atlas_001.png")).unwrap();
-    let c = std::ffi::CString::new(d.join("atlas_001.png").to_str().unwrap()).unwrap();
+    std::fs::remove_file(d.join("atlas_001.ktx2")).unwrap();
+    let c = std::ffi::CString::new(d.join("atlas_001.ktx2").to_str().unwrap()).unwrap();
     // SAFETY: mkfifo on a path inside the test's own folder.
     assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
     let (tx, rx) = std::sync::mpsc::channel();
@@ -638,8 +638,8 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
         "indices.bin",
         "rigid.bin",
         "np3d.bin",
-        "normal_000.png",
-        "far_impostor_color_001.png",
+        "normal_000.ktx2",
+        "far_impostor_color_001.ktx2",
     ] {
         let e = polypostor::crowd::scene::CrowdAssets::load(&flipped(name), Some(&default_glb()), None)
             .err()
@@ -648,7 +648,7 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
     }
     // The full-resolution impostor sheets are read when the impostor level is first drawn on
     // its own (the mix draws from the far ones): a flipped byte is named then.
-    let name = "impostor_color_001.png";
+    let name = "impostor_color_001.ktx2";
     let assets = polypostor::crowd::scene::CrowdAssets::load(&flipped(name), Some(&default_glb()), None).unwrap();
     let e = assets.full_impostors().err().expect("a flipped byte loaded");
     assert!(e.contains(name) && e.contains("checksum"), "{name}: {e}");

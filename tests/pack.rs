@@ -16,10 +16,13 @@ fn pack_round_trip_and_damage() {
     let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
     let c = polypostor::default_character::generate();
     let seg = auto_segment(&c);
+    // PNG atlases: this checks the round trip texel for texel (BC7 is lossy; its own round
+    // trip is in tests/bc_textures.rs).
     let options = BakeOptions {
         views: 3,
         resolution: 64,
         key_frame: KeyFrame::Frame(2),
+        textures: polypostor::bake::pipeline::TextureEncoding::Png,
         ..Default::default()
     };
     let b = bake(

@@ -211,6 +211,12 @@ pub fn is_bake_file_name(name: &str) -> bool {
         ("normal_", ".png"),
         ("impostor_color_", ".png"),
         ("impostor_normal_", ".png"),
+        ("far_impostor_color_", ".png"),
+        ("far_impostor_normal_", ".png"),
+        ("atlas_", ".ktx2"),
+        ("normal_", ".ktx2"),
+        ("impostor_color_", ".ktx2"),
+        ("far_impostor_color_", ".ktx2"),
     ];
     EXACT.contains(&name)
         || PATTERNS.iter().any(|(pre, suf)| {

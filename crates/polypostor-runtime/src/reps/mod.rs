@@ -27,9 +27,12 @@ pub const REPS_FILE: &str = "representations.json";
 /// is refused.
 pub const REPS_FORMAT: &str = "polypostor-representations";
 /// Version 2 added [`RepsManifest::checksums`], version 3 the clip table ([`RepsManifest::clips`]),
-/// version 4 the far impostors ([`RepsManifest::far_impostor`]); older folders are refused
+/// version 4 the far impostors ([`RepsManifest::far_impostor`]), version 5 BC7 colour sheets
+/// in KTX2 files (`impostor_color_NNN.ktx2`; version 4 is read as it is); older folders are refused
 /// with "re-bake".
-pub const REPS_VERSION: u32 = 4;
+pub const REPS_VERSION: u32 = 5;
+/// The oldest representations version this build reads (4: the same, every sheet PNG).
+pub const OLDEST_REPS_VERSION: u32 = 4;
 
 /// Which representations a bake produces.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -158,7 +161,7 @@ pub struct RigidInfo {
 pub struct RepsManifest {
     /// Always [`REPS_FORMAT`].
     pub format: String,
-    /// The format version the folder was written in; this build reads only [`REPS_VERSION`].
+    /// The format version the folder was written in; this build reads [`OLDEST_REPS_VERSION`] to [`REPS_VERSION`].
     pub version: u32,
     /// Name of the character baked.
     pub character: String,
@@ -707,7 +710,8 @@ fn read_impostor_sheets(
 fn load_representations_with(dir: &Path, full_impostors: bool) -> Result<Representations, PackError> {
     use crate::pack::{FolderReader, check_camera, check_direction, check_resolution_views, check_timing};
     const FILE: &str = REPS_FILE;
-    let manifest: RepsManifest = crate::pack::parse_manifest(dir, FILE, REPS_FORMAT, REPS_VERSION..=REPS_VERSION)?;
+    let manifest: RepsManifest =
+        crate::pack::parse_manifest(dir, FILE, REPS_FORMAT, OLDEST_REPS_VERSION..=REPS_VERSION)?;
     check_timing(FILE, manifest.fps, manifest.frames, manifest.key_frame)?;
     crate::timeline::validate(&manifest.clips, manifest.frames as usize)
         .map_err(|e| damaged(format!("{FILE}: {e}")))?;
