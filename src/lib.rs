@@ -30,7 +30,7 @@
 //!   had, staging clean-up and temporary folders.
 
 pub use polypostor_runtime::{
-    animation, character, crowd, default_character, gltf_write, import, limits, safe_fs, timeline,
+    animation, character, crowd, default_character, gltf_write, import, limits, safe_fs, scene, summary, timeline,
 };
 
 pub mod bake;

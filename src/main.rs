@@ -351,7 +351,7 @@ fn main() -> ExitCode {
 fn inspect(file: &Path, json: bool) -> anyhow::Result<()> {
     match polypostor::import_path(file) {
         Ok(c) => {
-            let s = c.summary();
+            let s = polypostor::summary::Summary::of(&c);
             // How each clip moves (what a crowd does with it).
             let motion: Vec<(String, polypostor::timeline::ClipMotion)> = (0..c.clips.len())
                 .map(|i| {
@@ -986,7 +986,7 @@ fn compare_cmd(
         &out,
         &["memory.png", "error.png", "ssim.png", "quality.png", "compare.json"],
     )?;
-    let assets = polypostor::crowd::scene::CrowdAssets::load(dir, character, None).map_err(|e| anyhow::anyhow!(e))?;
+    let assets = polypostor::scene::CrowdAssets::load(dir, character, None).map_err(|e| anyhow::anyhow!(e))?;
     let memory = compare::memory(&assets);
     let ctx = polypostor::gpu::GpuContext::from_env()?;
     let total_views = assets.view_directions().len();
@@ -1389,7 +1389,7 @@ fn bench_crowd(
     json: bool,
 ) -> anyhow::Result<()> {
     use polypostor::crowd::lod::{Level, LodDistances, LodPolicy};
-    use polypostor::crowd::scene::{CrowdAssets, CrowdScene, bench_camera};
+    use polypostor::scene::{CrowdAssets, CrowdScene, bench_camera};
     if counts.is_empty() || counts.iter().any(|&c| c == 0 || c > 1_000_000) || frames == 0 {
         anyhow::bail!("--counts must list crowd sizes from 1 to 1,000,000 and --frames must be at least 1");
     }
@@ -1672,7 +1672,7 @@ fn bench_stability(
     size: u32,
     json: bool,
 ) -> anyhow::Result<()> {
-    use polypostor::crowd::scene::{CrowdAssets, temporal_stability};
+    use polypostor::scene::{CrowdAssets, temporal_stability};
     if !(2..=10_000).contains(&frames) || !(16..=4096).contains(&size) {
         anyhow::bail!("--frames must be 2 to 10,000 and --size 16 to 4096");
     }

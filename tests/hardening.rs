@@ -341,7 +341,7 @@ fn special_files_are_never_read() {
         std::fs::remove_file(d.join(name)).unwrap();
         symlink("/dev/zero", d.join(name)).unwrap();
         let t = Instant::now();
-        let e = polypostor::crowd::scene::CrowdAssets::load(&d, Some(&default_glb()), None)
+        let e = polypostor::scene::CrowdAssets::load(&d, Some(&default_glb()), None)
             .err()
             .unwrap_or_else(|| panic!("{name} linked to /dev/zero loaded"));
         assert!(e.contains(name) && e.contains("character device"), "{name}: {e}");
@@ -375,9 +375,7 @@ fn special_files_are_never_read() {
     edit_json(&d.join("representations.json"), |v| {
         v["character_path"] = dir.join("zero.glb").to_str().unwrap().into()
     });
-    let e = polypostor::crowd::scene::CrowdAssets::load(&d, None, None)
-        .err()
-        .unwrap();
+    let e = polypostor::scene::CrowdAssets::load(&d, None, None).err().unwrap();
     assert!(e.contains("not a regular file"), "{e}");
     // A glTF buffer URI naming a link to /dev/zero.
     let model = dir.join("model");
@@ -536,7 +534,7 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
         let d = dir.join(name);
         common::copy_folder(pack, &d);
         edit_json(&d.join(file), f);
-        polypostor::crowd::scene::CrowdAssets::load(&d, Some(&default_glb()), None)
+        polypostor::scene::CrowdAssets::load(&d, Some(&default_glb()), None)
             .err()
             .unwrap_or_else(|| panic!("{name}: a damaged folder loaded"))
     };
@@ -610,7 +608,7 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
     edit_json(&d.join("manifest.json"), |v| {
         v["frames"] = 9.into();
     });
-    let e = polypostor::crowd::scene::CrowdAssets::load(&d, Some(&default_glb()), None)
+    let e = polypostor::scene::CrowdAssets::load(&d, Some(&default_glb()), None)
         .err()
         .unwrap();
     assert!(
@@ -641,7 +639,7 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
         "normal_000.ktx2",
         "far_impostor_color_001.ktx2",
     ] {
-        let e = polypostor::crowd::scene::CrowdAssets::load(&flipped(name), Some(&default_glb()), None)
+        let e = polypostor::scene::CrowdAssets::load(&flipped(name), Some(&default_glb()), None)
             .err()
             .unwrap_or_else(|| panic!("{name}: a flipped byte loaded"));
         assert!(e.contains(name) && e.contains("checksum"), "{name}: {e}");
@@ -649,7 +647,7 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
     // The full-resolution impostor sheets are read when the impostor level is first drawn on
     // its own (the mix draws from the far ones): a flipped byte is named then.
     let name = "impostor_color_001.ktx2";
-    let assets = polypostor::crowd::scene::CrowdAssets::load(&flipped(name), Some(&default_glb()), None).unwrap();
+    let assets = polypostor::scene::CrowdAssets::load(&flipped(name), Some(&default_glb()), None).unwrap();
     let e = assets.full_impostors().err().expect("a flipped byte loaded");
     assert!(e.contains(name) && e.contains("checksum"), "{name}: {e}");
     std::fs::remove_dir_all(&dir).unwrap();

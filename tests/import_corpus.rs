@@ -153,7 +153,7 @@ fn real_characters_import_with_declared_joints_and_clips() {
     for f in &files {
         let c = polypostor::import_path(f).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
         let d = declared(f);
-        let s = c.summary();
+        let s = polypostor::summary::Summary::of(&c);
         eprintln!(
             "{}: {} vertices, {} triangles, {} joints, {} clips, warnings {:?}",
             f.display(),

@@ -430,7 +430,7 @@ fn damaged_packs_and_representation_folders() {
                 .map(|_| ())
                 .map_err(|e| e.to_string());
             if full {
-                polypostor::crowd::scene::CrowdAssets::load(&d, Some(&default_glb()), None).map(|_| ())?;
+                polypostor::scene::CrowdAssets::load(&d, Some(&default_glb()), None).map(|_| ())?;
             }
             pack.and(reps)
         });
@@ -594,7 +594,7 @@ fn damaged_gltf_and_glb_files() {
         let r = check_case(&what, move || {
             let c = polypostor::import_path(&path).map_err(|e| e.to_string())?;
             // What the editor and the bake do first with a character.
-            let _ = c.summary();
+            let _ = polypostor::summary::Summary::of(&c);
             let _ = polypostor::bake::segment::auto_segment(&c);
             Ok(())
         });

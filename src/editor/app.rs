@@ -677,7 +677,7 @@ impl EditorApp {
             dirty: loaded.project_file.is_none(),
             project_file: loaded.project_file,
             character_path: loaded.character_path,
-            summary: loaded.character.summary(),
+            summary: polypostor::summary::Summary::of(&loaded.character),
             character: Arc::new(loaded.character),
             generation,
             segmentation,

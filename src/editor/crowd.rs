@@ -12,8 +12,8 @@ use eframe::egui_wgpu::{self, wgpu};
 use glam::Vec3;
 
 use polypostor::crowd::lod::{Level, LodDistances, LodPolicy};
-use polypostor::crowd::scene::{CrowdAssets, CrowdScene};
 use polypostor::gpu::{Camera, PolypostorStyle, RenderTarget};
+use polypostor::scene::{CrowdAssets, CrowdScene};
 
 use super::app::LogLevel;
 use super::viewport::{OrbitCamera, ViewportResources};
@@ -700,7 +700,7 @@ impl CrowdPanel {
                     egui::RichText::new(format!(
                         "{} of the visible characters not drawn: frames took over {:.0} ms, so the crowd is thinned to keep the window answering (fewer characters, or a lighter representation, draws them all)",
                         stats.skipped,
-                        polypostor::crowd::scene::SLOW_FRAME_SECS * 1e3
+                        polypostor::scene::SLOW_FRAME_SECS * 1e3
                     ))
                     .color(ui.visuals().warn_fg_color),
                 )

@@ -64,7 +64,7 @@ pub struct Document {
     pub character_path: PathBuf,
     pub character: Arc<Character>,
     /// Computed once on load (the side panel shows it every frame).
-    pub summary: polypostor::character::Summary,
+    pub summary: polypostor::summary::Summary,
     /// Unsaved changes.
     pub dirty: bool,
     /// Increases with every loaded character (the viewport re-uploads on change).

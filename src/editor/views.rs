@@ -48,7 +48,7 @@ impl QualitySheet {
     pub fn start(&mut self, dir: &Path, character: Option<PathBuf>, view: usize, frame: u32, sync: bool) {
         let dir = dir.to_owned();
         let job = move || -> Result<image::RgbaImage, String> {
-            let assets = polypostor::crowd::scene::CrowdAssets::load(&dir, character.as_deref(), None)?;
+            let assets = polypostor::scene::CrowdAssets::load(&dir, character.as_deref(), None)?;
             let ctx = polypostor::gpu::GpuContext::from_env().map_err(|e| e.to_string())?;
             let mut renders = polypostor::reps::compare::Renders::new(&ctx, &assets).map_err(|e| e.to_string())?;
             let rows = [frame as f32, frame as f32 + 0.5].map(|time| polypostor::reps::quality::SheetRow {

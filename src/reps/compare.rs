@@ -11,11 +11,11 @@ use crate::animation::Pose;
 use crate::bake::raster::psnr;
 use crate::crowd::Instance;
 use crate::crowd::lod::Level;
-use crate::crowd::scene::CrowdAssets;
 use crate::gpu::{
     CharacterRenderer, DrawOptions, GpuCharacter, GpuContext, GpuError, PolypostorStyle, RenderTarget, Shading,
     SkinningMode,
 };
+use crate::scene::CrowdAssets;
 
 /// Memory of one representation.
 #[derive(Clone, Debug, Serialize)]
@@ -143,7 +143,7 @@ pub fn chosen_views(total: usize, count: usize) -> Vec<usize> {
 pub struct Renders<'a> {
     ctx: &'a GpuContext,
     assets: &'a CrowdAssets,
-    scene: crate::crowd::scene::CrowdScene,
+    scene: crate::scene::CrowdScene,
     /// The representations drawn by the crowd renderers (no skinned: that is the truth).
     pub levels: Vec<Level>,
     cameras: Vec<crate::pack::PackCamera>,
@@ -156,7 +156,7 @@ pub struct Renders<'a> {
 impl<'a> Renders<'a> {
     pub fn new(ctx: &'a GpuContext, assets: &'a CrowdAssets) -> Result<Self, GpuError> {
         let (device, queue) = (&ctx.device, &ctx.queue);
-        let scene = crate::crowd::scene::CrowdScene::new(device, queue, assets, assets.crowd_params(0))?;
+        let scene = crate::scene::CrowdScene::new(device, queue, assets, assets.crowd_params(0))?;
         let levels: Vec<Level> = Level::ALL.iter().copied().filter(|l| scene.renderers.has(*l)).collect();
         let cameras: Vec<crate::pack::PackCamera> = match (&assets.pack, &assets.reps) {
             (Some(p), _) => p.manifest.views.iter().map(|v| v.camera.clone()).collect(),

@@ -14,8 +14,8 @@
 use std::path::PathBuf;
 
 use polypostor_runtime::crowd::lod::{Level, LodDistances, LodPolicy};
-use polypostor_runtime::crowd::scene::{CrowdAssets, CrowdScene, bench_camera};
 use polypostor_runtime::gpu::{GpuContext, RenderTarget, read_rgba8};
+use polypostor_runtime::scene::{CrowdAssets, CrowdScene, bench_camera};
 
 struct Args {
     folder: PathBuf,

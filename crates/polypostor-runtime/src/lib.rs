@@ -7,20 +7,22 @@
 //! character), and draws them with wgpu: skinned meshes near, Polypostors in the middle,
 //! impostors far (or any one representation alone).
 //!
-//! The shortest way in is [`crowd::scene`]: [`crowd::scene::CrowdAssets::load`] reads a baked
-//! folder and the glTF it was baked from, [`crowd::scene::CrowdScene`] holds the GPU side,
-//! and [`crowd::scene::CrowdScene::frame`] steps the agents and draws them into a colour and
+//! The shortest way in is [`scene`]: [`scene::CrowdAssets::load`] reads a baked
+//! folder and the glTF it was baked from, [`scene::CrowdScene`] holds the GPU side,
+//! and [`scene::CrowdScene::frame`] steps the agents and draws them into a colour and
 //! depth target you own. `examples/headless_crowd.rs` does it in about a hundred lines.
 //!
 //! Modules:
 //! - [`pack`]: the Polypostor pack format (`docs/PACK_FORMAT.md`) and its validating loader.
 //! - [`reps`]: the other representations baked beside it (impostors, NP3D, rigid meshes).
 //! - [`crowd`]: the agents, their gaits and clips, culling, level of detail and view choice,
-//!   per-instance records, and the GPU scene that draws them.
+//!   per-instance records (CPU only).
+//! - [`scene`]: a crowd with its renderers: load a baked folder, step and draw a frame.
 //! - [`gpu`]: the wgpu renderers (skinned characters, Polypostors, impostors, NP3D, rigid
 //!   meshes), cameras, adapter selection and readback.
 //! - [`character`], [`import`], [`animation`], [`timeline`]: the character a pack was baked
 //!   from (glTF 2.0 import, pose sampling and CPU skinning) and the frames of a bake.
+//! - [`summary`]: what a character holds, in numbers and warnings (the `inspect` command's report).
 //! - [`segment`]: body-part labels of the triangles (to tint meshes as the parts are tinted).
 //! - [`viewpoints`], [`triangulate`]: view directions and nearest-view lookup; the
 //!   triangulation of a part's polygon the Polypostor renderer draws.
@@ -42,7 +44,9 @@ pub mod limits;
 pub mod pack;
 pub mod reps;
 pub mod safe_fs;
+pub mod scene;
 pub mod segment;
+pub mod summary;
 pub mod texture;
 pub mod timeline;
 pub mod triangulate;

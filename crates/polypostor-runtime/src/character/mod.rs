@@ -5,10 +5,6 @@
 //! index [`Character::bones`]; a bone is a skeleton node plus its inverse bind matrix, so
 //! that the skinning matrix of a bone is `world_from_node * inverse_bind`.
 
-mod summary;
-
-pub use summary::{ClipSummary, Summary, TextureSummary};
-
 use glam::{Mat4, Quat, Vec3};
 
 /// One vertex of the merged character mesh.
@@ -290,11 +286,6 @@ impl Character {
     /// Axis-aligned bounds of the bind-space vertices, `(min, max)`.
     pub fn bind_bounds(&self) -> (Vec3, Vec3) {
         bounds(self.vertices.iter().map(|v| v.position))
-    }
-
-    /// The summary `polypostor inspect` prints and the editor shows.
-    pub fn summary(&self) -> Summary {
-        Summary::of(self)
     }
 }
 

@@ -9,7 +9,6 @@ pub mod frustum;
 pub mod grid;
 pub mod lod;
 pub mod rng;
-pub mod scene;
 
 use std::time::Instant;
 

@@ -664,7 +664,7 @@ fn level_and_view_switches_cross_fade_for_the_fade_time() {
 /// frames down to a floor and grows back to "everyone" on fast ones.
 #[test]
 fn a_crowd_too_heavy_for_the_machine_thins_out_evenly_and_recovers() {
-    use super::scene::{FAST_FRAME_SECS, MIN_DRAWN, SLOW_FRAME_SECS, next_budget, thin_out};
+    use crate::scene::{FAST_FRAME_SECS, MIN_DRAWN, SLOW_FRAME_SECS, next_budget, thin_out};
     for (sizes, budget) in [
         (vec![20_000usize, 0, 3_000], 5_000usize),
         (vec![7, 7], 5),

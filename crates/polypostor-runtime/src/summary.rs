@@ -2,7 +2,7 @@
 
 use serde::Serialize;
 
-use super::Character;
+use crate::character::Character;
 
 /// One clip as the summary lists it.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -61,7 +61,7 @@ impl Summary {
         // Bounds of the rest pose as it stands in the scene (bind-space coordinates can be
         // in any unit, scaled by the skeleton).
         let pose = crate::animation::Pose::rest(c);
-        let (min, max) = super::bounds(crate::animation::skin_vertices(c, &pose).0);
+        let (min, max) = crate::character::bounds(crate::animation::skin_vertices(c, &pose).0);
         Self {
             name: c.name.clone(),
             vertices: c.vertices.len(),

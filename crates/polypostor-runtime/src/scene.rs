@@ -7,9 +7,9 @@ use std::time::Instant;
 
 use glam::Vec3;
 
-use super::lod::{Level, LodPolicy};
-use super::{CharacterSize, ClipTiming, Crowd, CrowdCamera, CrowdParams, FrameStats, Species};
 use crate::character::Character;
+use crate::crowd::lod::{Level, LodPolicy};
+use crate::crowd::{CharacterSize, ClipTiming, Crowd, CrowdCamera, CrowdParams, FrameStats, Species};
 use crate::gpu::{Camera, CrowdRenderers, GpuError, PolypostorStyle, RenderTarget};
 use crate::pack::LoadedPack;
 use crate::reps::Representations;
@@ -160,7 +160,7 @@ impl CrowdAssets {
         // The character's size from the clip it walks in (else the first): a fall or a jump
         // would make it look longer or taller than it is, and the crowd would spread out. The
         // culling sphere holds every clip the crowd plays (those that loop).
-        let gaits = super::Gaits::new(&timeline.spans, fps);
+        let gaits = crate::crowd::Gaits::new(&timeline.spans, fps);
         let sizing = gaits.walk.and_then(|w| timeline.clips.get(w).copied()).unwrap_or(clip);
         let mut size = CharacterSize::measure(&c, sizing);
         let played: Vec<Option<usize>> = timeline
@@ -470,7 +470,7 @@ impl CrowdScene {
     /// A crowd of several characters: `count` agents of `assets[0]`, `assets[1]`, … dealt
     /// out in proportion to `shares` (one per character; only the ratios count), each at its
     /// real size, playing its own clips, drawn by its own renderers; spaced for the largest.
-    /// Errors: no character, more than [`super::MAX_SPECIES`], shares that do not match or
+    /// Errors: no character, more than [`crate::crowd::MAX_SPECIES`], shares that do not match or
     /// are all zero, or a character that cannot be drawn.
     pub fn mixed(
         device: &wgpu::Device,
