@@ -7,11 +7,10 @@ use std::sync::atomic::AtomicBool;
 use polypostor::bake::caps::CapOverrides;
 use polypostor::bake::pipeline::{BakeOptions, KeyFrame, bake};
 use polypostor::bake::segment::auto_segment;
-use polypostor::gpu::{AdapterPreference, GpuContext};
 
 #[test]
 fn small_bake_of_the_default_character() {
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let ctx = common::gpu();
     let c = polypostor::default_character::generate();
     let seg = auto_segment(&c);
     let options = BakeOptions {
@@ -22,16 +21,7 @@ fn small_bake_of_the_default_character() {
         ..Default::default()
     };
     let t = std::time::Instant::now();
-    let b = bake(
-        &ctx,
-        &c,
-        &seg,
-        &CapOverrides::default(),
-        &options,
-        &|_| {},
-        &AtomicBool::new(false),
-    )
-    .unwrap();
+    let (_, b) = common::bake_default(&ctx, &options);
     eprintln!(
         "bake: {:.1} s, stages {:?}, key frame {}",
         t.elapsed().as_secs_f64(),
@@ -109,7 +99,7 @@ fn small_bake_of_the_default_character() {
 #[test]
 fn overrides_change_only_their_view() {
     use polypostor::bake::overrides::{BakeOverrides, OverrideBasis, Pin};
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let ctx = common::gpu();
     let c = polypostor::default_character::generate();
     let seg = auto_segment(&c);
     let base = BakeOptions {

@@ -24,7 +24,7 @@ struct Setup {
 }
 
 fn setup(views: usize) -> Setup {
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let ctx = common::gpu();
     let c = polypostor::default_character::generate();
     let seg = auto_segment(&c);
     let caps = find_caps(&c, &seg);

@@ -7,41 +7,13 @@ mod common;
 
 use std::sync::atomic::AtomicBool;
 
+use common::images::{psnr, psnr_where};
 use polypostor::bake::caps::CapOverrides;
 use polypostor::bake::pipeline::{BakeOptions, KeyFrame, TextureEncoding, bake};
 use polypostor::bake::segment::auto_segment;
 use polypostor::crowd::Instance;
 use polypostor::gpu::{AdapterPreference, GpuContext, GpuPolypostors, PolypostorStyle, RenderTarget};
 use polypostor::pack::{load_pack, write_pack};
-
-fn psnr(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
-    psnr_where(a, b, |_| true, 4)
-}
-
-/// PSNR over the first `channels` channels of the texels where `keep` holds for `b`'s texel.
-fn psnr_where(
-    a: &image::RgbaImage,
-    b: &image::RgbaImage,
-    keep: impl Fn(&image::Rgba<u8>) -> bool,
-    channels: usize,
-) -> f64 {
-    let (mut se, mut n) = (0.0, 0usize);
-    for (p, q) in a.pixels().zip(b.pixels()) {
-        if !keep(q) {
-            continue;
-        }
-        for k in 0..channels {
-            se += (p[k] as f64 - q[k] as f64).powi(2);
-        }
-        n += channels;
-    }
-    let mse = se / n.max(1) as f64;
-    if mse == 0.0 {
-        f64::INFINITY
-    } else {
-        10.0 * (255.0f64 * 255.0 / mse).log10()
-    }
-}
 
 /// Every view of `pack` drawn at frame 2 by a renderer on `ctx`.
 fn draw_views(ctx: &GpuContext, pack: &polypostor::pack::LoadedPack) -> (Vec<image::RgbaImage>, u64) {
@@ -75,9 +47,7 @@ fn draw_views(ctx: &GpuContext, pack: &polypostor::pack::LoadedPack) -> (Vec<ima
 
 #[test]
 fn bc7_packs_load_draw_and_parse_like_their_png_twins() {
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
-    let c = polypostor::default_character::generate();
-    let seg = auto_segment(&c);
+    let ctx = common::gpu();
     let options = BakeOptions {
         views: 4,
         resolution: 128,
@@ -85,16 +55,7 @@ fn bc7_packs_load_draw_and_parse_like_their_png_twins() {
         ..Default::default()
     };
     assert_eq!(options.textures, TextureEncoding::Bc7, "BC7 is the default");
-    let b = bake(
-        &ctx,
-        &c,
-        &seg,
-        &CapOverrides::default(),
-        &options,
-        &|_| {},
-        &AtomicBool::new(false),
-    )
-    .unwrap();
+    let (c, b) = common::bake_default(&ctx, &options);
     let dir = common::temp_dir("bc-textures");
     let (bc_dir, png_dir) = (dir.join("bc7.pack"), dir.join("png.pack"));
     let bc_stats = write_pack(&b, &c.name, Some("Walk"), &bc_dir).unwrap();
@@ -181,7 +142,7 @@ fn bc7_packs_load_draw_and_parse_like_their_png_twins() {
 
 #[test]
 fn damaged_ktx2_atlases_are_named() {
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let ctx = common::gpu();
     let c = polypostor::default_character::generate();
     let options = BakeOptions {
         views: 2,

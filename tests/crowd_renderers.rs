@@ -9,6 +9,7 @@ mod common;
 
 use std::sync::atomic::AtomicBool;
 
+use common::images::{iou, mask, mean_diff_where_both};
 use glam::Vec3;
 use polypostor::animation::Pose;
 use polypostor::bake::segment::auto_segment;
@@ -19,27 +20,15 @@ use polypostor::gpu::*;
 use polypostor::reps::bake::{RepsOptions, bake_representations};
 use polypostor::reps::{RepSet, load_representations, write_representations};
 
-fn mask(img: &image::RgbaImage) -> Vec<bool> {
-    img.pixels().map(|p| p[3] > 127).collect()
-}
-
 /// Intersection over union of two masks, and the mean colour difference (0..255) where
 /// both cover.
 fn compare(truth: &image::RgbaImage, truth_mask: &[bool], img: &image::RgbaImage, m: &[bool]) -> (f64, f64) {
-    let both = truth_mask.iter().zip(m).filter(|(a, b)| **a && **b).count();
-    let either = truth_mask.iter().zip(m).filter(|(a, b)| **a || **b).count();
-    let mut diff = 0.0;
-    for (i, (a, b)) in truth.pixels().zip(img.pixels()).enumerate() {
-        if truth_mask[i] && m[i] {
-            diff += (0..3).map(|k| (a[k] as f64 - b[k] as f64).abs()).sum::<f64>() / 3.0;
-        }
-    }
-    (both as f64 / either.max(1) as f64, diff / both.max(1) as f64)
+    (iou(truth_mask, m), mean_diff_where_both(truth, truth_mask, img, m))
 }
 
 #[test]
 fn every_representation_draws_close_to_the_mesh() {
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let ctx = common::gpu();
     let (device, queue) = (&ctx.device, &ctx.queue);
     let c = polypostor::default_character::generate();
     let seg = auto_segment(&c);
@@ -205,7 +194,13 @@ fn every_representation_draws_close_to_the_mesh() {
                     .save(dir.join(format!("{}_{v}_{blend}.png", level.name())))
                     .unwrap();
             }
-            assert!(iou > min_iou, "view {v}, {level:?}, blend {blend}: IoU {iou}");
+            let ok = iou > min_iou && diff < max_diff;
+            let name = format!("crowd_{}_{v}_{blend}", level.name());
+            let pictures = common::images::save_on_failure(ok, &name, &truth_color, &color).unwrap_or_default();
+            assert!(
+                iou > min_iou,
+                "view {v}, {level:?}, blend {blend}: IoU {iou}; {pictures}"
+            );
             assert!(
                 diff < max_diff,
                 "view {v}, {level:?}, blend {blend}: colour difference {diff}"

@@ -89,7 +89,7 @@ fn compare(ctx: &GpuContext, c: &polypostor::Character, label: &str) {
 #[test]
 fn fast_mode_within_two_percent_on_real_characters() {
     let _ = AtomicBool::new(false);
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let ctx = common::gpu();
     compare(&ctx, &polypostor::default_character::generate(), "default");
     if let Some(shared) = common::shared_dir() {
         let c = polypostor::import_path(&shared.join("assets/characters/CesiumMan.glb")).unwrap();

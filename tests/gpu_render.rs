@@ -3,25 +3,13 @@
 
 mod common;
 
+use common::images::{iou, mask};
 use polypostor::Character;
 use polypostor::animation::{Pose, clip_bounds};
 use polypostor::gpu::*;
 
 fn context() -> GpuContext {
-    // Software adapters first: reproducible, and present on every CI machine (lavapipe/llvmpipe).
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("a wgpu adapter (install mesa-vulkan-drivers)");
-    eprintln!("adapter: {}", ctx.adapter_description());
-    ctx
-}
-
-fn mask(img: &image::RgbaImage) -> Vec<bool> {
-    img.pixels().map(|p| p[3] > 127).collect()
-}
-
-fn iou(a: &[bool], b: &[bool]) -> f64 {
-    let inter = a.iter().zip(b).filter(|(x, y)| **x && **y).count() as f64;
-    let union = a.iter().zip(b).filter(|(x, y)| **x || **y).count() as f64;
-    if union == 0.0 { 1.0 } else { inter / union }
+    common::gpu()
 }
 
 fn camera_for(c: &Character, clip: Option<usize>, yaw: f32) -> Camera {

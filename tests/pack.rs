@@ -3,19 +3,12 @@
 
 mod common;
 
-use std::sync::atomic::AtomicBool;
-
-use polypostor::bake::caps::CapOverrides;
-use polypostor::bake::pipeline::{BakeOptions, KeyFrame, bake};
-use polypostor::bake::segment::auto_segment;
-use polypostor::gpu::{AdapterPreference, GpuContext};
+use polypostor::bake::pipeline::{BakeOptions, KeyFrame};
 use polypostor::pack::{PackError, load_pack, write_pack};
 
 #[test]
 fn pack_round_trip_and_damage() {
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
-    let c = polypostor::default_character::generate();
-    let seg = auto_segment(&c);
+    let ctx = common::gpu();
     // PNG atlases: this checks the round trip texel for texel (BC7 is lossy; its own round
     // trip is in tests/bc_textures.rs).
     let options = BakeOptions {
@@ -25,16 +18,7 @@ fn pack_round_trip_and_damage() {
         textures: polypostor::bake::pipeline::TextureEncoding::Png,
         ..Default::default()
     };
-    let b = bake(
-        &ctx,
-        &c,
-        &seg,
-        &CapOverrides::default(),
-        &options,
-        &|_| {},
-        &AtomicBool::new(false),
-    )
-    .unwrap();
+    let (c, b) = common::bake_default(&ctx, &options);
     let dir = common::temp_dir("pack");
     let out = dir.join("walk.pack");
     let stats = write_pack(&b, &c.name, Some("Walk"), &out).unwrap();
@@ -175,7 +159,7 @@ fn pack_round_trip_and_damage() {
 
 #[test]
 fn several_key_images_round_trip_and_damaged_key_tables_are_refused() {
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let ctx = common::gpu();
     let (c, b) = common::bake_default(&ctx, &common::cheap_keys(3, 64));
     let dir = common::temp_dir("pack-keys");
     let out = dir.join("walk.pack");

@@ -5,25 +5,19 @@
 
 mod common;
 
-use std::sync::atomic::AtomicBool;
-
+use common::images::{mask, mean_diff};
 use glam::Vec3;
 use polypostor::bake::caps::{CapOverrides, find_caps};
-use polypostor::bake::pipeline::{BakeOptions, KeyFrame, bake};
+use polypostor::bake::pipeline::{BakeOptions, KeyFrame};
 use polypostor::bake::renders::{frame_times, merge_parts, sample_frames};
 use polypostor::bake::segment::auto_segment;
 use polypostor::crowd::Instance;
 use polypostor::gpu::*;
 use polypostor::pack::{load_pack, write_pack};
 
-/// Coverage of a render (the normal target's alpha).
-fn mask(img: &image::RgbaImage) -> Vec<bool> {
-    img.pixels().map(|p| p[3] > 127).collect()
-}
-
 #[test]
 fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let ctx = common::gpu();
     let (device, queue) = (&ctx.device, &ctx.queue);
     let c = polypostor::default_character::generate();
     let seg = auto_segment(&c);
@@ -33,16 +27,7 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
         key_frame: KeyFrame::Frame(0),
         ..Default::default()
     };
-    let b = bake(
-        &ctx,
-        &c,
-        &seg,
-        &CapOverrides::default(),
-        &options,
-        &|_| {},
-        &AtomicBool::new(false),
-    )
-    .unwrap();
+    let (_, b) = common::bake_default(&ctx, &options);
     let dir = common::temp_dir("polypostor-gpu");
     let out = dir.join("walk.pack");
     write_pack(&b, &c.name, Some("Walk"), &out).unwrap();
@@ -98,17 +83,9 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
             .unwrap();
         let color = target.read_color(device, queue).unwrap();
         let drawn = mask(&target.read_normal(device, queue).unwrap());
-        let both = truth.iter().zip(&drawn).filter(|(a, b)| **a && **b).count();
-        let either = truth.iter().zip(&drawn).filter(|(a, b)| **a || **b).count();
-        let iou = both as f64 / either.max(1) as f64;
+        let iou = common::images::iou(&truth, &drawn);
         // Colour where both cover: mean absolute difference per channel (0..255).
-        let mut diff = 0.0;
-        for (i, (a, b)) in truth_color.pixels().zip(color.pixels()).enumerate() {
-            if truth[i] && drawn[i] {
-                diff += (0..3).map(|k| (a[k] as f64 - b[k] as f64).abs()).sum::<f64>() / 3.0;
-            }
-        }
-        let diff = diff / both.max(1) as f64;
+        let diff = common::images::mean_diff_where_both(&truth_color, &truth, &color, &drawn);
         eprintln!("view {v}: IoU {iou:.3}, colour difference {diff:.1}/255");
         if std::env::var_os("POLYPOSTOR_TEST_IMAGES").is_some() {
             truth_color.save(dir.join(format!("truth_{v}.png"))).unwrap();
@@ -117,8 +94,11 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
         // Documented tolerance (README): the 20-vertex polygons follow the silhouette to
         // about a pixel of the 128² bake, so most of the area overlaps; colours are the
         // key-frame texture warped, close to the real render where both cover.
-        assert!(iou > 0.7, "view {v}: IoU {iou}");
-        assert!(diff < 40.0, "view {v}: colour difference {diff}");
+        let ok = iou > 0.7 && diff < 40.0;
+        let pictures = common::images::save_on_failure(ok, &format!("polypostor_view_{v}"), &truth_color, &color)
+            .unwrap_or_default();
+        assert!(iou > 0.7, "view {v}: IoU {iou}; {pictures}");
+        assert!(diff < 40.0, "view {v}: colour difference {diff}; {pictures}");
         ious.push(iou);
     }
     let mean = ious.iter().sum::<f64>() / ious.len() as f64;
@@ -210,20 +190,9 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
     gpu.coarse_below = default_below;
 }
 
-/// Mean absolute difference per channel (RGBA, 0..255) over every pixel.
-fn mean_diff(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
-    let sum: u64 = a
-        .as_raw()
-        .iter()
-        .zip(b.as_raw())
-        .map(|(&x, &y)| (x as i32 - y as i32).unsigned_abs() as u64)
-        .sum();
-    sum as f64 / a.as_raw().len() as f64
-}
-
 #[test]
 fn a_change_of_key_image_is_cross_faded_without_a_pop() {
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let ctx = common::gpu();
     let (device, queue) = (&ctx.device, &ctx.queue);
     let (c, b) = common::bake_default(&ctx, &common::cheap_keys(4, 96));
     let dir = common::temp_dir("polypostor-crossfade");

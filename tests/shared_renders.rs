@@ -8,27 +8,16 @@ mod common;
 
 use std::sync::atomic::AtomicBool;
 
+use common::images::differing;
 use polypostor::bake::caps::CapOverrides;
 use polypostor::bake::keys::KeyOptions;
 use polypostor::bake::pipeline::{BakeOptions, KeyFrame, ViewRenders, bake_sharing};
 use polypostor::bake::segment::auto_segment;
-use polypostor::gpu::*;
 use polypostor::reps::RepSet;
 use polypostor::reps::bake::{RepsOptions, SharedRenders, bake_representations, bake_representations_sharing};
 
-/// Share of pixels whose channels differ by more than `tol` (0..255), over both images.
-fn differing(a: &image::RgbaImage, b: &image::RgbaImage, channels: std::ops::Range<usize>, tol: i32) -> f64 {
-    assert_eq!(a.dimensions(), b.dimensions());
-    let n = a
-        .pixels()
-        .zip(b.pixels())
-        .filter(|(p, q)| channels.clone().any(|k| (p[k] as i32 - q[k] as i32).abs() > tol))
-        .count();
-    n as f64 / (a.width() * a.height()).max(1) as f64
-}
-
 fn check(character: &polypostor::Character, label: &str) {
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let ctx = common::gpu();
     let seg = auto_segment(character);
     let clip = (!character.clips.is_empty()).then_some(0);
     let options = BakeOptions {
@@ -128,7 +117,7 @@ fn shared_renders_match_whole_character_renders() {
 
 #[test]
 fn an_incomplete_collection_is_not_used() {
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let ctx = common::gpu();
     let c = polypostor::default_character::generate();
     let seg = auto_segment(&c);
     let options = RepsOptions {

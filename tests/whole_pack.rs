@@ -13,7 +13,7 @@ use polypostor::timeline::next_frame;
 
 #[test]
 fn several_clips_share_one_pack_and_each_loops_on_its_own() {
-    let ctx = GpuContext::new(&AdapterPreference::SoftwareFirst).expect("adapter");
+    let ctx = common::gpu();
     let (device, queue) = (&ctx.device, &ctx.queue);
     let c = polypostor::default_character::generate();
     let (walk, run, idle) = (

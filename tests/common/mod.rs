@@ -129,3 +129,113 @@ pub fn cheap_keys(views: usize, resolution: u32) -> polypostor::bake::pipeline::
         ..Default::default()
     }
 }
+
+/// The GPU every test draws with: software adapters first (reproducible, and present on
+/// every CI machine: lavapipe, else llvmpipe), named on stderr.
+pub fn gpu() -> polypostor::gpu::GpuContext {
+    let ctx = polypostor::gpu::GpuContext::new(&polypostor::gpu::AdapterPreference::SoftwareFirst)
+        .expect("a wgpu adapter (install mesa-vulkan-drivers)");
+    eprintln!("adapter: {}", ctx.adapter_description());
+    ctx
+}
+
+/// Image comparisons shared by the tests; [`images::save_on_failure`] keeps the pictures of
+/// a failed comparison for a person to look at.
+pub mod images {
+    use image::RgbaImage;
+
+    /// Coverage of a render: alpha above half.
+    pub fn mask(img: &RgbaImage) -> Vec<bool> {
+        img.pixels().map(|p| p[3] > 127).collect()
+    }
+
+    /// Intersection over union of two masks (1 when both are empty).
+    pub fn iou(a: &[bool], b: &[bool]) -> f64 {
+        let inter = a.iter().zip(b).filter(|(x, y)| **x && **y).count() as f64;
+        let union = a.iter().zip(b).filter(|(x, y)| **x || **y).count() as f64;
+        if union == 0.0 { 1.0 } else { inter / union }
+    }
+
+    /// Mean absolute colour difference (RGB, 0..255) over the pixels both masks cover.
+    pub fn mean_diff_where_both(a: &RgbaImage, ma: &[bool], b: &RgbaImage, mb: &[bool]) -> f64 {
+        let (mut diff, mut n) = (0.0, 0usize);
+        for (i, (p, q)) in a.pixels().zip(b.pixels()).enumerate() {
+            if ma[i] && mb[i] {
+                diff += (0..3).map(|k| (p[k] as f64 - q[k] as f64).abs()).sum::<f64>() / 3.0;
+                n += 1;
+            }
+        }
+        diff / n.max(1) as f64
+    }
+
+    /// Mean absolute difference per channel (RGBA, 0..255) over every pixel.
+    pub fn mean_diff(a: &RgbaImage, b: &RgbaImage) -> f64 {
+        let sum: u64 = a
+            .as_raw()
+            .iter()
+            .zip(b.as_raw())
+            .map(|(&x, &y)| (x as i32 - y as i32).unsigned_abs() as u64)
+            .sum();
+        sum as f64 / a.as_raw().len() as f64
+    }
+
+    /// PSNR (dB, 8-bit) over the first `channels` channels of the pixels where `keep` holds
+    /// for `b`'s pixel (infinite for identical images).
+    pub fn psnr_where(a: &RgbaImage, b: &RgbaImage, keep: impl Fn(&image::Rgba<u8>) -> bool, channels: usize) -> f64 {
+        let (mut se, mut n) = (0.0, 0usize);
+        for (p, q) in a.pixels().zip(b.pixels()) {
+            if !keep(q) {
+                continue;
+            }
+            for k in 0..channels {
+                se += (p[k] as f64 - q[k] as f64).powi(2);
+            }
+            n += channels;
+        }
+        let mse = se / n.max(1) as f64;
+        if mse == 0.0 {
+            f64::INFINITY
+        } else {
+            10.0 * (255.0f64 * 255.0 / mse).log10()
+        }
+    }
+
+    /// PSNR over every pixel and channel.
+    pub fn psnr(a: &RgbaImage, b: &RgbaImage) -> f64 {
+        psnr_where(a, b, |_| true, 4)
+    }
+
+    /// Share of pixels whose `channels` differ by more than `tol` (0..255).
+    pub fn differing(a: &RgbaImage, b: &RgbaImage, channels: std::ops::Range<usize>, tol: i32) -> f64 {
+        assert_eq!(a.dimensions(), b.dimensions());
+        let n = a
+            .pixels()
+            .zip(b.pixels())
+            .filter(|(p, q)| channels.clone().any(|k| (p[k] as i32 - q[k] as i32).abs() > tol))
+            .count();
+        n as f64 / (a.width() * a.height()).max(1) as f64
+    }
+
+    /// When `ok` is false, writes `expected`, `actual` and their difference (×4, opaque) as
+    /// `target/test-images/<name>_{expected,actual,diff}.png` and returns where; `ok` passes
+    /// through otherwise (use: `assert!(save_on_failure(ok, …).is_none(), …)`).
+    pub fn save_on_failure(ok: bool, name: &str, expected: &RgbaImage, actual: &RgbaImage) -> Option<String> {
+        if ok {
+            return None;
+        }
+        let dir = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/test-images");
+        let _ = std::fs::create_dir_all(&dir);
+        let diff = RgbaImage::from_fn(expected.width(), expected.height(), |x, y| {
+            let (p, q) = (expected.get_pixel(x, y), actual.get_pixel(x, y));
+            let d = |k: usize| ((p[k] as i32 - q[k] as i32).unsigned_abs() * 4).min(255) as u8;
+            image::Rgba([d(0), d(1), d(2), 255])
+        });
+        for (kind, img) in [("expected", expected), ("actual", actual), ("diff", &diff)] {
+            let _ = img.save(dir.join(format!("{name}_{kind}.png")));
+        }
+        Some(format!(
+            "pictures in {}/{name}_{{expected,actual,diff}}.png",
+            dir.display()
+        ))
+    }
+}
