@@ -512,15 +512,16 @@ struct BakeArgs {
     /// Output pack folder (default: <input>-<clip>.pack in the current folder).
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Number of viewpoints.
-    #[arg(long, default_value_t = polypostor::bake::viewpoints::DEFAULT_VIEW_COUNT)]
-    views: usize,
-    /// Part image resolution (pixels, square).
-    #[arg(long, default_value_t = polypostor::bake::renders::DEFAULT_RESOLUTION)]
-    resolution: u32,
-    /// Clip sampling rate (frames per second).
-    #[arg(long, default_value_t = polypostor::bake::renders::DEFAULT_FPS)]
-    fps: f32,
+    /// Number of viewpoints (default: the project's bake settings, else 137; so for every
+    /// setting below).
+    #[arg(long)]
+    views: Option<usize>,
+    /// Part image resolution (pixels, square; default 128).
+    #[arg(long)]
+    resolution: Option<u32>,
+    /// Clip sampling rate (frames per second; default 10).
+    #[arg(long)]
+    fps: Option<f32>,
     /// Texture key-frame: a frame number, or auto.
     #[arg(long, default_value = "auto")]
     key_frame: String,
@@ -539,29 +540,31 @@ struct BakeArgs {
     /// characters with thin limbs, about 3 % further from the exact optimum.
     #[arg(long, conflicts_with = "exhaustive")]
     no_restarts: bool,
-    /// Most key images per part and view (1: the paper's single key; up to 8).
-    #[arg(long, default_value_t = 4)]
-    max_keys: usize,
-    /// Least cut (dB) of a part's error over all frames an added key image must buy.
-    #[arg(long, default_value_t = 0.5)]
-    key_gain_db: f64,
-    /// Bytes of added key images a view may spend, as a fraction of its first key images'.
-    #[arg(long, default_value_t = 0.5)]
-    key_budget: f64,
+    /// Most key images per part and view (1: the paper's single key; up to 8; default 4).
+    #[arg(long)]
+    max_keys: Option<usize>,
+    /// Least cut (dB) of a part's error over all frames an added key image must buy
+    /// (default 0.5).
+    #[arg(long)]
+    key_gain_db: Option<f64>,
+    /// Bytes of added key images a view may spend, as a fraction of its first key images'
+    /// (default 0.5).
+    #[arg(long)]
+    key_budget: Option<f64>,
     /// Views on the whole sphere instead of the upper hemisphere.
     #[arg(long)]
     full_sphere: bool,
     /// How the pack's atlases are stored: bc7 (block-compressed, in KTX2 files: what a GPU
-    /// samples) or png (lossless, for tools).
-    #[arg(long, default_value = "bc7")]
-    textures: String,
+    /// samples; the default) or png (lossless, for tools).
+    #[arg(long)]
+    textures: Option<String>,
     /// Write per-view PNGs of the traced and fitted polygons into <out>/debug/.
     #[arg(long)]
     debug_images: bool,
     /// What to bake: polypostor, impostor, np3d, rigid or all, comma-separated (same views,
-    /// resolution and frame rate for every one, so comparisons are fair).
-    #[arg(long, default_value = "polypostor")]
-    representation: String,
+    /// resolution and frame rate for every one, so comparisons are fair; default polypostor).
+    #[arg(long)]
+    representation: Option<String>,
 }
 
 /// What a bake's INPUT names: the project (when one is given or INPUT is one), its file, and
@@ -618,60 +621,65 @@ impl BakeArgs {
             clip: None,
             clips: None,
             out: Some(out),
-            views: polypostor::bake::viewpoints::DEFAULT_VIEW_COUNT,
-            resolution: polypostor::bake::renders::DEFAULT_RESOLUTION,
-            fps: polypostor::bake::renders::DEFAULT_FPS,
+            views: None,
+            resolution: None,
+            fps: None,
             key_frame: "auto".into(),
             exhaustive: false,
             allow_folds: false,
             paper_objective: false,
             no_restarts: false,
-            max_keys: 4,
-            key_gain_db: 0.5,
-            key_budget: 0.5,
+            max_keys: None,
+            key_gain_db: None,
+            key_budget: None,
             full_sphere: false,
-            textures: "bc7".into(),
+            textures: None,
             debug_images: false,
-            representation: representation.into(),
+            representation: Some(representation.into()),
         }
     }
 }
 
 fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     use polypostor::bake::pipeline::{BakeOptions, KeyFrame};
-    use polypostor::limits::{MAX_FPS, MAX_RESOLUTION, MAX_VIEWS, MIN_FPS, MIN_RESOLUTION};
     let started = std::time::Instant::now();
-    // The settings first: nothing is read or rendered for a bake that cannot run.
-    if a.views == 0 || a.views > MAX_VIEWS {
-        anyhow::bail!("--views {}: choose 1 to {MAX_VIEWS}", a.views);
-    }
-    if !(MIN_RESOLUTION..=MAX_RESOLUTION).contains(&a.resolution) {
-        anyhow::bail!(
-            "--resolution {}: choose {MIN_RESOLUTION} to {MAX_RESOLUTION}",
-            a.resolution
-        );
-    }
-    if !(a.fps.is_finite() && a.fps >= MIN_FPS && a.fps <= MAX_FPS) {
-        anyhow::bail!("--fps {}: choose {MIN_FPS} to {MAX_FPS}", a.fps);
-    }
-    if a.max_keys == 0 || a.max_keys > polypostor::bake::keys::MAX_KEYS {
-        anyhow::bail!(
-            "--max-keys {}: choose 1 to {}",
-            a.max_keys,
-            polypostor::bake::keys::MAX_KEYS
-        );
-    }
-    if !(a.key_gain_db.is_finite() && a.key_gain_db >= 0.0 && a.key_gain_db <= 100.0) {
-        anyhow::bail!("--key-gain-db {}: choose 0 to 100", a.key_gain_db);
-    }
-    let textures = polypostor::bake::pipeline::TextureEncoding::parse(&a.textures)
-        .ok_or_else(|| anyhow::anyhow!("--textures {}: choose bc7 or png", a.textures))?;
-    if !(a.key_budget.is_finite() && a.key_budget >= 0.0 && a.key_budget <= 16.0) {
-        anyhow::bail!("--key-budget {}: choose 0 to 16", a.key_budget);
-    }
-    let set =
-        polypostor::reps::RepSet::parse(&a.representation).map_err(|e| anyhow::anyhow!("--representation: {e}"))?;
     let (project, project_file, character_path) = resolve_input(&a.input, a.project.as_deref())?;
+    // The settings first: the project's (else the defaults), each flag given overriding its
+    // field; nothing is read or rendered for a bake that cannot run.
+    let mut settings = project.as_ref().map(|p| p.bake.clone()).unwrap_or_default();
+    if let Some(v) = a.views {
+        settings.views = v;
+    }
+    if let Some(r) = a.resolution {
+        settings.resolution = r;
+    }
+    if let Some(f) = a.fps {
+        settings.fps = f;
+    }
+    if let Some(k) = a.max_keys {
+        settings.max_keys = k;
+    }
+    if let Some(g) = a.key_gain_db {
+        settings.key_gain_db = g;
+    }
+    if let Some(b) = a.key_budget {
+        settings.key_budget = b;
+    }
+    if let Some(r) = &a.representation {
+        settings.representations = r.clone();
+    }
+    if let Some(t) = &a.textures {
+        settings.textures = polypostor::bake::pipeline::TextureEncoding::parse(t)
+            .ok_or_else(|| anyhow::anyhow!("--textures {t}: choose bc7 or png"))?;
+    }
+    settings.full_sphere |= a.full_sphere;
+    settings.exhaustive |= a.exhaustive;
+    settings.allow_folds |= a.allow_folds;
+    settings.paper_objective |= a.paper_objective;
+    settings.no_restarts |= a.no_restarts;
+    settings.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let set = settings.representation_set();
+
     let stem = character_path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
@@ -753,37 +761,12 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         ),
     };
     let options = BakeOptions {
-        views: a.views,
-        coverage: if a.full_sphere {
-            polypostor::bake::viewpoints::Coverage::FullSphere
-        } else {
-            polypostor::bake::viewpoints::Coverage::UpperHemisphere
-        },
-        resolution: a.resolution,
-        fps: a.fps,
         clip,
         extra_clips,
         key_frame,
-        fit: polypostor::bake::part_fit::PartFitOptions {
-            exhaustive: a.exhaustive,
-            fold_free: !a.allow_folds,
-            charge_missed_coverage: !a.paper_objective,
-            restart_threshold: if a.no_restarts {
-                f64::INFINITY
-            } else {
-                polypostor::bake::part_fit::DEFAULT_RESTART_THRESHOLD
-            },
-            ..Default::default()
-        },
         overrides,
         keep_frame_images: a.debug_images,
-        keys: polypostor::bake::keys::KeyOptions {
-            max_keys: a.max_keys,
-            min_gain_db: a.key_gain_db,
-            budget: a.key_budget,
-        },
-        textures,
-        ..Default::default()
+        ..settings.options()
     };
     let out = match &a.out {
         Some(o) => o.clone(),
@@ -897,7 +880,7 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         eprintln!(
             "wrote {} ({}) in {:.1} s",
             out.display(),
-            a.representation,
+            settings.representations,
             started.elapsed().as_secs_f64()
         );
         return Ok(());
@@ -925,7 +908,7 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         report["memory_ratio"].as_f64().unwrap_or(0.0),
         stats.triangles_per_view,
         if set.any_other() {
-            format!(", plus {}", a.representation)
+            format!(", plus {}", settings.representations)
         } else {
             String::new()
         }

@@ -118,6 +118,10 @@ pub struct Project {
     /// (empty: one clip, the viewed one).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub clips: Vec<String>,
+    /// The bake's settings (absent: the defaults): what `polypostor bake` starts from (its
+    /// flags override single fields), what the editor's bake and export use and write back.
+    #[serde(default, skip_serializing_if = "crate::bake::settings::BakeSettings::is_default")]
+    pub bake: crate::bake::settings::BakeSettings,
 }
 
 impl Project {
@@ -135,6 +139,7 @@ impl Project {
             caps: Default::default(),
             overrides: Default::default(),
             clips: Vec::new(),
+            bake: Default::default(),
         }
     }
 

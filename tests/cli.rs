@@ -314,3 +314,64 @@ fn bench_sim_runs_a_crowd_of_two_characters() {
     assert!(visible > 0 && drawn >= visible, "{v}");
     assert!(v["cpu_ms"]["mean"].as_f64().unwrap() > 0.0);
 }
+
+#[test]
+fn bake_settings_come_from_the_project_and_flags_override_single_fields() {
+    let dir = common::temp_dir("cli-settings");
+    let glb = common::repo_path(polypostor::default_character::DEFAULT_CHARACTER_PATH);
+    let project = serde_json::json!({
+        "format_version": 1,
+        "name": "settings",
+        "character": { "path": glb.to_str().unwrap() },
+        "view": { "clip": "Walk", "playback_speed": 1.0 },
+        "bake": { "views": 3, "resolution": 32, "fps": 5.0, "max_keys": 1, "textures": "Png" }
+    });
+    let proj = dir.join("proj");
+    std::fs::create_dir_all(&proj).unwrap();
+    std::fs::write(
+        proj.join("project.json"),
+        serde_json::to_string_pretty(&project).unwrap(),
+    )
+    .unwrap();
+    let settings = |out: &std::path::Path| -> serde_json::Value {
+        let r: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+        r["settings"].clone()
+    };
+    // The project's settings, every one.
+    let a = dir.join("a.pack");
+    let o = polypostor(&["bake", proj.to_str().unwrap(), "--out", a.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = settings(&a);
+    assert_eq!((s["views"].as_u64(), s["resolution"].as_u64()), (Some(3), Some(32)));
+    assert_eq!(s["keys"]["max_keys"].as_u64(), Some(1));
+    assert_eq!(s["textures"], "Png");
+    assert!(a.join("atlas_000.png").is_file());
+    // A flag overrides its field only.
+    let b = dir.join("b.pack");
+    let o = polypostor(&[
+        "bake",
+        proj.to_str().unwrap(),
+        "--views",
+        "2",
+        "--textures",
+        "bc7",
+        "--out",
+        b.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = settings(&b);
+    assert_eq!((s["views"].as_u64(), s["resolution"].as_u64()), (Some(2), Some(32)));
+    assert_eq!(s["textures"], "Bc7");
+    assert!(b.join("atlas_000.ktx2").is_file());
+    // A project setting out of range is named as its flag, before any work.
+    let mut bad = project.clone();
+    bad["bake"]["views"] = 0.into();
+    std::fs::write(proj.join("project.json"), serde_json::to_string_pretty(&bad).unwrap()).unwrap();
+    let c = dir.join("c.pack");
+    let o = polypostor(&["bake", proj.to_str().unwrap(), "--out", c.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("--views 0"), "{e}");
+    assert!(!c.exists());
+}

@@ -17,6 +17,8 @@
 //! - [`image_cost`]: the fit's objective (colour, normal and coverage error of a mapped triangle).
 //! - [`part_fit`]: one part in one view over every frame (trace, simplify, fast or exact fit).
 //! - [`keys`]: the extra key images of a view's parts (greedy choice under a byte budget).
+//! - [`settings`]: the bake's settings as one struct (stored in the project, overridden by
+//!   the command line's flags) and their validation.
 //! - [`renders`], [`raster`]: the per-part GPU renders of every view and frame; CPU drawing.
 //! - [`pipeline`]: the whole bake, one view at a time, and the one re-fit path.
 //! - [`plan`]: checks and memory estimates made before any work starts.
@@ -42,6 +44,7 @@ pub mod raster;
 pub mod renders;
 pub mod report;
 pub use polypostor_runtime::segment;
+pub mod settings;
 pub mod simplify;
 pub use polypostor_runtime::triangulate;
 pub use polypostor_runtime::viewpoints;

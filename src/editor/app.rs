@@ -397,19 +397,18 @@ impl EditorApp {
             Command::ShowCrowd(show) => self.crowd.open = show,
             Command::Export(req) => {
                 // The clip set chosen is the project's from now on (Ctrl+B bakes it too).
+                // The clip set and the settings chosen become the project's.
+                let mut settings = self.doc.as_ref().map(|d| d.project.bake.clone()).unwrap_or_default();
+                (settings.views, settings.resolution, settings.fps) = (req.views, req.resolution, req.fps);
+                (settings.png, settings.textures) = (req.png, req.textures);
                 if let Some(doc) = self.doc.as_mut()
-                    && doc.project.clips != req.clips
+                    && (doc.project.clips != req.clips || doc.project.bake != settings)
                 {
                     doc.project.clips = req.clips.clone();
+                    doc.project.bake = settings.clone();
                     doc.dirty = true;
                 }
-                let options = polypostor::bake::pipeline::BakeOptions {
-                    views: req.views,
-                    resolution: req.resolution,
-                    fps: req.fps,
-                    png: req.png,
-                    ..Default::default()
-                };
+                let options = settings.options();
                 self.bake_into(req.folder, options, req.set);
             }
             Command::Undo => {
@@ -433,7 +432,9 @@ impl EditorApp {
             return;
         };
         let out = bake_dir(doc);
-        self.bake_into(out, Default::default(), polypostor::reps::RepSet::ALL);
+        // The project's bake settings; every representation (the crowd's mix needs them).
+        let options = doc.project.bake.options();
+        self.bake_into(out, options, polypostor::reps::RepSet::ALL);
     }
 
     /// Bakes `set` with `options` into `out` in the background, then previews it.

@@ -51,6 +51,7 @@ pub struct ExportRequest {
     pub resolution: u32,
     pub fps: f32,
     pub png: polypostor::bake::pipeline::PngCompression,
+    pub textures: polypostor::bake::pipeline::TextureEncoding,
     /// The clips to bake, in the character's order (the project's clip set from now on).
     pub clips: Vec<String>,
 }

@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use polypostor::bake::overrides::OverrideBasis;
-use polypostor::bake::pipeline::PngCompression;
+use polypostor::bake::pipeline::{PngCompression, TextureEncoding};
 use polypostor::reps::RepSet;
 use polypostor::reps::compare::estimate;
 
@@ -20,6 +20,8 @@ pub struct ExportDialog {
     pub resolution: u32,
     pub fps: f32,
     pub png: PngCompression,
+    /// BC7 (KTX2) or PNG textures.
+    pub textures: TextureEncoding,
     /// Per clip of the character, whether it goes into the pack (several: one
     /// whole-character pack sharing its key images).
     pub clips: Vec<bool>,
@@ -37,6 +39,7 @@ impl Default for ExportDialog {
             resolution: polypostor::bake::renders::DEFAULT_RESOLUTION,
             fps: polypostor::bake::renders::DEFAULT_FPS,
             png: PngCompression::default(),
+            textures: TextureEncoding::default(),
             clips: Vec::new(),
             folder_check: None,
         }
@@ -57,6 +60,10 @@ impl ExportDialog {
         } else {
             names.iter().map(|n| doc.project.clips.iter().any(|c| c == n)).collect()
         };
+        // The project's bake settings.
+        let b = &doc.project.bake;
+        (self.views, self.resolution, self.fps) = (b.views, b.resolution, b.fps);
+        (self.png, self.textures) = (b.png, b.textures);
         if self.folder.is_empty() {
             let dir = doc
                 .project_file
@@ -153,15 +160,25 @@ impl ExportDialog {
                 ui.add(egui::Slider::new(&mut self.fps, 2.0..=30.0).suffix(" fps").step_by(1.0));
                 ui.end_row();
                 ui.label("Textures");
+                let label = |t: TextureEncoding, p: PngCompression| match t {
+                    TextureEncoding::Bc7 => "BC7 in KTX2 (GPU-compressed)",
+                    TextureEncoding::Png => p.label(),
+                };
                 egui::ComboBox::from_id_salt("export png")
-                    .selected_text(self.png.label())
+                    .selected_text(label(self.textures, self.png))
                     .show_ui(ui, |ui| {
+                        let mut pick = (self.textures, self.png);
+                        ui.selectable_value(&mut pick, (TextureEncoding::Bc7, self.png), label(TextureEncoding::Bc7, self.png));
                         for p in PngCompression::ALL {
-                            ui.selectable_value(&mut self.png, p, p.label());
+                            ui.selectable_value(&mut pick, (TextureEncoding::Png, p), p.label());
                         }
+                        (self.textures, self.png) = pick;
                     })
                     .response
-                    .on_hover_text("Lossless at every level; slower writing gives smaller files");
+                    .on_hover_text(
+                        "BC7: what a GPU samples, a quarter of the memory, slightly lossy; PNG: lossless at every \
+                         level (slower writing gives smaller files)",
+                    );
                 ui.end_row();
             });
             ui.separator();
@@ -249,6 +266,7 @@ impl ExportDialog {
                         resolution: self.resolution,
                         fps: self.fps,
                         png: self.png,
+                        textures: self.textures,
                         clips: self
                             .clips
                             .iter()

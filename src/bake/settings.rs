@@ -1,0 +1,227 @@
+//! The bake's settings as one struct: what the project stores (`project.json`'s `bake`),
+//! what the command line starts from (its flags override single fields), and what the
+//! editor's bake (Ctrl+B) and export dialog use and write back. [`BakeSettings::options`]
+//! turns them into the pipeline's [`BakeOptions`]; the clips, key frame and the artist's
+//! corrections come from the project and the caller.
+
+use serde::{Deserialize, Serialize};
+
+use super::keys::KeyOptions;
+use super::pipeline::{BakeOptions, PngCompression, TextureEncoding};
+use super::viewpoints::Coverage;
+use crate::limits::{MAX_FPS, MAX_RESOLUTION, MAX_VIEWS, MIN_FPS, MIN_RESOLUTION};
+
+/// Every setting of a bake a user chooses (defaults: the documented ones).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct BakeSettings {
+    /// Number of viewpoints.
+    pub views: usize,
+    /// Part image resolution (pixels, square).
+    pub resolution: u32,
+    /// Clip sampling rate (frames per second).
+    pub fps: f32,
+    /// Views over the whole sphere instead of the upper hemisphere.
+    pub full_sphere: bool,
+    /// What to bake: `polypostor`, `impostor`, `np3d`, `rigid` or `all`, comma-separated.
+    pub representations: String,
+    /// How the textures are stored.
+    pub textures: TextureEncoding,
+    /// PNG level where textures are PNG.
+    pub png: PngCompression,
+    /// Most key images per part and view.
+    pub max_keys: usize,
+    /// Least cut (dB) an added key image must buy.
+    pub key_gain_db: f64,
+    /// Bytes of added key images a view may spend, as a fraction of its first key images'.
+    pub key_budget: f64,
+    /// The exact dynamic programme instead of the fast mode.
+    pub exhaustive: bool,
+    /// Let fitted triangles fold over.
+    pub allow_folds: bool,
+    /// The paper's objective (no charge for missed target coverage).
+    pub paper_objective: bool,
+    /// The fast mode without restarts.
+    pub no_restarts: bool,
+}
+
+impl Default for BakeSettings {
+    fn default() -> Self {
+        let keys = KeyOptions::default();
+        Self {
+            views: super::viewpoints::DEFAULT_VIEW_COUNT,
+            resolution: super::renders::DEFAULT_RESOLUTION,
+            fps: super::renders::DEFAULT_FPS,
+            full_sphere: false,
+            representations: "polypostor".into(),
+            textures: TextureEncoding::default(),
+            png: PngCompression::default(),
+            max_keys: keys.max_keys,
+            key_gain_db: keys.min_gain_db,
+            key_budget: keys.budget,
+            exhaustive: false,
+            allow_folds: false,
+            paper_objective: false,
+            no_restarts: false,
+        }
+    }
+}
+
+/// A setting out of range: which one (its command-line flag without `--`) and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SettingError {
+    /// The setting's name as the command line spells it (`views`, `fps`, …).
+    pub setting: &'static str,
+    /// What is wrong and what to choose.
+    pub message: String,
+}
+
+impl std::fmt::Display for SettingError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "--{} {}", self.setting, self.message)
+    }
+}
+
+impl BakeSettings {
+    /// Whether these are the defaults (a project file then leaves them out).
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// The first setting out of its documented range, before any work starts.
+    pub fn validate(&self) -> Result<(), SettingError> {
+        let bad = |setting, message: String| Err(SettingError { setting, message });
+        if self.views == 0 || self.views > MAX_VIEWS {
+            return bad("views", format!("{}: choose 1 to {MAX_VIEWS}", self.views));
+        }
+        if !(MIN_RESOLUTION..=MAX_RESOLUTION).contains(&self.resolution) {
+            return bad(
+                "resolution",
+                format!("{}: choose {MIN_RESOLUTION} to {MAX_RESOLUTION}", self.resolution),
+            );
+        }
+        if !(self.fps.is_finite() && self.fps >= MIN_FPS && self.fps <= MAX_FPS) {
+            return bad("fps", format!("{}: choose {MIN_FPS} to {MAX_FPS}", self.fps));
+        }
+        if self.max_keys == 0 || self.max_keys > super::keys::MAX_KEYS {
+            return bad(
+                "max-keys",
+                format!("{}: choose 1 to {}", self.max_keys, super::keys::MAX_KEYS),
+            );
+        }
+        if !(self.key_gain_db.is_finite() && (0.0..=100.0).contains(&self.key_gain_db)) {
+            return bad("key-gain-db", format!("{}: choose 0 to 100", self.key_gain_db));
+        }
+        if !(self.key_budget.is_finite() && (0.0..=16.0).contains(&self.key_budget)) {
+            return bad("key-budget", format!("{}: choose 0 to 16", self.key_budget));
+        }
+        if let Err(e) = crate::reps::RepSet::parse(&self.representations) {
+            return bad("representation", format!("'{}': {e}", self.representations));
+        }
+        if self.exhaustive && self.no_restarts {
+            return bad("no-restarts", "applies to the fast mode, not with --exhaustive".into());
+        }
+        Ok(())
+    }
+
+    /// The representations to bake (checked by [`BakeSettings::validate`]; all of them if
+    /// the list does not parse).
+    pub fn representation_set(&self) -> crate::reps::RepSet {
+        crate::reps::RepSet::parse(&self.representations).unwrap_or(crate::reps::RepSet::ALL)
+    }
+
+    /// The pipeline's options for these settings (clips, key frame and corrections left at
+    /// their defaults for the caller to fill in).
+    pub fn options(&self) -> BakeOptions {
+        BakeOptions {
+            views: self.views,
+            coverage: if self.full_sphere {
+                Coverage::FullSphere
+            } else {
+                Coverage::UpperHemisphere
+            },
+            resolution: self.resolution,
+            fps: self.fps,
+            fit: super::part_fit::PartFitOptions {
+                exhaustive: self.exhaustive,
+                fold_free: !self.allow_folds,
+                charge_missed_coverage: !self.paper_objective,
+                restart_threshold: if self.no_restarts {
+                    f64::INFINITY
+                } else {
+                    super::part_fit::DEFAULT_RESTART_THRESHOLD
+                },
+                ..Default::default()
+            },
+            keys: KeyOptions {
+                max_keys: self.max_keys,
+                min_gain_db: self.key_gain_db,
+                budget: self.key_budget,
+            },
+            textures: self.textures,
+            png: self.png,
+            ..Default::default()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_the_pipelines_and_survive_a_round_trip() {
+        let s = BakeSettings::default();
+        assert_eq!(s.validate(), Ok(()));
+        assert_eq!(s.options(), BakeOptions::default());
+        let json = serde_json::to_string(&s).unwrap();
+        assert_eq!(serde_json::from_str::<BakeSettings>(&json).unwrap(), s);
+        // A partial object keeps the defaults of what it leaves out.
+        let p: BakeSettings = serde_json::from_str(r#"{"views": 24}"#).unwrap();
+        assert_eq!(p, BakeSettings { views: 24, ..s });
+    }
+
+    #[test]
+    fn every_setting_out_of_range_is_named() {
+        let d = BakeSettings::default;
+        let cases = [
+            (BakeSettings { views: 0, ..d() }, "views"),
+            (
+                BakeSettings {
+                    views: MAX_VIEWS + 1,
+                    ..d()
+                },
+                "views",
+            ),
+            (BakeSettings { resolution: 2, ..d() }, "resolution"),
+            (BakeSettings { fps: f32::NAN, ..d() }, "fps"),
+            (BakeSettings { max_keys: 0, ..d() }, "max-keys"),
+            (
+                BakeSettings {
+                    key_gain_db: -1.0,
+                    ..d()
+                },
+                "key-gain-db",
+            ),
+            (
+                BakeSettings {
+                    key_budget: f64::INFINITY,
+                    ..d()
+                },
+                "key-budget",
+            ),
+            (
+                BakeSettings {
+                    representations: "sprites".into(),
+                    ..d()
+                },
+                "representation",
+            ),
+        ];
+        for (s, name) in cases {
+            let e = s.validate().unwrap_err();
+            assert_eq!(e.setting, name, "{e}");
+            assert!(e.to_string().starts_with(&format!("--{name} ")), "{e}");
+        }
+    }
+}
