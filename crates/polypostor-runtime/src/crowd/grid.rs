@@ -56,9 +56,13 @@ impl OccupancyGrid {
         (k / self.dim + 1) * self.stride + k % self.dim + 1
     }
 
-    /// Centre of inner cell `cell` on the ground (x, z). Not for cells of the border ring.
+    /// Centre of inner cell `cell` on the ground (x, z). A cell of the border ring gives the
+    /// centre of the inner cell beside it (never an underflow).
     pub fn centre(&self, cell: usize) -> Vec2 {
-        let (x, z) = (cell % self.stride - 1, cell / self.stride - 1);
+        let (x, z) = (
+            (cell % self.stride).saturating_sub(1),
+            (cell / self.stride).saturating_sub(1),
+        );
         Vec2::new(
             (x as f32 + 0.5) * self.cell - self.half_extent,
             (z as f32 + 0.5) * self.cell - self.half_extent,

@@ -816,6 +816,11 @@ impl GpuImpostors {
         data: &crate::reps::ImpostorData,
         frame_map: Option<Vec<u32>>,
     ) -> Result<Self, GpuError> {
+        if frame_map.as_ref().is_some_and(|m| m.is_empty()) {
+            return Err(GpuError::Unsupported(
+                "impostor frame map: empty (it maps every frame of the timeline to a tile)".into(),
+            ));
+        }
         let frames = match &frame_map {
             Some(m) => m.iter().copied().max().map_or(1, |x| x + 1),
             None => reps.manifest.frames,

@@ -828,7 +828,9 @@ impl Builder<'_> {
                     };
                     if let Some(w) = static_world {
                         position = w.transform_point3(position);
-                        normal = w.transform_vector3(normal);
+                        // Normals by the inverse transpose: a node scaled unevenly (a prop
+                        // squashed flat) would otherwise tilt them.
+                        normal = normal_matrix(w) * normal;
                     }
                     vertices.push(Vertex {
                         position,
@@ -1244,5 +1246,49 @@ fn size_warning((min, max): (glam::Vec3, glam::Vec3)) -> Option<String> {
         ))
     } else {
         None
+    }
+}
+
+/// The matrix that carries normals under `w`: the inverse transpose of its linear part (the
+/// linear part itself where that cannot be inverted).
+fn normal_matrix(w: glam::Mat4) -> glam::Mat3 {
+    let m = glam::Mat3::from_mat4(w);
+    if m.determinant().abs() > 1e-30 {
+        m.inverse().transpose()
+    } else {
+        m
+    }
+}
+
+#[cfg(test)]
+mod normal_tests {
+    use glam::{Mat4, Quat, Vec3};
+
+    #[test]
+    fn normals_stay_perpendicular_to_surfaces_under_uneven_scale() {
+        let transforms = [
+            Mat4::from_scale(Vec3::new(2.0, 1.0, 1.0)),
+            Mat4::from_scale_rotation_translation(Vec3::new(0.01, 3.0, 0.5), Quat::from_rotation_y(0.7), Vec3::ONE),
+            Mat4::from_scale(Vec3::splat(100.0)),
+        ];
+        let normals = [Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.3, -0.2, 0.9), Vec3::Z];
+        for w in transforms {
+            for n in normals {
+                let n = n.normalize();
+                // Two tangents of the surface, carried as positions are.
+                let t1 = n.any_orthonormal_vector();
+                let t2 = n.cross(t1);
+                let m = (super::normal_matrix(w) * n).normalize();
+                for t in [t1, t2] {
+                    let tw = w.transform_vector3(t).normalize();
+                    assert!(m.dot(tw).abs() < 1e-4, "{w:?} {n:?}: {}", m.dot(tw));
+                }
+                // Still on the outward side.
+                assert!(m.dot(w.transform_vector3(n)) > 0.0);
+            }
+        }
+        // A degenerate transform does not give NaN.
+        let flat = Mat4::from_scale(Vec3::new(1.0, 0.0, 1.0));
+        assert!((super::normal_matrix(flat) * Vec3::Y).is_finite());
     }
 }
