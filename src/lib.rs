@@ -34,6 +34,7 @@ pub use polypostor_runtime::{
 };
 
 pub mod bake;
+pub mod bench;
 pub mod edit;
 pub mod gpu;
 pub mod metrics;

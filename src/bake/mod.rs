@@ -34,6 +34,7 @@ pub mod fit;
 pub mod gap;
 pub mod image_cost;
 pub mod inspect;
+pub mod job;
 pub mod keys;
 pub mod overrides;
 pub mod part_fit;

@@ -29,11 +29,25 @@ use crate::timeline::Timeline;
 pub const KEY_FRAME_CANDIDATES: usize = 5;
 
 /// How the texture key-frame is chosen.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum KeyFrame {
     /// The frame that lets the others fit best (tried on a few views).
+    #[default]
     Auto,
     Frame(usize),
+}
+
+impl KeyFrame {
+    /// `auto` or a frame number (the command line's `--key-frame`).
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(Self::Auto),
+            k => k
+                .parse()
+                .map(Self::Frame)
+                .map_err(|_| format!("--key-frame must be a frame number or 'auto', not '{k}'")),
+        }
+    }
 }
 
 /// Every setting of a bake.

@@ -465,3 +465,53 @@ pub fn debug_image(bake: &Bake, view: usize, tiles_color: &[Vec<image::RgbaImage
     }
     img
 }
+
+impl Report {
+    /// A whole-character pack's table: each clip's frames, ground speed, error and memory
+    /// (alone and as impostors), then the whole pack; `None` for one clip.
+    pub fn clip_table(&self) -> Option<String> {
+        if self.clips.len() < 2 {
+            return None;
+        }
+        let mut t = String::new();
+        crate::bench::say!(
+            t,
+            "{:<16} {:>6} {:>9} {:>9} {:>7} {:>11} {:>11} {:>8}",
+            "clip",
+            "frames",
+            "speed",
+            "PSNR dB",
+            "SSIM",
+            "alone",
+            "impostors",
+            "ratio"
+        );
+        for c in &self.clips {
+            crate::bench::say!(
+                t,
+                "{:<16} {:>6} {:>9.3} {:>9.2} {:>7.3} {:>11} {:>11} {:>7.1}×",
+                c.name,
+                c.frames,
+                c.ground_speed,
+                c.mean_psnr,
+                c.mean_ssim,
+                crate::bench::human_bytes(c.alone_bytes),
+                crate::bench::human_bytes(c.impostor_bytes),
+                c.memory_ratio
+            );
+        }
+        crate::bench::say!(
+            t,
+            "{:<16} {:>6} {:>9} {:>9.2} {:>7.3} {:>11} {:>11} {:>7.1}×",
+            "whole pack",
+            self.settings.frames,
+            "",
+            self.mean_psnr,
+            self.mean_ssim,
+            crate::bench::human_bytes(self.pack_bytes),
+            crate::bench::human_bytes(self.impostor_bytes),
+            self.memory_ratio
+        );
+        Some(t)
+    }
+}

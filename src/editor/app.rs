@@ -456,19 +456,21 @@ impl EditorApp {
         if set.polypostor {
             self.views.set_source(Some(&out));
         }
-        // The project's clip set (a whole-character pack), else the clip being viewed.
-        let set_clips: Vec<usize> = doc.project.clips.iter().filter_map(|n| c.find_clip(n)).collect();
-        let clip = set_clips
-            .first()
-            .copied()
-            .or(self.playback.clip)
-            .or_else(|| c.find_clip("Walk"))
-            .or((!c.clips.is_empty()).then_some(0));
-        let extra_clips = set_clips.iter().skip(1).copied().collect();
+        // The project's clip set (a whole-character pack), else the clip being viewed: the
+        // rule every bake follows.
+        let clips = polypostor::bake::job::ClipChoice::resolve(
+            &c,
+            polypostor::bake::job::ClipRequest {
+                project_clips: &doc.project.clips,
+                viewed: self.playback.clip,
+                ..Default::default()
+            },
+        )
+        .unwrap_or_default();
         let req = super::crowd::BakeRequest {
             character_path: doc.character_path.clone(),
-            clip,
-            extra_clips,
+            clip: clips.first,
+            extra_clips: clips.extra,
             segmentation,
             caps: doc.project.caps.clone(),
             overrides: doc.project.overrides.clone(),

@@ -221,20 +221,15 @@ impl CrowdPanel {
             super::lower_thread_priority();
             let result = (|| -> Result<JobDone, String> {
                 let ctx = polypostor::gpu::GpuContext::from_env().map_err(|e| e.to_string())?;
-                let clip_name = req
-                    .clip
-                    .and_then(|i| req.character.clips.get(i))
-                    .map(|k| k.name.clone());
                 let options = polypostor::bake::pipeline::BakeOptions {
                     clip: req.clip,
                     extra_clips: req.extra_clips.clone(),
                     overrides: req.overrides.clone(),
                     ..req.options.clone()
                 };
-                let job = polypostor::reps::bake::FolderBake {
+                let job = polypostor::bake::job::BakeJob {
                     character: &req.character,
                     character_path: &req.character_path,
-                    clip_name: clip_name.as_deref(),
                     segmentation: &req.segmentation,
                     caps: &req.caps,
                     options: &options,
@@ -248,8 +243,8 @@ impl CrowdPanel {
                         g.update(pr.stage, pr.done, pr.total, Instant::now());
                     }
                 };
-                let done = polypostor::reps::bake::bake_folder(&ctx, &job, &progress, &c, &|_, _| Ok(()))
-                    .map_err(|e| e.to_string())?;
+                let done =
+                    polypostor::bake::job::run(&ctx, &job, &progress, &c, &|_, _| Ok(())).map_err(|e| e.to_string())?;
                 let labels = req.segmentation.labels.iter().map(|&l| l as u32).collect();
                 let assets = CrowdAssets::load(&req.out, Some(&req.character_path), Some(labels))?;
                 let what = match done.reuse {

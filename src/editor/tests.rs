@@ -245,10 +245,9 @@ fn bake_small(
     let c = polypostor::import_path(&character_path).unwrap();
     let seg = polypostor::bake::segment::auto_segment(&c);
     let ctx = polypostor::gpu::GpuContext::new(&polypostor::gpu::AdapterPreference::SoftwareFirst).unwrap();
-    let job = polypostor::reps::bake::FolderBake {
+    let job = polypostor::bake::job::BakeJob {
         character: &c,
         character_path: &character_path,
-        clip_name: Some("Walk"),
         segmentation: &seg,
         caps: &Default::default(),
         options: &options,
@@ -257,7 +256,7 @@ fn bake_small(
         previous: None,
         reuse_representations: false,
     };
-    polypostor::reps::bake::bake_folder(&ctx, &job, &|_| {}, &Default::default(), &|_, _| Ok(())).unwrap();
+    polypostor::bake::job::run(&ctx, &job, &|_| {}, &Default::default(), &|_, _| Ok(())).unwrap();
     (dir, out)
 }
 

@@ -1,0 +1,548 @@
+//! The bake of a character into one folder — the one entry that the command line
+//! (`polypostor bake`), the editor's Ctrl+B and its export dialog all call.
+//!
+//! A bake starts from its inputs ([`BakeInput::resolve`]: a project or a glTF file), the
+//! clips it holds ([`ClipChoice::resolve`]: the same rule everywhere), the segmentation
+//! ([`segmentation_for`]) and where it goes ([`check_output`], [`default_out`]); [`run`]
+//! then checks the plan, bakes the Polypostor and every other representation of the set
+//! (each view rendered once for all of them), and writes the folder atomically with its
+//! `report.json`.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use crate::bake::pipeline::{BakeError, Progress};
+use crate::bake::segment::Segmentation;
+use crate::character::Character;
+use crate::gpu::GpuContext;
+use crate::project::Project;
+use crate::reps::RepSet;
+
+/// What a bake's input names: the project (when one is given or the input is one), its
+/// file, and the character's path.
+#[derive(Clone, Debug)]
+pub struct BakeInput {
+    pub project: Option<Project>,
+    pub project_file: Option<PathBuf>,
+    pub character_path: PathBuf,
+}
+
+impl BakeInput {
+    /// `input` is a glTF/GLB file (with `project` optionally supplying the project's
+    /// segmentation, caps, corrections and settings) or a project (file or folder).
+    pub fn resolve(input: &Path, project: Option<&Path>) -> Result<Self, String> {
+        let is_gltf = input
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"));
+        if is_gltf {
+            let (project, project_file) = match project {
+                Some(p) => {
+                    let (p, f) = Project::load(p).map_err(|e| e.to_string())?;
+                    (Some(p), Some(f))
+                }
+                None => (None, None),
+            };
+            Ok(Self {
+                project,
+                project_file,
+                character_path: input.to_owned(),
+            })
+        } else {
+            let (p, file) = Project::load(input).map_err(|e| e.to_string())?;
+            let character_path = p.character_path(&file);
+            Ok(Self {
+                project: Some(p),
+                project_file: Some(file),
+                character_path,
+            })
+        }
+    }
+
+    /// The project's bake settings, or the defaults without a project.
+    pub fn settings(&self) -> crate::bake::settings::BakeSettings {
+        self.project.as_ref().map(|p| p.bake.clone()).unwrap_or_default()
+    }
+
+    /// The project's segmentation when it fits `c`, else the automatic one.
+    pub fn segmentation(&self, c: &Character) -> (Segmentation, Option<String>) {
+        segmentation_for(self.project.as_ref(), c)
+    }
+
+    /// The project's cap overrides and per-view corrections (none without a project).
+    pub fn caps_and_overrides(&self) -> (crate::bake::caps::CapOverrides, crate::bake::overrides::BakeOverrides) {
+        match &self.project {
+            Some(p) => (p.caps.clone(), p.overrides.clone()),
+            None => Default::default(),
+        }
+    }
+}
+
+/// The project's segmentation when it fits the character, else the automatic one, with a
+/// warning saying why the project's was not used.
+pub fn segmentation_for(project: Option<&Project>, c: &Character) -> (Segmentation, Option<String>) {
+    match project.and_then(|p| p.segmentation.as_ref()) {
+        Some(s) => match s.to_segmentation(c.triangle_count()) {
+            Ok(seg) => (seg, None),
+            Err(e) => (
+                crate::bake::segment::auto_segment(c),
+                Some(format!(
+                    "the project's segmentation does not fit this character ({e}); using the automatic one"
+                )),
+            ),
+        },
+        None => (crate::bake::segment::auto_segment(c), None),
+    }
+}
+
+/// The clips one bake holds: the first, and the further clips of a whole-character pack.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ClipChoice {
+    /// `None`: the character has no clip (its rest pose is baked).
+    pub first: Option<usize>,
+    pub extra: Vec<usize>,
+}
+
+/// What a bake was asked for, from the most to the least specific.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ClipRequest<'a> {
+    /// A comma-separated list of clip names (the command line's `--clips`).
+    pub list: Option<&'a str>,
+    /// One clip by name (`--clip`); the project's clip set is then left aside.
+    pub clip: Option<&'a str>,
+    /// The project's clip set (a whole-character pack when it has several).
+    pub project_clips: &'a [String],
+    /// The clip being viewed (the editor's playback, the project's saved view).
+    pub viewed: Option<usize>,
+}
+
+impl ClipChoice {
+    /// The one rule of every bake: an explicit list, else one named clip, else the
+    /// project's clip set, else the clip being viewed, else `Walk`, else the first clip.
+    /// Names that do not exist are errors naming the clips there are; the project's own
+    /// set skips names the character lost (said by the project's checks elsewhere).
+    pub fn resolve(c: &Character, req: ClipRequest) -> Result<Self, String> {
+        let find = |n: &str| {
+            c.find_clip(n).ok_or_else(|| {
+                format!(
+                    "no clip named '{n}' (clips: {})",
+                    c.clips.iter().map(|k| k.name.as_str()).collect::<Vec<_>>().join(", ")
+                )
+            })
+        };
+        let from_list = |names: &[String]| -> Result<Self, String> {
+            let idx = names.iter().map(|n| find(n)).collect::<Result<Vec<_>, _>>()?;
+            Ok(Self {
+                first: idx.first().copied(),
+                extra: idx.into_iter().skip(1).collect(),
+            })
+        };
+        if let Some(list) = req.list {
+            let names = crate::timeline::parse_clip_list(list, c).map_err(|e| format!("--clips: {e}"))?;
+            return from_list(&names);
+        }
+        if let Some(n) = req.clip {
+            return Ok(Self {
+                first: Some(find(n)?),
+                extra: Vec::new(),
+            });
+        }
+        let known: Vec<String> = req
+            .project_clips
+            .iter()
+            .filter(|n| c.find_clip(n).is_some())
+            .cloned()
+            .collect();
+        if !known.is_empty() {
+            return from_list(&known);
+        }
+        Ok(Self {
+            first: req
+                .viewed
+                .filter(|&i| i < c.clips.len())
+                .or_else(|| c.find_clip("Walk"))
+                .or((!c.clips.is_empty()).then_some(0)),
+            extra: Vec::new(),
+        })
+    }
+
+    /// The first clip's name.
+    pub fn name<'c>(&self, c: &'c Character) -> Option<&'c str> {
+        self.first.and_then(|i| c.clips.get(i)).map(|k| k.name.as_str())
+    }
+
+    /// Whether this is a whole-character pack of several clips.
+    pub fn is_several(&self) -> bool {
+        !self.extra.is_empty()
+    }
+}
+
+/// Where a bake goes when no folder is named: `<stem>-<clip>.pack` (`-rest` without a clip,
+/// `-clips` for several), in the working folder.
+pub fn default_out(character_path: &Path, clips: &ClipChoice, c: &Character) -> PathBuf {
+    let stem = character_path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "character".into());
+    if clips.is_several() {
+        PathBuf::from(format!("{stem}-clips.pack"))
+    } else {
+        PathBuf::from(format!("{stem}-{}.pack", clips.name(c).unwrap_or("rest")))
+    }
+}
+
+/// Checks, before any work, that a bake may write `out`: never over what this tool did not
+/// write, never over the character or the project file, and (when `project_file` is given:
+/// the command line's rule for a named `--out`) never into the project's own folder.
+pub fn check_output(out: &Path, character_path: &Path, project_file: Option<&Path>) -> Result<(), String> {
+    let mut protected: Vec<&Path> = vec![character_path];
+    if let Some(f) = project_file {
+        protected.push(f);
+        if let Some(dir) = f.parent().filter(|d| !d.as_os_str().is_empty()) {
+            let (dir_real, out_real) = (crate::safe_fs::resolved(dir), crate::safe_fs::resolved(out));
+            if out_real.starts_with(&dir_real) {
+                return Err(format!(
+                    "'{}' {} the project folder '{}'; write packs beside the project, not into it",
+                    out.display(),
+                    if out_real == dir_real { "is" } else { "lies inside" },
+                    dir.display()
+                ));
+            }
+        }
+    }
+    crate::safe_fs::check_bake_output(out, &protected)
+}
+
+/// A hook that adds files to a bake folder before it moves into place.
+pub type ExtraFiles<'a> = dyn Fn(&std::path::Path, Option<&crate::bake::pipeline::Bake>) -> Result<(), String> + 'a;
+
+/// Where a whole bake goes and what it holds.
+pub struct BakeJob<'a> {
+    pub character: &'a Character,
+    /// Written into `representations.json` (meshes draw from it).
+    pub character_path: &'a std::path::Path,
+    pub segmentation: &'a crate::bake::segment::Segmentation,
+    pub caps: &'a crate::bake::caps::CapOverrides,
+    pub options: &'a crate::bake::pipeline::BakeOptions,
+    pub set: RepSet,
+    pub out: &'a std::path::Path,
+    /// The last bake into `out`: only what changed since is baked again
+    /// ([`crate::bake::pipeline::rebake`]).
+    pub previous: Option<&'a crate::bake::pipeline::Bake>,
+    /// Copy the other representations from the folder already at `out` instead of baking
+    /// them again (when `previous` applies: same character, segmentation and settings).
+    pub reuse_representations: bool,
+}
+
+/// What [`run`] wrote.
+pub struct BakeOutcome {
+    pub bake: Option<crate::bake::pipeline::Bake>,
+    pub stats: Option<crate::pack::PackStats>,
+    /// What an incremental bake re-did (`None`: a plain bake).
+    pub reuse: Option<crate::bake::pipeline::Reuse>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    #[error("{0}")]
+    Bake(#[from] BakeError),
+    #[error("writing {path}: {message}")]
+    Write { path: String, message: String },
+    #[error("{0}")]
+    Output(String),
+}
+
+/// Bakes every representation of `job.set` and writes them into one folder (the Polypostor
+/// pack with its `report.json`, and `representations.json` with its files), replacing
+/// `job.out` only once everything is written and reads back. `extra(folder, bake)` may add
+/// files (debug images) before the folder moves into place.
+pub fn run(
+    ctx: &GpuContext,
+    job: &BakeJob,
+    progress: &(dyn Fn(Progress) + Sync),
+    cancel: &AtomicBool,
+    extra: &ExtraFiles,
+) -> Result<BakeOutcome, JobError> {
+    use crate::bake::pipeline::KeyFrame;
+    let started = std::time::Instant::now();
+    let profile = crate::bake::profile::snapshot();
+    let o = job.options;
+    let clip_name = o.clip.and_then(|i| job.character.clips.get(i)).map(|k| k.name.as_str());
+    // Everything that can be known before the work: the settings, the output folder.
+    crate::bake::plan::check(
+        job.character,
+        job.segmentation,
+        o,
+        job.set,
+        ctx.device.limits().max_texture_dimension_2d,
+    )
+    .map_err(BakeError::from)?;
+    crate::safe_fs::check_bake_output(job.out, &[job.character_path]).map_err(JobError::Output)?;
+    let mut reuse = None;
+    // The other representations' whole-character images, composited from the Polypostor's
+    // part renders as the bake makes them (each view is rendered once).
+    let frames = crate::timeline::Timeline::new(job.character, &o.clip_list(), o.fps)
+        .map_err(BakeError::from)?
+        .frames();
+    let mut shared = (job.set.polypostor && (job.set.impostor || job.set.np3d))
+        .then(|| crate::reps::bake::SharedRenders::new(o.views.max(1), frames, o.resolution, job.set));
+    let mut on_view = |v: &crate::bake::pipeline::ViewRenders| {
+        if let Some(s) = shared.as_mut() {
+            crate::bake::profile::in_root("other representations", || s.add(v));
+        }
+    };
+    let bake = if job.set.polypostor {
+        Some(match job.previous {
+            Some(prev) => {
+                let (b, r) = crate::bake::pipeline::rebake_sharing(
+                    ctx,
+                    prev,
+                    job.character,
+                    job.segmentation,
+                    job.caps,
+                    o,
+                    progress,
+                    cancel,
+                    &mut on_view,
+                )?;
+                reuse = Some(r);
+                b
+            }
+            None => crate::bake::pipeline::bake_sharing(
+                ctx,
+                job.character,
+                job.segmentation,
+                job.caps,
+                o,
+                progress,
+                cancel,
+                &mut on_view,
+            )?,
+        })
+    } else {
+        None
+    };
+    // The other representations depend on the character, segmentation and settings only:
+    // after an incremental bake they are copied from the folder they are already in.
+    let copy_from = (job.reuse_representations
+        && reuse.is_some_and(|r| !r.full)
+        && job.set.any_other()
+        && crate::reps::load_representations(job.out).is_ok())
+    .then(|| job.out.to_owned());
+    let reps = if job.set.any_other() && copy_from.is_none() {
+        let key = match (&bake, o.key_frame) {
+            (Some(b), _) => b.key_frame,
+            (None, KeyFrame::Frame(k)) => k,
+            (None, KeyFrame::Auto) => 0,
+        };
+        let reps_options = crate::reps::bake::RepsOptions {
+            views: o.views,
+            coverage: o.coverage,
+            resolution: o.resolution,
+            fps: o.fps,
+            clip: o.clip,
+            extra_clips: o.extra_clips.clone(),
+            key_frame: key,
+            set: job.set,
+            np3d_triangles: crate::reps::bake::NP3D_TRIANGLES,
+            part_labels: job.segmentation.labels.iter().map(|&l| l as u32).collect(),
+        };
+        let path = std::fs::canonicalize(job.character_path).unwrap_or_else(|_| job.character_path.to_owned());
+        Some(crate::bake::profile::in_root("other representations", || {
+            crate::reps::bake::bake_representations_sharing(
+                ctx,
+                job.character,
+                Some(&path.display().to_string()),
+                clip_name,
+                &reps_options,
+                shared.take(),
+                progress,
+                cancel,
+            )
+        })?)
+    } else {
+        None
+    };
+    let write_reps = |dir: &std::path::Path| -> Result<(), String> {
+        if let Some(from) = &copy_from {
+            // Every file of the old folder the new one does not have yet (the pack's own
+            // files were just written under the same names).
+            for entry in std::fs::read_dir(from).map_err(|e| e.to_string())? {
+                let entry = entry.map_err(|e| e.to_string())?;
+                let target = dir.join(entry.file_name());
+                if entry.file_type().map_err(|e| e.to_string())?.is_file() && !target.exists() {
+                    std::fs::copy(entry.path(), &target).map_err(|e| e.to_string())?;
+                }
+            }
+            crate::reps::load_representations(dir)
+                .map_err(|e| format!("the copied representations do not load back: {e}"))?;
+        }
+        if let Some(r) = &reps {
+            // Colour sheets as BC7 with the pack's textures; normal sheets stay PNG.
+            let bc7 = |img: &image::RgbaImage| {
+                crate::pack::bc::encode_ktx2(img, polypostor_runtime::texture::BcFormat::Bc7Srgb)
+            };
+            let encode: Option<crate::reps::ColorEncoder> = match job.options.textures {
+                crate::bake::pipeline::TextureEncoding::Bc7 => Some(&bc7),
+                crate::bake::pipeline::TextureEncoding::Png => None,
+            };
+            crate::bake::profile::in_root("write", || crate::reps::write_representations_with(r, dir, encode))?;
+            crate::reps::load_representations(dir)
+                .map_err(|e| format!("the written representations do not load back: {e}"))?;
+        }
+        Ok(())
+    };
+    let write_error = |message: String| JobError::Write {
+        path: job.out.display().to_string(),
+        message,
+    };
+    let Some(b) = bake else {
+        crate::pack::write_folder_atomic(job.out, &|dir| {
+            write_reps(dir)?;
+            extra(dir, None)
+        })
+        .map_err(write_error)?;
+        return Ok(BakeOutcome {
+            bake: None,
+            stats: None,
+            reuse: None,
+        });
+    };
+    let write_started = std::time::Instant::now();
+    let stats = crate::pack::write_pack_with(&b, &job.character.name, clip_name, job.out, &|dir, stats| {
+        // Read the pack back through the validating loader before it replaces anything.
+        crate::pack::load_pack(dir).map_err(|e| format!("the written pack does not load back: {e}"))?;
+        write_reps(dir)?;
+        let mut report = crate::bake::report::build_report(
+            &b,
+            &job.character.name,
+            clip_name,
+            stats,
+            started.elapsed().as_secs_f64(),
+        );
+        report
+            .stage_seconds
+            .insert("write".into(), write_started.elapsed().as_secs_f64());
+        report.cpu_seconds = profile.since();
+        report.cpu_counts = profile.counts_since();
+        let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+        std::fs::write(dir.join("report.json"), text).map_err(|e| e.to_string())?;
+        extra(dir, Some(&b))
+    })
+    .map_err(write_error)?;
+    Ok(BakeOutcome {
+        bake: Some(b),
+        stats: Some(stats),
+        reuse,
+    })
+}
+
+/// What one bake is asked for beyond its input (the command line's flags; the defaults
+/// bake the project's settings into `<stem>-<clip>.pack`).
+#[derive(Clone, Debug, Default)]
+pub struct Request<'a> {
+    /// The input's settings with any overrides applied ([`BakeInput::settings`]).
+    pub settings: crate::bake::settings::BakeSettings,
+    pub key_frame: crate::bake::pipeline::KeyFrame,
+    /// A comma-separated clip list, or one clip ([`ClipRequest`]).
+    pub clips: Option<&'a str>,
+    pub clip: Option<&'a str>,
+    /// Where the folder goes (`None`: [`default_out`]).
+    pub out: Option<PathBuf>,
+    /// Keep every frame's images for debug pictures.
+    pub keep_frame_images: bool,
+}
+
+/// A bake with everything resolved and checked that can be without a GPU: the character
+/// imported, its clips, segmentation, caps, corrections, options and output folder.
+pub struct Prepared {
+    pub input: BakeInput,
+    pub character: Character,
+    pub clips: ClipChoice,
+    pub segmentation: Segmentation,
+    pub caps: crate::bake::caps::CapOverrides,
+    pub options: crate::bake::pipeline::BakeOptions,
+    pub set: RepSet,
+    pub out: PathBuf,
+    /// What the user should hear before the bake (import warnings, a segmentation that did
+    /// not fit).
+    pub warnings: Vec<String>,
+}
+
+impl Prepared {
+    /// Validates the settings and the output folder before reading the character, then
+    /// imports it and resolves its clips and segmentation. Errors name the flag or input
+    /// at fault.
+    pub fn new(input: BakeInput, req: Request) -> Result<Self, String> {
+        req.settings.validate().map_err(|e| e.to_string())?;
+        let set = req.settings.representation_set();
+        let check = |out: &Path| {
+            check_output(out, &input.character_path, input.project_file.as_deref()).map_err(|e| format!("--out {e}"))
+        };
+        if let Some(out) = &req.out {
+            check(out)?;
+        }
+        let character = crate::import_path(&input.character_path)
+            .map_err(|e| format!("{}: {e}", input.character_path.display()))?;
+        let mut warnings = character.warnings.clone();
+        let project_clips = input.project.as_ref().map(|p| p.clips.as_slice()).unwrap_or_default();
+        let viewed = input
+            .project
+            .as_ref()
+            .and_then(|p| p.view.clip.as_deref())
+            .and_then(|n| character.find_clip(n));
+        let clips = ClipChoice::resolve(
+            &character,
+            ClipRequest {
+                list: req.clips,
+                clip: req.clip,
+                project_clips,
+                viewed,
+            },
+        )?;
+        let (segmentation, seg_warning) = input.segmentation(&character);
+        warnings.extend(seg_warning);
+        let (caps, overrides) = input.caps_and_overrides();
+        let options = crate::bake::pipeline::BakeOptions {
+            clip: clips.first,
+            extra_clips: clips.extra.clone(),
+            key_frame: req.key_frame,
+            overrides,
+            keep_frame_images: req.keep_frame_images,
+            ..req.settings.options()
+        };
+        let out = match req.out {
+            Some(o) => o,
+            None => {
+                let o = default_out(&input.character_path, &clips, &character);
+                check(&o)?;
+                o
+            }
+        };
+        Ok(Self {
+            input,
+            character,
+            clips,
+            segmentation,
+            caps,
+            options,
+            set,
+            out,
+            warnings,
+        })
+    }
+
+    /// The job [`run`] bakes.
+    pub fn job(&self) -> BakeJob<'_> {
+        BakeJob {
+            character: &self.character,
+            character_path: &self.input.character_path,
+            segmentation: &self.segmentation,
+            caps: &self.caps,
+            options: &self.options,
+            set: self.set,
+            out: &self.out,
+            previous: None,
+            reuse_representations: false,
+        }
+    }
+}
