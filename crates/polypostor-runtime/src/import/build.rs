@@ -1,0 +1,534 @@
+//! Building a [`Character`] from a parsed glTF: the rig (skeleton, bones, what each mesh
+//! node is bound to), the geometry of every triangle primitive, then the clips.
+
+use std::collections::HashMap;
+
+use glam::{Mat4, Vec3};
+use gltf::json;
+use json::validation::Checked;
+
+use super::{
+    Binding, Builder, ImportError, accessor, compute_normals, node_local, normal_matrix, scene_name, size_warning,
+    triangulate,
+};
+use crate::character::{Bone, Character, Material, Node, Skeleton, Submesh, Texture, Transform, Vertex};
+
+/// The rig: the skeleton's nodes, the bones vertices bind to, and each mesh node's binding.
+#[derive(Default)]
+struct Rig {
+    skeleton: Skeleton,
+    bones: Vec<Bone>,
+    bindings: HashMap<usize, Binding>,
+    /// File node index -> skeleton node index (empty for skinless files).
+    node_map: HashMap<usize, usize>,
+}
+
+/// The geometry gathered so far, with the materials and textures it uses.
+#[derive(Default)]
+struct Geometry {
+    vertices: Vec<Vertex>,
+    indices: Vec<u32>,
+    submeshes: Vec<Submesh>,
+    materials: Vec<Material>,
+    material_map: HashMap<Option<usize>, usize>,
+    textures: Vec<Texture>,
+    texture_map: HashMap<usize, Option<usize>>,
+}
+
+/// The scene's node hierarchy: each node's parent and rest-pose local transform.
+struct Hierarchy {
+    parent: Vec<Option<usize>>,
+    locals: Vec<Transform>,
+    /// Rest world matrices, filled as they are asked for.
+    world_rest: Vec<Option<Mat4>>,
+}
+
+impl Hierarchy {
+    /// The rest world matrix of node `i` (iterative: the chain up to a known ancestor).
+    fn world(&mut self, i: usize) -> Mat4 {
+        let (parent, locals, memo) = (&self.parent, &self.locals, &mut self.world_rest);
+        let mut chain = vec![i];
+        let mut at = i;
+        while memo[at].is_none() {
+            match parent[at] {
+                Some(p) if memo[p].is_none() => {
+                    chain.push(p);
+                    at = p;
+                }
+                _ => break,
+            }
+        }
+        for &n in chain.iter().rev() {
+            if memo[n].is_none() {
+                let base = parent[n].and_then(|p| memo[p]).unwrap_or(Mat4::IDENTITY);
+                memo[n] = Some(base * locals[n].to_mat4());
+            }
+        }
+        memo[i].unwrap_or(Mat4::IDENTITY)
+    }
+}
+
+impl Builder<'_> {
+    /// The character: rig, geometry, clips, and the size check.
+    pub(super) fn build(mut self, name: &str) -> Result<Character, ImportError> {
+        let root = self.root;
+        let parent = self.parents()?;
+        let scene = self.scene_nodes(&parent)?;
+        let mesh_nodes: Vec<usize> = scene
+            .iter()
+            .copied()
+            .filter(|&i| root.nodes[i].mesh.is_some())
+            .collect();
+        // A file with meshes but no nodes at all: the meshes as they are, static.
+        let instances: Vec<(Option<usize>, usize)> = if root.nodes.is_empty() {
+            (0..root.meshes.len()).map(|m| (None, m)).collect()
+        } else {
+            mesh_nodes
+                .iter()
+                .map(|&n| (Some(n), root.nodes[n].mesh.map_or(usize::MAX, |x| x.value())))
+                .collect()
+        };
+        if instances.is_empty() {
+            return Err(ImportError::NoGeometry);
+        }
+        let any_skin = mesh_nodes.iter().any(|&i| root.nodes[i].skin.is_some());
+        let mut hierarchy = Hierarchy {
+            locals: root.nodes.iter().map(node_local).collect(),
+            world_rest: vec![None; root.nodes.len()],
+            parent,
+        };
+        let rig = if any_skin {
+            self.skinned_rig(&mesh_nodes, &hierarchy)?
+        } else {
+            static_rig(&mesh_nodes)
+        };
+        let mut g = Geometry::default();
+        for &(node, mesh_index) in &instances {
+            let mesh = root.meshes.get(mesh_index).ok_or_else(|| {
+                ImportError::Invalid(format!(
+                    "node {} refers to missing mesh {mesh_index}",
+                    node.unwrap_or(usize::MAX)
+                ))
+            })?;
+            let mesh_name = mesh.name.clone().unwrap_or_else(|| format!("mesh {mesh_index}"));
+            let static_world = match (any_skin, node) {
+                (true, _) => None,
+                (false, Some(n)) => Some(hierarchy.world(n)),
+                (false, None) => Some(Mat4::IDENTITY),
+            };
+            for (pi, prim) in mesh.primitives.iter().enumerate() {
+                self.primitive(&mesh_name, pi, prim, node, static_world, &rig, &mut g)?;
+            }
+        }
+        if g.indices.is_empty() {
+            return Err(ImportError::NoGeometry);
+        }
+        let clips = self.clips(&rig.node_map, any_skin)?;
+        let name = scene_name(root).unwrap_or_else(|| name.to_string());
+        let mut character = Character {
+            name,
+            vertices: g.vertices,
+            indices: g.indices,
+            submeshes: g.submeshes,
+            materials: g.materials,
+            textures: g.textures,
+            skeleton: rig.skeleton,
+            bones: rig.bones,
+            clips,
+            warnings: self.warnings,
+        };
+        // Measured skinned in the rest pose (a skinned mesh's own node transform does not
+        // apply; its joints' do).
+        if let Some(w) = size_warning(crate::animation::clip_bounds(&character, None, 2)) {
+            if !character.warnings.contains(&w) {
+                character.warnings.push(w);
+            }
+        }
+        Ok(character)
+    }
+
+    /// The rig of a skinned file: the scene's skins and their joints, the nodes they need
+    /// (and their ancestors, parents first), one bone per joint slot, and one bone per mesh
+    /// node without a skin (it follows its node rigidly).
+    fn skinned_rig(&self, mesh_nodes: &[usize], h: &Hierarchy) -> Result<Rig, ImportError> {
+        let root = self.root;
+        let (parent, locals) = (&h.parent, &h.locals);
+        let mut skeleton = Skeleton::default();
+        let mut bones: Vec<Bone> = Vec::new();
+        let mut bindings: HashMap<usize, Binding> = HashMap::new();
+        // Skins used by the scene's meshes, and their joints.
+        let mut skins: Vec<usize> = mesh_nodes
+            .iter()
+            .filter_map(|&i| root.nodes[i].skin.map(|s| s.value()))
+            .collect();
+        skins.sort_unstable();
+        skins.dedup();
+        let mut joint_nodes: Vec<usize> = Vec::new();
+        for &s in &skins {
+            let skin = root
+                .skins
+                .get(s)
+                .ok_or_else(|| ImportError::Invalid(format!("skin {s} does not exist")))?;
+            if skin.joints.is_empty() {
+                return Err(ImportError::Invalid(format!("skin {s} has no joints")));
+            }
+            for j in &skin.joints {
+                if j.value() >= root.nodes.len() {
+                    return Err(ImportError::Invalid(format!(
+                        "skin {s} refers to missing joint node {}",
+                        j.value()
+                    )));
+                }
+                joint_nodes.push(j.value());
+            }
+        }
+        // Needed nodes: joints, rigid mesh carriers, and all their ancestors.
+        let mut needed = vec![false; root.nodes.len()];
+        let rigid: Vec<usize> = mesh_nodes
+            .iter()
+            .copied()
+            .filter(|&i| root.nodes[i].skin.is_none())
+            .collect();
+        for &start in joint_nodes.iter().chain(&rigid) {
+            let mut at = Some(start);
+            while let Some(i) = at {
+                if needed[i] {
+                    break;
+                }
+                needed[i] = true;
+                at = parent[i];
+            }
+        }
+        // Parents first, otherwise in file order (a file that already lists parents
+        // first keeps its order). The hierarchy is a forest, so each pass emits at least
+        // one node.
+        let mut order: Vec<usize> = Vec::new();
+        let mut emitted = vec![false; root.nodes.len()];
+        let mut pending: Vec<usize> = (0..root.nodes.len()).filter(|&i| needed[i]).collect();
+        while !pending.is_empty() {
+            pending.retain(|&i| {
+                let ready = parent[i].is_none_or(|p| emitted[p]);
+                if ready {
+                    emitted[i] = true;
+                    order.push(i);
+                }
+                !ready
+            });
+        }
+        let mut new_index: HashMap<usize, usize> = HashMap::new();
+        let mut is_joint = vec![false; root.nodes.len()];
+        for &j in &joint_nodes {
+            is_joint[j] = true;
+        }
+        for &i in &order {
+            let n = &root.nodes[i];
+            new_index.insert(i, skeleton.nodes.len());
+            skeleton.nodes.push(Node {
+                name: n.name.clone().unwrap_or_else(|| format!("node{i}")),
+                parent: parent[i].map(|p| new_index[&p]),
+                rest: locals[i],
+                is_joint: is_joint[i],
+            });
+        }
+        for &s in &skins {
+            let skin = &root.skins[s];
+            let ibms: Vec<Mat4> = match skin.inverse_bind_matrices {
+                Some(a) => {
+                    let v = accessor::read_f32(root, self.buffers, a.value())?;
+                    if v.components != 16 || v.count() < skin.joints.len() {
+                        return Err(ImportError::Invalid(format!(
+                            "skin {s}: inverseBindMatrices must hold {} MAT4 values",
+                            skin.joints.len()
+                        )));
+                    }
+                    (0..skin.joints.len())
+                        .map(|k| {
+                            let m = Mat4::from_cols_slice(&v.data[k * 16..k * 16 + 16]);
+                            if m.is_finite() { m } else { Mat4::IDENTITY }
+                        })
+                        .collect()
+                }
+                None => vec![Mat4::IDENTITY; skin.joints.len()],
+            };
+            let mut slots = Vec::with_capacity(skin.joints.len());
+            for (k, j) in skin.joints.iter().enumerate() {
+                slots.push(bones.len() as u16);
+                bones.push(Bone {
+                    node: new_index[&j.value()],
+                    inverse_bind: ibms[k],
+                });
+            }
+            for &m in mesh_nodes {
+                if root.nodes[m].skin.map(|x| x.value()) == Some(s) {
+                    bindings.insert(m, Binding::Skin(slots.clone()));
+                }
+            }
+        }
+        for &m in &rigid {
+            bindings.insert(m, Binding::Rigid(bones.len() as u16));
+            bones.push(Bone {
+                node: new_index[&m],
+                inverse_bind: Mat4::IDENTITY,
+            });
+        }
+        let node_map = new_index;
+        if bones.len() > u16::MAX as usize {
+            return Err(ImportError::Unsupported(format!(
+                "{} bones (at most 65535)",
+                bones.len()
+            )));
+        }
+        Ok(Rig {
+            skeleton,
+            bones,
+            bindings,
+            node_map,
+        })
+    }
+
+    /// One primitive of a mesh: its attributes checked against each other, its triangles,
+    /// its vertices bound to the rig (static files: placed by the node's rest transform),
+    /// its material; appended to `g`. Primitives that are not triangles are skipped (said).
+    #[allow(clippy::too_many_arguments)]
+    fn primitive(
+        &mut self,
+        mesh_name: &str,
+        pi: usize,
+        prim: &json::mesh::Primitive,
+        node: Option<usize>,
+        static_world: Option<Mat4>,
+        rig: &Rig,
+        g: &mut Geometry,
+    ) -> Result<(), ImportError> {
+        let root = self.root;
+        let what = format!("mesh '{mesh_name}' primitive {pi}");
+        if prim.targets.as_ref().is_some_and(|t| !t.is_empty()) {
+            self.warn(format!("{what}: morph targets are ignored"));
+        }
+        let mode = match prim.mode {
+            Checked::Valid(mode) => mode,
+            Checked::Invalid => {
+                return Err(ImportError::Invalid(format!("{what}: invalid mode")));
+            }
+        };
+        use json::mesh::{Mode, Semantic};
+        if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+            self.warn(format!(
+                "{what}: {mode:?} primitives are not triangles and were skipped"
+            ));
+            return Ok(());
+        }
+        let attr = |s: Semantic| prim.attributes.get(&Checked::Valid(s)).map(|a| a.value());
+        let Some(pos_acc) = attr(Semantic::Positions) else {
+            self.warn(format!("{what}: no POSITION attribute; skipped"));
+            return Ok(());
+        };
+        let positions = accessor::read_f32(root, self.buffers, pos_acc)?;
+        if positions.components != 3 {
+            return Err(ImportError::Invalid(format!("{what}: POSITION must be VEC3")));
+        }
+        let n = positions.count();
+        if positions.data.iter().any(|x| !x.is_finite()) {
+            return Err(ImportError::Invalid(format!(
+                "{what}: POSITION holds non-finite values"
+            )));
+        }
+        let read_attr =
+            |s: Semantic, comps: &[usize], this: &Self| -> Result<Option<accessor::Values<f32>>, ImportError> {
+                let Some(a) = attr(s.clone()) else {
+                    return Ok(None);
+                };
+                let v = accessor::read_f32(root, this.buffers, a)?;
+                if !comps.contains(&v.components) {
+                    return Err(ImportError::Invalid(format!(
+                        "{what}: {s:?} has {} components",
+                        v.components
+                    )));
+                }
+                if v.count() != n {
+                    return Err(ImportError::Invalid(format!(
+                        "{what}: {s:?} has {} elements, POSITION has {n}",
+                        v.count()
+                    )));
+                }
+                Ok(Some(v))
+            };
+        let normals = read_attr(Semantic::Normals, &[3], self)?;
+        let uvs = read_attr(Semantic::TexCoords(0), &[2], self)?;
+        let colors = read_attr(Semantic::Colors(0), &[3, 4], self)?;
+        let weights = read_attr(Semantic::Weights(0), &[4], self)?;
+        let joints = match attr(Semantic::Joints(0)) {
+            Some(a) => {
+                let v = accessor::read_u32(root, self.buffers, a)?;
+                if v.components != 4 || v.count() != n {
+                    return Err(ImportError::Invalid(format!(
+                        "{what}: JOINTS_0 must be VEC4 with {n} elements"
+                    )));
+                }
+                Some(v)
+            }
+            None => None,
+        };
+        if attr(Semantic::Joints(1)).is_some() {
+            self.warn(format!(
+                "{what}: more than 4 influences per vertex; JOINTS_1/WEIGHTS_1 ignored"
+            ));
+        }
+
+        // Triangle list.
+        let raw: Vec<u32> = match prim.indices {
+            Some(a) => {
+                let v = accessor::read_u32(root, self.buffers, a.value())?;
+                if v.components != 1 {
+                    return Err(ImportError::Invalid(format!("{what}: indices must be SCALAR")));
+                }
+                v.data
+            }
+            None => (0..n as u32).collect(),
+        };
+        if let Some(&bad) = raw.iter().find(|&&i| i as usize >= n) {
+            return Err(ImportError::Invalid(format!(
+                "{what}: index {bad} is out of range ({n} vertices)"
+            )));
+        }
+        let tris = triangulate(mode, &raw);
+        if tris.is_empty() {
+            self.warn(format!("{what}: no triangles"));
+            return Ok(());
+        }
+
+        let binding = match node {
+            Some(n) => rig.bindings.get(&n),
+            None => Some(&Binding::Rigid(0)),
+        };
+        let base = g.vertices.len() as u32;
+        let mut bad_weights = false;
+        for i in 0..n {
+            let mut position = Vec3::from_array(positions.get::<3>(i));
+            let mut normal = normals.as_ref().map_or(Vec3::ZERO, |v| Vec3::from_array(v.get::<3>(i)));
+            if !normal.is_finite() {
+                normal = Vec3::ZERO;
+            }
+            let uv = uvs.as_ref().map_or([0.0; 2], |v| v.get::<2>(i));
+            let uv = if uv.iter().all(|x| x.is_finite()) { uv } else { [0.0; 2] };
+            let color = match &colors {
+                Some(c) if c.components == 3 => {
+                    let [r, g, b] = c.get::<3>(i);
+                    [r, g, b, 1.0]
+                }
+                Some(c) => c.get::<4>(i),
+                None => [1.0; 4],
+            };
+            let (vb, vw) = match binding {
+                Some(Binding::Skin(slots)) => match (&joints, &weights) {
+                    (Some(j), Some(w)) => {
+                        let js = j.get::<4>(i);
+                        let mut ws = w.get::<4>(i);
+                        let mut b = [0u16; 4];
+                        for k in 0..4 {
+                            if !ws[k].is_finite() || ws[k] < 0.0 {
+                                ws[k] = 0.0;
+                            }
+                            match slots.get(js[k] as usize) {
+                                Some(&bone) => b[k] = bone,
+                                None if ws[k] == 0.0 => b[k] = slots[0],
+                                None => {
+                                    return Err(ImportError::Invalid(format!(
+                                        "{what}: vertex {i} uses joint {} but the skin has {}",
+                                        js[k],
+                                        slots.len()
+                                    )));
+                                }
+                            }
+                        }
+                        let sum: f32 = ws.iter().sum();
+                        if sum > 0.0 {
+                            (b, ws.map(|x| x / sum))
+                        } else {
+                            bad_weights = true;
+                            (b, [1.0, 0.0, 0.0, 0.0])
+                        }
+                    }
+                    _ => {
+                        self.warn(format!(
+                            "{what}: skinned without JOINTS_0/WEIGHTS_0; bound to the first joint"
+                        ));
+                        ([slots[0], 0, 0, 0], [1.0, 0.0, 0.0, 0.0])
+                    }
+                },
+                Some(Binding::Rigid(b)) => ([*b, 0, 0, 0], [1.0, 0.0, 0.0, 0.0]),
+                None => ([0; 4], [1.0, 0.0, 0.0, 0.0]),
+            };
+            if let Some(w) = static_world {
+                position = w.transform_point3(position);
+                // Normals by the inverse transpose: a node scaled unevenly (a prop
+                // squashed flat) would otherwise tilt them.
+                normal = normal_matrix(w) * normal;
+            }
+            g.vertices.push(Vertex {
+                position,
+                normal: normal.normalize_or_zero(),
+                uv,
+                color,
+                bones: vb,
+                weights: vw,
+            });
+        }
+        if bad_weights {
+            self.warn(format!("{what}: vertices with zero weights bound to their first joint"));
+        }
+        // Mirrored node transforms flip the winding.
+        let flip = static_world.is_some_and(|w| w.determinant() < 0.0);
+        let first_index = g.indices.len() as u32;
+        for t in tris.chunks_exact(3) {
+            if flip {
+                g.indices.extend_from_slice(&[base + t[0], base + t[2], base + t[1]]);
+            } else {
+                g.indices.extend_from_slice(&[base + t[0], base + t[1], base + t[2]]);
+            }
+        }
+        if normals.is_none() {
+            compute_normals(
+                &mut g.vertices[base as usize..],
+                &g.indices[first_index as usize..],
+                base,
+            );
+        }
+        let mat_index = prim.material.map(|x| x.value());
+        let material = match g.material_map.get(&mat_index) {
+            Some(&k) => k,
+            None => {
+                let mat = self.material(mat_index, &mut g.textures, &mut g.texture_map)?;
+                g.materials.push(mat);
+                g.material_map.insert(mat_index, g.materials.len() - 1);
+                g.materials.len() - 1
+            }
+        };
+        g.submeshes.push(Submesh {
+            first_index,
+            index_count: g.indices.len() as u32 - first_index,
+            material,
+        });
+        Ok(())
+    }
+}
+
+/// The rig of a file without skins: one root joint every mesh follows rigidly (the
+/// geometry is placed by its nodes' rest transforms).
+fn static_rig(mesh_nodes: &[usize]) -> Rig {
+    let mut rig = Rig::default();
+    rig.skeleton.nodes.push(Node {
+        name: "root".into(),
+        parent: None,
+        rest: Transform::IDENTITY,
+        is_joint: true,
+    });
+    rig.bones.push(Bone {
+        node: 0,
+        inverse_bind: Mat4::IDENTITY,
+    });
+    for &m in mesh_nodes {
+        rig.bindings.insert(m, Binding::Rigid(0));
+    }
+    rig
+}

@@ -1,0 +1,226 @@
+//! Commands: the one place the editor changes its document, bakes and previews (the UI
+//! sends [`Command`]s; [`EditorApp::apply`] carries them out).
+
+use super::*;
+
+impl EditorApp {
+    /// Queues a command (applied at the start of the next frame).
+    pub fn send(&mut self, command: Command) {
+        self.commands.push(command);
+    }
+
+    pub(super) fn apply_commands(&mut self, ctx: &egui::Context) {
+        for command in std::mem::take(&mut self.commands) {
+            self.apply(ctx, command);
+        }
+    }
+
+    pub(super) fn apply(&mut self, ctx: &egui::Context, command: Command) {
+        // Replacing a document with unsaved changes asks first, as closing does.
+        if matches!(command, Command::NewFromGltf(_) | Command::Open(_))
+            && !std::mem::take(&mut self.safety.replace_confirmed)
+            && self.doc.as_ref().is_some_and(|d| d.dirty)
+        {
+            self.safety.replace_prompt = Some(command);
+            return;
+        }
+        match command {
+            Command::NewFromGltf(path) => self.start_load(ctx, LoadRequest::Gltf(path)),
+            Command::Open(path) => {
+                if is_gltf(&path) {
+                    self.start_load(ctx, LoadRequest::Gltf(path));
+                } else {
+                    self.start_load(ctx, LoadRequest::Project(path));
+                }
+            }
+            Command::Save => match self.doc.as_ref().map(|d| d.project_file.clone()) {
+                Some(Some(file)) => self.save_to(file),
+                Some(None) => self.ask_path(PathPurpose::SaveAs),
+                None => {}
+            },
+            Command::SaveAs(path) => {
+                let file = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
+                    path
+                } else {
+                    path.join(PROJECT_FILE)
+                };
+                self.save_to(file);
+            }
+            Command::SelectClip(clip) => {
+                if let Some(doc) = &mut self.doc {
+                    let clip = clip.filter(|&i| i < doc.character.clips.len());
+                    if self.playback.clip != clip {
+                        self.playback.clip = clip;
+                        self.playback.time_secs = 0.0;
+                        doc.project.view.clip = clip.map(|i| doc.character.clips[i].name.clone());
+                        doc.dirty = true;
+                    }
+                }
+            }
+            Command::SetPlaying(p) => self.playback.playing = p,
+            Command::TogglePlaying => self.playback.playing = !self.playback.playing,
+            Command::Seek(t) => {
+                let d = self.doc.as_ref().map_or(0.0, |d| d.clip_duration(self.playback.clip));
+                self.playback.time_secs = t.clamp(0.0, d.max(0.0));
+            }
+            Command::StepFrames(n) => {
+                self.playback.playing = false;
+                let d = self.doc.as_ref().map_or(0.0, |d| d.clip_duration(self.playback.clip));
+                let frame = (self.playback.time_secs * TIMELINE_FPS).round() + n as f32;
+                let t = frame / TIMELINE_FPS;
+                self.playback.time_secs = if d > 0.0 { t.rem_euclid(d) } else { 0.0 };
+            }
+            Command::SetSpeed(s) => {
+                self.playback.speed = s;
+                if let Some(doc) = &mut self.doc {
+                    doc.project.view.playback_speed = Some(s);
+                    doc.dirty = true;
+                }
+            }
+            Command::FrameCharacter => self.frame_character(),
+            Command::BakeCrowd => self.bake_crowd(),
+            Command::OpenCrowd(folder) => {
+                self.views.set_source(Some(&folder));
+                let character = self.doc.as_ref().map(|d| d.character_path.clone());
+                self.crowd.start_open(folder, character);
+            }
+            Command::AddToCrowd(folder) => self.crowd.start_add(folder),
+            Command::RemoveFromCrowd(k) => self.crowd.remove_guest(k),
+            Command::ShowCrowd(show) => self.crowd.open = show,
+            Command::Export(req) => {
+                // The clip set chosen is the project's from now on (Ctrl+B bakes it too).
+                // The clip set and the settings chosen become the project's.
+                let mut settings = self.doc.as_ref().map(|d| d.project.bake.clone()).unwrap_or_default();
+                (settings.views, settings.resolution, settings.fps) = (req.views, req.resolution, req.fps);
+                (settings.png, settings.textures) = (req.png, req.textures);
+                if let Some(doc) = self.doc.as_mut()
+                    && (doc.project.clips != req.clips || doc.project.bake != settings)
+                {
+                    doc.project.clips = req.clips.clone();
+                    doc.project.bake = settings.clone();
+                    doc.dirty = true;
+                }
+                let options = settings.options();
+                self.bake_into(req.folder, options, req.set);
+            }
+            Command::Undo => {
+                if let Some(label) = self.doc.as_mut().and_then(|d| d.undo()) {
+                    self.info(format!("undid {label}"));
+                }
+            }
+            Command::Redo => {
+                if let Some(label) = self.doc.as_mut().and_then(|d| d.redo()) {
+                    self.info(format!("redid {label}"));
+                }
+            }
+        }
+    }
+
+    /// Bakes the open character with every representation beside the project (or in the
+    /// temporary folder for an unsaved project) and opens the crowd preview on it.
+    pub(super) fn bake_crowd(&mut self) {
+        let Some(doc) = &self.doc else {
+            self.fail("open a character before baking it for the crowd".into());
+            return;
+        };
+        let out = bake_dir(doc);
+        // The project's bake settings; every representation (the crowd's mix needs them).
+        let options = doc.project.bake.options();
+        self.bake_into(out, options, polypostor::reps::RepSet::ALL);
+    }
+
+    /// Bakes `set` with `options` into `out` in the background, then previews it.
+    pub(super) fn bake_into(
+        &mut self,
+        out: PathBuf,
+        options: polypostor::bake::pipeline::BakeOptions,
+        set: polypostor::reps::RepSet,
+    ) {
+        let Some(doc) = &self.doc else {
+            self.fail("open a character before baking it for the crowd".into());
+            return;
+        };
+        if self.crowd.busy() {
+            return;
+        }
+        let c = doc.character.clone();
+        let segmentation = doc.segmentation.clone();
+        if set.polypostor {
+            self.views.set_source(Some(&out));
+        }
+        // The project's clip set (a whole-character pack), else the clip being viewed: the
+        // rule every bake follows.
+        let clips = polypostor::bake::job::ClipChoice::resolve(
+            &c,
+            polypostor::bake::job::ClipRequest {
+                project_clips: &doc.project.clips,
+                viewed: self.playback.clip,
+                ..Default::default()
+            },
+        )
+        .unwrap_or_default();
+        let req = crate::editor::crowd::BakeRequest {
+            character_path: doc.character_path.clone(),
+            clip: clips.first,
+            extra_clips: clips.extra,
+            segmentation,
+            caps: doc.project.caps.clone(),
+            overrides: doc.project.overrides.clone(),
+            previous: self
+                .crowd
+                .last_bake
+                .as_ref()
+                .filter(|(folder, _)| *folder == out)
+                .map(|(_, b)| b.clone()),
+            options,
+            set,
+            out: out.clone(),
+            character: c,
+        };
+        self.info(format!("baking into {}", out.display()));
+        self.crowd.start_bake(req);
+    }
+
+    pub(super) fn frame_character(&mut self) {
+        if let Some(doc) = &self.doc {
+            let (min, max) = clip_bounds(&doc.character, self.playback.clip, 12);
+            self.camera.frame(min, max);
+        }
+    }
+}
+
+/// Where the editor bakes a document: `crowd.pack` beside its project, or a temporary folder
+/// for a project never saved.
+pub(super) fn bake_dir(doc: &Document) -> PathBuf {
+    match &doc.project_file {
+        Some(f) => f.parent().map(Path::to_owned).unwrap_or_default().join("crowd.pack"),
+        None => temp_bake_dir(std::process::id()),
+    }
+}
+
+/// Where an editor process bakes a project never saved; removed when the editor exits, and
+/// by the next editor if that one was killed.
+pub(super) fn temp_bake_dir(pid: u32) -> PathBuf {
+    std::env::temp_dir().join(format!("polypostor-crowd-{pid}.pack"))
+}
+
+/// Removes the temporary bake folders of editors that are no longer running.
+pub(super) fn remove_stale_temp_bakes() {
+    let Ok(entries) = std::fs::read_dir(std::env::temp_dir()) else {
+        return;
+    };
+    for e in entries.filter_map(Result::ok) {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let pid = name
+            .strip_prefix("polypostor-crowd-")
+            .and_then(|r| r.strip_suffix(".pack"))
+            .and_then(|p| p.parse::<u32>().ok());
+        if let Some(pid) = pid
+            && pid != std::process::id()
+            && !polypostor::safe_fs::process_alive(pid)
+            && e.file_type().is_ok_and(|t| t.is_dir())
+        {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+}

@@ -1,0 +1,309 @@
+//! Opening and saving: loading a character or project in the background, Save / Save As,
+//! autosave, the settings file, files dropped on the window.
+
+use super::*;
+
+impl EditorApp {
+    pub(super) fn save_to(&mut self, file: PathBuf) {
+        let Some(doc) = &mut self.doc else { return };
+        // Save As never writes over a file that is not a project (a user's JSON, a folder).
+        if doc.project_file.as_ref() != Some(&file)
+            && std::fs::symlink_metadata(&file).is_ok()
+            && Project::load(&file).is_err()
+        {
+            self.safety.close_after_save = false;
+            self.safety.replace_after_save = None;
+            self.fail(format!(
+                "{} exists and is not a project file; it is left untouched: choose another place",
+                file.display()
+            ));
+            return;
+        }
+        let old_autosave = crate::editor::safety::autosave_path(doc, self.options.recovery_dir.as_deref());
+        let mut project = doc.project.clone();
+        project.view.clip = self
+            .playback
+            .clip
+            .and_then(|i| doc.character.clips.get(i))
+            .map(|c| c.name.clone());
+        project.view.playback_speed = Some(self.playback.speed);
+        // Keep the character reference valid from the new location.
+        let dir = file.parent().map(Path::to_owned).unwrap_or_default();
+        project.character.path = polypostor::project::relative_path(&doc.character_path, &dir);
+        if project.name.is_empty() || doc.project_file.is_none() {
+            if let Some(stem) = file.parent().and_then(|p| p.file_name()) {
+                project.name = stem.to_string_lossy().into_owned();
+            }
+        }
+        match project.save(&file) {
+            Ok(()) => {
+                doc.project = project;
+                doc.project_file = Some(file.clone());
+                doc.dirty = false;
+                if let Some(old) = old_autosave {
+                    let _ = std::fs::remove_file(old);
+                }
+                self.safety.clear(doc, self.options.recovery_dir.as_deref());
+                self.settings.touch_recent(&file);
+                self.save_settings();
+                self.info(format!("saved {}", file.display()));
+                if self.safety.close_after_save {
+                    self.safety.allow_close = true;
+                    self.closing = true;
+                }
+                if let Some(next) = self.safety.replace_after_save.take() {
+                    self.safety.replace_confirmed = true;
+                    self.send(next);
+                }
+            }
+            Err(e) => {
+                self.safety.close_after_save = false;
+                self.safety.replace_after_save = None;
+                self.fail(e.to_string())
+            }
+        }
+    }
+
+    /// Writes the autosave now if anything changed since the last one (tests; the frame loop
+    /// calls it every 30 s).
+    #[cfg(test)]
+    pub fn autosave_now(&mut self) -> bool {
+        self.autosave(true)
+    }
+
+    pub(super) fn autosave(&mut self, force: bool) -> bool {
+        if !self.options.autosave {
+            return false;
+        }
+        let Some(doc) = &self.doc else { return false };
+        match self.safety.tick(doc, self.options.recovery_dir.as_deref(), force) {
+            Ok(wrote) => wrote,
+            Err(e) => {
+                self.warn(e);
+                false
+            }
+        }
+    }
+
+    pub(super) fn save_settings(&mut self) {
+        if let Err(e) = self.settings.save(self.options.settings_path.as_deref()) {
+            self.warn(format!("cannot save editor settings: {e}"));
+        }
+    }
+
+    pub(super) fn start_load(&mut self, ctx: &egui::Context, request: LoadRequest) {
+        let what = request.describe();
+        if self.options.sync_loading {
+            let result = request.run();
+            self.finish_load(result);
+            return;
+        }
+        let (tx, rx) = channel();
+        let ctx = ctx.clone();
+        let spawned = std::thread::Builder::new().name("load".into()).spawn(move || {
+            let result = request.run();
+            let _ = tx.send(result);
+            ctx.request_repaint();
+        });
+        match spawned {
+            Ok(_) => {
+                self.loading = Some(Loading {
+                    what,
+                    started: Instant::now(),
+                    rx,
+                })
+            }
+            Err(e) => self.fail(format!("cannot start loading: {e}")),
+        }
+    }
+
+    pub(super) fn poll_loading(&mut self) {
+        let Some(loading) = &self.loading else { return };
+        match loading.rx.try_recv() {
+            Ok(result) => {
+                self.loading = None;
+                self.finish_load(result);
+            }
+            Err(std::sync::mpsc::TryRecvError::Empty) => {}
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => {
+                self.loading = None;
+                self.fail("loading stopped unexpectedly".into());
+            }
+        }
+    }
+
+    pub(super) fn finish_load(&mut self, result: Result<Loaded, String>) {
+        let loaded = match result {
+            Ok(l) => l,
+            Err(e) => {
+                // The open project (if any) stays as it was.
+                self.fail(e);
+                return;
+            }
+        };
+        let c = &loaded.character;
+        self.info(format!(
+            "loaded {} ({} vertices, {} triangles, {} joints, {} clips)",
+            loaded.character_path.display(),
+            c.vertices.len(),
+            c.triangle_count(),
+            c.skeleton.joint_count(),
+            c.clips.len()
+        ));
+        for w in &c.warnings {
+            self.warn(w.clone());
+        }
+        let clip = loaded
+            .project
+            .view
+            .clip
+            .as_deref()
+            .and_then(|name| c.find_clip(name))
+            .or_else(|| (!c.clips.is_empty()).then_some(0));
+        self.playback = Playback {
+            clip,
+            time_secs: 0.0,
+            playing: true,
+            speed: loaded
+                .project
+                .view
+                .playback_speed
+                .filter(|s| s.is_finite() && *s > 0.0)
+                .unwrap_or(1.0),
+        };
+        if let Some(file) = &loaded.project_file {
+            self.settings.touch_recent(file);
+        } else if loaded.from_gltf {
+            self.settings.touch_recent(&loaded.character_path);
+        }
+        self.save_settings();
+        let generation = self.next_generation;
+        self.next_generation += 1;
+        let (segmentation, problem) = Document::decode_segmentation(&loaded.project, &loaded.character);
+        if let Some(p) = problem {
+            self.warn(p);
+        }
+        let doc = Document {
+            project: loaded.project,
+            dirty: loaded.project_file.is_none(),
+            project_file: loaded.project_file,
+            character_path: loaded.character_path,
+            summary: polypostor::summary::Summary::of(&loaded.character),
+            character: Arc::new(loaded.character),
+            generation,
+            segmentation,
+            revision: 0,
+            history: Default::default(),
+        };
+        if self.options.autosave
+            && let Some(w) = self.safety.check_on_open(&doc, self.options.recovery_dir.as_deref())
+        {
+            self.warn(w);
+        }
+        self.views.set_source(Some(&bake_dir(&doc)));
+        self.doc = Some(doc);
+        self.frame_character();
+    }
+
+    pub(super) fn dropped_files(&mut self, ctx: &egui::Context) {
+        let dropped: Vec<PathBuf> = ctx.input(|i| {
+            i.raw
+                .dropped_files
+                .iter()
+                .map(|f| f.path().to_owned())
+                .filter(|p| !p.as_os_str().is_empty())
+                .collect()
+        });
+        if let Some(path) = dropped.into_iter().next() {
+            if is_gltf(&path) {
+                self.send(Command::NewFromGltf(path));
+            } else {
+                self.send(Command::Open(path));
+            }
+        }
+    }
+}
+
+/// A loaded project, ready to become the document.
+pub(super) struct Loaded {
+    pub(super) project: Project,
+    pub(super) project_file: Option<PathBuf>,
+    pub(super) character_path: PathBuf,
+    pub(super) character: Character,
+    pub(super) from_gltf: bool,
+}
+
+pub(super) struct Loading {
+    pub(super) what: String,
+    pub(super) started: Instant,
+    pub(super) rx: Receiver<Result<Loaded, String>>,
+}
+
+pub(super) fn expand_home(text: &str) -> PathBuf {
+    if let Some(rest) = text.strip_prefix("~/") {
+        if let Some(home) = std::env::var_os("HOME") {
+            return PathBuf::from(home).join(rest);
+        }
+    }
+    PathBuf::from(text)
+}
+
+pub(super) fn is_gltf(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"))
+}
+
+/// A background load: a project and its character, or a glTF as a new project.
+pub(super) enum LoadRequest {
+    Project(PathBuf),
+    Gltf(PathBuf),
+}
+
+impl LoadRequest {
+    pub(super) fn describe(&self) -> String {
+        match self {
+            LoadRequest::Project(p) | LoadRequest::Gltf(p) => p.display().to_string(),
+        }
+    }
+
+    pub(super) fn run(self) -> Result<Loaded, String> {
+        match self {
+            LoadRequest::Gltf(path) => {
+                let character =
+                    polypostor::import_path(&path).map_err(|e| format!("Cannot import {}:\n{e}", path.display()))?;
+                let dir = path.parent().map(Path::to_owned).unwrap_or_default();
+                let name = path
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                let project = Project::new_for_character(&name, &path, &dir);
+                let character_path = std::fs::canonicalize(&path).unwrap_or(path);
+                Ok(Loaded {
+                    project,
+                    project_file: None,
+                    character_path,
+                    character,
+                    from_gltf: true,
+                })
+            }
+            LoadRequest::Project(path) => {
+                let (project, file) = Project::load(&path).map_err(|e| e.to_string())?;
+                let character_path = project.character_path(&file);
+                let character_path = std::fs::canonicalize(&character_path).unwrap_or(character_path);
+                let character = polypostor::import_path(&character_path).map_err(|e| {
+                    format!(
+                        "Project {} refers to a character that cannot be imported:\n{e}",
+                        file.display()
+                    )
+                })?;
+                Ok(Loaded {
+                    project,
+                    project_file: Some(file),
+                    character_path,
+                    character,
+                    from_gltf: false,
+                })
+            }
+        }
+    }
+}
