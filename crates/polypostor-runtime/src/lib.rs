@@ -17,6 +17,8 @@
 //! - [`reps`]: the other representations baked beside it (impostors, NP3D, rigid meshes).
 //! - [`crowd`]: the agents, their gaits and clips, culling, level of detail and view choice,
 //!   per-instance records (CPU only).
+//! - [`records`]: the plain data between the crowd and the renderers (the 32-byte
+//!   instance record, levels, clip timing).
 //! - [`scene`]: a crowd with its renderers: load a baked folder, step and draw a frame.
 //! - [`gpu`]: the wgpu renderers (skinned characters, Polypostors, impostors, NP3D, rigid
 //!   meshes), cameras, adapter selection and readback.
@@ -42,6 +44,7 @@ pub mod gpu;
 pub mod import;
 pub mod limits;
 pub mod pack;
+pub mod records;
 pub mod reps;
 pub mod safe_fs;
 pub mod scene;

@@ -2,47 +2,7 @@
 //! impostor far. A character's level follows its pixel-to-texel ratio: how many screen pixels
 //! it covers against how many texels its baked images have along the same height.
 
-/// A representation a character can be drawn with.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
-pub enum Level {
-    /// The character's own mesh, skinned on the GPU every frame (the nearest level).
-    Skinned = 0,
-    /// The full mesh pre-skinned at every baked frame (`rigid.bin`): no skinning at run time.
-    Rigid = 1,
-    /// The Polypostor pack: per view, each body part a 2D polygon that moves with the frames,
-    /// textured from the part's key-frame images (the middle distance).
-    Polypostor = 2,
-    /// The classic animated impostor: one colour and one normal image per view and frame (far).
-    Impostor = 3,
-    /// The NP3D impostor: a simplified mesh skinned at every frame, textured from per-view
-    /// key-frame images.
-    Np3d = 4,
-}
-
-impl Level {
-    /// Number of levels: the length of every per-level array (indexed by `level as usize`).
-    pub const COUNT: usize = 5;
-    /// Every level, in the order of their indices.
-    pub const ALL: [Level; Level::COUNT] = [
-        Level::Skinned,
-        Level::Rigid,
-        Level::Polypostor,
-        Level::Impostor,
-        Level::Np3d,
-    ];
-
-    /// Short lower-case name for statistics and logs: `skinned`, `rigid`, `polypostor`, `impostor`
-    /// or `np3d`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Level::Skinned => "skinned",
-            Level::Rigid => "rigid",
-            Level::Polypostor => "polypostor",
-            Level::Impostor => "impostor",
-            Level::Np3d => "np3d",
-        }
-    }
-}
+pub use crate::records::Level;
 
 /// Which representation each visible character gets.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -16,6 +16,7 @@ pub mod gpu_data;
 mod polypostor_renderer;
 mod readback;
 pub mod shaders;
+mod upload;
 
 pub use camera::{Camera, Projection};
 pub use character_renderer::{

@@ -1,13 +1,13 @@
 //! The Polypostor crowd renderer: every character drawn from a pack, instances sorted by view
 //! and one indexed instanced draw per view in use (`shaders/polypostor.wgsl`). Per instance: position, facing, view, frame and blend, variant
-//! ([`crate::crowd::Instance`]). The pack's geometry stays in its 16-bit form on the GPU; the
+//! ([`crate::records::Instance`]). The pack's geometry stays in its 16-bit form on the GPU; the
 //! views' atlases are layers of one texture array.
 
 use wgpu::util::DeviceExt;
 
 use super::{GpuError, RenderTarget, shaders};
-use crate::crowd::Instance;
 use crate::pack::LoadedPack;
+use crate::records::Instance;
 use crate::texture::BcFormat;
 
 /// Per-frame settings of the draw (keep in sync with `Frame` in the shader).
@@ -334,7 +334,7 @@ impl GpuPolypostors {
         let (pw, nw) = (pages.size, (pages.size / 2).max(1));
         // BC7 pages where the pack stores its atlases so and the device samples BC7; else
         // RGBA8 from the decoded atlases.
-        let bc = device.features().contains(wgpu::Features::TEXTURE_COMPRESSION_BC)
+        let bc = super::upload::samples_bc(device)
             && pack
                 .views
                 .iter()
@@ -356,47 +356,15 @@ impl GpuPolypostors {
                 if img.width() == 0 || img.height() == 0 {
                     continue;
                 }
-                let (data, layout): (&[u8], _) = match blocks.filter(|_| bc) {
-                    Some(b) => (
-                        &b.blocks,
-                        wgpu::TexelCopyBufferLayout {
-                            offset: 0,
-                            bytes_per_row: Some(b.blocks_per_row() * crate::texture::BLOCK_BYTES as u32),
-                            rows_per_image: Some(b.height / 4),
-                        },
-                    ),
-                    None => (
-                        img.as_raw(),
-                        wgpu::TexelCopyBufferLayout {
-                            offset: 0,
-                            bytes_per_row: Some(4 * img.width()),
-                            rows_per_image: Some(img.height()),
-                        },
-                    ),
+                let origin = wgpu::Origin3d {
+                    x: ox >> shift,
+                    y: oy >> shift,
+                    z: layer,
                 };
-                queue.write_texture(
-                    wgpu::TexelCopyTextureInfo {
-                        texture,
-                        mip_level: 0,
-                        origin: wgpu::Origin3d {
-                            x: ox >> shift,
-                            y: oy >> shift,
-                            z: layer,
-                        },
-                        aspect: wgpu::TextureAspect::All,
-                    },
-                    data,
-                    layout,
-                    wgpu::Extent3d {
-                        width: img.width(),
-                        height: img.height(),
-                        depth_or_array_layers: 1,
-                    },
-                );
+                super::upload::write_image(queue, texture, origin, img, blocks, bc);
             }
         }
-        // BC7: one byte a texel; RGBA8: four.
-        let texel_bytes = if bc { 1 } else { 4 };
+        let texel_bytes = super::upload::texel_bytes(bc);
         let gpu_bytes = (views.len() * std::mem::size_of::<ViewGpu>()
             + parts.len() * std::mem::size_of::<PartGpu>()
             + geometry.len() * 4
@@ -543,7 +511,7 @@ impl GpuPolypostors {
                 ..*i
             }
         }));
-        crate::crowd::sort_by_view(
+        crate::records::sort_by_view(
             &self.keyed,
             self.view_count * LEVELS,
             self.frames,

@@ -1,6 +1,6 @@
 //! An honest remaining-time estimate for a bake's progress bar (editor and command line).
 //!
-//! A bake reports its progress stage by stage ([`super::pipeline::Progress`]: a stage name and
+//! A bake reports its progress stage by stage ([`crate::bake::pipeline::Progress`]: a stage name and
 //! `done` of `total` units). The units of one stage cost about the same (views of the same
 //! character at the same settings), while different stages do not, so the estimate is per
 //! stage: the time the current stage has taken so far, divided by the units it has finished,

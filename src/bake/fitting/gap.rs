@@ -7,10 +7,10 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::caps::CapOverrides;
-use super::part_fit::{PartFitOptions, fit_part};
-use super::pipeline::{BakeError, BakeOptions, Prepared, part_key};
-use super::segment::Segmentation;
+use crate::bake::caps::CapOverrides;
+use crate::bake::part_fit::{PartFitOptions, fit_part};
+use crate::bake::pipeline::{BakeError, BakeOptions, Prepared, part_key};
+use crate::bake::segment::Segmentation;
 use crate::character::Character;
 use crate::gpu::GpuContext;
 

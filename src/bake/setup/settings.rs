@@ -6,9 +6,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::keys::KeyOptions;
-use super::pipeline::{BakeOptions, PngCompression, TextureEncoding};
-use super::viewpoints::Coverage;
+use crate::bake::keys::KeyOptions;
+use crate::bake::pipeline::{BakeOptions, PngCompression, TextureEncoding};
+use crate::bake::viewpoints::Coverage;
 use crate::limits::{MAX_FPS, MAX_RESOLUTION, MAX_VIEWS, MIN_FPS, MIN_RESOLUTION};
 
 /// Every setting of a bake a user chooses (defaults: the documented ones).
@@ -49,9 +49,9 @@ impl Default for BakeSettings {
     fn default() -> Self {
         let keys = KeyOptions::default();
         Self {
-            views: super::viewpoints::DEFAULT_VIEW_COUNT,
-            resolution: super::renders::DEFAULT_RESOLUTION,
-            fps: super::renders::DEFAULT_FPS,
+            views: crate::bake::viewpoints::DEFAULT_VIEW_COUNT,
+            resolution: crate::bake::renders::DEFAULT_RESOLUTION,
+            fps: crate::bake::renders::DEFAULT_FPS,
             full_sphere: false,
             representations: "polypostor".into(),
             textures: TextureEncoding::default(),
@@ -103,10 +103,10 @@ impl BakeSettings {
         if !(self.fps.is_finite() && self.fps >= MIN_FPS && self.fps <= MAX_FPS) {
             return bad("fps", format!("{}: choose {MIN_FPS} to {MAX_FPS}", self.fps));
         }
-        if self.max_keys == 0 || self.max_keys > super::keys::MAX_KEYS {
+        if self.max_keys == 0 || self.max_keys > crate::bake::keys::MAX_KEYS {
             return bad(
                 "max-keys",
-                format!("{}: choose 1 to {}", self.max_keys, super::keys::MAX_KEYS),
+                format!("{}: choose 1 to {}", self.max_keys, crate::bake::keys::MAX_KEYS),
             );
         }
         if !(self.key_gain_db.is_finite() && (0.0..=100.0).contains(&self.key_gain_db)) {
@@ -142,14 +142,14 @@ impl BakeSettings {
             },
             resolution: self.resolution,
             fps: self.fps,
-            fit: super::part_fit::PartFitOptions {
+            fit: crate::bake::part_fit::PartFitOptions {
                 exhaustive: self.exhaustive,
                 fold_free: !self.allow_folds,
                 charge_missed_coverage: !self.paper_objective,
                 restart_threshold: if self.no_restarts {
                     f64::INFINITY
                 } else {
-                    super::part_fit::DEFAULT_RESTART_THRESHOLD
+                    crate::bake::part_fit::DEFAULT_RESTART_THRESHOLD
                 },
                 ..Default::default()
             },

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::pipeline::Bake;
+use crate::bake::pipeline::Bake;
 use crate::pack::PackStats;
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -54,7 +54,7 @@ pub struct ViewReport {
     pub key_frame: usize,
     /// Every key frame of the view (the first first), with its bytes and what it buys.
     #[serde(default)]
-    pub keys: Vec<super::keys::ViewKey>,
+    pub keys: Vec<crate::bake::keys::ViewKey>,
     /// `hidden[a][b]`: pixels of part b hidden by part a, averaged over frames (the
     /// occlusion graph the order comes from).
     #[serde(default)]
@@ -91,10 +91,10 @@ pub struct Settings {
     pub final_vertices: usize,
     /// How key images were chosen (absent in reports from before several keys: one key).
     #[serde(default)]
-    pub keys: Option<super::keys::KeyOptions>,
+    pub keys: Option<crate::bake::keys::KeyOptions>,
     /// How the atlases were written (absent in reports from before BC7: PNG).
     #[serde(default)]
-    pub textures: Option<super::pipeline::TextureEncoding>,
+    pub textures: Option<crate::bake::pipeline::TextureEncoding>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -141,7 +141,7 @@ pub struct Report {
     pub views: Vec<ViewReport>,
     /// The project's corrections this bake could not apply, by kind.
     #[serde(default)]
-    pub dropped_corrections: super::overrides::DroppedCorrections,
+    pub dropped_corrections: crate::bake::overrides::DroppedCorrections,
     /// Per clip of the pack (one entry for a one-clip pack): its error and what it costs,
     /// next to classic impostors of that clip alone.
     #[serde(default)]
@@ -196,15 +196,15 @@ pub fn animation_bytes(bake: &Bake, range: std::ops::Range<usize>) -> u64 {
 impl Report {
     /// The options that made this bake (for re-fitting single views the same way):
     /// settings, clip by name in `character`, the coverage its view directions show.
-    pub fn bake_options(&self, character: &crate::character::Character) -> super::pipeline::BakeOptions {
+    pub fn bake_options(&self, character: &crate::character::Character) -> crate::bake::pipeline::BakeOptions {
         let s = &self.settings;
         let full_sphere = self.views.iter().any(|v| v.direction[1] < -1e-3);
-        super::pipeline::BakeOptions {
+        crate::bake::pipeline::BakeOptions {
             views: s.views,
             coverage: if full_sphere {
-                super::viewpoints::Coverage::FullSphere
+                crate::bake::viewpoints::Coverage::FullSphere
             } else {
-                super::viewpoints::Coverage::UpperHemisphere
+                crate::bake::viewpoints::Coverage::UpperHemisphere
             },
             resolution: s.resolution,
             fps: s.fps,
@@ -215,8 +215,8 @@ impl Report {
                 .skip(1)
                 .filter_map(|c| character.find_clip(&c.name))
                 .collect(),
-            key_frame: super::pipeline::KeyFrame::Frame(self.key_frame),
-            fit: super::part_fit::PartFitOptions {
+            key_frame: crate::bake::pipeline::KeyFrame::Frame(self.key_frame),
+            fit: crate::bake::part_fit::PartFitOptions {
                 key_vertices: s.key_vertices,
                 frame_vertices: s.frame_vertices,
                 final_vertices: s.final_vertices,
@@ -226,8 +226,8 @@ impl Report {
                 restart_threshold: s.restart_threshold.unwrap_or(f64::INFINITY),
                 ..Default::default()
             },
-            keys: s.keys.unwrap_or(super::keys::KeyOptions::SINGLE),
-            textures: s.textures.unwrap_or(super::pipeline::TextureEncoding::Png),
+            keys: s.keys.unwrap_or(crate::bake::keys::KeyOptions::SINGLE),
+            textures: s.textures.unwrap_or(crate::bake::pipeline::TextureEncoding::Png),
             ..Default::default()
         }
     }
@@ -244,18 +244,18 @@ pub fn read_report(path: &std::path::Path) -> Result<Report, String> {
     serde_json::from_slice(&bytes).map_err(|e| format!("{} is not a bake report: {e}", file.display()))
 }
 
-/// A view's key table ([`super::keys::view_keys`]).
-pub fn view_keys_of(v: &super::pipeline::ViewResult) -> Vec<super::keys::ViewKey> {
+/// A view's key table ([`crate::bake::keys::view_keys`]).
+pub fn view_keys_of(v: &crate::bake::pipeline::ViewResult) -> Vec<crate::bake::keys::ViewKey> {
     view_keys_of_parts(&v.parts)
 }
 
-/// The key table of a view's fitted parts ([`super::keys::view_keys`]).
-pub fn view_keys_of_parts(parts: &[super::pipeline::PartResult]) -> Vec<super::keys::ViewKey> {
+/// The key table of a view's fitted parts ([`crate::bake::keys::view_keys`]).
+pub fn view_keys_of_parts(parts: &[crate::bake::pipeline::PartResult]) -> Vec<crate::bake::keys::ViewKey> {
     let parts: Vec<_> = parts
         .iter()
         .filter_map(|p| p.fit.as_ref().map(|f| (f, &p.sse[..], &p.extra[..], &p.frame_key[..])))
         .collect();
-    super::keys::view_keys(&parts)
+    crate::bake::keys::view_keys(&parts)
 }
 
 fn mean(v: &[f64]) -> f64 {
@@ -300,7 +300,7 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
                         f.costs
                             .iter()
                             .zip(&f.targets)
-                            .map(|(c, t)| c / (super::contour::signed_area2(t).abs() / 2.0).max(1.0))
+                            .map(|(c, t)| c / (crate::bake::contour::signed_area2(t).abs() / 2.0).max(1.0))
                             .collect()
                     }),
                     vertices: part.fit.as_ref().map_or(0, |f| f.kept.len()),
@@ -308,7 +308,7 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
                     problem: part.problem.clone(),
                     key_frames: part.key_frames(),
                     frame_key: part.frame_key.clone(),
-                    keys_gain_db: super::keys::key_gains(&part.sse, &part.extra).0,
+                    keys_gain_db: crate::bake::keys::key_gains(&part.sse, &part.extra).0,
                 })
                 .collect(),
         })

@@ -2,10 +2,10 @@
 //! time (vertices interpolated between frames, as the crowd renderer does), the per-pixel
 //! error of a part against its render, and the composited view at any time.
 
-use super::image_cost::PartTile;
-use super::part_fit::PartFit;
-use super::pipeline::PartResult;
-use super::raster::{Canvas, crossfade_threshold, tile_canvas};
+use crate::bake::image_cost::PartTile;
+use crate::bake::part_fit::PartFit;
+use crate::bake::pipeline::PartResult;
+use crate::bake::raster::{Canvas, crossfade_threshold, tile_canvas};
 
 /// The fitted polygon's vertices at time `t` (in frames; wraps around the clip), linearly
 /// interpolated between the two frames around it.

@@ -11,13 +11,13 @@
 //! [`KeyOptions::budget`] of its first ones. Each frame is then drawn from the key whose
 //! warped image is closest to the frame's render (a key is only given frames whose two
 //! neighbours it also fits, so the run time can cross-fade between keys). The artist may
-//! instead name a view's extra key frames ([`super::overrides::ViewOverride::keys`]).
+//! instead name a view's extra key frames ([`crate::bake::overrides::ViewOverride::keys`]).
 
 use rayon::prelude::*;
 
-use super::image_cost::PartTile;
-use super::part_fit::{PartFit, PartFitOptions, Span, fit_part_span};
-use super::raster::{Canvas, psnr, tile_canvas};
+use crate::bake::image_cost::PartTile;
+use crate::bake::part_fit::{PartFit, PartFitOptions, Span, fit_part_span};
+use crate::bake::raster::{Canvas, psnr, tile_canvas};
 
 pub use crate::pack::MAX_KEYS;
 
@@ -381,7 +381,7 @@ pub fn choose(
         list.sort_unstable();
         list.dedup();
         parts.par_iter_mut().enumerate().for_each(|(p, part)| {
-            let _keys = super::profile::root("key choice");
+            let _keys = crate::bake::profile::root("key choice");
             let Some(part) = part else { return };
             for &f in &list {
                 if part.used(f) || part.extra.len() + 1 >= MAX_KEYS {
@@ -477,7 +477,7 @@ pub fn choose(
         let fitted: Vec<Option<Candidate>> = batch
             .par_iter()
             .map(|&s| {
-                let _keys = super::profile::root("key choice");
+                let _keys = crate::bake::profile::root("key choice");
                 let part = parts[s / nc].as_ref()?;
                 let x = proposals[s].as_ref()?;
                 evaluate(part, x, options, threshold, frames)

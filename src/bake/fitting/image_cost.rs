@@ -38,8 +38,8 @@ impl PartTile {
     }
 
     /// The coverage mask.
-    pub fn mask(&self) -> super::contour::Mask {
-        super::contour::Mask {
+    pub fn mask(&self) -> crate::bake::contour::Mask {
+        crate::bake::contour::Mask {
             width: self.size as usize,
             height: self.size as usize,
             data: self.px.iter().map(|p| p[6] > 0.5).collect(),
@@ -451,7 +451,7 @@ impl MissedCoverage {
         // Orientation: the whole outline's signed integral with energy ≡ area has the sign
         // a piece inside the target gets (`signed_area2` is positive clockwise on screen;
         // this integral of "height above" is then negative).
-        let sign = if super::contour::signed_area2(outline) >= 0.0 {
+        let sign = if crate::bake::contour::signed_area2(outline) >= 0.0 {
             -1.0
         } else {
             1.0

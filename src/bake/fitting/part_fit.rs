@@ -3,11 +3,11 @@
 //! `T` (exact DP, or the fast candidate-window mode), then simplify `S` with the deformation
 //! in mind to the final polygon (20 vertices, 18 triangles).
 
-use super::contour::{bridge_pieces, offset_outward, trace_simple};
-use super::fit::{Fit, FitError, Plan};
-use super::image_cost::{FOLD_COST, PartTile, SourceSamples, TargetGrid};
-use super::simplify::{SimplifyOptions, is_simple, simplify};
-use super::triangulate::{TriangulateError, triangulate};
+use crate::bake::contour::{bridge_pieces, offset_outward, trace_simple};
+use crate::bake::fit::{Fit, FitError, Plan};
+use crate::bake::image_cost::{FOLD_COST, PartTile, SourceSamples, TargetGrid};
+use crate::bake::simplify::{SimplifyOptions, is_simple, simplify};
+use crate::bake::triangulate::{TriangulateError, triangulate};
 
 /// Options of [`fit_part`]. Defaults are the paper's.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -166,7 +166,7 @@ impl PartFit {
 }
 
 fn polygon_of(tile: &PartTile, vertices: usize, frame: usize) -> Result<Vec<[f32; 2]>, PartFitError> {
-    let _trace = super::profile::leaf("trace");
+    let _trace = crate::bake::profile::leaf("trace");
     let contour = trace_simple(&bridge_pieces(&tile.mask()));
     if contour.len() < 3 {
         return Err(PartFitError::Empty(frame));
@@ -430,7 +430,7 @@ pub fn fit_frame_stuck(
         stuck = true;
     } else if over && neighbour.is_none_or(|c| best.cost > options.restart_jump * c) {
         stuck = true;
-        let _restart = super::profile::leaf("restart");
+        let _restart = crate::bake::profile::leaf("restart");
         phase.set(2);
         let every: Vec<usize> = (0..target.len()).step_by(options.restart_step.max(1)).collect();
         let mut cands = vec![every; n];
@@ -451,7 +451,7 @@ pub fn fit_frame_stuck(
         };
         if let Some(restarted) = restarted.filter(|r| r.cost < best.cost) {
             let much = restarted.cost < 0.99 * best.cost;
-            super::profile::tally(if much {
+            crate::bake::profile::tally(if much {
                 "restart improved >1 %"
             } else {
                 "restart improved <1 %"
@@ -472,7 +472,7 @@ pub fn fit_frame_stuck(
     // a part that turns over between frames). The full candidate set always has one (a
     // degenerate triangle).
     if best.cost >= FOLD_COST {
-        let _rescue = super::profile::leaf("fold rescue");
+        let _rescue = crate::bake::profile::leaf("fold rescue");
         if let Some(better) = exact_below(plan, samples, target_tile, target, pins, best.cost)? {
             best = better;
         }
@@ -662,8 +662,9 @@ pub fn deformation_aware_simplify(fit_positions: &[Vec<[f32; 2]>], key: &[[f32; 
     let n = key.len();
     let mut kept: Vec<usize> = (0..n).collect();
     let f64s = |p: [f32; 2]| [p[0] as f64, p[1] as f64];
-    let dist =
-        |p: [f32; 2], a: [f32; 2], b: [f32; 2]| super::simplify::dist_to_segment(f64s(p), f64s(a), f64s(b)) as f32;
+    let dist = |p: [f32; 2], a: [f32; 2], b: [f32; 2]| {
+        crate::bake::simplify::dist_to_segment(f64s(p), f64s(a), f64s(b)) as f32
+    };
     while kept.len() > target.max(3) {
         let m = kept.len();
         let mut best: Option<(f32, usize)> = None;
@@ -906,7 +907,7 @@ pub fn fit_part_span(
         .filter(|&f| fitted[f])
         .map(|f| mappings[f].iter().map(|&j| targets[f][j]).collect())
         .collect();
-    let _simplify = super::profile::leaf("simplify");
+    let _simplify = crate::bake::profile::leaf("simplify");
     let kept = deformation_aware_simplify(&positions, &key_polygon, options.final_vertices);
     let final_poly: Vec<[f32; 2]> = kept.iter().map(|&i| key_polygon[i]).collect();
     let triangles = triangulate(&final_poly)?;

@@ -8,7 +8,7 @@ use std::collections::{BTreeMap, HashMap};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use super::segment::Segmentation;
+use crate::bake::segment::Segmentation;
 use crate::character::{Character, Material, Submesh, Vertex};
 
 /// One cap of one part.

@@ -3,7 +3,7 @@
 //! to draw debug images. Pixel centres at `i + 0.5`; a pixel is covered when its centre is
 //! inside the triangle (top-left rule not needed for error statistics).
 
-use super::image_cost::PartTile;
+use crate::bake::image_cost::PartTile;
 
 /// An RGBA float image (colour in 0..1, alpha = coverage).
 #[derive(Clone, Debug, PartialEq)]

@@ -4,9 +4,9 @@
 
 use glam::Vec3;
 
-use super::caps::{Cap, CapOverrides, part_character};
-use super::segment::Segmentation;
 use crate::animation::{Pose, skin_vertices};
+use crate::bake::caps::{Cap, CapOverrides, part_character};
+use crate::bake::segment::Segmentation;
 use crate::character::{Character, Submesh};
 use crate::gpu::{Camera, Projection};
 
@@ -136,7 +136,7 @@ mod tests {
         let c = crate::default_character::generate();
         let times = frame_times(1.0, 10.0);
         let (_, points) = sample_frames(&c, Some(0), &times);
-        let views = super::super::viewpoints::directions(30, super::super::viewpoints::Coverage::UpperHemisphere);
+        let views = crate::bake::viewpoints::directions(30, crate::bake::viewpoints::Coverage::UpperHemisphere);
         for (cam, d) in view_cameras(&points, &views).iter().zip(&views) {
             let m = cam.clip_from_world(1.0);
             let mut max_xy = 0.0f32;

@@ -1,0 +1,263 @@
+//! Skinned and rigid meshes at crowd scale ([`GpuMeshCrowd`]).
+
+use super::*;
+
+/// Joint samples per baked frame for the skinned mesh (its animation is sampled 4× finer than
+/// the image-based representations, then interpolated).
+pub const JOINT_SAMPLES_PER_FRAME: usize = 4;
+
+/// The joints at `per_frame` evenly spaced times in each frame of `timeline` (from the
+/// frame's time to the next frame's, within its clip): per sample, per bone, rotation (xyzw)
+/// then translation xyz + uniform scale.
+pub fn joint_samples(
+    character: &Character,
+    timeline: &crate::timeline::Timeline,
+    per_frame: usize,
+) -> Vec<[[f32; 4]; 2]> {
+    let per_frame = per_frame.max(1);
+    let frames = timeline.samples();
+    let frames = if frames.is_empty() { vec![(None, 0.0)] } else { frames };
+    let step = 1.0 / (timeline.fps.max(1e-3) * per_frame as f32);
+    let mut out = Vec::with_capacity(frames.len() * per_frame * character.bones.len().max(1));
+    for (clip, t0) in frames
+        .iter()
+        .flat_map(|&(c, t)| (0..per_frame).map(move |k| (c, t + k as f32 * step)))
+    {
+        let pose = Pose::sample_index(character, clip, t0);
+        if character.bones.is_empty() {
+            out.push([[0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]]);
+        }
+        for m in &pose.skin_from_bind {
+            let (s, r, tr) = m.to_scale_rotation_translation();
+            let scale = (s.x + s.y + s.z) / 3.0;
+            out.push([r.to_array(), [tr.x, tr.y, tr.z, scale]]);
+        }
+    }
+    out
+}
+
+/// The body part of each character vertex from per-triangle labels (a vertex takes the
+/// label of the first triangle that uses it; 0 where none does).
+pub fn vertex_parts(character: &Character, triangle_labels: &[u32]) -> Vec<u32> {
+    let mut parts = vec![u32::MAX; character.vertices.len()];
+    for (t, tri) in character.indices.chunks_exact(3).enumerate() {
+        let label = triangle_labels.get(t).copied().unwrap_or(0);
+        for &i in tri {
+            if let Some(p) = parts.get_mut(i as usize).filter(|p| **p == u32::MAX) {
+                *p = label;
+            }
+        }
+    }
+    parts.iter().map(|&p| if p == u32::MAX { 0 } else { p }).collect()
+}
+
+pub(super) fn mesh_groups(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    frames: [&wgpu::Buffer; 2],
+    joints: &wgpu::Buffer,
+    instances: [&wgpu::Buffer; 2],
+    rigid: &wgpu::Buffer,
+    parts: &wgpu::Buffer,
+) -> [wgpu::BindGroup; 2] {
+    [0, 1].map(|k| {
+        bind(
+            device,
+            "crowd meshes",
+            layout,
+            &[
+                Resource::Buffer(frames[k]),
+                Resource::Buffer(joints),
+                Resource::Buffer(instances[k]),
+                Resource::Buffer(rigid),
+                Resource::Buffer(parts),
+            ],
+        )
+    })
+}
+
+/// Skinned and rigid meshes of one character.
+pub struct GpuMeshCrowd {
+    pub(super) character: GpuCharacter,
+    pub(super) skinned: wgpu::RenderPipeline,
+    pub(super) rigid: Option<wgpu::RenderPipeline>,
+    pub(super) layout: wgpu::BindGroupLayout,
+    pub(super) frame_skinned: wgpu::Buffer,
+    pub(super) frame_rigid: wgpu::Buffer,
+    pub(super) joints: wgpu::Buffer,
+    pub(super) rigid_frames: wgpu::Buffer,
+    pub(super) parts: wgpu::Buffer,
+    pub(super) instances: [InstanceBuffer; 2],
+    pub(super) groups: [wgpu::BindGroup; 2],
+    pub(super) counts: [f32; 4],
+    /// Bytes on the GPU of the skinned mesh (static mesh + textures + joint samples) and of
+    /// the rigid mesh (static mesh + textures + frames).
+    pub skinned_bytes: u64,
+    /// Bytes on the GPU of the rigid mesh: the static mesh and textures plus the pre-skinned
+    /// frames (16 bytes per vertex per frame; none when no rigid frames were given).
+    pub rigid_bytes: u64,
+}
+
+impl GpuMeshCrowd {
+    /// `frames` and `fps`: the baked animation the instances' frame numbers count
+    /// (`rigid`, when given, has that many frames). `triangle_labels`: the body part of each
+    /// triangle (for the per-part tint).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        character: &Character,
+        timeline: &crate::timeline::Timeline,
+        rigid: Option<&FrameVertices>,
+        triangle_labels: &[u32],
+    ) -> Result<Self, GpuError> {
+        let frames = timeline.frames().max(1);
+        if let Some(r) = rigid
+            && (r.vertex_count != character.vertices.len() || r.frames() != frames.max(1))
+        {
+            return Err(GpuError::Unsupported(format!(
+                "the rigid frames ({} vertices × {} frames) do not match the character ({} vertices, {} frames)",
+                r.vertex_count,
+                r.frames(),
+                character.vertices.len(),
+                frames
+            )));
+        }
+        let renderer = CharacterRenderer::new(device);
+        let gpu = GpuCharacter::new(&renderer, device, queue, character);
+        let layout = layout(
+            device,
+            "crowd meshes",
+            &[
+                Entry::Uniform,
+                Entry::Storage,
+                Entry::Storage,
+                Entry::Storage,
+                Entry::Storage,
+            ],
+        );
+        let stream0 = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<PositionNormal>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3],
+        };
+        let stream1 = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<Attributes>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![2 => Float32x2, 3 => Float32x4, 4 => Uint16x4, 5 => Float32x4],
+        };
+        let layouts = [&layout, renderer.material_layout()];
+        let skinned = pipeline(
+            device,
+            "crowd skinned",
+            &layouts,
+            shaders::CROWD_MESH,
+            "vs_skinned",
+            &[Some(stream0), Some(stream1.clone())],
+        );
+        let rigid_pipeline = rigid.map(|_| {
+            pipeline(
+                device,
+                "crowd rigid",
+                &layouts,
+                shaders::CROWD_MESH,
+                "vs_rigid",
+                &[Some(stream1)],
+            )
+        });
+        let samples = joint_samples(character, timeline, JOINT_SAMPLES_PER_FRAME);
+        let joints = storage(device, "crowd joints", bytemuck::cast_slice(&samples));
+        let rigid_data = rigid.map(packed_frames).unwrap_or_default();
+        let rigid_frames = storage(device, "crowd rigid frames", bytemuck::cast_slice(&rigid_data));
+        let parts_data = vertex_parts(character, triangle_labels);
+        let parts = storage(device, "crowd vertex parts", bytemuck::cast_slice(&parts_data));
+        let frame_skinned = uniform_buffer(device, "crowd skinned frame");
+        let frame_rigid = uniform_buffer(device, "crowd rigid frame");
+        let instances = [InstanceBuffer::new(device, 1024), InstanceBuffer::new(device, 1024)];
+        let static_bytes = crate::reps::character_static_bytes(character).total + parts_data.len() as u64 * 4;
+        let skinned_bytes =
+            static_bytes + character.vertices.len() as u64 * 24 + std::mem::size_of_val(samples.as_slice()) as u64;
+        let rigid_bytes = static_bytes + rigid_data.len() as u64 * 16;
+        let groups = mesh_groups(
+            device,
+            &layout,
+            [&frame_skinned, &frame_rigid],
+            &joints,
+            [&instances[0].buffer, &instances[1].buffer],
+            &rigid_frames,
+            &parts,
+        );
+        Ok(Self {
+            character: gpu,
+            skinned,
+            rigid: rigid_pipeline,
+            groups,
+            layout,
+            frame_skinned,
+            frame_rigid,
+            joints,
+            rigid_frames,
+            parts,
+            instances,
+            counts: [
+                JOINT_SAMPLES_PER_FRAME as f32,
+                frames.max(1) as f32,
+                character.bones.len().max(1) as f32,
+                character.vertices.len() as f32,
+            ],
+            skinned_bytes,
+            rigid_bytes,
+        })
+    }
+
+    /// True when rigid frames were given.
+    pub fn has_rigid(&self) -> bool {
+        self.rigid.is_some()
+    }
+
+    /// Uploads this frame's skinned and rigid instances.
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        clip_from_world: Mat4,
+        style: &PolypostorStyle,
+        skinned: &[Instance],
+        rigid: &[Instance],
+    ) {
+        let a = self.instances[0].upload(device, queue, skinned);
+        let b = self.instances[1].upload(device, queue, rigid);
+        if a || b {
+            self.groups = mesh_groups(
+                device,
+                &self.layout,
+                [&self.frame_skinned, &self.frame_rigid],
+                &self.joints,
+                [&self.instances[0].buffer, &self.instances[1].buffer],
+                &self.rigid_frames,
+                &self.parts,
+            );
+        }
+        let u = crowd_uniform(clip_from_world, style, self.counts, [0; 4]);
+        queue.write_buffer(&self.frame_skinned, 0, bytemuck::bytes_of(&u));
+        queue.write_buffer(&self.frame_rigid, 0, bytemuck::bytes_of(&u));
+    }
+
+    /// Draws the prepared instances; returns the draw calls made.
+    pub fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, skinned: usize, rigid: usize) -> usize {
+        let mut calls = 0;
+        if skinned > 0 {
+            pass.set_pipeline(&self.skinned);
+            pass.set_bind_group(0, &self.groups[0], &[]);
+            self.character.bind_geometry(pass);
+            calls += self.character.draw_instanced(pass, skinned as u32);
+        }
+        if let (Some(p), true) = (&self.rigid, rigid > 0) {
+            pass.set_pipeline(p);
+            pass.set_bind_group(0, &self.groups[1], &[]);
+            self.character.bind_attributes(pass);
+            calls += self.character.draw_instanced(pass, rigid as u32);
+        }
+        calls
+    }
+}
