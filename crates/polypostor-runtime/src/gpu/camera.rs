@@ -82,14 +82,20 @@ impl Camera {
     }
 
     /// View-space-from-world matrix (right-handed: the camera looks down -Z, +Y up on screen).
-    /// When `up` is parallel to the view direction, +Z stands in for it.
+    /// When `up` is parallel to the view direction, +Z stands in for it; an eye on the target
+    /// (or a non-finite one) looks down -Z rather than giving NaN.
     pub fn view_from_world(&self) -> Mat4 {
-        let up = if (self.eye - self.target).cross(self.up).length_squared() < 1e-10 {
-            Vec3::Z
+        let target = if (self.eye - self.target).length_squared() > 1e-12 && (self.eye - self.target).is_finite() {
+            self.target
+        } else {
+            self.eye - Vec3::Z
+        };
+        let up = if (self.eye - target).cross(self.up).length_squared() < 1e-10 {
+            if (self.eye - target).cross(Vec3::Z).length_squared() < 1e-10 { Vec3::Y } else { Vec3::Z }
         } else {
             self.up
         };
-        look_at_mat4(self.eye, self.target, up)
+        look_at_mat4(self.eye, target, up)
     }
 
     /// Clip-space-from-view projection with wgpu's 0..1 depth (near plane 0, far plane 1).
@@ -129,6 +135,19 @@ mod tests {
             assert!(p.x.abs() < 1e-5 && p.y.abs() < 1e-5, "{p:?}");
             assert!(p.z > 0.0 && p.z < 1.0, "{p:?}");
         }
+    }
+
+    #[test]
+    fn an_eye_on_its_target_or_looking_along_up_gives_no_nan() {
+        let mut cam = Camera::orbit(Vec3::new(1.0, 2.0, 3.0), 0.7, 0.3, 5.0, 0.8);
+        cam.eye = cam.target;
+        assert!(cam.view_from_world().is_finite());
+        // Looking straight down +Z with +Z as up: both fallbacks at once.
+        cam.target = cam.eye - Vec3::Z;
+        cam.up = Vec3::Z;
+        assert!(cam.view_from_world().is_finite());
+        cam.up = Vec3::Y;
+        assert!(cam.clip_from_world(1.0).is_finite());
     }
 
     #[test]
