@@ -196,8 +196,13 @@ impl ExportDialog {
                 doc.segmentation.parts.len(),
                 doc.character.vertices.len(),
                 texture_bytes,
-            );
-            ui.label(egui::RichText::new(format!("Estimated memory ({frames} frames, uncompressed)")).strong());
+            )
+            .with_textures(self.textures);
+            let how = match self.textures {
+                TextureEncoding::Bc7 => "textures as BC7 blocks",
+                TextureEncoding::Png => "uncompressed",
+            };
+            ui.label(egui::RichText::new(format!("Estimated memory ({frames} frames, {how})")).strong());
             let mut total = 0;
             egui::Grid::new("export estimate").num_columns(2).striped(true).show(ui, |ui| {
                 for (on, name, bytes) in [

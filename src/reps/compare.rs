@@ -422,10 +422,36 @@ mod tests {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Estimate {
     pub polypostor: u64,
+    /// The part of `polypostor` that is atlas texels.
+    pub polypostor_atlas: u64,
     pub impostor: u64,
     pub np3d: u64,
     pub rigid: u64,
     pub skinned: u64,
+}
+
+impl Estimate {
+    /// The same bake's bytes with `textures` chosen: BC7 keeps one byte a texel for the
+    /// Polypostor's colour and normal atlases and the impostors' colour sheets (four as
+    /// RGBA8); the impostors' normal sheets, NP3D's images and the meshes' textures stay as
+    /// they are. PNG: unchanged (what a GPU without BC7 holds).
+    pub fn with_textures(self, textures: crate::bake::pipeline::TextureEncoding) -> Self {
+        match textures {
+            crate::bake::pipeline::TextureEncoding::Png => self,
+            crate::bake::pipeline::TextureEncoding::Bc7 => {
+                // The Polypostor's atlas texels (colour + quarter-size normals) at a quarter;
+                // its geometry as it is.
+                let atlas = self.polypostor_atlas;
+                Self {
+                    polypostor: self.polypostor - atlas + atlas / 4,
+                    polypostor_atlas: atlas / 4,
+                    // Colour sheets (half the impostor bytes) at a quarter.
+                    impostor: self.impostor / 2 + self.impostor / 8,
+                    ..self
+                }
+            }
+        }
+    }
 }
 
 /// See [`Estimate`]. `texture_bytes`: the character's own textures, uncompressed.
@@ -459,6 +485,7 @@ pub fn estimate(
     let poly_geometry = v * p * f * 20 * 4 * 11 / 10 + v * p * 18 * 3 * 2;
     Estimate {
         polypostor: atlas + poly_geometry,
+        polypostor_atlas: atlas,
         impostor: v * f * r2 * 4 * 2,
         np3d: v * r2 * 4 + f * 220 * 24 + 400 * 3 * 2,
         rigid: f * n * 24 + n * 8 + texture_bytes,
