@@ -315,22 +315,7 @@ impl GpuPolypostors {
         let views_buf = storage("polypostor views", bytemuck::cast_slice(&views));
         let parts_buf = storage("polypostor parts", bytemuck::cast_slice(&parts));
         let geometry_buf = storage("polypostor geometry", bytemuck::cast_slice(&geometry));
-        let array = |label, w: u32, h: u32, format| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d {
-                    width: w,
-                    height: h,
-                    depth_or_array_layers: super::crowd_renderers::array_layers(device, w, h, pages.count),
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            })
-        };
+        let array = |label, w: u32, h: u32, format| super::upload::array_texture(device, label, (w, h), pages.count, format);
         let (pw, nw) = (pages.size, (pages.size / 2).max(1));
         // BC7 pages where the pack stores its atlases so and the device samples BC7; else
         // RGBA8 from the decoded atlases.

@@ -59,3 +59,30 @@ pub(crate) fn write_image(
         },
     );
 }
+
+/// A sampled 2D texture array of `count` images of `w`×`h` (never smaller than 1×1; the
+/// layer count as [`super::crowd_renderers::array_layers`] gives it, so every backend views
+/// it as an array), written by [`write_image`].
+pub(crate) fn array_texture(
+    device: &wgpu::Device,
+    label: &str,
+    (w, h): (u32, u32),
+    count: u32,
+    format: wgpu::TextureFormat,
+) -> wgpu::Texture {
+    let (w, h) = (w.max(1), h.max(1));
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width: w,
+            height: h,
+            depth_or_array_layers: super::crowd_renderers::array_layers(device, w, h, count),
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    })
+}

@@ -196,20 +196,7 @@ pub(super) fn texture_array(
             limits.max_texture_dimension_2d
         )));
     }
-    let texture = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d {
-            width: w.max(1),
-            height: h.max(1),
-            depth_or_array_layers: array_layers(device, w.max(1), h.max(1), images.len() as u32),
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-        view_formats: &[],
-    });
+    let texture = crate::gpu::upload::array_texture(device, label, (w, h), images.len() as u32, format);
     for (layer, img) in images.iter().enumerate() {
         if img.dimensions() != (w, h) {
             return Err(GpuError::Unsupported(format!(
