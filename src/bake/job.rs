@@ -546,3 +546,157 @@ impl Prepared {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(c: &Character, k: &ClipChoice) -> Vec<String> {
+        k.first
+            .into_iter()
+            .chain(k.extra.iter().copied())
+            .map(|i| c.clips[i].name.clone())
+            .collect()
+    }
+
+    #[test]
+    fn one_clip_rule_from_the_most_to_the_least_specific() {
+        let c = crate::default_character::generate();
+        let project = vec!["Run".to_string(), "Idle".to_string()];
+        let resolve = |req: ClipRequest| ClipChoice::resolve(&c, req).map(|k| names(&c, &k));
+        // An explicit list wins over everything, in its order.
+        let req = ClipRequest {
+            list: Some("Wave, Walk"),
+            clip: Some("Run"),
+            project_clips: &project,
+            viewed: Some(2),
+        };
+        assert_eq!(resolve(req).unwrap(), ["Wave", "Walk"]);
+        // One named clip leaves the project's set aside.
+        let req = ClipRequest {
+            clip: Some("Wave"),
+            project_clips: &project,
+            ..Default::default()
+        };
+        assert_eq!(resolve(req).unwrap(), ["Wave"]);
+        // The project's set, names the character lost skipped.
+        let lost = vec!["Jump".to_string(), "Idle".to_string(), "Run".to_string()];
+        let req = ClipRequest {
+            project_clips: &lost,
+            viewed: Some(3),
+            ..Default::default()
+        };
+        assert_eq!(resolve(req).unwrap(), ["Idle", "Run"]);
+        // Then the viewed clip, then Walk, then the first.
+        let viewed = ClipRequest {
+            viewed: Some(3),
+            ..Default::default()
+        };
+        assert_eq!(resolve(viewed).unwrap(), ["Wave"]);
+        let out_of_range = ClipRequest {
+            viewed: Some(99),
+            ..Default::default()
+        };
+        assert_eq!(resolve(out_of_range).unwrap(), ["Walk"]);
+        let mut no_walk = c.clone();
+        no_walk.clips.retain(|k| k.name != "Walk");
+        let k = ClipChoice::resolve(&no_walk, ClipRequest::default()).unwrap();
+        assert_eq!(names(&no_walk, &k), ["Run"]);
+        // No clip at all: the rest pose.
+        let mut still = c.clone();
+        still.clips.clear();
+        let k = ClipChoice::resolve(&still, ClipRequest::default()).unwrap();
+        assert_eq!(k, ClipChoice::default());
+        assert_eq!(
+            default_out(Path::new("a/b/hero.glb"), &k, &still),
+            PathBuf::from("hero-rest.pack")
+        );
+        // Names that do not exist are errors naming the clips there are.
+        let e = resolve(ClipRequest {
+            clip: Some("Jump"),
+            ..Default::default()
+        })
+        .unwrap_err();
+        assert!(
+            e.contains("no clip named 'Jump'") && e.contains("Walk, Run, Idle, Wave"),
+            "{e}"
+        );
+        let e = resolve(ClipRequest {
+            list: Some("Walk,Jump"),
+            ..Default::default()
+        })
+        .unwrap_err();
+        assert!(e.starts_with("--clips") && e.contains("Jump"), "{e}");
+        // Default folders: the clip's name, or `-clips` for several.
+        let several = ClipChoice::resolve(
+            &c,
+            ClipRequest {
+                list: Some("all"),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert!(several.is_several());
+        assert_eq!(
+            default_out(Path::new("hero.glb"), &several, &c),
+            PathBuf::from("hero-clips.pack")
+        );
+    }
+
+    #[test]
+    fn outputs_never_land_on_inputs_or_inside_the_project() {
+        let dir = crate::safe_fs::TempDir::new("polypostor-job-test").unwrap();
+        let project_dir = dir.path().join("proj");
+        std::fs::create_dir_all(&project_dir).unwrap();
+        let project_file = project_dir.join("project.json");
+        std::fs::write(&project_file, "{}").unwrap();
+        let character = dir.path().join("hero.glb");
+        std::fs::write(&character, b"glTF").unwrap();
+        // Beside the project: fine; inside it, on it, or on the character: refused.
+        assert!(check_output(&dir.path().join("hero.pack"), &character, Some(&project_file)).is_ok());
+        let inside = check_output(&project_dir.join("hero.pack"), &character, Some(&project_file)).unwrap_err();
+        assert!(inside.contains("lies inside the project folder"), "{inside}");
+        let on = check_output(&project_dir, &character, Some(&project_file)).unwrap_err();
+        assert!(on.contains("is the project folder"), "{on}");
+        assert!(check_output(&character, &character, None).is_err());
+        // A folder of the user's own is never written over.
+        let theirs = dir.path().join("photos");
+        std::fs::create_dir_all(&theirs).unwrap();
+        std::fs::write(theirs.join("cat.jpg"), b"x").unwrap();
+        assert!(check_output(&theirs, &character, None).is_err());
+        assert!(theirs.join("cat.jpg").exists());
+    }
+
+    #[test]
+    fn inputs_resolve_to_the_project_or_the_gltf_and_bad_ones_are_named() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let project = root.join(crate::project::DEFAULT_PROJECT_DIR);
+        let from_project = BakeInput::resolve(&project, None).unwrap();
+        assert!(from_project.project.is_some());
+        assert!(
+            from_project
+                .character_path
+                .ends_with(crate::default_character::DEFAULT_CHARACTER_PATH)
+        );
+        let gltf = root.join(crate::default_character::DEFAULT_CHARACTER_PATH);
+        let alone = BakeInput::resolve(&gltf, None).unwrap();
+        assert!(alone.project.is_none() && alone.project_file.is_none());
+        assert_eq!(alone.settings(), crate::bake::settings::BakeSettings::default());
+        let with = BakeInput::resolve(&gltf, Some(&project)).unwrap();
+        assert!(with.project.is_some() && with.character_path == gltf);
+        assert!(BakeInput::resolve(&root.join("no-such-project"), None).is_err());
+        assert_eq!(
+            crate::bake::pipeline::KeyFrame::parse("auto"),
+            Ok(crate::bake::pipeline::KeyFrame::Auto)
+        );
+        assert_eq!(
+            crate::bake::pipeline::KeyFrame::parse("7"),
+            Ok(crate::bake::pipeline::KeyFrame::Frame(7))
+        );
+        assert!(
+            crate::bake::pipeline::KeyFrame::parse("-1")
+                .unwrap_err()
+                .contains("--key-frame")
+        );
+    }
+}

@@ -91,7 +91,11 @@ impl Camera {
             self.eye - Vec3::Z
         };
         let up = if (self.eye - target).cross(self.up).length_squared() < 1e-10 {
-            if (self.eye - target).cross(Vec3::Z).length_squared() < 1e-10 { Vec3::Y } else { Vec3::Z }
+            if (self.eye - target).cross(Vec3::Z).length_squared() < 1e-10 {
+                Vec3::Y
+            } else {
+                Vec3::Z
+            }
         } else {
             self.up
         };

@@ -315,7 +315,8 @@ impl GpuPolypostors {
         let views_buf = storage("polypostor views", bytemuck::cast_slice(&views));
         let parts_buf = storage("polypostor parts", bytemuck::cast_slice(&parts));
         let geometry_buf = storage("polypostor geometry", bytemuck::cast_slice(&geometry));
-        let array = |label, w: u32, h: u32, format| super::upload::array_texture(device, label, (w, h), pages.count, format);
+        let array =
+            |label, w: u32, h: u32, format| super::upload::array_texture(device, label, (w, h), pages.count, format);
         let (pw, nw) = (pages.size, (pages.size / 2).max(1));
         // BC7 pages where the pack stores its atlases so and the device samples BC7; else
         // RGBA8 from the decoded atlases.
