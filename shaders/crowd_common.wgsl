@@ -1,6 +1,6 @@
 // Shared by every crowd shader (prepended to crowd_mesh, impostor, np3d and polypostor.wgsl
 // by `src/gpu/shaders.rs`; WGSL has no includes). Keep the structs in sync with
-// `src/gpu/crowd_renderers.rs`, `src/gpu/polypostor_renderer.rs` and `crowd::Instance`.
+// `crates/polypostor-runtime/src/gpu/crowd_renderers/`, `…/gpu/polypostor_renderer.rs` and `records::Instance`.
 
 // Per-frame settings; `counts` and `bases` mean what each shader says.
 struct Frame {

@@ -4,7 +4,7 @@
 // instance's time, then blended by the vertex's four weights. Rigid: the mesh pre-skinned at
 // every frame, interpolated between two frames.
 // Frame.counts: x joint samples per frame, y frames, z joints, w vertices. Shared structs and
-// functions: crowd_common.wgsl. Keep the structs in sync with `src/gpu/crowd_renderers.rs`.
+// functions: crowd_common.wgsl. Keep the structs in sync with `crates/polypostor-runtime/src/gpu/crowd_renderers/`.
 
 struct Joint {
     rotation: vec4<f32>,

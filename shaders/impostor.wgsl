@@ -2,14 +2,17 @@
 // (turned with the character), textured with that view's image of the current frame (no
 // interpolation: the nearest frame) from a sheet of frames, shaded with its normal image.
 // Frame.counts: x sheet columns, y sheet rows, z frames. Shared structs and functions:
-// crowd_common.wgsl. Keep the structs in sync with `src/gpu/crowd_renderers.rs`.
+// crowd_common.wgsl. Keep the structs in sync with
+// `crates/polypostor-runtime/src/gpu/crowd_renderers/`.
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<storage, read> views: array<View>;
 @group(0) @binding(2) var<storage, read> instances: array<Instance>;
 @group(0) @binding(3) var sheets: texture_2d_array<f32>;
 @group(0) @binding(4) var normal_sheets: texture_2d_array<f32>;
-@group(0) @binding(5) var sheet_sampler: sampler;
+// The body part of each texel (R8, part number / 255), read unfiltered.
+@group(0) @binding(5) var part_sheets: texture_2d_array<f32>;
+@group(0) @binding(6) var sheet_sampler: sampler;
 
 struct VertexOut {
     @builtin(position) clip_position: vec4<f32>,
@@ -55,9 +58,8 @@ fn fs_main(in: VertexOut) -> FragmentOut {
         discard;
     }
     let n = normalize(textureSample(normal_sheets, sheet_sampler, in.uv, in.layer).xyz * 2.0 - vec3<f32>(1.0));
-    // The body part is stored per texel in the normal sheet's alpha (read unfiltered).
-    let size = vec2<f32>(textureDimensions(normal_sheets));
+    let size = vec2<f32>(textureDimensions(part_sheets));
     let texel = vec2<i32>(clamp(in.uv * size, vec2<f32>(0.0), size - vec2<f32>(1.0)));
-    let part = u32(round(textureLoad(normal_sheets, texel, i32(in.layer), 0).a * 255.0));
+    let part = u32(round(textureLoad(part_sheets, texel, i32(in.layer), 0).r * 255.0));
     return shade(albedo.rgb, part_tint(in.variant, part, frame.params.z), n, in.light_view, frame.params);
 }

@@ -4,7 +4,7 @@
 // Shaded with the mesh normals.
 // Frame.counts: x vertices, y frames, z key frame; bases.x: first word of the per-vertex
 // parts in `topology`. Shared structs and functions: crowd_common.wgsl. Keep the structs in
-// sync with `src/gpu/crowd_renderers.rs`.
+// sync with `crates/polypostor-runtime/src/gpu/crowd_renderers/`.
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<storage, read> views: array<View>;

@@ -184,3 +184,147 @@ fn damaged_ktx2_atlases_are_named() {
     common::reseal(&out.join("manifest.json"));
     assert!(load_pack(&out).is_ok());
 }
+
+/// Impostor sheets written as BC7 (colour sRGB; normals linear and opaque, with the body parts
+/// beside them in lossless greyscale PNGs) read back with every part number exact, normals
+/// close to the PNG twin's, and draw (tinted per part, lit) like the PNG twin, from less GPU
+/// memory where the device samples BC7.
+#[test]
+fn impostor_sheets_in_bc7_keep_exact_parts_and_draw_like_their_png_twins() {
+    use polypostor::bake::viewpoints::Coverage;
+    use polypostor::crowd::lod::Level;
+    use polypostor::crowd::{ClipTiming, looping_pair};
+    use polypostor::reps::bake::{RepsOptions, bake_representations};
+    use polypostor::reps::{RepSet, load_representations, write_representations, write_representations_with};
+    use polypostor_runtime::texture::BcFormat;
+    let ctx = common::gpu();
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let c = polypostor::default_character::generate();
+    let seg = auto_segment(&c);
+    let labels: Vec<u32> = seg.labels.iter().map(|&l| l as u32).collect();
+    let options = RepsOptions {
+        views: 3,
+        coverage: Coverage::UpperHemisphere,
+        resolution: 64,
+        fps: 10.0,
+        clip: Some(0),
+        extra_clips: Vec::new(),
+        key_frame: 0,
+        set: RepSet::parse("impostor").unwrap(),
+        np3d_triangles: 400,
+        part_labels: labels.clone(),
+    };
+    let reps = bake_representations(&ctx, &c, None, Some("Walk"), &options, &|_| {}, &AtomicBool::new(false)).unwrap();
+    let dir = common::temp_dir("bc-impostors");
+    let (bc_dir, png_dir) = (dir.join("bc7"), dir.join("png"));
+    std::fs::create_dir_all(&bc_dir).unwrap();
+    std::fs::create_dir_all(&png_dir).unwrap();
+    let encode = |img: &image::RgbaImage, format: BcFormat| polypostor::pack::bc::encode_ktx2(img, format);
+    write_representations_with(&reps, &bc_dir, Some(&encode)).unwrap();
+    write_representations(&reps, &png_dir).unwrap();
+    let (bc, png) = (
+        load_representations(&bc_dir).unwrap(),
+        load_representations(&png_dir).unwrap(),
+    );
+    // (Far normal sheets are an eighth of the resolution: 8 × 8 texel tiles here, where a
+    // 4 × 4 block spans a quarter of a character.)
+    for (what, a, b, min_db) in [
+        (
+            "full",
+            bc.impostor.as_ref().unwrap(),
+            png.impostor.as_ref().unwrap(),
+            25.0,
+        ),
+        (
+            "far",
+            bc.far_impostor.as_ref().unwrap(),
+            png.far_impostor.as_ref().unwrap(),
+            20.0,
+        ),
+    ] {
+        assert_eq!(a.color_blocks.len(), 3, "{what}: colour blocks");
+        assert_eq!(a.normal_blocks.len(), 3, "{what}: normal blocks");
+        assert!(b.color_blocks.is_empty() && b.normal_blocks.is_empty());
+        for (v, (na, nb)) in a.normal.iter().zip(&b.normal).enumerate() {
+            let parts_equal = na.pixels().zip(nb.pixels()).all(|(p, q)| p[3] == q[3]);
+            assert!(parts_equal, "{what} view {v}: a part number changed");
+            let p = psnr_where(na, nb, |q| q[3] > 0, 3);
+            println!("{what} view {v}: BC7 normals {p:.1} dB");
+            assert!(p > min_db && p.is_finite(), "{what} view {v}: BC7 normals {p:.1} dB");
+            let pc = psnr(&a.color[v], &b.color[v]);
+            assert!(
+                pc > min_db + 3.0 && pc.is_finite(),
+                "{what} view {v}: BC7 colour {pc:.1} dB"
+            );
+        }
+    }
+    for name in [
+        "impostor_normal_000.ktx2",
+        "impostor_part_000.png",
+        "far_impostor_part_002.png",
+    ] {
+        assert!(bc_dir.join(name).is_file(), "{name}");
+        assert!(polypostor::safe_fs::is_bake_file_name(name), "{name} is one of ours");
+    }
+
+    // Drawn: each character tinted per part (a wrong part number shows as a wrong colour).
+    let timing = ClipTiming {
+        frames: reps.manifest.frames as usize,
+        fps: 10.0,
+    };
+    let timeline = polypostor::timeline::Timeline::new(&c, &[Some(0)], 10.0).unwrap();
+    let size = 128u32;
+    let target = RenderTarget::new(device, size, size);
+    let style = PolypostorStyle {
+        tint: 0.6,
+        ..Default::default()
+    };
+    let draw = |reps: &polypostor::reps::Representations| {
+        let mut crowd = polypostor::gpu::CrowdRenderers::new(
+            device,
+            queue,
+            &c,
+            &timeline,
+            &labels,
+            None,
+            Some(reps),
+            timing,
+            reps.impostor.as_ref(),
+        )
+        .unwrap();
+        let cam = &reps.manifest.views[1].camera;
+        let camera = cam.to_camera(cam.half_size * 4.0, cam.half_size, cam.half_size * 8.0);
+        let mut instances: [Vec<Instance>; Level::COUNT] = Default::default();
+        instances[Level::Impostor as usize].push(Instance {
+            pos: [0.0, 0.0],
+            facing: [0.0, 1.0],
+            view: 1,
+            frame: looping_pair(3, timing.frames as u32),
+            blend: 0.0,
+            variant: 7,
+        });
+        crowd.render(
+            device,
+            queue,
+            &target,
+            camera.clip_from_world(1.0),
+            &style,
+            &instances,
+            wgpu::Color::TRANSPARENT,
+        );
+        (
+            target.read_color(device, queue).unwrap(),
+            crowd.gpu_bytes(Level::Impostor),
+        )
+    };
+    let ((from_bc, bc_bytes), (from_png, png_bytes)) = (draw(&bc), draw(&png));
+    let p = psnr(&from_bc, &from_png);
+    let ok = p > 30.0;
+    let pictures = common::images::save_on_failure(ok, "bc7_impostor", &from_png, &from_bc).unwrap_or_default();
+    assert!(ok, "BC7 impostor vs PNG impostor drawn: {p:.1} dB; {pictures}");
+    if ctx.device.features().contains(wgpu::Features::TEXTURE_COMPRESSION_BC) {
+        // Colour 4 → 1 byte a texel, normals and parts 4 → 1 + 1.
+        assert!(bc_bytes * 2 < png_bytes, "{bc_bytes} vs {png_bytes} bytes");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

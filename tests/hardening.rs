@@ -638,6 +638,8 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
         "np3d.bin",
         "normal_000.ktx2",
         "far_impostor_color_001.ktx2",
+        "far_impostor_normal_001.ktx2",
+        "far_impostor_part_001.png",
     ] {
         let e = polypostor::scene::CrowdAssets::load(&flipped(name), Some(&default_glb()), None)
             .err()

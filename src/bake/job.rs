@@ -377,11 +377,10 @@ pub fn run(
                 .map_err(|e| format!("the copied representations do not load back: {e}"))?;
         }
         if let Some(r) = &reps {
-            // Colour sheets as BC7 with the pack's textures; normal sheets stay PNG.
-            let bc7 = |img: &image::RgbaImage| {
-                crate::pack::bc::encode_ktx2(img, polypostor_runtime::texture::BcFormat::Bc7Srgb)
-            };
-            let encode: Option<crate::reps::ColorEncoder> = match job.options.textures {
+            // The sheets as BC7 with the pack's textures (colour sRGB, normals linear with
+            // their part numbers beside them), else PNG.
+            let bc7 = |img: &image::RgbaImage, format| crate::pack::bc::encode_ktx2(img, format);
+            let encode: Option<crate::reps::SheetEncoder> = match job.options.textures {
                 crate::bake::pipeline::TextureEncoding::Bc7 => Some(&bc7),
                 crate::bake::pipeline::TextureEncoding::Png => None,
             };

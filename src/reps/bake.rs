@@ -247,6 +247,7 @@ pub fn bake_representations_sharing(
         if set.impostor {
             impostor = Some(ImpostorData {
                 color_blocks: Vec::new(),
+                normal_blocks: Vec::new(),
                 columns,
                 rows,
                 color,
@@ -329,6 +330,7 @@ pub fn bake_representations_sharing(
         if set.impostor {
             impostor = Some(ImpostorData {
                 color_blocks: Vec::new(),
+                normal_blocks: Vec::new(),
                 columns,
                 rows,
                 color,

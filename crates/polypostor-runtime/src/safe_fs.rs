@@ -217,6 +217,10 @@ pub fn is_bake_file_name(name: &str) -> bool {
         ("normal_", ".ktx2"),
         ("impostor_color_", ".ktx2"),
         ("far_impostor_color_", ".ktx2"),
+        ("impostor_normal_", ".ktx2"),
+        ("far_impostor_normal_", ".ktx2"),
+        ("impostor_part_", ".png"),
+        ("far_impostor_part_", ".png"),
     ];
     EXACT.contains(&name)
         || PATTERNS.iter().any(|(pre, suf)| {
@@ -395,17 +399,31 @@ fn glb_generator(bytes: &[u8]) -> Option<String> {
 /// Encodes an RGBA8 image as PNG with this tool's `Software` text (so a later run knows it
 /// may overwrite it) at the given compression.
 pub fn encode_png(img: &image::RgbaImage, compression: png::Compression) -> Result<Vec<u8>, String> {
+    encode_png_as(img.as_raw(), img.dimensions(), png::ColorType::Rgba, compression)
+}
+
+/// [`encode_png`] of a greyscale image (one byte a pixel).
+pub fn encode_gray_png(img: &image::GrayImage, compression: png::Compression) -> Result<Vec<u8>, String> {
+    encode_png_as(img.as_raw(), img.dimensions(), png::ColorType::Grayscale, compression)
+}
+
+fn encode_png_as(
+    data: &[u8],
+    (width, height): (u32, u32),
+    color: png::ColorType,
+    compression: png::Compression,
+) -> Result<Vec<u8>, String> {
     let mut out = Vec::new();
     {
-        let mut enc = png::Encoder::new(&mut out, img.width(), img.height());
-        enc.set_color(png::ColorType::Rgba);
+        let mut enc = png::Encoder::new(&mut out, width, height);
+        enc.set_color(color);
         enc.set_depth(png::BitDepth::Eight);
         enc.set_compression(compression);
         enc.set_filter(png::Filter::Adaptive);
         enc.add_text_chunk("Software".into(), GENERATOR.into())
             .map_err(|e| e.to_string())?;
         let mut w = enc.write_header().map_err(|e| e.to_string())?;
-        w.write_image_data(img.as_raw()).map_err(|e| e.to_string())?;
+        w.write_image_data(data).map_err(|e| e.to_string())?;
         w.finish().map_err(|e| e.to_string())?;
     }
     Ok(out)

@@ -28,9 +28,11 @@ pub const REPS_FILE: &str = "representations.json";
 pub const REPS_FORMAT: &str = "polypostor-representations";
 /// Version 2 added [`RepsManifest::checksums`], version 3 the clip table ([`RepsManifest::clips`]),
 /// version 4 the far impostors ([`RepsManifest::far_impostor`]), version 5 BC7 colour sheets
-/// in KTX2 files (`impostor_color_NNN.ktx2`; version 4 is read as it is); older folders are refused
-/// with "re-bake".
-pub const REPS_VERSION: u32 = 5;
+/// in KTX2 files (`impostor_color_NNN.ktx2`), version 6 BC7 normal sheets
+/// (`impostor_normal_NNN.ktx2`, opaque) with the body parts beside them
+/// (`impostor_part_NNN.png`, one grey level per part); versions 4 and 5 are read as they
+/// are; older folders are refused with "re-bake".
+pub const REPS_VERSION: u32 = 6;
 /// The oldest representations version this build reads (4: the same, every sheet PNG).
 pub const OLDEST_REPS_VERSION: u32 = 4;
 
@@ -232,8 +234,11 @@ pub struct ImpostorData {
     pub normal: Vec<image::RgbaImage>,
     /// The colour sheets' BC7 blocks, one per view, when the folder stores them so
     /// (`.ktx2`; empty otherwise): what a renderer uploads where the adapter samples BC7.
-    /// The normal sheets stay lossless (their alpha is an exact part number).
     pub color_blocks: Vec<crate::texture::CompressedImage>,
+    /// The normal sheets' BC7 blocks (normals only, stored opaque), one per view, when the
+    /// folder stores them so; the part numbers then come from lossless `impostor_part_NNN.png`
+    /// files and sit in [`ImpostorData::normal`]'s alpha as always.
+    pub normal_blocks: Vec<crate::texture::CompressedImage>,
 }
 
 impl ImpostorData {
@@ -273,6 +278,7 @@ impl ImpostorData {
         };
         ImpostorData {
             color_blocks: Vec::new(),
+            normal_blocks: Vec::new(),
             columns,
             rows,
             color: cut(&self.color),
@@ -299,7 +305,11 @@ impl ImpostorData {
             return c;
         }
         let n = self.downsampled_both(normal_factor);
-        ImpostorData { normal: n.normal, ..c }
+        ImpostorData {
+            normal: n.normal,
+            normal_blocks: Vec::new(),
+            ..c
+        }
     }
 
     fn downsampled_both(&self, factor: u32) -> ImpostorData {
@@ -362,6 +372,7 @@ impl ImpostorData {
         }
         ImpostorData {
             color_blocks: Vec::new(),
+            normal_blocks: Vec::new(),
             columns: self.columns,
             rows: self.rows,
             color,
@@ -677,6 +688,27 @@ fn color_sheet(
     }
 }
 
+/// A normal sheet of view `v` (`kind` `normal` or `far_normal`) with the body part of each
+/// texel in its alpha: BC7 normals in KTX2 plus the lossless part numbers
+/// (`impostor_part_NNN.png`) when the folder lists them, else one PNG holding both.
+fn normal_sheet(
+    files: &crate::pack::FolderReader,
+    kind: &str,
+    v: u32,
+    size: [u32; 2],
+) -> Result<(image::RgbaImage, Option<crate::texture::CompressedImage>), PackError> {
+    let ktx2 = impostor_file_as(kind, v, "ktx2");
+    if !files.checksums.contains_key(&ktx2) {
+        return Ok((files.png(&impostor_file(kind, v), size)?, None));
+    }
+    let (mut normal, blocks) = files.texture(&ktx2, size, crate::texture::BcFormat::Bc7Unorm)?;
+    let parts = files.png(&impostor_file(&kind.replace("normal", "part"), v), size)?;
+    for (n, p) in normal.pixels_mut().zip(parts.pixels()) {
+        n[3] = p[0];
+    }
+    Ok((normal, blocks))
+}
+
 fn read_impostor_sheets(
     files: &crate::pack::FolderReader,
     manifest: &RepsManifest,
@@ -689,17 +721,24 @@ fn read_impostor_sheets(
     let mut color = Vec::new();
     let mut normal = Vec::new();
     let mut color_blocks = Vec::new();
+    let mut normal_blocks = Vec::new();
     for v in 0..manifest.views.len() as u32 {
         let (c, blocks) = color_sheet(files, "color", v, size)?;
         color.push(c);
         color_blocks.extend(blocks);
-        normal.push(files.png(&impostor_file("normal", v), size)?);
+        let (n, blocks) = normal_sheet(files, "normal", v, size)?;
+        normal.push(n);
+        normal_blocks.extend(blocks);
     }
     if color_blocks.len() != color.len() {
         color_blocks.clear();
     }
+    if normal_blocks.len() != normal.len() {
+        normal_blocks.clear();
+    }
     Ok(Some(ImpostorData {
         color_blocks,
+        normal_blocks,
         columns: info.columns,
         rows: info.rows,
         color,
@@ -839,17 +878,24 @@ fn load_representations_with(dir: &Path, full_impostors: bool) -> Result<Represe
             let mut color = Vec::new();
             let mut normal = Vec::new();
             let mut color_blocks = Vec::new();
+            let mut normal_blocks = Vec::new();
             for v in 0..views {
                 let (c, blocks) = color_sheet(&files, "far_color", v, cs)?;
                 color.push(c);
                 color_blocks.extend(blocks);
-                normal.push(files.png(&impostor_file("far_normal", v), ns)?);
+                let (n, blocks) = normal_sheet(&files, "far_normal", v, ns)?;
+                normal.push(n);
+                normal_blocks.extend(blocks);
             }
             if color_blocks.len() != color.len() {
                 color_blocks.clear();
             }
+            if normal_blocks.len() != normal.len() {
+                normal_blocks.clear();
+            }
             Some(ImpostorData {
                 color_blocks,
+                normal_blocks,
                 columns: far.columns,
                 rows: far.rows,
                 color,
@@ -927,25 +973,42 @@ pub fn write_representations(reps: &Representations, dir: &Path) -> Result<u64, 
     write_representations_with(reps, dir, None)
 }
 
-/// Turns a colour sheet into a KTX2 file of BC7 blocks (`None`: keep it PNG).
-pub type ColorEncoder<'a> = &'a (dyn Fn(&image::RgbaImage) -> Option<Vec<u8>> + Sync);
+/// Turns a sheet into a KTX2 file of BC7 blocks in the format given (`None`: keep it PNG).
+pub type SheetEncoder<'a> = &'a (dyn Fn(&image::RgbaImage, crate::texture::BcFormat) -> Option<Vec<u8>> + Sync);
 
-/// [`write_representations`], with the impostor colour sheets (full and far) written by
-/// `encode` as `.ktx2` files where it gives one (the normal sheets stay PNG: their alpha is
-/// an exact part number).
+/// [`write_representations`], with the impostor sheets (full and far) written by `encode` as
+/// `.ktx2` files where it gives one: colour as sRGB BC7, normals as linear BC7 (opaque) with
+/// each texel's body part (the normal sheet's alpha, an exact number) beside it as a
+/// lossless greyscale `impostor_part_NNN.png`.
 pub fn write_representations_with(
     reps: &Representations,
     dir: &Path,
-    encode: Option<ColorEncoder>,
+    encode: Option<SheetEncoder>,
 ) -> Result<u64, String> {
+    use crate::texture::BcFormat;
     let mut sums = crate::pack::Checksums::new();
     let mut put = |name: &str, bytes: &[u8]| crate::pack::put_file(dir, name, bytes, &mut sums);
     let png_bytes = |img: &image::RgbaImage| crate::safe_fs::encode_png(img, png::Compression::Balanced);
     // Every colour sheet, encoded on all cores (BC7 encoding is most of the write).
-    let mut sheets: Vec<(&str, u32, &image::RgbaImage)> = Vec::new();
+    let mut sheets: Vec<(&str, u32, &image::RgbaImage, BcFormat)> = Vec::new();
     for (kind, data) in [("color", &reps.impostor), ("far_color", &reps.far_impostor)] {
         if let Some(i) = data {
-            sheets.extend(i.color.iter().enumerate().map(|(v, c)| (kind, v as u32, c)));
+            sheets.extend(
+                i.color
+                    .iter()
+                    .enumerate()
+                    .map(|(v, c)| (kind, v as u32, c, BcFormat::Bc7Srgb)),
+            );
+        }
+    }
+    for (kind, data) in [("normal", &reps.impostor), ("far_normal", &reps.far_impostor)] {
+        if let Some(i) = data {
+            sheets.extend(
+                i.normal
+                    .iter()
+                    .enumerate()
+                    .map(|(v, n)| (kind, v as u32, n, BcFormat::Bc7Unorm)),
+            );
         }
     }
     let mut encoded: Vec<Option<Vec<u8>>> = vec![None; sheets.len()];
@@ -955,27 +1018,30 @@ pub fn write_representations_with(
         std::thread::scope(|scope| {
             for (out, jobs) in encoded.chunks_mut(chunk).zip(sheets.chunks(chunk)) {
                 scope.spawn(move || {
-                    for (o, (_, _, img)) in out.iter_mut().zip(jobs) {
-                        *o = encode(img);
+                    for (o, (_, _, img, format)) in out.iter_mut().zip(jobs) {
+                        *o = encode(img, *format);
                     }
                 });
             }
         });
     }
-    for ((kind, v, img), bytes) in sheets.into_iter().zip(encoded) {
+    for ((kind, v, img, format), bytes) in sheets.into_iter().zip(encoded) {
         match bytes {
-            Some(bytes) => put(&impostor_file_as(kind, v, "ktx2"), &bytes)?,
+            Some(bytes) => {
+                put(&impostor_file_as(kind, v, "ktx2"), &bytes)?;
+                if format == BcFormat::Bc7Unorm {
+                    // The part numbers, exact, beside the BC7 normals.
+                    let parts = image::GrayImage::from_fn(img.width(), img.height(), |x, y| {
+                        image::Luma([img.get_pixel(x, y)[3]])
+                    });
+                    let bytes = crate::safe_fs::encode_gray_png(&parts, png::Compression::Balanced)?;
+                    put(&impostor_file(&kind.replace("normal", "part"), v), &bytes)?;
+                }
+            }
             None => put(&impostor_file(kind, v), &png_bytes(img)?)?,
         }
     }
     let mut put = |name: &str, bytes: &[u8]| crate::pack::put_file(dir, name, bytes, &mut sums);
-    for (kind, data) in [("normal", &reps.impostor), ("far_normal", &reps.far_impostor)] {
-        if let Some(i) = data {
-            for (v, n) in i.normal.iter().enumerate() {
-                put(&impostor_file(kind, v as u32), &png_bytes(n)?)?;
-            }
-        }
-    }
     if let Some(n) = &reps.np3d {
         let mut bytes: Vec<u8> = n.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
         bytes.extend(n.source.iter().flat_map(|i| i.to_le_bytes()));

@@ -231,21 +231,24 @@ impl GpuImpostors {
             "impostor normal sheets",
             &data.normal,
             wgpu::TextureFormat::Rgba8Unorm,
-            &[],
+            &data.normal_blocks,
         )?;
+        // The body part of each texel, exact and unfiltered, beside the normals (BC7 normals
+        // cannot keep it).
+        let (parts, pb) = part_array(device, queue, "impostor part sheets", &data.normal)?;
         let base = ImageCrowd::new(
             device,
             "impostors",
             shaders::IMPOSTOR,
             reps,
             Vec::new(),
-            vec![color, normal],
+            vec![color, normal, parts],
             [data.columns as f32, data.rows as f32, frames as f32, 0.0],
             [0; 4],
             6,
         );
         Ok(Self {
-            gpu_bytes: cb + nb + base.views_bytes,
+            gpu_bytes: cb + nb + pb + base.views_bytes,
             base,
             frame_map,
             mapped: Vec::new(),

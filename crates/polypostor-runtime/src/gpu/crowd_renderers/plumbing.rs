@@ -218,6 +218,62 @@ pub(super) fn texture_array(
     Ok((view, texel_bytes * w as u64 * h as u64 * images.len() as u64))
 }
 
+/// One R8 layer per image holding the image's alpha (the impostors' part numbers), for
+/// `textureLoad`. Returns the view and the bytes held.
+pub(super) fn part_array(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    label: &str,
+    images: &[image::RgbaImage],
+) -> Result<(wgpu::TextureView, u64), GpuError> {
+    let (w, h) = images.first().map_or((1, 1), |i| i.dimensions());
+    let limits = device.limits();
+    if images.len() as u32 > limits.max_texture_array_layers || w.max(h) > limits.max_texture_dimension_2d {
+        return Err(GpuError::Unsupported(format!(
+            "{label}: {} layers of {w}×{h} exceed this GPU's texture limits",
+            images.len()
+        )));
+    }
+    let format = wgpu::TextureFormat::R8Unorm;
+    let texture = crate::gpu::upload::array_texture(device, label, (w, h), images.len() as u32, format);
+    for (layer, img) in images.iter().enumerate() {
+        if img.dimensions() != (w, h) {
+            return Err(GpuError::Unsupported(format!(
+                "{label}: layer {layer} has another size"
+            )));
+        }
+        let alpha: Vec<u8> = img.pixels().map(|p| p[3]).collect();
+        queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d {
+                    x: 0,
+                    y: 0,
+                    z: layer as u32,
+                },
+                aspect: wgpu::TextureAspect::All,
+            },
+            &alpha,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(w),
+                rows_per_image: Some(h),
+            },
+            wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+        );
+    }
+    let view = texture.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(wgpu::TextureViewDimension::D2Array),
+        ..Default::default()
+    });
+    Ok((view, w as u64 * h as u64 * images.len() as u64))
+}
+
 /// How many layers to give a 2D texture array of `w`×`h` that holds `count` images. The
 /// OpenGL backend guesses a texture's kind from its shape when it is created (one layer: a
 /// plain 2D texture; square with a multiple of six: a cube map) and then cannot view it as an
