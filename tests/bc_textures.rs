@@ -18,7 +18,7 @@ use polypostor::pack::{load_pack, write_pack};
 /// Every view of `pack` drawn at frame 2 by a renderer on `ctx`.
 fn draw_views(ctx: &GpuContext, pack: &polypostor::pack::LoadedPack) -> (Vec<image::RgbaImage>, u64) {
     let (device, queue) = (&ctx.device, &ctx.queue);
-    let mut gpu = GpuPolypostors::new(device, queue, pack).unwrap();
+    let mut gpu = GpuPolypostors::new(device, queue, &pack.gpu_input()).unwrap();
     let target = RenderTarget::new(device, 128, 128);
     let style = PolypostorStyle {
         lit: true,
@@ -280,18 +280,8 @@ fn impostor_sheets_in_bc7_keep_exact_parts_and_draw_like_their_png_twins() {
         ..Default::default()
     };
     let draw = |reps: &polypostor::reps::Representations| {
-        let mut crowd = polypostor::gpu::CrowdRenderers::new(
-            device,
-            queue,
-            &c,
-            &timeline,
-            &labels,
-            None,
-            Some(reps),
-            timing,
-            reps.impostor.as_ref(),
-        )
-        .unwrap();
+        let inputs = polypostor::scene::crowd_inputs(None, Some(reps), timing, reps.impostor.as_ref());
+        let mut crowd = polypostor::gpu::CrowdRenderers::new(device, queue, &c, &timeline, &labels, &inputs).unwrap();
         let cam = &reps.manifest.views[1].camera;
         let camera = cam.to_camera(cam.half_size * 4.0, cam.half_size, cam.half_size * 8.0);
         let mut instances: [Vec<Instance>; Level::COUNT] = Default::default();

@@ -104,18 +104,8 @@ fn every_representation_draws_close_to_the_mesh() {
     let labels: Vec<u32> = seg.labels.iter().map(|&l| l as u32).collect();
     let timing = ClipTiming { frames, fps: 10.0 };
     let timeline = polypostor::timeline::Timeline::new(&c, &[Some(0)], 10.0).unwrap();
-    let mut crowd = CrowdRenderers::new(
-        device,
-        queue,
-        &c,
-        &timeline,
-        &labels,
-        None,
-        Some(&loaded),
-        timing,
-        loaded.impostor.as_ref(),
-    )
-    .unwrap();
+    let inputs = polypostor::scene::crowd_inputs(None, Some(&loaded), timing, loaded.impostor.as_ref());
+    let mut crowd = CrowdRenderers::new(device, queue, &c, &timeline, &labels, &inputs).unwrap();
     for level in [Level::Skinned, Level::Rigid, Level::Impostor, Level::Np3d] {
         assert!(crowd.has(level), "{level:?}");
         assert!(crowd.gpu_bytes(level) > 0, "{level:?}");

@@ -32,7 +32,7 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
     let out = dir.join("walk.pack");
     write_pack(&b, &c.name, Some("Walk"), &out).unwrap();
     let pack = load_pack(&out).unwrap();
-    let mut gpu = GpuPolypostors::new(device, queue, &pack).unwrap();
+    let mut gpu = GpuPolypostors::new(device, queue, &pack.gpu_input()).unwrap();
     assert!(gpu.gpu_bytes > 0);
     let frames = pack.manifest.frames as usize;
 
@@ -243,7 +243,7 @@ fn a_change_of_key_image_is_cross_faded_without_a_pop() {
     // The pack as written, and as if interval `g` were drawn from one key only: each
     // changing part's key at the interval's start (`first`) or end kept over both frames
     // (each key's polygon covers both frames of an interval it draws an end of).
-    let mut gpu = GpuPolypostors::new(device, queue, &pack).unwrap();
+    let mut gpu = GpuPolypostors::new(device, queue, &pack.gpu_input()).unwrap();
     let one_key = |g: usize, first: bool| {
         let mut p = load_pack(&out).unwrap();
         for part in p.manifest.views[v].parts.iter_mut().flatten() {
@@ -257,7 +257,7 @@ fn a_change_of_key_image_is_cross_faded_without_a_pop() {
                 part.frame_keys[a] = part.frame_keys[b];
             }
         }
-        GpuPolypostors::new(device, queue, &p).unwrap()
+        GpuPolypostors::new(device, queue, &p.gpu_input()).unwrap()
     };
     // Eight display times per interval over the whole loop.
     const STEPS: usize = 8;

@@ -134,7 +134,7 @@ fn several_clips_share_one_pack_and_each_loops_on_its_own() {
 
     // On the GPU: half-way from Walk's last frame (9) the character is half-way to Walk's
     // first (0), exactly as drawing 9 → 0 says, and not to Run's first (10).
-    let mut gpu = GpuPolypostors::new(device, queue, &p).unwrap();
+    let mut gpu = GpuPolypostors::new(device, queue, &p.gpu_input()).unwrap();
     let size = 160u32;
     let target = RenderTarget::new(device, size, size);
     let style = PolypostorStyle {
@@ -183,7 +183,15 @@ fn several_clips_share_one_pack_and_each_loops_on_its_own() {
     let timeline = polypostor::timeline::Timeline::new(&c, &[Some(walk), Some(run), Some(idle)], 10.0).unwrap();
     let labels: Vec<u32> = b.segmentation.labels.iter().map(|&l| l as u32).collect();
     let timing = polypostor::crowd::ClipTiming { frames, fps: 10.0 };
-    let mut crowd = CrowdRenderers::new(device, queue, &c, &timeline, &labels, None, None, timing, None).unwrap();
+    let mut crowd = CrowdRenderers::new(
+        device,
+        queue,
+        &c,
+        &timeline,
+        &labels,
+        &inputs::CrowdInputs::meshes(timing),
+    )
+    .unwrap();
     let mut mesh = |pair: u32, blend: f32| {
         let mut inst: [Vec<Instance>; polypostor::crowd::lod::Level::COUNT] = Default::default();
         inst[polypostor::crowd::lod::Level::Skinned as usize].push(Instance {

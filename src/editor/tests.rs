@@ -708,7 +708,7 @@ fn export_writes_the_chosen_representations_and_opens_the_preview() {
     h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::E);
     h.run_steps(2);
     assert!(h.state().export.open, "Ctrl+E opens the export dialog");
-    h.get_by_label("Estimated memory (10 frames, uncompressed)");
+    h.get_by_label("Estimated memory (10 frames, textures as BC7 blocks)");
     {
         let e = &mut h.state_mut().export;
         e.folder = out.display().to_string();

@@ -665,17 +665,66 @@ fn renderers_of(
     } else {
         None
     };
+    let inputs = crowd_inputs(assets.pack.as_ref(), assets.reps.as_ref(), assets.timing(), full);
     CrowdRenderers::new(
         device,
         queue,
         &assets.character,
         &assets.timeline,
         &assets.labels,
-        assets.pack.as_ref(),
-        assets.reps.as_ref(),
-        assets.timing(),
-        full,
+        &inputs,
     )
+}
+
+/// What the crowd renderers draw of a baked folder: the Polypostor from `pack`; rigid
+/// meshes, far impostors (`reps`' baked far sheets, or reduced here from its full ones for
+/// representations made in memory), NP3D and the views from `reps`; full-resolution
+/// impostors from `full_impostors` (the sheets of `reps`' views). Frames and rate come from
+/// the pack, else from `reps`, else `fallback`.
+pub fn crowd_inputs<'a>(
+    pack: Option<&'a crate::pack::LoadedPack>,
+    reps: Option<&'a crate::reps::Representations>,
+    fallback: ClipTiming,
+    full_impostors: Option<&'a crate::reps::ImpostorData>,
+) -> crate::gpu::inputs::CrowdInputs<'a> {
+    use std::borrow::Cow;
+    let timing = pack
+        .map(|p| ClipTiming {
+            frames: p.manifest.frames as usize,
+            fps: p.manifest.fps,
+        })
+        .or_else(|| {
+            reps.map(|r| ClipTiming {
+                frames: r.manifest.frames as usize,
+                fps: r.manifest.fps,
+            })
+        })
+        .unwrap_or(fallback);
+    let far_impostor = reps.and_then(|r| match &r.far_impostor {
+        // Baked (representations format 4 on).
+        Some(far) => Some((Cow::Borrowed(far), crate::reps::far_frame_map(&r.manifest))),
+        // Representations made in memory: reduced here; for a long timeline (a
+        // whole-character pack) every other frame of each clip.
+        None => r.impostor.as_ref().map(|d| {
+            let (subset, map) = match crate::reps::far_frames(&r.manifest.clips, r.manifest.frames as usize) {
+                Some((keep, map)) => (Some(d.frames_subset(&keep)), Some(map)),
+                None => (None, None),
+            };
+            let f = crate::gpu::FAR_IMPOSTOR_FACTOR;
+            let reduced = subset.as_ref().unwrap_or(d).downsampled_split(f, 2 * f);
+            (Cow::Owned(reduced), map)
+        }),
+    });
+    crate::gpu::inputs::CrowdInputs {
+        timing,
+        polypostor: pack.map(|p| p.gpu_input()),
+        views: reps.map(|r| r.view_frames()).unwrap_or_default(),
+        key_frame: reps.map_or(0, |r| r.manifest.key_frame),
+        rigid: reps.and_then(|r| r.rigid.as_ref()),
+        impostor: reps.and(full_impostors),
+        far_impostor,
+        np3d: reps.and_then(|r| r.np3d.as_ref()),
+    }
 }
 
 /// `params` with the spacing widened for the largest of `species` ([`CrowdParams::spaced_for`]).

@@ -62,3 +62,15 @@ pub struct Attributes {
     /// Weights of `bones`, summing to one.
     pub weights: [f32; 4],
 }
+
+/// Static bytes of a character mesh on the GPU: its base-colour textures (RGBA8 with mips,
+/// ×4/3) and its vertex attributes (UV, colour, joints, weights: 40 bytes a vertex) with u32
+/// indices, as `(texture, geometry)`.
+pub fn mesh_static_bytes(c: &crate::Character) -> (u64, u64) {
+    let texture: u64 = c
+        .textures
+        .iter()
+        .map(|t| t.width as u64 * t.height as u64 * 4 * 4 / 3)
+        .sum();
+    (texture, c.vertices.len() as u64 * 40 + c.indices.len() as u64 * 4)
+}

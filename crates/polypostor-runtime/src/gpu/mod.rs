@@ -13,6 +13,7 @@ pub mod character_renderer;
 mod context;
 mod crowd_renderers;
 pub mod gpu_data;
+pub mod inputs;
 mod polypostor_renderer;
 mod readback;
 pub mod shaders;
@@ -25,7 +26,8 @@ pub use character_renderer::{
 };
 pub use context::{AdapterPreference, GpuContext, GpuError, OPTIONAL_FEATURES, rank_adapter};
 pub use crowd_renderers::{
-    CrowdRenderers, GpuImpostors, GpuMeshCrowd, GpuNp3d, JOINT_SAMPLES_PER_FRAME, joint_samples, vertex_parts,
+    CrowdRenderers, FAR_IMPOSTOR_FACTOR, GpuImpostors, GpuMeshCrowd, GpuNp3d, JOINT_SAMPLES_PER_FRAME, joint_samples,
+    vertex_parts,
 };
 pub use polypostor_renderer::{GpuPolypostors, PolypostorStyle};
 pub use readback::{DepthImage, read_depth, read_depth_via_shader, read_rgba8};

@@ -5,8 +5,8 @@
 
 use wgpu::util::DeviceExt;
 
+use super::inputs::PolypostorInput;
 use super::{GpuError, RenderTarget, shaders};
-use crate::pack::LoadedPack;
 use crate::records::Instance;
 use crate::texture::BcFormat;
 
@@ -119,9 +119,9 @@ impl GpuPolypostors {
     /// atlases shelf-packed into the layers of two texture arrays. [`GpuError::Unsupported`] when
     /// the pack has no views, more than 255 parts or 65536 part records, a vertex block at an odd
     /// offset, or atlases past this GPU's texture limits.
-    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, pack: &LoadedPack) -> Result<Self, GpuError> {
-        let m = &pack.manifest;
-        let parts_per_view = m.parts.len().max(1) as u32;
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, input: &PolypostorInput) -> Result<Self, GpuError> {
+        let m = input;
+        let parts_per_view = m.part_count.max(1) as u32;
         let view_count = m.views.len() as u32;
         if view_count == 0 {
             return Err(GpuError::Unsupported("the pack has no views".into()));
@@ -142,26 +142,17 @@ impl GpuPolypostors {
             )));
         }
         // Geometry: vertex values as they are (pairs of u16 = one u32), then the indices.
-        let quantised: Vec<u16> = pack.vertices.iter().map(|&x| (x * 65535.0).round() as u16).collect();
+        let quantised: Vec<u16> = input.vertices.iter().map(|&x| (x * 65535.0).round() as u16).collect();
         let mut geometry: Vec<u32> = quantised
             .chunks(2)
             .map(|c| c[0] as u32 | (c.get(1).copied().unwrap_or(0) as u32) << 16)
             .collect();
         geometry.push(0);
-        if let Some(v) = m
-            .views
-            .iter()
-            .position(|v| v.parts.iter().flatten().any(|p| p.vertex_offset % 2 != 0))
-        {
-            return Err(GpuError::Unsupported(format!(
-                "view {v} has a part whose vertex block starts at an odd value (packs written by this tool never do)"
-            )));
-        }
         if let Some(v) = m.views.iter().position(|v| {
             v.parts
                 .iter()
                 .flatten()
-                .any(|p| p.extra_keys.iter().any(|k| k.vertex_offset % 2 != 0))
+                .any(|p| p.keys.iter().any(|k| k.vertex_offset % 2 != 0))
         }) {
             return Err(GpuError::Unsupported(format!(
                 "view {v} has a key whose vertex block starts at an odd value (packs written by this tool never do)"
@@ -188,7 +179,7 @@ impl GpuPolypostors {
         let mut coarse_ranges: [Vec<std::ops::Range<u32>>; 2] = Default::default();
         let page = pages.size as f32;
         for (vi, v) in m.views.iter().enumerate() {
-            let c = &v.camera;
+            let c = &v.frame;
             let [ox, oy, layer] = pages.place[vi];
             let four = |a: [f32; 3], w: f32| [a[0], a[1], a[2], w];
             views.push(ViewGpu {
@@ -210,24 +201,20 @@ impl GpuPolypostors {
                     continue;
                 };
                 // The part's key images: its first (every frame), then the extra ones.
-                let mut blocks = vec![(
-                    p.vertex_offset,
-                    p.vertex_count,
-                    p.index_offset,
-                    p.index_count,
-                    0,
-                    frames,
-                )];
-                blocks.extend(p.extra_keys.iter().map(|k| {
-                    (
-                        k.vertex_offset,
-                        k.vertex_count,
-                        k.index_offset,
-                        k.index_count,
-                        k.frame_start,
-                        k.frame_count,
-                    )
-                }));
+                let blocks: Vec<_> = p
+                    .keys
+                    .iter()
+                    .map(|k| {
+                        (
+                            k.vertex_offset,
+                            k.vertex_count,
+                            k.index_offset,
+                            k.index_count,
+                            k.frame_start,
+                            k.frame_count,
+                        )
+                    })
+                    .collect();
                 let keys = if p.frame_keys.len() == frames as usize {
                     blocks.len().min(255)
                 } else {
@@ -259,11 +246,11 @@ impl GpuPolypostors {
                         continue;
                     }
                     let start = index_offset as usize;
-                    let list = pack.indices.get(start..start + index_count as usize).unwrap_or(&[]);
+                    let list = input.indices.get(start..start + index_count as usize).unwrap_or(&[]);
                     index_words.extend(list.iter().map(|&i| id_record << 16 | i as u32));
                     let base = (record.vertex_word * 2) as usize;
                     let vc = (record.vertex_count & 0xffff) as usize;
-                    let uvs = pack.vertices.get(base..base + 2 * vc).unwrap_or(&[]);
+                    let uvs = input.vertices.get(base..base + 2 * vc).unwrap_or(&[]);
                     // Each level thins the previous one; a part too small to thin keeps the
                     // previous level's triangles.
                     let mut previous: Vec<u32> = list.iter().map(|&i| i as u32).collect();
@@ -321,7 +308,7 @@ impl GpuPolypostors {
         // BC7 pages where the pack stores its atlases so and the device samples BC7; else
         // RGBA8 from the decoded atlases.
         let bc = super::upload::samples_bc(device)
-            && pack
+            && input
                 .views
                 .iter()
                 .all(|v| v.atlas_blocks.is_some() && v.normal_blocks.is_some());
@@ -332,11 +319,11 @@ impl GpuPolypostors {
         };
         let atlas = array("polypostor atlases", pw, pw, color_format);
         let normals = array("polypostor normal atlases", nw, nw, normal_format);
-        for (vi, view) in pack.views.iter().enumerate() {
+        for (vi, view) in input.views.iter().enumerate() {
             let [ox, oy, layer] = pages.place[vi];
             let uploads = [
-                (&atlas, &view.atlas, view.atlas_blocks.as_ref(), 0),
-                (&normals, &view.normals, view.normal_blocks.as_ref(), 1),
+                (&atlas, view.atlas, view.atlas_blocks, 0),
+                (&normals, view.normals, view.normal_blocks, 1),
             ];
             for (texture, img, blocks, shift) in uploads {
                 if img.width() == 0 || img.height() == 0 {
@@ -394,7 +381,7 @@ impl GpuPolypostors {
         );
         // A thousandth of the character's framing per part: far below what the eye sees,
         // far above depth precision at crowd distances.
-        let depth_step = m.views.iter().map(|v| v.camera.half_size).fold(0.0f32, f32::max) * 2e-3;
+        let depth_step = m.views.iter().map(|v| v.frame.half_size).fold(0.0f32, f32::max) * 2e-3;
         Ok(Self {
             pipeline,
             layout,
@@ -420,7 +407,7 @@ impl GpuPolypostors {
             sorted: Vec::new(),
             gpu_bytes,
             depth_step,
-            half_height: m.views.iter().map(|v| v.camera.half_size).fold(0.0f32, f32::max),
+            half_height: m.views.iter().map(|v| v.frame.half_size).fold(0.0f32, f32::max),
         })
     }
 

@@ -53,6 +53,17 @@ pub struct PackCamera {
 }
 
 impl PackCamera {
+    /// The view's frame as the renderers take it.
+    pub fn view_frame(&self) -> crate::gpu::inputs::ViewFrame {
+        crate::gpu::inputs::ViewFrame {
+            center: self.center,
+            right: self.right,
+            up: self.up,
+            forward: self.forward,
+            half_size: self.half_size,
+        }
+    }
+
     /// The pack form of an orthographic bake camera (a perspective one gets half size 1).
     pub fn from_camera(cam: &crate::gpu::Camera) -> Self {
         let view_m = cam.view_from_world();

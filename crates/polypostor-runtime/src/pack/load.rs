@@ -97,6 +97,62 @@ pub struct LoadedPack {
     pub views: Vec<LoadedView>,
 }
 
+impl LoadedPack {
+    /// The pack as the Polypostor renderer draws it ([`crate::gpu::GpuPolypostors::new`]):
+    /// borrowed, nothing copied but the part tables.
+    pub fn gpu_input(&self) -> crate::gpu::inputs::PolypostorInput<'_> {
+        use crate::gpu::inputs::{KeyBlock, PolypostorInput, PolypostorPart, PolypostorView};
+        let m = &self.manifest;
+        let views = m
+            .views
+            .iter()
+            .zip(&self.views)
+            .map(|(v, loaded)| PolypostorView {
+                frame: v.camera.view_frame(),
+                atlas_size: v.atlas_size,
+                order: &v.order,
+                parts: v
+                    .parts
+                    .iter()
+                    .map(|p| {
+                        p.as_ref().map(|p| PolypostorPart {
+                            keys: std::iter::once(KeyBlock {
+                                vertex_offset: p.vertex_offset,
+                                vertex_count: p.vertex_count,
+                                index_offset: p.index_offset,
+                                index_count: p.index_count,
+                                frame_start: 0,
+                                frame_count: m.frames.max(1),
+                            })
+                            .chain(p.extra_keys.iter().map(|k| KeyBlock {
+                                vertex_offset: k.vertex_offset,
+                                vertex_count: k.vertex_count,
+                                index_offset: k.index_offset,
+                                index_count: k.index_count,
+                                frame_start: k.frame_start,
+                                frame_count: k.frame_count,
+                            }))
+                            .collect(),
+                            frame_keys: &p.frame_keys,
+                        })
+                    })
+                    .collect(),
+                atlas: &loaded.atlas,
+                atlas_blocks: loaded.atlas_blocks.as_ref(),
+                normals: &loaded.normals,
+                normal_blocks: loaded.normal_blocks.as_ref(),
+            })
+            .collect();
+        PolypostorInput {
+            part_count: m.parts.len(),
+            frames: m.frames,
+            vertices: &self.vertices,
+            indices: &self.indices,
+            views,
+        }
+    }
+}
+
 /// Most bytes of `vertices.bin` + `indices.bin` a pack may declare.
 pub const MAX_VERTEX_FILE_BYTES: u64 = 1 << 30;
 /// Largest manifest read.

@@ -19,6 +19,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::gpu::inputs::{FrameVertices, ImpostorData, Np3dData, ViewFrame};
 use crate::pack::{PackCamera, PackError};
 
 /// File name of the manifest of a representations folder ([`RepsManifest`]).
@@ -200,45 +201,12 @@ pub struct RepsManifest {
     pub checksums: crate::pack::Checksums,
 }
 
-/// Per-frame vertex data of a mesh (frame-major: frame `f`, vertex `v` at `f·count + v`).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct FrameVertices {
-    /// Vertices of the mesh in each frame.
-    pub vertex_count: usize,
-    /// Every vertex's skinned position at every frame, in the character's space (as the
-    /// bake posed it).
-    pub positions: Vec<[f32; 3]>,
-    /// Every vertex's skinned normal at every frame, laid out as `positions`.
-    pub normals: Vec<[f32; 3]>,
-}
-
 impl FrameVertices {
     /// Frames held: `positions.len() / vertex_count` (the positions' count for a mesh of no
     /// vertices).
     pub fn frames(&self) -> usize {
         self.positions.len() / self.vertex_count.max(1)
     }
-}
-
-/// Classic impostor sheets, one colour and one normal image per view.
-#[derive(Clone, Debug)]
-pub struct ImpostorData {
-    /// Tiles per row of each sheet.
-    pub columns: u32,
-    /// Rows of tiles of each sheet.
-    pub rows: u32,
-    /// One colour sheet per view (RGBA8, coverage in alpha), in the manifest's view order.
-    pub color: Vec<image::RgbaImage>,
-    /// One normal sheet per view: the normal in RGB (each component `(n + 1) × 127.5`) and
-    /// the texel's body part number in alpha.
-    pub normal: Vec<image::RgbaImage>,
-    /// The colour sheets' BC7 blocks, one per view, when the folder stores them so
-    /// (`.ktx2`; empty otherwise): what a renderer uploads where the adapter samples BC7.
-    pub color_blocks: Vec<crate::texture::CompressedImage>,
-    /// The normal sheets' BC7 blocks (normals only, stored opaque), one per view, when the
-    /// folder stores them so; the part numbers then come from lossless `impostor_part_NNN.png`
-    /// files and sit in [`ImpostorData::normal`]'s alpha as always.
-    pub normal_blocks: Vec<crate::texture::CompressedImage>,
 }
 
 impl ImpostorData {
@@ -381,18 +349,11 @@ impl ImpostorData {
     }
 }
 
-/// The simplified mesh at every frame and the per-view key-frame images.
-#[derive(Clone, Debug)]
-pub struct Np3dData {
-    /// The simplified mesh's triangles, three u16 vertex numbers each (below
-    /// `frames.vertex_count`).
-    pub indices: Vec<u16>,
-    /// The character vertex each simplified vertex is.
-    pub source: Vec<u32>,
-    /// The simplified mesh's positions and normals at every frame.
-    pub frames: FrameVertices,
-    /// One `resolution²` colour image per view (the key frame).
-    pub images: Vec<image::RgbaImage>,
+impl Representations {
+    /// Every view's frame, as the image-based renderers take them.
+    pub fn view_frames(&self) -> Vec<ViewFrame> {
+        self.manifest.views.iter().map(|v| v.camera.view_frame()).collect()
+    }
 }
 
 /// Representations in memory.
@@ -474,12 +435,7 @@ impl Representations {
 /// and the vertex attributes (UV, colour, joints, weights: 40 bytes) and u32 indices. The
 /// skinned mesh adds its bind-pose positions + normals; see [`skinned_bytes`].
 pub fn character_static_bytes(c: &crate::Character) -> RepBytes {
-    let texture: u64 = c
-        .textures
-        .iter()
-        .map(|t| t.width as u64 * t.height as u64 * 4 * 4 / 3)
-        .sum();
-    let geometry = c.vertices.len() as u64 * 40 + c.indices.len() as u64 * 4;
+    let (texture, geometry) = crate::gpu::gpu_data::mesh_static_bytes(c);
     RepBytes::new(texture, geometry)
 }
 
@@ -1150,6 +1106,7 @@ mod tests {
         }
         let data = ImpostorData {
             color_blocks: Vec::new(),
+            normal_blocks: Vec::new(),
             columns,
             rows,
             color: vec![sheet.clone()],
@@ -1187,6 +1144,7 @@ mod tests {
         }
         let d = ImpostorData {
             color_blocks: Vec::new(),
+            normal_blocks: Vec::new(),
             columns: 1,
             rows: 1,
             color: vec![c.clone()],

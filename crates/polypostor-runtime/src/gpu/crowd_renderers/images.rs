@@ -15,12 +15,10 @@ pub(super) struct ViewGpu {
     pub(super) uv_scale: [f32; 4],
 }
 
-pub(super) fn views_gpu(reps: &Representations) -> Vec<ViewGpu> {
-    reps.manifest
-        .views
+pub(super) fn views_gpu(views: &[ViewFrame]) -> Vec<ViewGpu> {
+    views
         .iter()
-        .map(|v| {
-            let c = &v.camera;
+        .map(|c| {
             let four = |a: [f32; 3], w: f32| [a[0], a[1], a[2], w];
             ViewGpu {
                 right: four(c.right, 0.0),
@@ -61,7 +59,7 @@ impl ImageCrowd {
         device: &wgpu::Device,
         label: &str,
         shader: &str,
-        reps: &Representations,
+        (views, frames): (&[ViewFrame], u32),
         buffers: Vec<wgpu::Buffer>,
         textures: Vec<wgpu::TextureView>,
         counts: [f32; 4],
@@ -74,7 +72,8 @@ impl ImageCrowd {
         entries.push(Entry::Sampler);
         let layout = layout(device, label, &entries);
         let pipeline = pipeline(device, label, &[&layout], shader, "vs_main", &[]);
-        let views_data = views_gpu(reps);
+        let view_count = views.len() as u32;
+        let views_data = views_gpu(views);
         let views = storage(device, label, bytemuck::cast_slice(&views_data));
         let sampler = clamp_sampler(device, label);
         let frame = uniform_buffer(device, label);
@@ -100,8 +99,8 @@ impl ImageCrowd {
             group,
             counts,
             bases,
-            view_count: reps.manifest.views.len() as u32,
-            frames: reps.manifest.frames,
+            view_count,
+            frames,
             vertices_per_instance,
             views_bytes: std::mem::size_of_val(views_data.as_slice()) as u64,
         }
@@ -178,34 +177,16 @@ pub struct GpuImpostors {
 }
 
 impl GpuImpostors {
-    /// Impostors from `reps`' own full-resolution sheets. [`GpuError::Unsupported`] when `reps`
-    /// holds none (not baked, or left out by [`crate::reps::load_representations_far`]) or the
-    /// sheets exceed this GPU's texture limits.
-    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, reps: &Representations) -> Result<Self, GpuError> {
-        let data = reps.impostor.as_ref().ok_or_else(|| {
-            GpuError::Unsupported("no impostors were baked (bake with --representation impostor)".into())
-        })?;
-        Self::from_sheets(device, queue, reps, data)
-    }
-
-    /// Impostors of `reps`' views drawn from `data` (its sheets, or a downsampled copy).
-    pub fn from_sheets(
+    /// Impostors of the views `views` (at `frames` frames of the timeline) drawn from `data`
+    /// (full-resolution sheets, or reduced ones). With `frame_map`, the sheets hold a subset of
+    /// the frames ([`crate::reps::far_frames`]): it gives, per frame of the timeline, the tile
+    /// drawn for it. [`GpuError::Unsupported`] when the map is empty or the sheets exceed this
+    /// GPU's texture limits.
+    pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        reps: &Representations,
-        data: &crate::reps::ImpostorData,
-    ) -> Result<Self, GpuError> {
-        Self::from_sheets_mapped(device, queue, reps, data, None)
-    }
-
-    /// [`GpuImpostors::from_sheets`] for sheets holding a subset of the frames
-    /// ([`crate::reps::far_frames`]): `frame_map` gives, per frame of the timeline, the tile
-    /// drawn for it.
-    pub fn from_sheets_mapped(
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        reps: &Representations,
-        data: &crate::reps::ImpostorData,
+        (views, frames): (&[ViewFrame], u32),
+        data: &ImpostorData,
         frame_map: Option<Vec<u32>>,
     ) -> Result<Self, GpuError> {
         if frame_map.as_ref().is_some_and(|m| m.is_empty()) {
@@ -213,9 +194,9 @@ impl GpuImpostors {
                 "impostor frame map: empty (it maps every frame of the timeline to a tile)".into(),
             ));
         }
-        let frames = match &frame_map {
+        let tiles = match &frame_map {
             Some(m) => m.iter().copied().max().map_or(1, |x| x + 1),
-            None => reps.manifest.frames,
+            None => frames,
         };
         let (color, cb) = texture_array(
             device,
@@ -240,10 +221,10 @@ impl GpuImpostors {
             device,
             "impostors",
             shaders::IMPOSTOR,
-            reps,
+            (views, tiles),
             Vec::new(),
             vec![color, normal, parts],
-            [data.columns as f32, data.rows as f32, frames as f32, 0.0],
+            [data.columns as f32, data.rows as f32, tiles as f32, 0.0],
             [0; 4],
             6,
         );
@@ -297,16 +278,16 @@ pub struct GpuNp3d {
 }
 
 impl GpuNp3d {
-    /// `vertex_parts`: the body part of each character vertex ([`vertex_parts`]).
+    /// NP3D impostors of the views `views` (at `frames` frames, images taken at
+    /// `key_frame`) from `data`; `vertex_parts`: the body part of each character vertex
+    /// ([`vertex_parts`]).
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        reps: &Representations,
+        (views, frames, key_frame): (&[ViewFrame], u32, u32),
+        data: &Np3dData,
         vertex_parts: &[u32],
     ) -> Result<Self, GpuError> {
-        let data = reps.np3d.as_ref().ok_or_else(|| {
-            GpuError::Unsupported("no NP3D impostors were baked (bake with --representation np3d)".into())
-        })?;
         let packed = packed_frames(&data.frames);
         let vertices = storage(device, "np3d vertices", bytemuck::cast_slice(&packed));
         let mut topo: Vec<u32> = data.indices.iter().map(|&i| i as u32).collect();
@@ -329,15 +310,10 @@ impl GpuNp3d {
             device,
             "np3d",
             shaders::NP3D,
-            reps,
+            (views, frames),
             vec![vertices, topology],
             vec![images],
-            [
-                data.frames.vertex_count as f32,
-                reps.manifest.frames as f32,
-                reps.manifest.key_frame as f32,
-                0.0,
-            ],
+            [data.frames.vertex_count as f32, frames as f32, key_frame as f32, 0.0],
             [part_base, 0, 0, 0],
             data.indices.len() as u32,
         );

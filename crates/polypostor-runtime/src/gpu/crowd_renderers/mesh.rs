@@ -174,7 +174,8 @@ impl GpuMeshCrowd {
         let frame_skinned = uniform_buffer(device, "crowd skinned frame");
         let frame_rigid = uniform_buffer(device, "crowd rigid frame");
         let instances = [InstanceBuffer::new(device, 1024), InstanceBuffer::new(device, 1024)];
-        let static_bytes = crate::reps::character_static_bytes(character).total + parts_data.len() as u64 * 4;
+        let (texture, geometry) = crate::gpu::gpu_data::mesh_static_bytes(character);
+        let static_bytes = texture + geometry + parts_data.len() as u64 * 4;
         let skinned_bytes =
             static_bytes + character.vertices.len() as u64 * 24 + std::mem::size_of_val(samples.as_slice()) as u64;
         let rigid_bytes = static_bytes + rigid_data.len() as u64 * 16;

@@ -17,12 +17,12 @@ use wgpu::util::DeviceExt;
 
 use super::character_renderer::{depth_less, opaque_targets};
 use super::gpu_data::{Attributes, PositionNormal};
+use super::inputs::{CrowdInputs, FrameVertices, ImpostorData, Np3dData, ViewFrame};
 use super::{CharacterRenderer, GpuCharacter, GpuError, GpuPolypostors, PolypostorStyle, RenderTarget, shaders};
 use crate::animation::Pose;
 use crate::character::Character;
 use crate::records::Instance;
 use crate::records::Level;
-use crate::reps::{FrameVertices, Representations};
 
 mod images;
 mod mesh;
@@ -117,37 +117,20 @@ pub struct CrowdRenderers {
 }
 
 impl CrowdRenderers {
-    /// Builds what the inputs allow: meshes always (skinned; rigid when `reps` has rigid
-    /// frames), the Polypostor from `pack`, impostors (far ones always, from `reps`' baked far
-    /// sheets or reduced from its full ones; full-resolution ones from `full_impostors`, the
-    /// sheets of `reps`' views) and NP3D from `reps`. Frames and rate come from the pack, else
-    /// from `reps`, else `fallback`.
-    #[allow(clippy::too_many_arguments)]
+    /// Builds what `inputs` hold: meshes always (skinned; rigid where given, for this
+    /// character and timeline), the Polypostor, impostors (full-resolution and far) and NP3D
+    /// where given ([`crate::scene::crowd_inputs`] makes them from a baked folder).
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         character: &Character,
         timeline: &crate::timeline::Timeline,
         triangle_labels: &[u32],
-        pack: Option<&crate::pack::LoadedPack>,
-        reps: Option<&Representations>,
-        fallback: crate::records::ClipTiming,
-        full_impostors: Option<&crate::reps::ImpostorData>,
+        inputs: &CrowdInputs,
     ) -> Result<Self, GpuError> {
-        let timing = pack
-            .map(|p| crate::records::ClipTiming {
-                frames: p.manifest.frames as usize,
-                fps: p.manifest.fps,
-            })
-            .or_else(|| {
-                reps.map(|r| crate::records::ClipTiming {
-                    frames: r.manifest.frames as usize,
-                    fps: r.manifest.fps,
-                })
-            })
-            .unwrap_or(fallback);
-        let rigid = reps
-            .and_then(|r| r.rigid.as_ref())
+        let timing = inputs.timing;
+        let rigid = inputs
+            .rigid
             .filter(|r| r.frames() == timing.frames && r.vertex_count == character.vertices.len());
         if timeline.frames() != timing.frames.max(1) {
             return Err(GpuError::Unsupported(format!(
@@ -158,49 +141,27 @@ impl CrowdRenderers {
         }
         let meshes = GpuMeshCrowd::new(device, queue, character, timeline, rigid, triangle_labels)?;
         let parts = vertex_parts(character, triangle_labels);
+        let views = (&inputs.views[..], timing.frames as u32);
         Ok(Self {
             meshes,
-            polypostor: pack.map(|p| GpuPolypostors::new(device, queue, p)).transpose()?,
-            impostor: reps
-                .zip(full_impostors)
-                .map(|(r, d)| GpuImpostors::from_sheets(device, queue, r, d))
+            polypostor: inputs
+                .polypostor
+                .as_ref()
+                .map(|p| GpuPolypostors::new(device, queue, p))
                 .transpose()?,
-            far_impostor: match reps.and_then(|r| r.far_impostor.as_ref().map(|f| (r, f))) {
-                // Baked (representations format 4).
-                Some((r, far)) => Some(GpuImpostors::from_sheets_mapped(
-                    device,
-                    queue,
-                    r,
-                    far,
-                    crate::reps::far_frame_map(&r.manifest),
-                )?),
-                // Representations made in memory: reduced here.
-                None => reps
-                    .and_then(|r| r.impostor.as_ref().map(|d| (r, d)))
-                    .map(|(r, d)| {
-                        // A long timeline (a whole-character pack): every other frame of each clip.
-                        let (subset, map) = match crate::reps::far_frames(&r.manifest.clips, r.manifest.frames as usize)
-                        {
-                            Some((keep, map)) => (Some(d.frames_subset(&keep)), Some(map)),
-                            None => (None, None),
-                        };
-                        GpuImpostors::from_sheets_mapped(
-                            device,
-                            queue,
-                            r,
-                            &subset
-                                .as_ref()
-                                .unwrap_or(d)
-                                .downsampled_split(FAR_IMPOSTOR_FACTOR, 2 * FAR_IMPOSTOR_FACTOR),
-                            map,
-                        )
-                    })
-                    .transpose()?,
-            },
+            impostor: inputs
+                .impostor
+                .map(|d| GpuImpostors::new(device, queue, views, d, None))
+                .transpose()?,
+            far_impostor: inputs
+                .far_impostor
+                .as_ref()
+                .map(|(d, map)| GpuImpostors::new(device, queue, views, d, map.clone()))
+                .transpose()?,
             use_far_impostors: false,
-            np3d: reps
-                .filter(|r| r.np3d.is_some())
-                .map(|r| GpuNp3d::new(device, queue, r, &parts))
+            np3d: inputs
+                .np3d
+                .map(|d| GpuNp3d::new(device, queue, (views.0, views.1, inputs.key_frame), d, &parts))
                 .transpose()?,
             counts: [0; Level::COUNT],
             ground: Ground::new(device),
