@@ -89,25 +89,49 @@ fn the_example_draws_a_crowd_of_a_studio_bake() {
     assert!(e.contains("nowhere"), "{e}");
 }
 
-#[test]
-fn the_runtime_crate_depends_on_no_ui_or_command_line_crate() {
+/// The crates `package` depends on (normal dependencies, the whole tree), and the tree.
+fn dependency_tree(package: &str) -> (Vec<String>, String) {
     let out = Command::new(env!("CARGO"))
         .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args([
-            "tree",
-            "--offline",
-            "-p",
-            "polypostor-runtime",
-            "-e",
-            "normal",
-            "--prefix",
-            "none",
-        ])
+        .args(["tree", "--offline", "-p", package, "-e", "normal", "--prefix", "none"])
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let tree = String::from_utf8_lossy(&out.stdout);
-    let crates: Vec<&str> = tree.lines().filter_map(|l| l.split_whitespace().next()).collect();
+    let tree = String::from_utf8_lossy(&out.stdout).into_owned();
+    let crates = tree
+        .lines()
+        .filter_map(|l| l.split_whitespace().next())
+        .map(str::to_owned)
+        .collect();
+    (crates, tree)
+}
+
+/// The baking library (a build pipeline bakes with it) pulls no user interface either.
+#[test]
+fn the_baking_library_depends_on_no_ui_or_command_line_crate() {
+    let (crates, tree) = dependency_tree("polypostor-bake");
+    assert!(crates.iter().any(|c| c == "polypostor-runtime"), "{tree}");
+    for ui in [
+        "eframe",
+        "egui",
+        "egui-wgpu",
+        "egui-winit",
+        "winit",
+        "rfd",
+        "clap",
+        "indicatif",
+    ] {
+        assert!(
+            !crates.iter().any(|c| c == ui),
+            "the baking library depends on {ui}:\n{tree}"
+        );
+    }
+}
+
+#[test]
+fn the_runtime_crate_depends_on_no_ui_or_command_line_crate() {
+    let (crates, tree) = dependency_tree("polypostor-runtime");
+    let crates: Vec<&str> = crates.iter().map(String::as_str).collect();
     assert!(
         crates.contains(&"wgpu") && crates.contains(&"polypostor-runtime"),
         "{tree}"
@@ -122,6 +146,7 @@ fn the_runtime_crate_depends_on_no_ui_or_command_line_crate() {
         "indicatif",
         "anyhow",
         "polypostor",
+        "polypostor-bake",
     ] {
         assert!(!crates.contains(&ui), "the runtime crate depends on {ui}:\n{tree}");
     }

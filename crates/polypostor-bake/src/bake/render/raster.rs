@@ -191,7 +191,8 @@ mod tests {
         }
         // Periodic in 8 pixels.
         assert_eq!(crossfade_threshold(3, 5), crossfade_threshold(3 + 8, 5 + 16));
-        let wgsl = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/crowd_common.wgsl")).unwrap();
+        let wgsl =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shaders/crowd_common.wgsl")).unwrap();
         let start = wgsl.find("array<u32, 64>(").expect("the shader's table") + "array<u32, 64>(".len();
         let end = start + wgsl[start..].find(')').unwrap();
         let table: Vec<u32> = wgsl[start..end]

@@ -668,7 +668,8 @@ mod tests {
 
     #[test]
     fn inputs_resolve_to_the_project_or_the_gltf_and_bad_ones_are_named() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        // The workspace root (this crate sits in crates/polypostor-bake).
+        let root = &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
         let project = root.join(crate::project::DEFAULT_PROJECT_DIR);
         let from_project = BakeInput::resolve(&project, None).unwrap();
         assert!(from_project.project.is_some());
