@@ -895,9 +895,13 @@ fn every_ui_string_has_its_glyphs() {
     ctx.set_missing_glyph_policy(egui::MissingGlyphPolicy::Panic);
     let mut out = ctx.run_ui(Default::default(), |_| {});
     out.textures_delta.clear();
-    // The whole crate: library messages reach the editor's log and status bar too.
+    // The studio and both libraries: their messages reach the editor's log and status bar too.
     let mut files = Vec::new();
-    let mut dirs = vec![repo().join("src")];
+    let mut dirs = vec![
+        repo().join("src"),
+        repo().join("crates/polypostor-bake/src"),
+        repo().join("crates/polypostor-runtime/src"),
+    ];
     while let Some(dir) = dirs.pop() {
         for entry in std::fs::read_dir(&dir).unwrap() {
             let path = entry.unwrap().path();
