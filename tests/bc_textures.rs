@@ -188,7 +188,7 @@ fn damaged_ktx2_atlases_are_named() {
 /// Impostor sheets written as BC7 (colour sRGB; normals linear and opaque, with the body parts
 /// beside them in lossless greyscale PNGs) read back with every part number exact, normals
 /// close to the PNG twin's, and draw (tinted per part, lit) like the PNG twin, from less GPU
-/// memory where the device samples BC7.
+/// memory where the device samples BC7; NP3D's key images likewise.
 #[test]
 fn impostor_sheets_in_bc7_keep_exact_parts_and_draw_like_their_png_twins() {
     use polypostor::bake::viewpoints::Coverage;
@@ -210,7 +210,7 @@ fn impostor_sheets_in_bc7_keep_exact_parts_and_draw_like_their_png_twins() {
         clip: Some(0),
         extra_clips: Vec::new(),
         key_frame: 0,
-        set: RepSet::parse("impostor").unwrap(),
+        set: RepSet::parse("impostor,np3d").unwrap(),
         np3d_triangles: 400,
         part_labels: labels.clone(),
     };

@@ -202,6 +202,7 @@ pub fn is_bake_file_name(name: &str) -> bool {
         "representations.json",
         "np3d.bin",
         "np3d_color.png",
+        "np3d_color.ktx2",
         "rigid.bin",
         "debug",
         "compare",

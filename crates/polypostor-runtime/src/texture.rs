@@ -78,6 +78,27 @@ impl CompressedImage {
         self.width / 4
     }
 
+    /// The `w × h` texels at `(x, y)` as blocks of their own (`None` unless all four are
+    /// multiples of 4 and the rectangle lies inside the image).
+    pub fn crop(&self, x: u32, y: u32, w: u32, h: u32) -> Option<CompressedImage> {
+        let aligned = [x, y, w, h].iter().all(|v| v % 4 == 0);
+        if !aligned || x.checked_add(w)? > self.width || y.checked_add(h)? > self.height {
+            return None;
+        }
+        let (row, bx, bw) = (self.blocks_per_row() as usize, (x / 4) as usize, (w / 4) as usize);
+        let mut blocks = Vec::with_capacity(bw * (h / 4) as usize * BLOCK_BYTES);
+        for by in (y / 4) as usize..((y + h) / 4) as usize {
+            let start = (by * row + bx) * BLOCK_BYTES;
+            blocks.extend_from_slice(self.blocks.get(start..start + bw * BLOCK_BYTES)?);
+        }
+        Some(CompressedImage {
+            width: w,
+            height: h,
+            format: self.format,
+            blocks,
+        })
+    }
+
     /// The image expanded to RGBA8 (the values a GPU's BC7 decoder gives: BC7 decoding is
     /// exact).
     pub fn decode(&self) -> image::RgbaImage {
@@ -262,6 +283,23 @@ mod tests {
         );
         // Sides that are not whole blocks.
         assert_eq!(bc7_bytes(6, 8), None);
+    }
+
+    #[test]
+    fn a_crop_of_whole_blocks_decodes_to_the_crop_of_the_decoding() {
+        let img = image(16, 12, 3);
+        let whole = img.decode();
+        for (x, y, w, h) in [(0, 0, 16, 12), (4, 4, 8, 8), (12, 8, 4, 4), (0, 8, 16, 4)] {
+            let c = img.crop(x, y, w, h).unwrap();
+            assert_eq!(
+                c.decode(),
+                image::imageops::crop_imm(&whole, x, y, w, h).to_image(),
+                "{x},{y} {w}×{h}"
+            );
+        }
+        assert!(img.crop(2, 0, 4, 4).is_none(), "not on a block edge");
+        assert!(img.crop(8, 8, 12, 4).is_none(), "past the right edge");
+        assert!(img.crop(0, 12, 4, 4).is_none(), "past the bottom");
     }
 
     #[test]

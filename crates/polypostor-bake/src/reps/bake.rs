@@ -344,6 +344,7 @@ pub fn bake_representations_sharing(
         frames: frame_vertices(character, &poses, Some(&kept)),
         source: kept,
         images: np3d_images,
+        image_blocks: Vec::new(),
     });
     let rigid = set.rigid.then(|| frame_vertices(character, &poses, None));
 

@@ -139,6 +139,9 @@ pub struct Np3dData {
     pub frames: FrameVertices,
     /// One `resolution²` colour image per view (the key frame).
     pub images: Vec<image::RgbaImage>,
+    /// The images' BC7 blocks, one per view, when the folder stores them so
+    /// (`np3d_color.ktx2`; empty otherwise).
+    pub image_blocks: Vec<CompressedImage>,
 }
 
 /// Every representation one character's crowd renderers draw ([`super::CrowdRenderers::new`]):

@@ -31,8 +31,8 @@ pub const REPS_FORMAT: &str = "polypostor-representations";
 /// version 4 the far impostors ([`RepsManifest::far_impostor`]), version 5 BC7 colour sheets
 /// in KTX2 files (`impostor_color_NNN.ktx2`), version 6 BC7 normal sheets
 /// (`impostor_normal_NNN.ktx2`, opaque) with the body parts beside them
-/// (`impostor_part_NNN.png`, one grey level per part); versions 4 and 5 are read as they
-/// are; older folders are refused with "re-bake".
+/// (`impostor_part_NNN.png`, one grey level per part) and NP3D's key images in BC7
+/// (`np3d_color.ktx2`); versions 4 and 5 are read as they are; older folders are refused with "re-bake".
 pub const REPS_VERSION: u32 = 6;
 /// The oldest representations version this build reads (4: the same, every sheet PNG).
 pub const OLDEST_REPS_VERSION: u32 = 4;
@@ -883,13 +883,28 @@ fn load_representations_with(dir: &Path, full_impostors: bool) -> Result<Represe
                 .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
                 .collect();
             let frames = frame_vertices(&rest[vc * 4..], vc, frames, "np3d.bin")?;
-            let sheet = files.png("np3d_color.png", [columns * r, views.div_ceil(columns) * r])?;
+            let size = [columns * r, views.div_ceil(columns) * r];
+            let (sheet, blocks) = if files.checksums.contains_key("np3d_color.ktx2") {
+                files.texture("np3d_color.ktx2", size, crate::texture::BcFormat::Bc7Srgb)?
+            } else {
+                (files.png("np3d_color.png", size)?, None)
+            };
             let images = (0..views).map(|v| sheet_tile(&sheet, v, columns, r)).collect();
+            // Each view's blocks cut from the sheet's (whole blocks: the writer encodes BC7
+            // only where the resolution is a multiple of 4).
+            let image_blocks = blocks
+                .and_then(|b| {
+                    (0..views)
+                        .map(|v| b.crop((v % columns.max(1)) * r, (v / columns.max(1)) * r, r, r))
+                        .collect::<Option<Vec<_>>>()
+                })
+                .unwrap_or_default();
             Some(Np3dData {
                 indices,
                 source,
                 frames,
                 images,
+                image_blocks,
             })
         }
     };
@@ -932,10 +947,10 @@ pub fn write_representations(reps: &Representations, dir: &Path) -> Result<u64, 
 /// Turns a sheet into a KTX2 file of BC7 blocks in the format given (`None`: keep it PNG).
 pub type SheetEncoder<'a> = &'a (dyn Fn(&image::RgbaImage, crate::texture::BcFormat) -> Option<Vec<u8>> + Sync);
 
-/// [`write_representations`], with the impostor sheets (full and far) written by `encode` as
-/// `.ktx2` files where it gives one: colour as sRGB BC7, normals as linear BC7 (opaque) with
-/// each texel's body part (the normal sheet's alpha, an exact number) beside it as a
-/// lossless greyscale `impostor_part_NNN.png`.
+/// [`write_representations`], with the impostor sheets (full and far) and NP3D's key images
+/// written by `encode` as `.ktx2` files where it gives one: colour as sRGB BC7, normals as
+/// linear BC7 (opaque) with each texel's body part (the normal sheet's alpha, an exact
+/// number) beside it as a lossless greyscale `impostor_part_NNN.png`.
 pub fn write_representations_with(
     reps: &Representations,
     dir: &Path,
@@ -1011,7 +1026,12 @@ pub fn write_representations_with(
             let v = v as u32;
             image::imageops::replace(&mut sheet, img, ((v % columns) * r) as i64, ((v / columns) * r) as i64);
         }
-        put("np3d_color.png", &png_bytes(&sheet)?)?;
+        // BC7 where the views' images are whole blocks (each view cut from the sheet's blocks
+        // at load), else PNG.
+        match encode.filter(|_| r % 4 == 0).and_then(|e| e(&sheet, BcFormat::Bc7Srgb)) {
+            Some(bytes) => put("np3d_color.ktx2", &bytes)?,
+            None => put("np3d_color.png", &png_bytes(&sheet)?)?,
+        }
     }
     if let Some(r) = &reps.rigid {
         put("rigid.bin", &frame_vertex_bytes(r))?;

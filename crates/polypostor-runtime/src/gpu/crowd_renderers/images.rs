@@ -304,7 +304,7 @@ impl GpuNp3d {
             "np3d images",
             &data.images,
             wgpu::TextureFormat::Rgba8UnormSrgb,
-            &[],
+            &data.image_blocks,
         )?;
         let base = ImageCrowd::new(
             device,
