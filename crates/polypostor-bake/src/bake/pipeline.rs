@@ -800,7 +800,7 @@ impl Prepared {
             character,
             segmentation,
             options,
-            crate::reps::RepSet::POLYPOSTOR,
+            polypostor_runtime::reps::RepSet::POLYPOSTOR,
             max_side,
         )?;
         let caps = find_caps(character, segmentation);

@@ -10,7 +10,7 @@ use crate::character::Character;
 use crate::limits::{
     BAKE_MEMORY_BUDGET, LimitError, MAX_FPS, MAX_PARTS, MAX_RESOLUTION, MAX_VIEWS, MIN_FPS, MIN_RESOLUTION, human_bytes,
 };
-use crate::reps::RepSet;
+use polypostor_runtime::reps::RepSet;
 
 /// Largest coordinate of a bakeable character over its clip, in scene units (beyond it the
 /// framing and the 16-bit vertex data lose all precision).
@@ -147,7 +147,7 @@ pub fn check(
     // Sheets the crowd loads as single textures.
     let side = max_texture_side.min(crate::pack::MAX_ATLAS_SIDE);
     if set.impostor {
-        let columns = crate::reps::bake::sheet_columns(frames);
+        let columns = polypostor_runtime::reps::sheet_columns(frames);
         let rows = (frames as u32).div_ceil(columns);
         if u64::from(columns.max(rows)) * u64::from(r) > u64::from(side) {
             return fail(format!(

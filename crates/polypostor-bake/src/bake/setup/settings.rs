@@ -115,7 +115,7 @@ impl BakeSettings {
         if !(self.key_budget.is_finite() && (0.0..=16.0).contains(&self.key_budget)) {
             return bad("key-budget", format!("{}: choose 0 to 16", self.key_budget));
         }
-        if let Err(e) = crate::reps::RepSet::parse(&self.representations) {
+        if let Err(e) = polypostor_runtime::reps::RepSet::parse(&self.representations) {
             return bad("representation", format!("'{}': {e}", self.representations));
         }
         if self.exhaustive && self.no_restarts {
@@ -126,8 +126,8 @@ impl BakeSettings {
 
     /// The representations to bake (checked by [`BakeSettings::validate`]; all of them if
     /// the list does not parse).
-    pub fn representation_set(&self) -> crate::reps::RepSet {
-        crate::reps::RepSet::parse(&self.representations).unwrap_or(crate::reps::RepSet::ALL)
+    pub fn representation_set(&self) -> polypostor_runtime::reps::RepSet {
+        polypostor_runtime::reps::RepSet::parse(&self.representations).unwrap_or(polypostor_runtime::reps::RepSet::ALL)
     }
 
     /// The pipeline's options for these settings (clips, key frame and corrections left at
