@@ -15,7 +15,7 @@ use polypostor::crowd::lod::{Level, LodDistances, LodPolicy};
 use polypostor::gpu::{Camera, PolypostorStyle, RenderTarget};
 use polypostor::scene::{CrowdAssets, CrowdScene};
 
-use super::app::LogLevel;
+use super::log_entry::LogLevel;
 use super::viewport::{OrbitCamera, ViewportResources};
 
 /// Largest crowd the slider offers.
@@ -139,7 +139,7 @@ pub struct CrowdPanel {
     pub last_bake: Option<(PathBuf, Arc<polypostor::bake::pipeline::Bake>)>,
     /// Messages for the editor's log (drained by the app).
     /// What the jobs have to say, for the log (errors also open the error dialog).
-    pub messages: Vec<(super::app::LogLevel, String)>,
+    pub messages: Vec<(LogLevel, String)>,
 }
 
 impl Default for CrowdPanel {

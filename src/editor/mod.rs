@@ -10,6 +10,7 @@ pub mod crowd;
 mod document;
 mod export;
 mod inspect;
+mod log_entry;
 mod safety;
 mod segment;
 mod settings;

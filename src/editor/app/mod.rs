@@ -40,18 +40,7 @@ pub struct AppOptions {
     pub autosave: bool,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LogLevel {
-    Info,
-    Warning,
-    Error,
-}
-
-#[derive(Clone, Debug)]
-pub struct LogEntry {
-    pub level: LogLevel,
-    pub text: String,
-}
+pub use super::log_entry::{LogEntry, LogLevel};
 
 /// Frame-time statistics for the FPS figure.
 #[derive(Default)]
