@@ -683,7 +683,7 @@ fn with_bake_progress(f: impl FnOnce(&polypostor::bench::Env) -> anyhow::Result<
 }
 
 fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
-    use polypostor::bake::job::{self, BakeInput, Prepared, Request};
+    use polypostor::job::{self, BakeInput, Prepared, Request};
     let started = std::time::Instant::now();
     let input = BakeInput::resolve(&a.input, a.project.as_deref()).map_err(anyhow::Error::msg)?;
     // The settings first: the project's (else the defaults), each flag given overriding its

@@ -227,7 +227,7 @@ impl CrowdPanel {
                     overrides: req.overrides.clone(),
                     ..req.options.clone()
                 };
-                let job = polypostor::bake::job::BakeJob {
+                let job = polypostor::job::BakeJob {
                     character: &req.character,
                     character_path: &req.character_path,
                     segmentation: &req.segmentation,
@@ -244,7 +244,7 @@ impl CrowdPanel {
                     }
                 };
                 let done =
-                    polypostor::bake::job::run(&ctx, &job, &progress, &c, &|_, _| Ok(())).map_err(|e| e.to_string())?;
+                    polypostor::job::run(&ctx, &job, &progress, &c, &|_, _| Ok(())).map_err(|e| e.to_string())?;
                 let labels = req.segmentation.labels.iter().map(|&l| l as u32).collect();
                 let assets = CrowdAssets::load(&req.out, Some(&req.character_path), Some(labels))?;
                 let what = match done.reuse {

@@ -245,7 +245,7 @@ fn bake_small(
     let c = polypostor::import_path(&character_path).unwrap();
     let seg = polypostor::bake::segment::auto_segment(&c);
     let ctx = polypostor::gpu::GpuContext::new(&polypostor::gpu::AdapterPreference::SoftwareFirst).unwrap();
-    let job = polypostor::bake::job::BakeJob {
+    let job = polypostor::job::BakeJob {
         character: &c,
         character_path: &character_path,
         segmentation: &seg,
@@ -256,7 +256,7 @@ fn bake_small(
         previous: None,
         reuse_representations: false,
     };
-    polypostor::bake::job::run(&ctx, &job, &|_| {}, &Default::default(), &|_, _| Ok(())).unwrap();
+    polypostor::job::run(&ctx, &job, &|_| {}, &Default::default(), &|_, _| Ok(())).unwrap();
     (dir, out)
 }
 

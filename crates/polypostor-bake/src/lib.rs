@@ -5,7 +5,7 @@
 //! re-exported here under the same names.
 //!
 //! Everything the editor and the command line do, without any user interface: the bake
-//! ([`bake::job`] is its one entry), the pack writer, the representations' bake, comparison
+//! ([`job`] is its one entry), the pack writer, the representations' bake, comparison
 //! and benchmarks ([`bench`](mod@bench)), and the project document. The studio (the workspace's root
 //! package: `src/main.rs` and `src/editor/`) reads these types and sends commands; this
 //! crate never depends on egui, winit, rfd, clap or indicatif.
@@ -14,7 +14,7 @@
 //! - [`character`]: the imported character (mesh, skeleton, clips, materials, textures) and its summary.
 //! - [`import`]: glTF 2.0 (.glb / .gltf) → [`character::Character`], with typed errors.
 //! - [`animation`]: pose sampling of a clip at any time, CPU skinning.
-//! - [`bake`]: the Polypostor bake: its one entry ([`bake::job`]) and its stages in folders
+//! - [`bake`]: the Polypostor bake: its one entry ([`job`]) and its stages in folders
 //!   (setup, render, shape, fitting, per view, output).
 //! - [`bench`](mod@bench): what `compare` and `bench …` measure, write and print.
 //! - [`reps`]: the other representations' bake, comparison and quality sheet.
@@ -42,6 +42,7 @@ pub mod bake;
 pub mod bench;
 pub mod edit;
 pub mod gpu;
+pub mod job;
 pub mod metrics;
 pub mod pack;
 pub mod plot;

@@ -1,6 +1,7 @@
 //! Every documented limit in one place. Inputs beyond them are refused up front with an
 //! error that names the limit (see the README's "Limits and safety"), never discovered by a
-//! panic or an allocation failure minutes into the work.
+//! panic or an allocation failure minutes into the work. Also the names that mark a folder as
+//! one this tool wrote (the formats' manifest names), which the safe file layer checks.
 
 /// Most viewpoints a bake takes (`--views`); the representation loader accepts no more.
 pub const MAX_VIEWS: usize = 4096;
@@ -135,3 +136,15 @@ mod tests {
         }
     }
 }
+
+/// Largest file (and external buffer or image) the glTF importer reads
+/// (`import::MAX_FILE_BYTES`).
+pub const MAX_IMPORT_FILE_BYTES: u64 = 1 << 31;
+
+/// The `format` of every pack manifest (`pack::FORMAT_NAME`): what marks a folder as a pack
+/// this tool wrote (also to `safe_fs`, which replaces only such folders).
+pub const PACK_FORMAT_NAME: &str = "polypostor-pack";
+/// The `format` of every representations manifest (`reps::REPS_FORMAT`).
+pub const REPS_FORMAT_NAME: &str = "polypostor-representations";
+/// File name of a representations folder's manifest (`reps::REPS_FILE`).
+pub const REPS_FILE: &str = "representations.json";

@@ -243,7 +243,8 @@ pub fn bake_folder_format(dir: &Path) -> Option<&'static str> {
         let head: Head = serde_json::from_slice(&bytes).ok()?;
         (head.format == format).then_some(format)
     };
-    says("manifest.json", crate::pack::FORMAT_NAME).or_else(|| says(crate::reps::REPS_FILE, crate::reps::REPS_FORMAT))
+    says("manifest.json", crate::limits::PACK_FORMAT_NAME)
+        .or_else(|| says(crate::limits::REPS_FILE, crate::limits::REPS_FORMAT_NAME))
 }
 
 /// Why `out` may not receive a bake, checked before any work starts:
@@ -356,7 +357,7 @@ pub fn check_output_file(path: &Path, kind: OutputFile) -> Result<(), String> {
             .ok()
             .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
             .is_some_and(|v| v["generator"].as_str().is_some_and(|g| g.starts_with(GENERATOR_PREFIX))),
-        OutputFile::Glb => read_regular(path, crate::import::MAX_FILE_BYTES, "a glTF file")
+        OutputFile::Glb => read_regular(path, crate::limits::MAX_IMPORT_FILE_BYTES, "a glTF file")
             .ok()
             .is_some_and(|b| glb_generator(&b).is_some_and(|g| g.starts_with(GENERATOR_PREFIX))),
     };
@@ -712,7 +713,7 @@ mod tests {
         std::fs::create_dir(&pack).unwrap();
         std::fs::write(
             pack.join("manifest.json"),
-            format!(r#"{{"format": "{}"}}"#, crate::pack::FORMAT_NAME),
+            format!(r#"{{"format": "{}"}}"#, crate::limits::PACK_FORMAT_NAME),
         )
         .unwrap();
         std::fs::write(pack.join("atlas_000.png"), "x").unwrap();

@@ -150,9 +150,9 @@ impl EditorApp {
         }
         // The project's clip set (a whole-character pack), else the clip being viewed: the
         // rule every bake follows.
-        let clips = polypostor::bake::job::ClipChoice::resolve(
+        let clips = polypostor::job::ClipChoice::resolve(
             &c,
-            polypostor::bake::job::ClipRequest {
+            polypostor::job::ClipRequest {
                 project_clips: &doc.project.clips,
                 viewed: self.playback.clip,
                 ..Default::default()

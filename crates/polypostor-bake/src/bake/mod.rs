@@ -1,7 +1,7 @@
 //! The Polypostor bake, stage by stage (the pipeline of `../shared/DESIGN.md`, steps 3–9).
 //!
-//! Start at [`job`]: the one entry every bake goes through (the command line, the editor's
-//! Ctrl+B and its export dialog), which resolves the inputs, checks the plan, runs
+//! Start at `crate::job`: the one entry every bake goes through (the command line, the
+//! editor's Ctrl+B and its export dialog), which resolves the inputs, checks the plan, runs
 //! [`pipeline`] and writes the folder. The stages, in the order a bake runs them, each a
 //! folder of modules on plain data, testable without a GPU (every module is also reachable
 //! as `bake::<module>`):
@@ -34,7 +34,6 @@
 //! in `crate::reps::bake`.
 
 pub mod fitting;
-pub mod job;
 pub mod output;
 pub mod per_view;
 pub mod pipeline;

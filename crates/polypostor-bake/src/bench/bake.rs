@@ -79,7 +79,7 @@ pub fn bench_bake(
     }
     // Every input must resolve before the first (long) bake starts.
     for input in &inputs {
-        crate::bake::job::BakeInput::resolve(input, None).map_err(|e| anyhow::anyhow!("{}: {e}", input.display()))?;
+        crate::job::BakeInput::resolve(input, None).map_err(|e| anyhow::anyhow!("{}: {e}", input.display()))?;
     }
     let ctx = crate::gpu::GpuContext::from_env()?;
     let mut rows = Vec::new();
@@ -89,7 +89,7 @@ pub fn bench_bake(
         env.bake(&ctx, input, &pack, representation)?;
         let report: Report = serde_json::from_str(&std::fs::read_to_string(pack.join("report.json"))?)?;
         let gap = if gap_views > 0 {
-            let input = crate::bake::job::BakeInput::resolve(input, None).map_err(anyhow::Error::msg)?;
+            let input = crate::job::BakeInput::resolve(input, None).map_err(anyhow::Error::msg)?;
             let c = crate::import_path(&input.character_path)
                 .map_err(|e| anyhow::anyhow!("{}: {e}", input.character_path.display()))?;
             let (seg, _) = input.segmentation(&c);

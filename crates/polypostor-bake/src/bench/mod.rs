@@ -32,15 +32,7 @@ macro_rules! say_part {
 }
 pub(crate) use {say, say_part};
 
-/// Bytes as MB or KB (decimal).
-pub fn human_bytes(b: u64) -> String {
-    let b = b as f64;
-    if b >= 1e6 {
-        format!("{:.1} MB", b / 1e6)
-    } else {
-        format!("{:.0} KB", b / 1e3)
-    }
-}
+pub use crate::bake::report::human_bytes;
 
 /// Checks, before any work, that the files a command will write into `dir` are new or its
 /// own earlier output (and that `dir` is a folder, or can be made one).
@@ -86,7 +78,7 @@ impl Env<'_> {
         out: &Path,
         representation: &str,
     ) -> anyhow::Result<()> {
-        use crate::bake::job::{BakeInput, Prepared, Request};
+        use crate::job::{BakeInput, Prepared, Request};
         let input = BakeInput::resolve(input, None).map_err(anyhow::Error::msg)?;
         let mut settings = input.settings();
         settings.representations = representation.to_owned();
@@ -102,7 +94,7 @@ impl Env<'_> {
         for w in &prepared.warnings {
             eprintln!("warning: {w}");
         }
-        crate::bake::job::run(ctx, &prepared.job(), self.progress, self.cancel, &|_, _| Ok(()))?;
+        crate::job::run(ctx, &prepared.job(), self.progress, self.cancel, &|_, _| Ok(()))?;
         Ok(())
     }
 

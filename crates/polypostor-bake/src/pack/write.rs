@@ -5,28 +5,11 @@ use std::path::{Path, PathBuf};
 
 use super::atlas::pack_atlas;
 use crate::bake::pipeline::{Bake, TextureEncoding};
+pub use crate::bake::report::PackStats;
 use crate::pack::{
     Checksums, FORMAT_NAME, FORMAT_VERSION, Manifest, ManifestKey, ManifestPart, ManifestView, PackCamera, put_file,
 };
 use polypostor_runtime::texture::BcFormat;
-
-/// Sizes of a written pack.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
-pub struct PackStats {
-    /// Textures (uncompressed RGBA8) + vertex + index data.
-    pub pack_bytes: u64,
-    pub texture_bytes: u64,
-    pub vertex_bytes: u64,
-    pub index_bytes: u64,
-    /// The same textures block-compressed (BC3/DXT5: 1 byte per texel).
-    pub pack_bytes_bc: u64,
-    /// Bytes on disk (PNG-compressed atlases).
-    pub file_bytes: u64,
-    pub triangles_per_view: f64,
-    /// What the key images after each view's first take of `pack_bytes` (their atlas crops,
-    /// colour and half-resolution normals, and their vertices and indices).
-    pub extra_key_bytes: u64,
-}
 
 fn io(path: &Path, e: impl std::fmt::Display) -> String {
     format!("{}: {e}", path.display())

@@ -22,7 +22,7 @@ use json::validation::Checked;
 use crate::character::{Channel, ChannelValues, Character, Clip, Interpolation, Material, Texture, Transform, Vertex};
 
 /// Largest file (and external buffer or image) the importer reads.
-pub const MAX_FILE_BYTES: u64 = 1 << 31;
+pub use crate::limits::MAX_IMPORT_FILE_BYTES as MAX_FILE_BYTES;
 /// Largest texture side accepted.
 pub const MAX_TEXTURE_SIDE: u32 = crate::limits::MAX_IMPORT_TEXTURE_SIDE;
 

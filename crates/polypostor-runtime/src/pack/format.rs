@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 /// The [`Manifest::format`] of every pack; a manifest with another is refused as not a pack.
-pub const FORMAT_NAME: &str = "polypostor-pack";
+pub use crate::limits::PACK_FORMAT_NAME as FORMAT_NAME;
 /// Version 3 added [`Manifest::checksums`], version 5 the clip table ([`Manifest::clips`]:
 /// several clips in one pack); older packs are refused with "re-bake".
 pub const FORMAT_VERSION: u32 = 6;

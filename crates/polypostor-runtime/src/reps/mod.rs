@@ -23,10 +23,10 @@ pub use crate::gpu::inputs::{FrameVertices, ImpostorData, Np3dData, ViewFrame};
 use crate::pack::{PackCamera, PackError};
 
 /// File name of the manifest of a representations folder ([`RepsManifest`]).
-pub const REPS_FILE: &str = "representations.json";
+pub use crate::limits::REPS_FILE;
 /// The [`RepsManifest::format`] of every representations manifest; a manifest with another
 /// is refused.
-pub const REPS_FORMAT: &str = "polypostor-representations";
+pub use crate::limits::REPS_FORMAT_NAME as REPS_FORMAT;
 /// Version 2 added [`RepsManifest::checksums`], version 3 the clip table ([`RepsManifest::clips`]),
 /// version 4 the far impostors ([`RepsManifest::far_impostor`]), version 5 BC7 colour sheets
 /// in KTX2 files (`impostor_color_NNN.ktx2`), version 6 BC7 normal sheets

@@ -3,7 +3,6 @@
 use serde::{Deserialize, Serialize};
 
 use crate::bake::pipeline::Bake;
-use crate::pack::PackStats;
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct PartReport {
@@ -266,6 +265,24 @@ fn mean(v: &[f64]) -> f64 {
     }
 }
 
+/// Sizes of a written pack.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct PackStats {
+    /// Textures (uncompressed RGBA8) + vertex + index data.
+    pub pack_bytes: u64,
+    pub texture_bytes: u64,
+    pub vertex_bytes: u64,
+    pub index_bytes: u64,
+    /// The same textures block-compressed (BC3/DXT5: 1 byte per texel).
+    pub pack_bytes_bc: u64,
+    /// Bytes on disk (PNG-compressed atlases).
+    pub file_bytes: u64,
+    pub triangles_per_view: f64,
+    /// What the key images after each view's first take of `pack_bytes` (their atlas crops,
+    /// colour and half-resolution normals, and their vertices and indices).
+    pub extra_key_bytes: u64,
+}
+
 /// Builds the report of a finished bake and its written pack.
 pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &PackStats, seconds_total: f64) -> Report {
     let frames = bake.frame_times.len();
@@ -473,21 +490,15 @@ impl Report {
         if self.clips.len() < 2 {
             return None;
         }
+        use std::fmt::Write as _;
         let mut t = String::new();
-        crate::bench::say!(
+        let _ = writeln!(
             t,
             "{:<16} {:>6} {:>9} {:>9} {:>7} {:>11} {:>11} {:>8}",
-            "clip",
-            "frames",
-            "speed",
-            "PSNR dB",
-            "SSIM",
-            "alone",
-            "impostors",
-            "ratio"
+            "clip", "frames", "speed", "PSNR dB", "SSIM", "alone", "impostors", "ratio"
         );
         for c in &self.clips {
-            crate::bench::say!(
+            let _ = writeln!(
                 t,
                 "{:<16} {:>6} {:>9.3} {:>9.2} {:>7.3} {:>11} {:>11} {:>7.1}×",
                 c.name,
@@ -495,12 +506,12 @@ impl Report {
                 c.ground_speed,
                 c.mean_psnr,
                 c.mean_ssim,
-                crate::bench::human_bytes(c.alone_bytes),
-                crate::bench::human_bytes(c.impostor_bytes),
+                human_bytes(c.alone_bytes),
+                human_bytes(c.impostor_bytes),
                 c.memory_ratio
             );
         }
-        crate::bench::say!(
+        let _ = writeln!(
             t,
             "{:<16} {:>6} {:>9} {:>9.2} {:>7.3} {:>11} {:>11} {:>7.1}×",
             "whole pack",
@@ -508,10 +519,20 @@ impl Report {
             "",
             self.mean_psnr,
             self.mean_ssim,
-            crate::bench::human_bytes(self.pack_bytes),
-            crate::bench::human_bytes(self.impostor_bytes),
+            human_bytes(self.pack_bytes),
+            human_bytes(self.impostor_bytes),
             self.memory_ratio
         );
         Some(t)
+    }
+}
+
+/// Bytes as decimal MB (from 1 MB) or KB, as the command line's tables print them.
+pub fn human_bytes(b: u64) -> String {
+    let b = b as f64;
+    if b >= 1e6 {
+        format!("{:.1} MB", b / 1e6)
+    } else {
+        format!("{:.0} KB", b / 1e3)
     }
 }

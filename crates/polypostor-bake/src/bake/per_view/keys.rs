@@ -19,7 +19,7 @@ use crate::bake::image_cost::PartTile;
 use crate::bake::part_fit::{PartFit, PartFitOptions, Span, fit_part_span};
 use crate::bake::raster::{Canvas, psnr, tile_canvas};
 
-pub use crate::pack::MAX_KEYS;
+pub use polypostor_runtime::pack::MAX_KEYS;
 
 /// How a bake chooses each view's key images.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -225,7 +225,7 @@ impl BakeOverrides {
     }
 }
 
-pub use crate::pack::valid_order;
+pub use polypostor_runtime::pack::valid_order;
 
 #[cfg(test)]
 mod tests {

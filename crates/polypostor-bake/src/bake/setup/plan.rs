@@ -145,7 +145,7 @@ pub fn check(
     }
 
     // Sheets the crowd loads as single textures.
-    let side = max_texture_side.min(crate::pack::MAX_ATLAS_SIDE);
+    let side = max_texture_side.min(polypostor_runtime::pack::MAX_ATLAS_SIDE);
     if set.impostor {
         let columns = polypostor_runtime::reps::sheet_columns(frames);
         let rows = (frames as u32).div_ceil(columns);
