@@ -309,9 +309,14 @@ fn impostor_sheets_in_bc7_keep_exact_parts_and_draw_like_their_png_twins() {
     };
     let ((from_bc, bc_bytes), (from_png, png_bytes)) = (draw(&bc), draw(&png));
     let p = psnr(&from_bc, &from_png);
-    let ok = p > 30.0;
+    let s = common::images::ssim(&from_bc, &from_png);
+    println!("BC7 impostor vs PNG impostor drawn: {p:.1} dB, SSIM {s:.4}");
+    let ok = p > 30.0 && s > 0.95;
     let pictures = common::images::save_on_failure(ok, "bc7_impostor", &from_png, &from_bc).unwrap_or_default();
-    assert!(ok, "BC7 impostor vs PNG impostor drawn: {p:.1} dB; {pictures}");
+    assert!(
+        ok,
+        "BC7 impostor vs PNG impostor drawn: {p:.1} dB, SSIM {s:.4}; {pictures}"
+    );
     if ctx.device.features().contains(wgpu::Features::TEXTURE_COMPRESSION_BC) {
         // Colour 4 → 1 byte a texel, normals and parts 4 → 1 + 1.
         assert!(bc_bytes * 2 < png_bytes, "{bc_bytes} vs {png_bytes} bytes");

@@ -104,7 +104,11 @@ fn no_two_modules_import_each_other() {
         let graph = module_graph(&src, prefixes);
         assert!(graph.len() > 5, "{}: {graph:?}", src.display());
         let found = circles(&graph);
-        assert!(found.is_empty(), "{}: modules importing each other: {found:?}", src.display());
+        assert!(
+            found.is_empty(),
+            "{}: modules importing each other: {found:?}",
+            src.display()
+        );
     }
 }
 
@@ -129,7 +133,10 @@ fn the_gpu_layer_takes_plain_data() {
 #[test]
 fn the_scan_sees_a_circle_and_a_reference() {
     assert_eq!(
-        referenced("use crate::pack::X; let y = mycrate::reps::Z; crate::gpu::f()", &["crate::"]),
+        referenced(
+            "use crate::pack::X; let y = mycrate::reps::Z; crate::gpu::f()",
+            &["crate::"]
+        ),
         ["gpu", "pack"].map(String::from).into_iter().collect()
     );
     let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();

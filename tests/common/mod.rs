@@ -205,6 +205,12 @@ pub mod images {
         psnr_where(a, b, |_| true, 4)
     }
 
+    /// The bake's SSIM of two pictures ([`polypostor::metrics::ssim_rgba8`]: 11 × 11 Gaussian,
+    /// σ 1.5, over the union of what either covers); 1 when neither covers anything.
+    pub fn ssim(a: &RgbaImage, b: &RgbaImage) -> f64 {
+        polypostor::metrics::ssim_rgba8(a, b).expect("two pictures of the same size")
+    }
+
     /// Share of pixels whose `channels` differ by more than `tol` (0..255).
     pub fn differing(a: &RgbaImage, b: &RgbaImage, channels: std::ops::Range<usize>, tol: i32) -> f64 {
         assert_eq!(a.dimensions(), b.dimensions());
