@@ -674,15 +674,28 @@ fn read_impostor_sheets(
     };
     let r = manifest.resolution;
     let size = [info.columns * r, info.rows * r];
+    let views = manifest.views.len() as u32;
+    read_sheets(files, "", views, (size, size), (info.columns, info.rows)).map(Some)
+}
+
+/// Every view's colour and normal sheet of one impostor level (`prefix` `""` or `far_`), at
+/// `sizes` (colour, normal); the blocks kept only where every view has them.
+fn read_sheets(
+    files: &crate::pack::FolderReader,
+    prefix: &str,
+    views: u32,
+    (color_size, normal_size): ([u32; 2], [u32; 2]),
+    (columns, rows): (u32, u32),
+) -> Result<ImpostorData, PackError> {
     let mut color = Vec::new();
     let mut normal = Vec::new();
     let mut color_blocks = Vec::new();
     let mut normal_blocks = Vec::new();
-    for v in 0..manifest.views.len() as u32 {
-        let (c, blocks) = color_sheet(files, "color", v, size)?;
+    for v in 0..views {
+        let (c, blocks) = color_sheet(files, &format!("{prefix}color"), v, color_size)?;
         color.push(c);
         color_blocks.extend(blocks);
-        let (n, blocks) = normal_sheet(files, "normal", v, size)?;
+        let (n, blocks) = normal_sheet(files, &format!("{prefix}normal"), v, normal_size)?;
         normal.push(n);
         normal_blocks.extend(blocks);
     }
@@ -692,14 +705,14 @@ fn read_impostor_sheets(
     if normal_blocks.len() != normal.len() {
         normal_blocks.clear();
     }
-    Ok(Some(ImpostorData {
+    Ok(ImpostorData {
         color_blocks,
         normal_blocks,
-        columns: info.columns,
-        rows: info.rows,
+        columns,
+        rows,
         color,
         normal,
-    }))
+    })
 }
 
 fn load_representations_with(dir: &Path, full_impostors: bool) -> Result<Representations, PackError> {
@@ -830,34 +843,7 @@ fn load_representations_with(dir: &Path, full_impostors: bool) -> Result<Represe
         None
     };
     let far_impostor = match (far_sizes, &manifest.far_impostor) {
-        (Some((cs, ns)), Some(far)) => {
-            let mut color = Vec::new();
-            let mut normal = Vec::new();
-            let mut color_blocks = Vec::new();
-            let mut normal_blocks = Vec::new();
-            for v in 0..views {
-                let (c, blocks) = color_sheet(&files, "far_color", v, cs)?;
-                color.push(c);
-                color_blocks.extend(blocks);
-                let (n, blocks) = normal_sheet(&files, "far_normal", v, ns)?;
-                normal.push(n);
-                normal_blocks.extend(blocks);
-            }
-            if color_blocks.len() != color.len() {
-                color_blocks.clear();
-            }
-            if normal_blocks.len() != normal.len() {
-                normal_blocks.clear();
-            }
-            Some(ImpostorData {
-                color_blocks,
-                normal_blocks,
-                columns: far.columns,
-                rows: far.rows,
-                color,
-                normal,
-            })
-        }
+        (Some((cs, ns)), Some(far)) => Some(read_sheets(&files, "far_", views, (cs, ns), (far.columns, far.rows))?),
         _ => None,
     };
     let np3d = match np3d_layout {
