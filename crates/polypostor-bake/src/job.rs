@@ -176,6 +176,34 @@ impl ClipChoice {
     }
 }
 
+/// What to tell the user when a project's clip set names clips `c` does not have: which,
+/// and what is baked instead (`None` when every name is there).
+pub fn lost_clips_warning(c: &Character, project_clips: &[String], baked: &ClipChoice) -> Option<String> {
+    let lost: Vec<&str> = project_clips
+        .iter()
+        .filter(|n| c.find_clip(n).is_none())
+        .map(String::as_str)
+        .collect();
+    if lost.is_empty() {
+        return None;
+    }
+    let baked: Vec<&str> = baked
+        .first
+        .into_iter()
+        .chain(baked.extra.iter().copied())
+        .filter_map(|i| c.clips.get(i).map(|k| k.name.as_str()))
+        .collect();
+    Some(format!(
+        "the project's clip set names {} that the character does not have; baking {}",
+        lost.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", "),
+        if baked.is_empty() {
+            "its rest pose".to_string()
+        } else {
+            baked.join(", ")
+        }
+    ))
+}
+
 /// Where a bake goes when no folder is named: `<stem>-<clip>.pack` (`-rest` without a clip,
 /// `-clips` for several), in the working folder.
 pub fn default_out(character_path: &Path, clips: &ClipChoice, c: &Character) -> PathBuf {
@@ -498,6 +526,11 @@ impl Prepared {
                 viewed,
             },
         )?;
+        // The project's clip set is used when nothing more specific was asked for; names the
+        // character no longer has are skipped, and said.
+        if req.clips.is_none() && req.clip.is_none() {
+            warnings.extend(lost_clips_warning(&character, project_clips, &clips));
+        }
         let (segmentation, seg_warning) = input.segmentation(&character);
         warnings.extend(seg_warning);
         let (caps, overrides) = input.caps_and_overrides();
@@ -586,6 +619,10 @@ mod tests {
             ..Default::default()
         };
         assert_eq!(resolve(req).unwrap(), ["Idle", "Run"]);
+        let k = ClipChoice::resolve(&c, req).unwrap();
+        let w = lost_clips_warning(&c, &lost, &k).expect("a lost clip is said");
+        assert!(w.contains("'Jump'") && w.contains("baking Idle, Run"), "{w}");
+        assert_eq!(lost_clips_warning(&c, &project, &k), None, "every name is there");
         // Then the viewed clip, then Walk, then the first.
         let viewed = ClipRequest {
             viewed: Some(3),

@@ -159,6 +159,7 @@ impl EditorApp {
             },
         )
         .unwrap_or_default();
+        let lost = polypostor::job::lost_clips_warning(&c, &doc.project.clips, &clips);
         let req = crate::editor::crowd::BakeRequest {
             character_path: doc.character_path.clone(),
             clip: clips.first,
@@ -177,6 +178,9 @@ impl EditorApp {
             out: out.clone(),
             character: c,
         };
+        if let Some(w) = lost {
+            self.warn(w);
+        }
         self.info(format!("baking into {}", out.display()));
         self.crowd.start_bake(req);
     }
