@@ -67,22 +67,16 @@ fn part_tint(variant: u32, part: u32, strength: f32) -> vec3<f32> {
 }
 
 // The ordered-dither threshold (8×8 Bayer, 0..1) of a screen pixel: the Polypostor's key
-// cross-fade and every level and view cross-fade compare against it. Keep in sync with
-// `crossfade_threshold` and `BAYER_8X8` in `src/bake/raster.rs` (a test compares them).
+// cross-fade and every level and view cross-fade compare against it. The matrix entry is the
+// bits of x ^ y and y interleaved, lowest first, rather than a table: a dynamically indexed
+// local array lives in slow per-thread memory on GPUs and is filled again by every pixel.
+// Keep in sync with `bayer_8x8` and `BAYER_8X8` in `raster.rs` (a test compares them).
 fn crossfade_threshold(p: vec2<f32>) -> f32 {
     let x = u32(p.x) & 7u;
     let y = u32(p.y) & 7u;
-    var m = array<u32, 64>(
-        0u, 32u, 8u, 40u, 2u, 34u, 10u, 42u,
-        48u, 16u, 56u, 24u, 50u, 18u, 58u, 26u,
-        12u, 44u, 4u, 36u, 14u, 46u, 6u, 38u,
-        60u, 28u, 52u, 20u, 62u, 30u, 54u, 22u,
-        3u, 35u, 11u, 43u, 1u, 33u, 9u, 41u,
-        51u, 19u, 59u, 27u, 49u, 17u, 57u, 25u,
-        15u, 47u, 7u, 39u, 13u, 45u, 5u, 37u,
-        63u, 31u, 55u, 23u, 61u, 29u, 53u, 21u,
-    );
-    return (f32(m[y * 8u + x]) + 0.5) / 64.0;
+    let z = x ^ y;
+    let m = ((z & 1u) << 5u) | ((y & 1u) << 4u) | ((z & 2u) << 2u) | ((y & 2u) << 1u) | ((z & 4u) >> 1u) | ((y & 4u) >> 2u);
+    return (f32(m) + 0.5) / 64.0;
 }
 
 // Cross-fades between levels of detail and between baked views: bits 24..30 of

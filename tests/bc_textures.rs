@@ -15,6 +15,16 @@ use polypostor::crowd::Instance;
 use polypostor::gpu::{AdapterPreference, GpuContext, GpuPolypostors, PolypostorStyle, RenderTarget};
 use polypostor::pack::{load_pack, write_pack};
 
+/// A context that samples BC7 wherever the adapter can, software rasterisers included
+/// (`GpuContext::new` leaves it off there: see `optional_features`), so both upload paths
+/// are drawn here.
+fn bc_gpu() -> GpuContext {
+    let ctx = GpuContext::with_features(&AdapterPreference::SoftwareFirst, polypostor::gpu::OPTIONAL_FEATURES)
+        .expect("a wgpu adapter (install mesa-vulkan-drivers)");
+    eprintln!("adapter: {}", ctx.adapter_description());
+    ctx
+}
+
 /// Every view of `pack` drawn at frame 2 by a renderer on `ctx`.
 fn draw_views(ctx: &GpuContext, pack: &polypostor::pack::LoadedPack) -> (Vec<image::RgbaImage>, u64) {
     let (device, queue) = (&ctx.device, &ctx.queue);
@@ -47,7 +57,7 @@ fn draw_views(ctx: &GpuContext, pack: &polypostor::pack::LoadedPack) -> (Vec<ima
 
 #[test]
 fn bc7_packs_load_draw_and_parse_like_their_png_twins() {
-    let ctx = common::gpu();
+    let ctx = bc_gpu();
     let options = BakeOptions {
         views: 4,
         resolution: 128,
@@ -142,7 +152,7 @@ fn bc7_packs_load_draw_and_parse_like_their_png_twins() {
 
 #[test]
 fn damaged_ktx2_atlases_are_named() {
-    let ctx = common::gpu();
+    let ctx = bc_gpu();
     let c = polypostor::default_character::generate();
     let options = BakeOptions {
         views: 2,
@@ -197,7 +207,7 @@ fn impostor_sheets_in_bc7_keep_exact_parts_and_draw_like_their_png_twins() {
     use polypostor::reps::bake::{RepsOptions, bake_representations};
     use polypostor::reps::{RepSet, load_representations, write_representations, write_representations_with};
     use polypostor_runtime::texture::BcFormat;
-    let ctx = common::gpu();
+    let ctx = bc_gpu();
     let (device, queue) = (&ctx.device, &ctx.queue);
     let c = polypostor::default_character::generate();
     let seg = auto_segment(&c);

@@ -115,8 +115,9 @@ pub fn run(path: PathBuf) -> anyhow::Result<()> {
     let egui_device = wgpu_setup.device_descriptor.clone();
     wgpu_setup.device_descriptor = std::sync::Arc::new(move |adapter: &wgpu::Adapter| {
         let mut desc = egui_device(adapter);
-        // Packs' BC7 atlases upload compressed where the adapter samples them.
-        desc.required_features |= adapter.features() & polypostor::gpu::OPTIONAL_FEATURES;
+        // Packs' BC7 atlases upload compressed where a hardware adapter samples them.
+        desc.required_features |=
+            adapter.features() & polypostor::gpu::optional_features(adapter.get_info().device_type);
         if adapter.get_info().backend == wgpu::Backend::Gl {
             let have = adapter.limits();
             desc.required_limits = wgpu::Limits {

@@ -147,28 +147,44 @@ pub fn bench_crowd(
         let camera = bench_camera(&scene.crowd);
         let mut per_rep = Vec::new();
         for (name, policy) in &reps {
+            // The switch from the last representation measured starts a level cross-fade that
+            // draws every character twice (in both levels) until it ends: end it first, so each
+            // figure is this representation's own cost.
+            // (The first frame starts the fades, the second, as long as a whole fade, ends them.)
+            let settle = crate::crowd::LEVEL_FADE_SCALE * scene.crowd.params.fade_secs + 0.05;
+            for dt in [1.0 / 60.0, settle] {
+                scene.frame(device, queue, &target, &camera, policy, dt, wgpu::Color::BLACK);
+            }
+            // Wall time per frame, and the part of it the CPU spent before submitting
+            // (simulation, selection, upload, encoding): the rest is waiting for the GPU.
             let mut run = |n: usize| {
                 let t = std::time::Instant::now();
+                let mut cpu = 0.0;
                 let mut last = Default::default();
                 for _ in 0..n {
+                    let c = std::time::Instant::now();
                     last = scene.frame(device, queue, &target, &camera, policy, 1.0 / 60.0, wgpu::Color::BLACK);
+                    cpu += c.elapsed().as_secs_f64();
                     let _ = device.poll(wgpu::PollType::Wait {
                         submission_index: None,
                         timeout: Some(std::time::Duration::from_secs(120)),
                     });
                 }
-                (t.elapsed().as_secs_f64(), last)
+                (t.elapsed().as_secs_f64(), cpu, last)
             };
             run(3);
-            let (secs, last) = run(frames);
+            let (secs, cpu, last) = run(frames);
             let fps = frames as f64 / secs.max(1e-9);
+            let cpu_ms = 1e3 * cpu / frames as f64;
             if !json {
                 eprintln!(
-                    "  {count:>7} {name:<11} {fps:>9.2} fps  ({} drawn, {} draw calls)",
-                    last.frame.visible, last.draw_calls
+                    "  {count:>7} {name:<11} {fps:>9.2} fps  ({} drawn, {} draw calls; CPU {cpu_ms:.1} ms a frame, GPU wait {:.1} ms)",
+                    last.frame.visible,
+                    last.draw_calls,
+                    1e3 * (secs - cpu) / frames as f64,
                 );
             }
-            per_rep.push((name.to_string(), fps, last));
+            per_rep.push((name.to_string(), fps, cpu_ms, last));
         }
         // One frame of the three-level mix on its ground, to look at (the character at its
         // real size, spacing and camera following it).
@@ -179,7 +195,8 @@ pub fn bench_crowd(
         });
         // A first frame long enough to end the level cross-fades the switch of representation
         // started (the picture shows the mix settled, not half-dithered).
-        let settle = scene.crowd.params.fade_secs + 0.05;
+        let settle = crate::crowd::LEVEL_FADE_SCALE * scene.crowd.params.fade_secs + 0.05;
+        scene.frame(device, queue, &target, &camera, &mix, 1.0 / 60.0, wgpu::Color::BLACK);
         scene.frame(device, queue, &target, &camera, &mix, settle, wgpu::Color::BLACK);
         scene.frame(device, queue, &target, &camera, &mix, 1.0 / 60.0, wgpu::Color::BLACK);
         let shot = target.read_color(device, queue)?;
@@ -218,12 +235,13 @@ pub fn bench_crowd(
                 full as f64 / 1e6,
             );
         }
-        for (name, fps, last) in per_rep {
+        for (name, fps, cpu_ms, last) in per_rep {
             rows.push(serde_json::json!({
                 "representation": name,
                 "count": count,
                 "fps": fps,
                 "ms_per_frame": 1e3 / fps,
+                "cpu_ms_per_frame": cpu_ms,
                 "polypostor_over_this": poly.map(|p| p / fps),
                 "visible": last.frame.visible,
                 "draw_calls": last.draw_calls,

@@ -24,7 +24,7 @@ pub use character_renderer::{
     COLOR_FORMAT, CharacterRenderer, DEPTH_FORMAT, DrawOptions, GpuCharacter, NORMAL_FORMAT, RenderTarget, Shading,
     SkinningMode, fullscreen_pipeline, view_formats_supported,
 };
-pub use context::{AdapterPreference, GpuContext, GpuError, OPTIONAL_FEATURES, rank_adapter};
+pub use context::{AdapterPreference, GpuContext, GpuError, OPTIONAL_FEATURES, optional_features, rank_adapter};
 pub use crowd_renderers::{
     CrowdRenderers, FAR_IMPOSTOR_FACTOR, GpuImpostors, GpuMeshCrowd, GpuNp3d, JOINT_SAMPLES_PER_FRAME, joint_samples,
     vertex_parts,

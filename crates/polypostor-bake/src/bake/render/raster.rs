@@ -126,7 +126,16 @@ impl Canvas {
 /// rather than 16: a cross-fade lasting more than 16 frames trades an even share of the
 /// pixels every frame instead of a sixteenth every other frame (temporal stability).
 pub fn crossfade_threshold(x: u32, y: u32) -> f32 {
-    (BAYER_8X8[((y & 7) * 8 + (x & 7)) as usize] as f32 + 0.5) / 64.0
+    (bayer_8x8(x, y) as f32 + 0.5) / 64.0
+}
+
+/// The entry of [`BAYER_8X8`] at `(x mod 8, y mod 8)`, computed the way the shaders do: the
+/// bits of `x ⊕ y` and `y` interleaved, lowest first (no table: a GPU keeps a dynamically
+/// indexed local array in slow per-thread memory, filled anew by every pixel).
+pub fn bayer_8x8(x: u32, y: u32) -> u32 {
+    let (x, y) = (x & 7, y & 7);
+    let z = x ^ y;
+    ((z & 1) << 5) | ((y & 1) << 4) | ((z & 2) << 2) | ((y & 2) << 1) | ((z & 4) >> 1) | ((y & 4) >> 2)
 }
 
 /// The 8×8 Bayer matrix (row by row): `M₂ₙ = [[4M, 4M + 2], [4M + 3, 4M + 1]]` from `M₁ = [0]`.
@@ -191,17 +200,19 @@ mod tests {
         }
         // Periodic in 8 pixels.
         assert_eq!(crossfade_threshold(3, 5), crossfade_threshold(3 + 8, 5 + 16));
+        // The bit formula is the table, and the shader computes the same formula.
+        for i in 0..64u32 {
+            assert_eq!(bayer_8x8(i % 8, i / 8), BAYER_8X8[i as usize], "({}, {})", i % 8, i / 8);
+        }
         let wgsl =
             std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shaders/crowd_common.wgsl")).unwrap();
-        let start = wgsl.find("array<u32, 64>(").expect("the shader's table") + "array<u32, 64>(".len();
-        let end = start + wgsl[start..].find(')').unwrap();
-        let table: Vec<u32> = wgsl[start..end]
-            .split(',')
-            .map(|t| t.trim().trim_end_matches('u'))
-            .filter(|t| !t.is_empty())
-            .map(|t| t.parse().unwrap())
-            .collect();
-        assert_eq!(table, BAYER_8X8);
+        let squeeze = |s: &str| s.chars().filter(|c| !c.is_whitespace()).collect::<String>();
+        let formula = "((z&1u)<<5u)|((y&1u)<<4u)|((z&2u)<<2u)|((y&2u)<<1u)|((z&4u)>>1u)|((y&4u)>>2u)";
+        assert!(
+            squeeze(&wgsl).contains(formula),
+            "crowd_common.wgsl's crossfade_threshold is not the bit formula"
+        );
+        assert!(squeeze(&wgsl).contains("letz=x^y;"));
     }
 
     #[test]
