@@ -177,8 +177,8 @@ enum BenchWhat {
         #[arg(long)]
         json: bool,
     },
-    /// CPU work per crowd frame on one thread: simulation, then culling, level of detail,
-    /// view and frame choice and instance records.
+    /// CPU work per crowd frame: simulation (one thread), then culling, level of detail, view
+    /// and frame choice and instance records (on every core; RAYON_NUM_THREADS=1 for one).
     Sim {
         /// Agents.
         #[arg(long, default_value_t = 20_000)]

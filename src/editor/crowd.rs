@@ -935,7 +935,10 @@ impl CrowdCallback {
                 CrowdScene::mixed(device, queue, &all, &self.shares, self.count, full)
             };
             match scene {
-                Ok(scene) => {
+                Ok(mut scene) => {
+                    // The selection stays on this thread: rayon's pool belongs to the bakes,
+                    // whose threads yield to the window, and waiting on them would stall it.
+                    scene.crowd.set_parallel(false);
                     let target = res.new_target(device, w, h);
                     let blit = res.blit_group(device, &target);
                     *slot = Some(CrowdGpu {

@@ -503,11 +503,13 @@ impl CrowdScene {
     /// for the largest character mixed in).
     pub fn respawn(&mut self, params: CrowdParams) {
         let paused = self.crowd.paused();
+        let parallel = self.crowd.parallel();
         let params = match &self.mix {
             Some((species, _)) => spaced(params, species),
             None => params,
         };
         self.crowd = Crowd::new(params);
+        self.crowd.set_parallel(parallel);
         self.crowd.set_clips(&self.clips, self.timing.fps);
         if let Some((species, shares)) = &self.mix {
             // Checked when the mix was made.

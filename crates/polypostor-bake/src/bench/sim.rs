@@ -3,7 +3,8 @@
 use super::*;
 
 /// `bench sim`: a 1600×900 camera at the edge of the crowd looking across it from 10 m up,
-/// 137 hemisphere views, a 10-frame clip, the default three-level mix; one thread.
+/// 137 hemisphere views, a 10-frame clip, the default three-level mix; the simulation on one
+/// thread, the selection on the rayon pool (`RAYON_NUM_THREADS=1`: one thread).
 pub fn bench_sim(agents: usize, frames: usize, mixed: bool, json: bool) -> anyhow::Result<String> {
     let mut t = String::new();
     use crate::bake::viewpoints::{Coverage, ViewLookup, directions};
@@ -145,8 +146,9 @@ pub fn bench_sim(agents: usize, frames: usize, mixed: bool, json: bool) -> anyho
     } else {
         say!(
             t,
-            "crowd CPU work per frame, one thread, {} agents, {frames} frames",
-            crowd.len()
+            "crowd CPU work per frame, {} agents, {frames} frames (selection on {} threads)",
+            crowd.len(),
+            rayon::current_num_threads()
         );
         say!(t, "  {:<34} {:>8} {:>8}", "pass", "mean ms", "p95 ms");
         say!(t, "  {:<34} {sm:>8.3} {sp:>8.3}", "simulate (wander, occupancy grid)");

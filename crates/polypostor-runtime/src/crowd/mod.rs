@@ -487,7 +487,13 @@ pub struct Crowd {
     /// Instances per kind of character (0: the crowd's own; `k`: species `k - 1`) and per
     /// level, rebuilt by [`Crowd::select`].
     pub instances: Vec<[Vec<Instance>; Level::COUNT]>,
+    /// Agents per run of [`Crowd::select_over`] (runs go to the rayon pool).
+    select_run: usize,
 }
+
+/// Agents a selection hands to one task: large enough that a task outweighs its scheduling
+/// (about 0.1 ms of work), small enough that a 100,000 crowd keeps 12 cores busy.
+pub const SELECT_RUN: usize = 8192;
 
 impl Crowd {
     /// Places `params.count` agents at the centres of distinct random cells of a square ground
@@ -568,6 +574,7 @@ impl Crowd {
             gaits: None,
             species: Vec::new(),
             instances: vec![Default::default()],
+            select_run: SELECT_RUN,
         }
     }
 
@@ -869,30 +876,211 @@ impl Crowd {
         }
         let mut stats = FrameStats::default();
         let a = &mut self.agents;
-        for i in 0..a.pos.len() {
-            let k = a.kind[i] as usize;
+        let n = a.pos.len();
+        let cx = SelectContext {
+            camera,
+            policy,
+            frustum,
+            radii,
+            texel_scale,
+            views,
+            clip,
+            params: &self.params,
+            species: &self.species,
+            gaits: self.gaits.as_ref(),
+            fading,
+            fade_step,
+            previous_selection,
+            now,
+            pos: &a.pos,
+            kind: &a.kind,
+            facing: &a.facing,
+            variant: &a.variant,
+            clip_playing: &a.clip,
+            clip_fade: &a.clip_fade,
+        };
+        let state = SelectState {
+            level: &mut a.level,
+            view: &mut a.view,
+            clock: &mut a.clock,
+            fade: &mut a.fade,
+            fade_from: &mut a.fade_from,
+            seen: &mut a.seen,
+            clip_from: &mut a.clip_from,
+        };
+        // Runs of agents selected on the rayon pool (each agent's choice reads and writes
+        // only its own state), their records then appended in agent order: the same lists as
+        // one pass over every agent, on as many cores as there are.
+        let run = self.select_run.max(1);
+        let mut runs: Vec<(usize, SelectState<'_>)> = Vec::with_capacity(n.div_ceil(run));
+        let mut rest = state;
+        let mut first = 0;
+        while n - first > run {
+            let (head, tail) = rest.split_at(run);
+            runs.push((first, head));
+            rest = tail;
+            first += run;
+        }
+        runs.push((first, rest));
+        let outs: Vec<RunOutput> = if runs.len() > 1 {
+            use rayon::prelude::*;
+            runs.into_par_iter()
+                .map(|(first, st)| cx.select_run(first, st))
+                .collect()
+        } else {
+            runs.into_iter().map(|(first, st)| cx.select_run(first, st)).collect()
+        };
+        for out in outs {
+            stats.visible += out.visible;
+            for (k, level, record) in out.records {
+                self.instances[k as usize][level as usize].push(record);
+            }
+        }
+        for lists in &self.instances {
+            for (n, list) in stats.per_level.iter_mut().zip(lists) {
+                *n += list.len();
+            }
+        }
+        stats
+    }
+
+    /// Whether [`Crowd::select_over`] spreads its agents over rayon's pool (the default) or
+    /// runs on the calling thread (where that pool is busy with other work, as the studio's
+    /// bakes: a selection waiting for their threads would stall the caller). The same
+    /// records either way.
+    pub fn set_parallel(&mut self, parallel: bool) {
+        self.select_run = if parallel { SELECT_RUN } else { usize::MAX };
+    }
+
+    /// See [`Crowd::set_parallel`].
+    pub fn parallel(&self) -> bool {
+        self.select_run != usize::MAX
+    }
+
+    /// One frame: simulate then select, timed.
+    pub fn frame(
+        &mut self,
+        dt: f32,
+        camera: &CrowdCamera,
+        policy: &LodPolicy,
+        views: &ViewLookup,
+        clip: ClipTiming,
+    ) -> FrameStats {
+        let t0 = Instant::now();
+        self.simulate(dt);
+        let t1 = Instant::now();
+        let mut stats = self.select_over(camera, policy, views, clip, dt);
+        stats.simulate_secs = (t1 - t0).as_secs_f64();
+        stats.select_secs = t1.elapsed().as_secs_f64();
+        stats
+    }
+}
+
+/// What one selection reads, shared by its runs of agents.
+struct SelectContext<'a> {
+    camera: &'a CrowdCamera,
+    policy: &'a LodPolicy,
+    frustum: Frustum,
+    radii: [f32; MAX_SPECIES],
+    texel_scale: [f32; MAX_SPECIES],
+    views: &'a ViewLookup,
+    clip: ClipTiming,
+    params: &'a CrowdParams,
+    species: &'a [Species],
+    gaits: Option<&'a Gaits>,
+    fading: bool,
+    fade_step: f32,
+    previous_selection: u32,
+    now: u32,
+    pos: &'a [Vec2],
+    kind: &'a [u8],
+    facing: &'a [Vec2],
+    variant: &'a [u32],
+    clip_playing: &'a [u16],
+    clip_fade: &'a [f32],
+}
+
+/// The state a selection writes, for one run of agents.
+struct SelectState<'a> {
+    level: &'a mut [Level],
+    view: &'a mut [u32],
+    clock: &'a mut [f32],
+    fade: &'a mut [f32],
+    fade_from: &'a mut [(Level, u32)],
+    seen: &'a mut [u32],
+    clip_from: &'a mut [(u16, f32)],
+}
+
+impl<'a> SelectState<'a> {
+    /// The first `mid` agents, and the rest.
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        let (level, level2) = self.level.split_at_mut(mid);
+        let (view, view2) = self.view.split_at_mut(mid);
+        let (clock, clock2) = self.clock.split_at_mut(mid);
+        let (fade, fade2) = self.fade.split_at_mut(mid);
+        let (fade_from, fade_from2) = self.fade_from.split_at_mut(mid);
+        let (seen, seen2) = self.seen.split_at_mut(mid);
+        let (clip_from, clip_from2) = self.clip_from.split_at_mut(mid);
+        (
+            Self {
+                level,
+                view,
+                clock,
+                fade,
+                fade_from,
+                seen,
+                clip_from,
+            },
+            Self {
+                level: level2,
+                view: view2,
+                clock: clock2,
+                fade: fade2,
+                fade_from: fade_from2,
+                seen: seen2,
+                clip_from: clip_from2,
+            },
+        )
+    }
+}
+
+/// One run's records (kind, level, record), in agent order, and its visible agents.
+#[derive(Default)]
+struct RunOutput {
+    records: Vec<(u8, Level, Instance)>,
+    visible: usize,
+}
+
+impl SelectContext<'_> {
+    /// Culls and chooses level, view and frame for the agents `first..` that `st` holds.
+    fn select_run(&self, first: usize, st: SelectState<'_>) -> RunOutput {
+        let mut out = RunOutput::default();
+        let fade_step = self.fade_step;
+        for j in 0..st.level.len() {
+            let i = first + j;
+            let k = self.kind[i] as usize;
             let (size, h, views, timing, gaits) = match k {
-                0 => (&self.params.size, self.params.height, views, clip, self.gaits.as_ref()),
+                0 => (&self.params.size, self.params.height, self.views, self.clip, self.gaits),
                 _ => {
                     let s = &self.species[k - 1];
                     (&s.size, s.height, &s.views, s.timing, s.gaits.as_ref())
                 }
             };
-            let radius = radii[k];
+            let radius = self.radii[k];
             let frames = timing.frames.max(1);
-            let p = a.pos[i];
+            let p = self.pos[i];
             let centre = Vec3::new(p.x, size.centre.y, p.y);
-            if !frustum.sphere_visible(centre, radius) {
+            if !self.frustum.sphere_visible(centre, radius) {
                 continue;
             }
-            let to_eye = camera.eye - centre;
+            let to_eye = self.camera.eye - centre;
             let distance = to_eye.length().max(1e-3);
-            let pixels = h * camera.focal_px / distance * texel_scale[k];
-            let previous = a.level[i];
-            let level = policy.choose(pixels, previous);
-            a.level[i] = level;
+            let pixels = h * self.camera.focal_px / distance * self.texel_scale[k];
+            let previous = st.level[j];
+            let level = self.policy.choose(pixels, previous);
+            st.level[j] = level;
             // The camera direction in the character's own frame (undo its heading).
-            let Vec2 { x: s, y: c } = a.facing[i];
+            let Vec2 { x: s, y: c } = self.facing[i];
             let local = Vec3::new(c * to_eye.x - s * to_eye.z, to_eye.y, s * to_eye.x + c * to_eye.z);
             // Meshes need no view. An image-based level keeps its view while that is within
             // VIEW_HYSTERESIS_RAD of the nearest one (a character turning about a view
@@ -901,7 +1089,7 @@ impl Crowd {
                 Level::Skinned | Level::Rigid => 0,
                 _ => {
                     let nearest = views.nearest(local).unwrap_or(0) as u32;
-                    let kept = a.view[i];
+                    let kept = st.view[j];
                     if level == previous && kept != nearest {
                         let dir = local.normalize_or_zero();
                         match (views.direction(kept as usize), views.direction(nearest as usize)) {
@@ -922,112 +1110,104 @@ impl Crowd {
             // blend keeps its precision however long the crowd runs.
             let (start, n) = match gaits {
                 Some(g) => {
-                    let s = &g.clips[(a.clip[i] as usize).min(g.clips.len() - 1)];
+                    let s = &g.clips[(self.clip_playing[i] as usize).min(g.clips.len() - 1)];
                     (s.start, s.frames)
                 }
                 None => (0, frames as u32),
             };
-            let (frame, blend) = clip_frame(&mut a.clock[i], timing.fps, start, n);
+            let (frame, blend) = clip_frame(&mut st.clock[j], timing.fps, start, n);
             // A new level, or a new baked view of the same image-based level: fade.
             // The mix's far impostors (under a quarter of a pixel per texel: a few dozen pixels
             // tall) switch views with a cut: there a view change is hardly visible, and they are
             // most of a crowd.
             let image = !matches!(level, Level::Skinned | Level::Rigid)
-                && !(level == Level::Impostor && matches!(policy, LodPolicy::Mixed(_)));
+                && !(level == Level::Impostor && matches!(self.policy, LodPolicy::Mixed(_)));
             // Only an agent drawn in the last selection has something on screen to fade from
             // (one coming into view, or back, starts clean); and views far apart (a coarse
             // bake) would show as two ghosts: those cut.
-            let was_drawn = a.seen[i] == previous_selection;
+            let was_drawn = st.seen[j] == self.previous_selection;
             let close = |u: u32, w: u32| match (views.direction(u as usize), views.direction(w as usize)) {
                 (Some(x), Some(y)) => x.dot(y) >= FADE_VIEWS_COS,
                 _ => false,
             };
             if !was_drawn {
-                a.fade[i] = 1.0;
-            } else if fading && (level != previous || (image && view != a.view[i] && close(view, a.view[i]))) {
-                a.fade_from[i] = (previous, a.view[i]);
-                a.fade[i] = 0.0;
+                st.fade[j] = 1.0;
+            } else if self.fading && (level != previous || (image && view != st.view[j] && close(view, st.view[j]))) {
+                st.fade_from[j] = (previous, st.view[j]);
+                st.fade[j] = 0.0;
             }
-            a.view[i] = view;
-            a.seen[i] = now;
+            st.view[j] = view;
+            st.seen[j] = self.now;
             let record = Instance {
                 pos: [p.x, p.y],
                 facing: [s, c],
                 view,
                 frame,
                 blend,
-                variant: a.variant[i] & VARIANT_SEED_MASK,
+                variant: self.variant[i] & VARIANT_SEED_MASK,
             };
+            let kind = k as u8;
             // An infinite step (`select`) ends every fade: a cut.
-            let f = if fade_step.is_finite() { a.fade[i] } else { 1.0 };
+            let f = if fade_step.is_finite() { st.fade[j] } else { 1.0 };
             if f < 1.0 {
-                let (from, from_view) = a.fade_from[i];
-                let lists = &mut self.instances[k];
-                lists[from as usize].push(Instance {
-                    view: from_view,
-                    variant: record.variant | fade_bits(f, true),
-                    ..record
-                });
-                lists[level as usize].push(Instance {
-                    variant: record.variant | fade_bits(f, false),
-                    ..record
-                });
-                a.fade[i] = f + if from != level {
+                let (from, from_view) = st.fade_from[j];
+                out.records.push((
+                    kind,
+                    from,
+                    Instance {
+                        view: from_view,
+                        variant: record.variant | fade_bits(f, true),
+                        ..record
+                    },
+                ));
+                out.records.push((
+                    kind,
+                    level,
+                    Instance {
+                        variant: record.variant | fade_bits(f, false),
+                        ..record
+                    },
+                ));
+                st.fade[j] = f + if from != level {
                     fade_step / LEVEL_FADE_SCALE
                 } else {
                     fade_step
                 };
             } else if let Some(g) = gaits
-                && a.clip_fade[i] < 1.0
+                && self.clip_fade[i] < 1.0
                 && fade_step.is_finite()
                 && was_drawn
             {
                 // A clip change: the clip left keeps playing under the dither while the new one
                 // comes in (meshes and images alike).
-                let (old, ref mut old_clock) = a.clip_from[i];
-                let s = &g.clips[(old as usize).min(g.clips.len() - 1)];
+                let (old, old_clock) = &mut st.clip_from[j];
+                let s = &g.clips[(*old as usize).min(g.clips.len() - 1)];
                 let (frame, blend) = clip_frame(old_clock, timing.fps, s.start, s.frames);
-                let c = a.clip_fade[i];
-                let list = &mut self.instances[k][level as usize];
-                list.push(Instance {
-                    frame,
-                    blend,
-                    variant: record.variant | fade_bits(c, true),
-                    ..record
-                });
-                list.push(Instance {
-                    variant: record.variant | fade_bits(c, false),
-                    ..record
-                });
+                let c = self.clip_fade[i];
+                out.records.push((
+                    kind,
+                    level,
+                    Instance {
+                        frame,
+                        blend,
+                        variant: record.variant | fade_bits(c, true),
+                        ..record
+                    },
+                ));
+                out.records.push((
+                    kind,
+                    level,
+                    Instance {
+                        variant: record.variant | fade_bits(c, false),
+                        ..record
+                    },
+                ));
             } else {
-                self.instances[k][level as usize].push(record);
+                out.records.push((kind, level, record));
             }
-            stats.visible += 1;
+            out.visible += 1;
         }
-        for lists in &self.instances {
-            for (n, list) in stats.per_level.iter_mut().zip(lists) {
-                *n += list.len();
-            }
-        }
-        stats
-    }
-
-    /// One frame: simulate then select, timed.
-    pub fn frame(
-        &mut self,
-        dt: f32,
-        camera: &CrowdCamera,
-        policy: &LodPolicy,
-        views: &ViewLookup,
-        clip: ClipTiming,
-    ) -> FrameStats {
-        let t0 = Instant::now();
-        self.simulate(dt);
-        let t1 = Instant::now();
-        let mut stats = self.select_over(camera, policy, views, clip, dt);
-        stats.simulate_secs = (t1 - t0).as_secs_f64();
-        stats.select_secs = t1.elapsed().as_secs_f64();
-        stats
+        out
     }
 }
 
