@@ -4,6 +4,18 @@ use std::path::{Path, PathBuf};
 
 use super::*;
 
+/// Seconds `bench crowd` spends timing one representation at one size, at most (about).
+pub const TIMED_SECS: f64 = 60.0;
+
+/// Frames to time of the `frames` asked when one takes `frame_secs` (from the warm-up): all
+/// of them while they fit in [`TIMED_SECS`], else as many as fit, at least one.
+pub fn timed_frames(frames: usize, frame_secs: f64) -> usize {
+    if !(frame_secs > 0.0) || frame_secs * frames as f64 <= TIMED_SECS {
+        return frames;
+    }
+    ((TIMED_SECS / frame_secs).floor() as usize).clamp(1, frames)
+}
+
 /// `bench crowd`: every representation at every size, one after the other on the same
 /// crowd and camera, each frame simulated, selected, uploaded, drawn and waited for.
 #[allow(clippy::too_many_arguments)]
@@ -172,19 +184,28 @@ pub fn bench_crowd(
                 }
                 (t.elapsed().as_secs_f64(), cpu, last)
             };
-            run(3);
-            let (secs, cpu, last) = run(frames);
-            let fps = frames as f64 / secs.max(1e-9);
-            let cpu_ms = 1e3 * cpu / frames as f64;
+            // A representation far too slow for the size (a million skinned meshes take
+            // seconds a frame) is timed over fewer frames, so the run stays within about
+            // TIMED_SECS per figure; the table says over how many.
+            let (warm, _, _) = run(3);
+            let timed = timed_frames(frames, warm / 3.0);
+            let (secs, cpu, last) = run(timed);
+            let fps = timed as f64 / secs.max(1e-9);
+            let cpu_ms = 1e3 * cpu / timed as f64;
             if !json {
+                let fewer = if timed < frames {
+                    format!(", {timed} of {frames} frames timed: too slow for more")
+                } else {
+                    String::new()
+                };
                 eprintln!(
-                    "  {count:>7} {name:<11} {fps:>9.2} fps  ({} drawn, {} draw calls; CPU {cpu_ms:.1} ms a frame, GPU wait {:.1} ms)",
+                    "  {count:>7} {name:<11} {fps:>9.2} fps  ({} drawn, {} draw calls; CPU {cpu_ms:.1} ms a frame, GPU wait {:.1} ms{fewer})",
                     last.frame.visible,
                     last.draw_calls,
-                    1e3 * (secs - cpu) / frames as f64,
+                    1e3 * (secs - cpu) / timed as f64,
                 );
             }
-            per_rep.push((name.to_string(), fps, cpu_ms, last));
+            per_rep.push((name.to_string(), fps, cpu_ms, timed, last));
         }
         // One frame of the three-level mix on its ground, to look at (the character at its
         // real size, spacing and camera following it).
@@ -235,13 +256,14 @@ pub fn bench_crowd(
                 full as f64 / 1e6,
             );
         }
-        for (name, fps, cpu_ms, last) in per_rep {
+        for (name, fps, cpu_ms, timed, last) in per_rep {
             rows.push(serde_json::json!({
                 "representation": name,
                 "count": count,
                 "fps": fps,
                 "ms_per_frame": 1e3 / fps,
                 "cpu_ms_per_frame": cpu_ms,
+                "frames_timed": timed,
                 "polypostor_over_this": poly.map(|p| p / fps),
                 "visible": last.frame.visible,
                 "draw_calls": last.draw_calls,
@@ -360,4 +382,21 @@ pub fn bench_stability(
         );
     }
     Ok(t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slow_representations_are_timed_over_fewer_frames() {
+        assert_eq!(timed_frames(10, 0.016), 10);
+        assert_eq!(timed_frames(10, 6.0), 10, "exactly the limit");
+        assert_eq!(timed_frames(10, 7.5), 8);
+        assert_eq!(timed_frames(10, 45.0), 1);
+        assert_eq!(timed_frames(10, 600.0), 1, "never none");
+        assert_eq!(timed_frames(10, 0.0), 10);
+        assert_eq!(timed_frames(10, f64::NAN), 10);
+        assert_eq!(timed_frames(1, 100.0), 1);
+    }
 }
