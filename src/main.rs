@@ -567,6 +567,10 @@ struct BakeArgs {
     /// (default 0.5).
     #[arg(long)]
     key_budget: Option<f64>,
+    /// Most views, as a share of all, that the key budget other views left unspent goes to,
+    /// worst views first (0 to 1; 0: each view spends only its own; default 0.1).
+    #[arg(long)]
+    key_share: Option<f64>,
     /// Views on the whole sphere instead of the upper hemisphere.
     #[arg(long)]
     full_sphere: bool,
@@ -607,6 +611,9 @@ impl BakeArgs {
         }
         if let Some(b) = self.key_budget {
             settings.key_budget = b;
+        }
+        if let Some(s) = self.key_share {
+            settings.key_share = s;
         }
         if let Some(r) = &self.representation {
             settings.representations = r.clone();

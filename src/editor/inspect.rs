@@ -182,6 +182,10 @@ impl Inspector {
         let caps = doc.project.caps.clone();
         let mut options = report.bake_options(&character);
         options.overrides = doc.project.overrides.clone();
+        // A view the bake's shared key budget gave more keeps it (the keys the bake chose).
+        if let Some(b) = report.views.get(view).and_then(|v| v.key_budget) {
+            options.keys.budget = b;
+        }
         let made_for = (doc.project.segmentation.clone(), doc.project.caps.clone());
         let names: Vec<String> = segmentation.parts.iter().map(|p| p.name.clone()).collect();
         let bake_key = report.key_frame;

@@ -125,6 +125,7 @@ pub fn cheap_keys(views: usize, resolution: u32) -> polypostor::bake::pipeline::
             max_keys: 4,
             min_gain_db: 0.0,
             budget: 4.0,
+            ..Default::default()
         },
         ..Default::default()
     }

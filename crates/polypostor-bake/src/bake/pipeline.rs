@@ -262,6 +262,9 @@ pub struct ViewResult {
     pub ssim: Vec<f64>,
     /// Every part's colour image per frame, when [`BakeOptions::keep_frame_images`] is set.
     pub frame_colors: Vec<Vec<image::RgbaImage>>,
+    /// The key budget ([`KeyOptions::budget`]) this view's keys were chosen with when the
+    /// bake gave it more than its own ([`share_key_budget`]); `None`: the bake's.
+    pub key_budget: Option<f64>,
 }
 
 /// A finished bake.
@@ -705,16 +708,7 @@ pub fn refit_view(
         if refit.len() < parts_n {
             // Kept parts go back to their first key's PSNR and SSIM before the choice.
             for p in (0..parts_n).filter(|p| !refit.contains(p)) {
-                let r = &mut parts[p];
-                if let Some(fit) = &r.fit {
-                    for f in (0..frames).filter(|&f| r.frame_key.get(f).is_some_and(|&k| k != 0)) {
-                        let (q, s) = keys::frame_quality(fit, &data.tiles[p][fit.key_frame], &data.tiles[p][f], f);
-                        r.psnr[f] = q;
-                        r.ssim[f] = s;
-                    }
-                }
-                r.extra.clear();
-                r.frame_key.clear();
+                first_key_only(data, p, &mut parts[p]);
             }
         }
         add_view_keys(data, &mut parts, options, key_options, manual);
@@ -728,6 +722,64 @@ pub fn refit_view(
         order,
         error,
     }
+}
+
+/// Takes part `p`'s key images after the first away: every frame drawn from the first again,
+/// with its PSNR and SSIM.
+fn first_key_only(data: &ViewData, p: usize, r: &mut PartResult) {
+    let frames = data.tiles.first().map_or(0, |t| t.len());
+    if let Some(fit) = &r.fit {
+        for f in (0..frames).filter(|&f| r.frame_key.get(f).is_some_and(|&k| k != 0)) {
+            let (q, s) = keys::frame_quality(fit, &data.tiles[p][fit.key_frame], &data.tiles[p][f], f);
+            r.psnr[f] = q;
+            r.ssim[f] = s;
+        }
+    }
+    r.extra.clear();
+    r.frame_key.clear();
+}
+
+/// The key images of a fitted view chosen again with `key_options` (another budget), its
+/// first keys kept: what [`refit_view`] from scratch gives with those options, without
+/// fitting the first keys again.
+pub fn rechoose_view_keys(
+    data: &ViewData,
+    view: &mut ViewResult,
+    options: &PartFitOptions,
+    key_options: &KeyOptions,
+    ov: Option<&ViewOverride>,
+) {
+    for (p, r) in view.parts.iter_mut().enumerate() {
+        first_key_only(data, p, r);
+    }
+    add_view_keys(
+        data,
+        &mut view.parts,
+        options,
+        key_options,
+        ov.and_then(|o| o.keys.as_deref()),
+    );
+    let error = composite_error(data, &view.parts, &view.order, view.key_frame);
+    view.psnr = error.psnr;
+    view.psnr_static = error.psnr_static;
+    view.ssim = error.ssim;
+}
+
+/// Bytes of a view's first key images and of its key images after them.
+pub fn view_key_bytes(view: &ViewResult) -> (f64, f64) {
+    let first = view
+        .parts
+        .iter()
+        .filter_map(|p| p.fit.as_ref())
+        .map(keys::key_bytes)
+        .sum();
+    let extra = view
+        .parts
+        .iter()
+        .flat_map(|p| &p.extra)
+        .map(|e| keys::key_bytes(&e.fit))
+        .sum();
+    (first, extra)
 }
 
 /// Fits a whole view ([`refit_view`] from scratch) and keeps what the bake writes.
@@ -763,6 +815,7 @@ pub fn fit_view(
         psnr_static: fit.error.psnr_static,
         ssim: fit.error.ssim,
         frame_colors,
+        key_budget: None,
     }
 }
 
@@ -1056,7 +1109,10 @@ pub fn bake_sharing(
     }
     stage_secs.insert("render".into(), render_secs);
     stage_secs.insert("fit".into(), t3.elapsed().as_secs_f64() - render_secs);
-    let views: Vec<ViewResult> = results.into_iter().map(|r| r.expect("every view fitted")).collect();
+    let mut views: Vec<ViewResult> = results.into_iter().map(|r| r.expect("every view fitted")).collect();
+    let t4 = Instant::now();
+    share_key_budget(ctx, &prepared, options, &mut views, cancel)?;
+    stage_secs.insert("shared key budget".into(), t4.elapsed().as_secs_f64());
     Ok(Bake {
         options: options.clone(),
         frame_times: prepared.times,
@@ -1068,6 +1124,82 @@ pub fn bake_sharing(
         stage_secs,
         adapter: ctx.adapter_description(),
     })
+}
+
+/// The pack-wide key budget: each view may add key images up to [`KeyOptions::budget`] of its
+/// first ones; what the views left unspent goes to the worst views (lowest mean PSNR first),
+/// each getting up to as much again, and their keys are chosen again with it (their first
+/// keys kept). At most [`KeyOptions::share`] of the views; views whose keys the artist set
+/// keep them. The pack never spends more than the per-view budgets would have allowed in all.
+/// A view's new budget is kept in [`ViewResult::key_budget`] so every later re-fit of it
+/// (re-bake, inspector) chooses the same keys.
+pub fn share_key_budget(
+    ctx: &GpuContext,
+    prepared: &Prepared,
+    options: &BakeOptions,
+    views: &mut [ViewResult],
+    cancel: &AtomicBool,
+) -> Result<(), BakeError> {
+    let k = options.keys;
+    if k.max_keys < 2 || !(k.budget > 0.0) || !(k.share > 0.0) || views.len() < 2 {
+        return Ok(());
+    }
+    let bytes: Vec<(f64, f64)> = views.iter().map(view_key_bytes).collect();
+    let mut pool: f64 = bytes
+        .iter()
+        .map(|(first, extra)| (k.budget * first - extra).max(0.0))
+        .sum();
+    let manual = |v: usize| {
+        options
+            .overrides
+            .view(prepared.basis, v)
+            .is_some_and(|o| o.keys.is_some())
+    };
+    let mean = |v: &ViewResult| v.psnr.iter().sum::<f64>() / v.psnr.len().max(1) as f64;
+    let mut worst: Vec<usize> = (0..views.len()).filter(|&v| !manual(v) && bytes[v].0 > 0.0).collect();
+    worst.sort_by(|&a, &b| mean(&views[a]).total_cmp(&mean(&views[b])).then(a.cmp(&b)));
+    let most = (views.len() as f64 * k.share.min(1.0)).ceil() as usize;
+    let mut grants = Vec::new();
+    for &v in worst.iter().take(most) {
+        let grant = pool.min(k.budget * bytes[v].0);
+        if grant < 0.05 * k.budget * bytes[v].0 {
+            break;
+        }
+        pool -= grant;
+        grants.push((v, k.budget + grant / bytes[v].0));
+    }
+    // Renders on this thread (one GPU context), choices on the pool.
+    let mut work = Vec::with_capacity(grants.len());
+    for &(v, budget) in &grants {
+        if cancel.load(Ordering::Relaxed) {
+            return Err(BakeError::Cancelled);
+        }
+        let images = prepared.render_images(ctx, v)?;
+        work.push((v, budget, extract(images, &prepared.timeline.spans)));
+    }
+    let redone: Vec<(usize, ViewResult)> = work
+        .into_par_iter()
+        .map(|(v, budget, data)| {
+            let mut view = views[v].clone();
+            let ov = options.overrides.view(prepared.basis, v);
+            let key_options = KeyOptions { budget, ..k };
+            rechoose_view_keys(&data, &mut view, &options.fit, &key_options, ov);
+            view.key_budget = Some(budget);
+            (v, view)
+        })
+        .collect();
+    for (v, view) in redone {
+        log::debug!(
+            "shared key budget, view {v}: {:.2} -> {:.2} dB, added keys {:.0} -> {:.0} B (first keys {:.0} B)",
+            mean(&views[v]),
+            mean(&view),
+            bytes[v].1,
+            view_key_bytes(&view).1,
+            bytes[v].0
+        );
+        views[v] = view;
+    }
+    Ok(())
 }
 
 /// What [`rebake`] re-did.
@@ -1218,7 +1350,22 @@ pub fn rebake_sharing(
             view.psnr_static = fit.error.psnr_static;
             view.ssim = fit.error.ssim;
             view.hidden = data.hidden;
+            view.key_budget = None;
         }
+        // The shared key budget decided again over every view, as the full bake would:
+        // views it gave more go back to their own budget first.
+        for v in 0..views.len() {
+            if views[v].key_budget.is_some() {
+                if cancel.load(Ordering::Relaxed) {
+                    return Err(BakeError::Cancelled);
+                }
+                let data = prepared.render(ctx, v)?;
+                let ov = options.overrides.view(basis, v);
+                rechoose_view_keys(&data, &mut views[v], &options.fit, &options.keys, ov);
+                views[v].key_budget = None;
+            }
+        }
+        share_key_budget(ctx, &prepared, options, &mut views, cancel)?;
     }
     let mut stage_secs = BTreeMap::new();
     stage_secs.insert("rebake".into(), t0.elapsed().as_secs_f64());

@@ -58,6 +58,10 @@ pub struct ViewReport {
     /// occlusion graph the order comes from).
     #[serde(default)]
     pub hidden: Vec<Vec<f64>>,
+    /// The key budget this view's keys were chosen with when the bake's shared budget gave
+    /// it more than the settings' (`pipeline::share_key_budget`); re-fits use it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub key_budget: Option<f64>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -304,6 +308,7 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
             key_frame: v.key_frame,
             keys: view_keys_of(v),
             hidden: v.hidden.clone(),
+            key_budget: v.key_budget,
             parts: v
                 .parts
                 .iter()

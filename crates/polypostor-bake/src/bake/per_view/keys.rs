@@ -33,6 +33,10 @@ pub struct KeyOptions {
     /// Bytes of added key images a view may spend, as a fraction of its first key images'.
     /// Default value: 0.5 (packs at most about 1.5× the single-key size).
     pub budget: f64,
+    /// Most views, as a share of all, that the budget other views left unspent goes to
+    /// (worst first; `pipeline::share_key_budget`). 0: each view spends only its own.
+    /// Default value: 0.1.
+    pub share: f64,
 }
 
 impl Default for KeyOptions {
@@ -41,6 +45,7 @@ impl Default for KeyOptions {
             max_keys: 4,
             min_gain_db: 0.5,
             budget: 0.5,
+            share: 0.1,
         }
     }
 }
@@ -51,6 +56,7 @@ impl KeyOptions {
         max_keys: 1,
         min_gain_db: 0.5,
         budget: 0.0,
+        share: 0.0,
     };
 }
 

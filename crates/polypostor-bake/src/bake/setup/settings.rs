@@ -35,6 +35,8 @@ pub struct BakeSettings {
     pub key_gain_db: f64,
     /// Bytes of added key images a view may spend, as a fraction of its first key images'.
     pub key_budget: f64,
+    /// Most views, as a share of all, that the key budget other views left unspent goes to.
+    pub key_share: f64,
     /// The exact dynamic programme instead of the fast mode.
     pub exhaustive: bool,
     /// Let fitted triangles fold over.
@@ -59,6 +61,7 @@ impl Default for BakeSettings {
             max_keys: keys.max_keys,
             key_gain_db: keys.min_gain_db,
             key_budget: keys.budget,
+            key_share: keys.share,
             exhaustive: false,
             allow_folds: false,
             paper_objective: false,
@@ -115,6 +118,9 @@ impl BakeSettings {
         if !(self.key_budget.is_finite() && (0.0..=16.0).contains(&self.key_budget)) {
             return bad("key-budget", format!("{}: choose 0 to 16", self.key_budget));
         }
+        if !(self.key_share.is_finite() && (0.0..=1.0).contains(&self.key_share)) {
+            return bad("key-share", format!("{}: choose 0 to 1", self.key_share));
+        }
         if let Err(e) = polypostor_runtime::reps::RepSet::parse(&self.representations) {
             return bad("representation", format!("'{}': {e}", self.representations));
         }
@@ -157,6 +163,7 @@ impl BakeSettings {
                 max_keys: self.max_keys,
                 min_gain_db: self.key_gain_db,
                 budget: self.key_budget,
+                share: self.key_share,
             },
             textures: self.textures,
             png: self.png,
@@ -210,6 +217,7 @@ mod tests {
                 },
                 "key-budget",
             ),
+            (BakeSettings { key_share: 1.5, ..d() }, "key-share"),
             (
                 BakeSettings {
                     representations: "sprites".into(),

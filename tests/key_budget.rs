@@ -1,0 +1,80 @@
+//! The pack-wide key budget (`pipeline::share_key_budget`): what views leave unspent goes to
+//! the worst views, the pack never spends more than the per-view budgets allowed in all, and
+//! a view given more keeps its budget, so fitting it again from scratch (the inspector, a
+//! re-bake) chooses exactly the keys the bake wrote.
+
+mod common;
+
+use polypostor::bake::caps::CapOverrides;
+use polypostor::bake::pipeline::{BakeOptions, KeyFrame, Prepared, refit_view, view_key_bytes};
+use polypostor::bake::segment::auto_segment;
+
+#[test]
+fn unspent_key_budget_goes_to_the_worst_views_and_refits_reproduce_it() {
+    let ctx = common::gpu();
+    let options = BakeOptions {
+        views: 10,
+        resolution: 64,
+        fps: 10.0,
+        key_frame: KeyFrame::Frame(0),
+        ..Default::default()
+    };
+    let base = options.keys.budget;
+    assert!(options.keys.max_keys > 1 && base > 0.0, "keys on by default");
+    let (c, bake) = common::bake_default(&ctx, &options);
+    let mean = |p: &[f64]| p.iter().sum::<f64>() / p.len() as f64;
+
+    // Never more than the per-view budgets in all.
+    let (first, extra): (f64, f64) = bake
+        .views
+        .iter()
+        .map(view_key_bytes)
+        .fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+    assert!(
+        extra <= base * first * (1.0 + 1e-9),
+        "added {extra} B, allowed {} B",
+        base * first
+    );
+    let granted: Vec<usize> = (0..bake.views.len())
+        .filter(|&v| bake.views[v].key_budget.is_some())
+        .collect();
+    assert!(
+        !granted.is_empty(),
+        "no view was given more budget: the test tests nothing"
+    );
+    assert!(granted.len() <= 1, "at most a tenth of 10 views, rounded up");
+    // The worst view by its own budget's fit is the one given more.
+    let seg = auto_segment(&c);
+    let prepared = Prepared::new(&ctx, &c, &seg, &CapOverrides::default(), &options).unwrap();
+    let mut own_means = Vec::new();
+    for (v, view) in bake.views.iter().enumerate() {
+        let data = prepared.render(&ctx, v).unwrap();
+        // From scratch with the budget the bake recorded: the same keys, the same error.
+        let keys = polypostor::bake::keys::KeyOptions {
+            budget: view.key_budget.unwrap_or(base),
+            ..options.keys
+        };
+        let fit = refit_view(&data, bake.key_frame, &options.fit, &keys, None, None);
+        assert_eq!(fit.error.psnr, view.psnr, "view {v}: a refit differs from the bake");
+        for (a, b) in fit.parts.iter().zip(&view.parts) {
+            assert_eq!(a.key_frames(), b.key_frames(), "view {v}");
+            assert_eq!(a.frame_key, b.frame_key, "view {v}");
+        }
+        // With the settings' budget alone: what the view had before the sharing.
+        let alone = refit_view(&data, bake.key_frame, &options.fit, &options.keys, None, None);
+        own_means.push(mean(&alone.error.psnr));
+        if let Some(b) = view.key_budget {
+            assert!(b > base, "view {v}: given {b}, base {base}");
+            assert!(
+                mean(&view.psnr) >= mean(&alone.error.psnr) - 1e-9,
+                "view {v}: more budget made it worse ({} vs {})",
+                mean(&view.psnr),
+                mean(&alone.error.psnr)
+            );
+        }
+    }
+    let worst = (0..own_means.len())
+        .min_by(|&a, &b| own_means[a].total_cmp(&own_means[b]))
+        .unwrap();
+    assert_eq!(granted[0], worst, "means by own budget: {own_means:?}");
+}
