@@ -87,11 +87,16 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Regenerate the built-in default character (.glb).
+    /// Regenerate the built-in default character (.glb), or write the generated quadruped.
     GenerateDefault {
-        /// Output path (default: assets/characters/default_humanoid.glb).
+        /// Output path (default: assets/characters/default_humanoid.glb; with --quadruped,
+        /// quadruped.glb in the current folder).
         #[arg(long, short)]
         out: Option<PathBuf>,
+        /// Write the generated long-bodied quadruped instead (Walk and Trot with root motion,
+        /// Idle; joints named as a Blender rig names them) for trying the tool beyond the humanoid.
+        #[arg(long)]
+        quadruped: bool,
     },
 }
 
@@ -262,7 +267,7 @@ fn main() -> ExitCode {
             normals,
             unlit,
         }) => render(&file, &out, clip.as_deref(), time, size, yaw, pitch, normals, unlit),
-        Some(Command::GenerateDefault { out }) => generate_default(out),
+        Some(Command::GenerateDefault { out, quadruped }) => generate_default(out, quadruped),
         Some(Command::Compare {
             pack_dir,
             character,
@@ -369,11 +374,12 @@ fn inspect(file: &Path, json: bool) -> anyhow::Result<()> {
         Ok(c) => {
             let s = polypostor::summary::Summary::of(&c);
             // How each clip moves (what a crowd does with it).
-            let motion: Vec<(String, polypostor::timeline::ClipMotion)> = (0..c.clips.len())
+            let motion: Vec<(String, polypostor::timeline::ClipMotion, f32)> = (0..c.clips.len())
                 .map(|i| {
                     (
                         c.clips[i].name.clone(),
                         polypostor::timeline::measure_motion(&c, Some(i)),
+                        c.clips[i].in_place_velocity.length(),
                     )
                 })
                 .collect();
@@ -381,10 +387,11 @@ fn inspect(file: &Path, json: bool) -> anyhow::Result<()> {
                 let mut v = serde_json::to_value(&s)?;
                 v["clip_motion"] = motion
                     .iter()
-                    .map(|(name, m)| {
+                    .map(|(name, m, root)| {
                         serde_json::json!({
                             "name": name,
                             "ground_speed": m.ground_speed(),
+                            "root_motion_taken_out": root,
                             "loops": m.loops(),
                             "locomotion": m.is_locomotion(),
                             "closure": m.closure,
@@ -398,9 +405,9 @@ fn inspect(file: &Path, json: bool) -> anyhow::Result<()> {
                 print!("{}", s.to_text());
                 if !motion.is_empty() {
                     println!("clip motion (ground speed in scene units/s; closure, contact and spread as measured)");
-                    for (name, m) in &motion {
+                    for (name, m, root) in &motion {
                         println!(
-                            "  {:<24} {:>8.3}/s  {:<16} closure {:.3}  contact {:.2}  spread {:.2}",
+                            "  {:<24} {:>8.3}/s  {:<16} closure {:.3}  contact {:.2}  spread {:.2}{}",
                             name,
                             m.ground_speed(),
                             if m.is_locomotion() {
@@ -412,7 +419,12 @@ fn inspect(file: &Path, json: bool) -> anyhow::Result<()> {
                             },
                             m.closure,
                             m.contact,
-                            m.spread
+                            m.spread,
+                            if *root > 0.0 {
+                                format!("  (root motion {root:.3}/s played in place)")
+                            } else {
+                                String::new()
+                            }
                         );
                     }
                 }
@@ -501,10 +513,20 @@ fn render(
     Ok(())
 }
 
-fn generate_default(out: Option<PathBuf>) -> anyhow::Result<()> {
-    let out = out.unwrap_or_else(|| polypostor::default_character::default_path(&repo_root()));
+fn generate_default(out: Option<PathBuf>, quadruped: bool) -> anyhow::Result<()> {
+    let out = out.unwrap_or_else(|| {
+        if quadruped {
+            PathBuf::from("quadruped.glb")
+        } else {
+            polypostor::default_character::default_path(&repo_root())
+        }
+    });
     polypostor::safe_fs::check_output_file(&out, polypostor::safe_fs::OutputFile::Glb).map_err(anyhow::Error::msg)?;
-    let bytes = polypostor::default_character::generate_glb();
+    let bytes = if quadruped {
+        polypostor::samples::quadruped_glb()
+    } else {
+        polypostor::default_character::generate_glb()
+    };
     polypostor::safe_fs::write_file_atomic(&out, &bytes).map_err(anyhow::Error::msg)?;
     eprintln!("wrote {} ({} bytes)", out.display(), bytes.len());
     Ok(())

@@ -38,7 +38,16 @@ impl Pose {
                 apply_channel(ch, t, local);
             }
         }
-        Self::from_locals(character, locals)
+        let mut pose = Self::from_locals(character, locals);
+        let shift = -clip.in_place_velocity * t;
+        if shift != Vec3::ZERO && shift.is_finite() {
+            // Root motion taken out: the whole character goes back by what it travelled.
+            let back = Mat4::from_translation(shift);
+            for m in pose.world_from_node.iter_mut().chain(pose.skin_from_bind.iter_mut()) {
+                *m = back * *m;
+            }
+        }
+        pose
     }
 
     /// Pose of clip `clip_index`, or the rest pose when there is no such clip.
@@ -266,6 +275,7 @@ mod tests {
                 name: "c".into(),
                 duration_secs: 1.0,
                 channels: vec![channel],
+                in_place_velocity: Vec3::ZERO,
             }],
             ..Default::default()
         }

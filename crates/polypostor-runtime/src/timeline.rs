@@ -363,6 +363,26 @@ pub fn ground_speed(character: &Character, clip: Option<usize>) -> f32 {
     measure_motion(character, clip).ground_speed()
 }
 
+/// Makes every locomotion clip with root motion play in place: its measured root velocity
+/// goes into [`Clip::in_place_velocity`](crate::character::Clip::in_place_velocity), which
+/// sampling takes out, so bakes, comparisons and crowd meshes see the character walk on the
+/// spot while the crowd carries it at the same ground speed (which stays as measured: the
+/// planted feet now slide back at it). A clip that is not steady locomotion (a jump forward,
+/// a fall, a one-shot) keeps its travel, as authored. Returns the names of the clips changed
+/// with their speed.
+pub fn play_in_place(character: &mut Character) -> Vec<(String, f32)> {
+    let mut changed = Vec::new();
+    for i in 0..character.clips.len() {
+        character.clips[i].in_place_velocity = Vec3::ZERO;
+        let m = measure_motion(character, Some(i));
+        if m.is_locomotion() && m.root.length() >= LOCOMOTION_MIN_SPEED * m.height && m.root.is_finite() {
+            character.clips[i].in_place_velocity = Vec3::new(m.root.x, 0.0, m.root.y);
+            changed.push((character.clips[i].name.clone(), m.root.length()));
+        }
+    }
+    changed
+}
+
 /// The horizontal velocities (x, z) behind [`ground_speed`]: the root motion's and the
 /// planted feet's (zero vectors for the rest pose, an empty clip or an empty mesh).
 pub fn ground_velocities(character: &Character, clip: Option<usize>) -> (Vec2, Vec2) {
@@ -593,6 +613,25 @@ mod tests {
             (moving - in_place).abs() < 0.1 * in_place,
             "{moving} against {in_place}"
         );
+        // Played in place: the root motion is found and taken out, so every pose is the
+        // generated in-place walk's again (an independent answer: the clip before the root
+        // motion was added), and the ground speed stays what it was.
+        let changed = play_in_place(&mut c);
+        assert_eq!(changed.len(), 1, "{changed:?}");
+        assert_eq!(changed[0].0, "Walk");
+        let original = crate::default_character::generate();
+        let height = measure_motion(&original, Some(walk)).height;
+        for k in 0..8 {
+            let t = d * k as f32 / 8.0;
+            let a = skin_vertices(&c, &Pose::sample(&c, &c.clips[walk], t)).0;
+            let b = skin_vertices(&original, &Pose::sample(&original, &original.clips[walk], t)).0;
+            let off = a.iter().zip(&b).map(|(x, y)| (*x - *y).length()).sum::<f32>() / a.len() as f32;
+            assert!(off < 0.01 * height, "frame at {t} s is {off} off the in-place walk");
+        }
+        let (root3, _) = ground_velocities(&c, Some(walk));
+        assert!(root3.length() < 0.05 * in_place, "root {root3} left");
+        let again = ground_speed(&c, Some(walk));
+        assert!((again - in_place).abs() < 0.1 * in_place, "{again} against {in_place}");
         // A hundred times larger: a hundred times faster.
         let mut big = crate::default_character::generate();
         let r = big.skeleton.nodes.iter().position(|n| n.parent.is_none()).unwrap();
@@ -636,6 +675,15 @@ mod tests {
         });
         let m = measure_motion(&c, Some(walk));
         assert!(!m.loops() && !m.is_locomotion() && m.ground_speed() == 0.0, "{m:?}");
+        // Nor is it played in place: what is not steady locomotion keeps its travel.
+        let mut forward = c.clone();
+        if let Some(ch) = forward.clips[walk].channels.last_mut()
+            && let ChannelValues::Translation(vals) = &mut ch.values
+        {
+            vals[1].z += 2.0;
+        }
+        assert!(play_in_place(&mut forward).is_empty());
+        assert_eq!(forward.clips[walk].in_place_velocity, Vec3::ZERO);
         let t = Timeline::measured(&c, &[Some(walk), Some(idle)], 10.0).unwrap();
         assert!(!t.spans[0].looping && t.spans[1].looping);
         // A clip that does not loop holds its last frame.

@@ -177,6 +177,11 @@ pub struct Clip {
     /// The animated properties; a node without a channel keeps its rest transform. Empty for a
     /// clip all of whose channels were skipped (and for every clip of a file without a skin).
     pub channels: Vec<Channel>,
+    /// Horizontal velocity `(x, 0, z)` in model units per second that sampling takes out, so
+    /// the clip plays in place: a locomotion clip's root motion, found at import by
+    /// [`crate::timeline::play_in_place`] (the crowd moves the character; its ground speed is
+    /// kept). Zero for a clip played as authored.
+    pub in_place_velocity: Vec3,
 }
 
 /// An RGBA8 texture, stored as sRGB-encoded bytes (as in the file).

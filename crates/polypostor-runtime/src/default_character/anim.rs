@@ -175,6 +175,7 @@ fn sample(name: &str, duration: f32, f: fn(f32) -> Pose) -> Clip {
         name: name.into(),
         duration_secs: times[keys],
         channels,
+        in_place_velocity: Vec3::ZERO,
     }
 }
 

@@ -130,6 +130,10 @@ pub fn import_slice(bytes: &[u8], base_dir: Option<&Path>, name: &str) -> Result
         decoded_texture_bytes: Default::default(),
     }
     .build(name)
+    .map(|mut character| {
+        crate::timeline::play_in_place(&mut character);
+        character
+    })
 }
 
 fn check_asset(root: &json::Root, warnings: &mut Vec<String>) -> Result<(), ImportError> {
@@ -697,6 +701,7 @@ impl Builder<'_> {
                 name,
                 duration_secs: duration,
                 channels,
+                in_place_velocity: glam::Vec3::ZERO,
             });
         }
         if !morph_clips.is_empty() {
