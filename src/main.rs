@@ -586,9 +586,13 @@ struct BakeArgs {
     #[arg(long)]
     key_gain_db: Option<f64>,
     /// Bytes of added key images a view may spend, as a fraction of its first key images'
-    /// (default 0.5).
+    /// (default 0.25).
     #[arg(long)]
     key_budget: Option<f64>,
+    /// Vertices of each part's polygon in the pack (3 to 40; default 40, every fitted
+    /// vertex; fewer are chosen by deformation-aware simplification: a smaller pack).
+    #[arg(long)]
+    polygon_vertices: Option<usize>,
     /// Most views, as a share of all, that the key budget other views left unspent goes to,
     /// worst views first (0 to 1; 0: each view spends only its own; default 0.1).
     #[arg(long)]
@@ -636,6 +640,9 @@ impl BakeArgs {
         }
         if let Some(s) = self.key_share {
             settings.key_share = s;
+        }
+        if let Some(n) = self.polygon_vertices {
+            settings.polygon_vertices = n;
         }
         if let Some(r) = &self.representation {
             settings.representations = r.clone();

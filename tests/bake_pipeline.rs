@@ -42,7 +42,7 @@ fn small_bake_of_the_default_character() {
                 .fit
                 .as_ref()
                 .unwrap_or_else(|| panic!("view {v} part {p}: {:?}", part.problem));
-            assert!(fit.kept.len() <= 20 && fit.kept.len() >= 3);
+            assert!(fit.kept.len() <= polypostor::bake::part_fit::DEFAULT_POLYGON_VERTICES && fit.kept.len() >= 3);
             assert_eq!(fit.triangles.len(), fit.kept.len() - 2);
         }
         eprintln!(

@@ -478,11 +478,11 @@ pub fn estimate(
     let r = resolution as u64;
     let atlas = v * (r2 * 48 / 100 + 21 * r) * 5;
     let texture_bytes = texture_bytes * 4 / 3;
-    // Per view, part and frame 20 positions of 4 bytes, about 10 % more for the extra keys'
-    // polygons (they hold only the frames they draw); per view and part the UVs and
-    // triangles. Against the packs written (default character, 128²): one clip at 24 views
-    // 4 % under, four clips at 137 views 8 % over (their idle key images crop tighter).
-    let poly_geometry = v * p * f * 20 * 4 * 11 / 10 + v * p * 18 * 3 * 2;
+    // Per view, part and frame the polygon's positions (4 bytes each), about 10 % more for
+    // the extra keys' polygons (they hold only the frames they draw); per view and part the
+    // UVs and triangles.
+    let nv = crate::bake::part_fit::DEFAULT_POLYGON_VERTICES as u64;
+    let poly_geometry = v * p * f * nv * 4 * 11 / 10 + v * p * ((nv - 2) * 3 * 2 + nv * 4);
     Estimate {
         polypostor: atlas + poly_geometry,
         polypostor_atlas: atlas,

@@ -16,7 +16,10 @@ pub struct PartFitOptions {
     pub key_vertices: usize,
     /// Vertices of every frame's polygon T. Default value: 50.
     pub frame_vertices: usize,
-    /// Vertices after deformation-aware simplification. Default value: 20.
+    /// Vertices after deformation-aware simplification (at most `key_vertices`). Default
+    /// value: 40, every vertex of S kept (the paper's 20 lost 1.0–1.8 dB on every shared
+    /// character for a few percent of the pack: the interior warp, not only the outline, needs
+    /// them; see the README's "Polygon vertices").
     pub final_vertices: usize,
     /// Exact DP over every target vertex (`O(n·m³)`) instead of the fast mode.
     /// Default value: false.
@@ -81,6 +84,9 @@ pub struct PartFitOptions {
     pub restart_trust: f64,
 }
 
+/// Vertices of each part's polygon in the pack ([`PartFitOptions::final_vertices`]).
+pub const DEFAULT_POLYGON_VERTICES: usize = 40;
+
 /// Error per source pixel above which the fast mode restarts from a coarse global solution.
 pub const DEFAULT_RESTART_THRESHOLD: f64 = 0.06;
 
@@ -95,7 +101,7 @@ impl Default for PartFitOptions {
         Self {
             key_vertices: 40,
             frame_vertices: 50,
-            final_vertices: 20,
+            final_vertices: DEFAULT_POLYGON_VERTICES,
             exhaustive: false,
             fold_free: true,
             window: DEFAULT_WINDOW,
@@ -979,7 +985,14 @@ mod tests {
     #[test]
     fn fits_a_moving_textured_shape_and_simplifies_to_the_final_size() {
         let t = tiles(5);
-        let fit = fit_part(&t, 0, &PartFitOptions::default(), &[]).unwrap();
+        // By default every fitted vertex is kept.
+        let full = fit_part(&t, 0, &PartFitOptions::default(), &[]).unwrap();
+        assert_eq!(full.kept.len(), full.key_polygon.len().min(DEFAULT_POLYGON_VERTICES));
+        let options = PartFitOptions {
+            final_vertices: 20,
+            ..Default::default()
+        };
+        let fit = fit_part(&t, 0, &options, &[]).unwrap();
         assert!(
             fit.key_polygon.len() <= 42 && fit.key_polygon.len() >= 30,
             "{}",

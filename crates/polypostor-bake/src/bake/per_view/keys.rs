@@ -44,7 +44,7 @@ impl Default for KeyOptions {
         Self {
             max_keys: 4,
             min_gain_db: 0.5,
-            budget: 0.5,
+            budget: 0.25,
             share: 0.1,
         }
     }

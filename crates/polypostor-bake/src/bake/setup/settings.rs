@@ -45,6 +45,9 @@ pub struct BakeSettings {
     pub paper_objective: bool,
     /// The fast mode without restarts.
     pub no_restarts: bool,
+    /// Vertices of each part's polygon in the pack (3 to the fitted polygon's 40; fewer are
+    /// chosen by deformation-aware simplification).
+    pub polygon_vertices: usize,
 }
 
 impl Default for BakeSettings {
@@ -66,6 +69,7 @@ impl Default for BakeSettings {
             allow_folds: false,
             paper_objective: false,
             no_restarts: false,
+            polygon_vertices: crate::bake::part_fit::DEFAULT_POLYGON_VERTICES,
         }
     }
 }
@@ -124,6 +128,13 @@ impl BakeSettings {
         if let Err(e) = polypostor_runtime::reps::RepSet::parse(&self.representations) {
             return bad("representation", format!("'{}': {e}", self.representations));
         }
+        let most = crate::bake::part_fit::PartFitOptions::default().key_vertices;
+        if !(3..=most).contains(&self.polygon_vertices) {
+            return bad(
+                "polygon-vertices",
+                format!("{}: choose 3 to {most}", self.polygon_vertices),
+            );
+        }
         if self.exhaustive && self.no_restarts {
             return bad("no-restarts", "applies to the fast mode, not with --exhaustive".into());
         }
@@ -150,6 +161,7 @@ impl BakeSettings {
             fps: self.fps,
             fit: crate::bake::part_fit::PartFitOptions {
                 exhaustive: self.exhaustive,
+                final_vertices: self.polygon_vertices,
                 fold_free: !self.allow_folds,
                 charge_missed_coverage: !self.paper_objective,
                 restart_threshold: if self.no_restarts {
@@ -218,6 +230,20 @@ mod tests {
                 "key-budget",
             ),
             (BakeSettings { key_share: 1.5, ..d() }, "key-share"),
+            (
+                BakeSettings {
+                    polygon_vertices: 2,
+                    ..d()
+                },
+                "polygon-vertices",
+            ),
+            (
+                BakeSettings {
+                    polygon_vertices: 41,
+                    ..d()
+                },
+                "polygon-vertices",
+            ),
             (
                 BakeSettings {
                     representations: "sprites".into(),
