@@ -99,124 +99,12 @@ fn ik_and_control_chains_do_not_rename_the_legs() {
     assert_eq!(named(&s), named(&plain));
 }
 
-/// A quadruped made here: a horizontal spine along +z (the head end in front), four legs
-/// hanging to the ground (front pair off the chest, hind pair off the hips), a neck and head
-/// in front, a tail behind; joint names as a Blender rig writes them ("b_" prefixes, ".L").
-/// Every bone carries a box of mesh.
+/// The generated quadruped (`polypostor::samples`): a horizontal spine along +z (the head end
+/// in front), four legs hanging to the ground (front pair off the chest, hind pair off the
+/// hips), a neck and head in front, a tail behind; joint names as a Blender rig writes them
+/// ("b_" prefixes, ".L"); a smoothly skinned mesh.
 fn quadruped() -> polypostor::Character {
-    use glam::{Mat4, Vec3};
-    use polypostor::character::*;
-    // (name, parent, head position)
-    let mut joints: Vec<(String, Option<usize>, Vec3)> = vec![
-        ("b_Hips".into(), None, Vec3::new(0.0, 0.8, -0.5)),
-        ("b_Spine".into(), Some(0), Vec3::new(0.0, 0.82, 0.0)),
-        ("b_Chest".into(), Some(1), Vec3::new(0.0, 0.85, 0.5)),
-        ("b_Neck".into(), Some(2), Vec3::new(0.0, 1.0, 0.75)),
-        ("b_Head".into(), Some(3), Vec3::new(0.0, 1.15, 0.9)),
-        ("b_HeadEnd".into(), Some(4), Vec3::new(0.0, 1.15, 1.15)),
-    ];
-    let add = |joints: &mut Vec<(String, Option<usize>, Vec3)>, name: String, parent: usize, p: Vec3| {
-        joints.push((name, Some(parent), p));
-        joints.len() - 1
-    };
-    for (side, x) in [("L", 0.2f32), ("R", -0.2)] {
-        for (end, parent, z) in [("Front", 2usize, 0.5f32), ("Back", 0, -0.5)] {
-            let a = add(&mut joints, format!("b_{end}Leg1.{side}"), parent, Vec3::new(x, 0.7, z));
-            let b = add(&mut joints, format!("b_{end}Leg2.{side}"), a, Vec3::new(x, 0.4, z));
-            let c = add(&mut joints, format!("b_{end}Leg3.{side}"), b, Vec3::new(x, 0.1, z));
-            add(
-                &mut joints,
-                format!("b_{end}Foot.{side}"),
-                c,
-                Vec3::new(x, 0.0, z + 0.05),
-            );
-        }
-    }
-    let t1 = add(&mut joints, "b_Tail01".into(), 0, Vec3::new(0.0, 0.8, -0.7));
-    let t2 = add(&mut joints, "b_Tail02".into(), t1, Vec3::new(0.0, 0.75, -0.95));
-    let t3 = add(&mut joints, "b_Tail03".into(), t2, Vec3::new(0.0, 0.7, -1.2));
-    add(&mut joints, "b_Tail04".into(), t3, Vec3::new(0.0, 0.65, -1.4));
-    let nodes: Vec<Node> = joints
-        .iter()
-        .map(|(name, parent, head)| Node {
-            name: name.clone(),
-            parent: *parent,
-            rest: Transform {
-                translation: *head - parent.map_or(Vec3::ZERO, |p| joints[p].2),
-                ..Transform::IDENTITY
-            },
-            is_joint: true,
-        })
-        .collect();
-    let bones: Vec<Bone> = joints
-        .iter()
-        .enumerate()
-        .map(|(i, j)| Bone {
-            node: i,
-            inverse_bind: Mat4::from_translation(-j.2),
-        })
-        .collect();
-    // A box around every bone from its head to its child's, weighted to the bone.
-    let (mut vertices, mut indices) = (Vec::new(), Vec::<u32>::new());
-    for (i, (_, parent, head)) in joints.iter().enumerate() {
-        let Some(p) = parent else { continue };
-        let (a, b) = (joints[*p].2, *head);
-        let r = if joints[*p].0.contains("Leg") || joints[*p].0.contains("Foot") {
-            0.05
-        } else {
-            0.12
-        };
-        let lo = a.min(b) - Vec3::splat(r);
-        let hi = a.max(b) + Vec3::splat(r);
-        let base = vertices.len() as u32;
-        for k in 0..8 {
-            let pos = Vec3::new(
-                if k & 1 == 0 { lo.x } else { hi.x },
-                if k & 2 == 0 { lo.y } else { hi.y },
-                if k & 4 == 0 { lo.z } else { hi.z },
-            );
-            vertices.push(Vertex {
-                position: pos,
-                normal: (pos - (lo + hi) * 0.5).normalize_or(Vec3::Y),
-                uv: [0.5, 0.5],
-                color: [1.0; 4],
-                bones: [*p as u16, 0, 0, 0],
-                weights: [1.0, 0.0, 0.0, 0.0],
-            });
-        }
-        for q in [
-            [0, 1, 3, 2],
-            [4, 6, 7, 5],
-            [0, 4, 5, 1],
-            [2, 3, 7, 6],
-            [0, 2, 6, 4],
-            [1, 5, 7, 3],
-        ] {
-            indices.extend([q[0], q[1], q[2], q[0], q[2], q[3]].map(|v| base + v));
-        }
-        let _ = i;
-    }
-    Character {
-        name: "Quadruped".into(),
-        submeshes: vec![Submesh {
-            first_index: 0,
-            index_count: indices.len() as u32,
-            material: 0,
-        }],
-        vertices,
-        indices,
-        materials: vec![Material {
-            name: "Fur".into(),
-            base_color_factor: [0.6, 0.5, 0.4, 1.0],
-            base_color_texture: None,
-            double_sided: false,
-        }],
-        textures: Vec::new(),
-        skeleton: Skeleton { nodes },
-        bones,
-        clips: Vec::new(),
-        warnings: Vec::new(),
-    }
+    polypostor::samples::quadruped()
 }
 
 /// A quadruped's parts are named by what they are: front and hind legs (front = the end of
