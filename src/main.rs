@@ -749,7 +749,14 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         prepared.set,
         &prepared.out,
     );
-    let clip_name = prepared.clips.name(c);
+    // Every clip the pack holds (a whole-character pack names them all).
+    let clip_names: Vec<&str> = prepared
+        .clips
+        .first
+        .into_iter()
+        .chain(prepared.clips.extra.iter().copied())
+        .filter_map(|i| c.clips.get(i).map(|k| k.name.as_str()))
+        .collect();
     let ctx = polypostor::gpu::GpuContext::from_env()?;
     // Every setting against its limit and this GPU, and the memory it needs.
     let plan = polypostor::bake::plan::check(&c, &seg, &options, set, ctx.device.limits().max_texture_dimension_2d)?;
@@ -763,11 +770,16 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         polypostor::limits::human_bytes(plan.budget_bytes)
     );
     eprintln!(
-        "baking {} ({} parts: {}), clip {}, {} views, {}², {} fps, on {}",
+        "baking {} ({} parts: {}), {} {}, {} views, {}², {} fps, on {}",
         c.name,
         seg.parts.len(),
         seg.parts.iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join(", "),
-        clip_name.unwrap_or("(rest pose)"),
+        if clip_names.len() > 1 { "clips" } else { "clip" },
+        if clip_names.is_empty() {
+            "(rest pose)".to_string()
+        } else {
+            clip_names.join(", ")
+        },
         options.views,
         options.resolution,
         options.fps,

@@ -471,12 +471,14 @@ pub fn estimate(
         vertices as u64,
     );
     // Atlas texels per view, key images after the first included (`bake::keys`, default
-    // budget): about 0.48 r² + 21 r (the crops' padding weighs more at low resolution),
-    // measured on the default character at 64² and 128² (0.89 r² and 0.72 r² with two texels
-    // of padding, 9–10 % less with one: 0.65 r² at 128²); colour 4 bytes a texel plus the
-    // quarter-size normal atlas.
+    // budget): about 0.42 r² + 18 r (the crops' padding weighs more at low resolution),
+    // measured on the default character at 128², 137 views (6.3 MB of colour and normals with
+    // the key budget 0.25; 0.48 r² + 21 r with the budget 0.5 it had before, at 64² and 128²);
+    // colour 4 bytes a texel plus the quarter-size normal atlas. Against the packs written
+    // (default character, 128², 137 views, 30 polygon vertices): one clip 0.5 % under, four
+    // clips 7 % over.
     let r = resolution as u64;
-    let atlas = v * (r2 * 48 / 100 + 21 * r) * 5;
+    let atlas = v * (r2 * 42 / 100 + 18 * r) * 5;
     let texture_bytes = texture_bytes * 4 / 3;
     // Per view, part and frame the polygon's positions (4 bytes each), about 10 % more for
     // the extra keys' polygons (they hold only the frames they draw); per view and part the
