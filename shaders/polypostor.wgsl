@@ -1,6 +1,7 @@
 // Polypostor crowd: instances sorted by view, one indexed instanced draw per view in use.
 // Each index names a part record (high 16 bits) and a vertex of that part (low 16 bits); the
-// vertex is pulled from the pack's 16-bit data at two frames and interpolated. Indexed draws
+// vertex is pulled from the pack's data (8-bit positions in a per-block box, 16-bit UVs) at
+// two frames and interpolated. Indexed draws
 // let the GPU reuse each vertex across its triangles. Parts later in the view's order are
 // moved slightly towards the camera, so the depth test draws them in front.
 //
@@ -14,8 +15,9 @@
 // `src/gpu/polypostor_renderer.rs`.
 
 struct Part {
-    // First u32 of the key's block: UVs, then `frame_count` frames of positions (each u32
-    // holds one x, y pair of unorm16 values).
+    // First u32 of the key's block: UVs (each u32 one x, y pair of unorm16 values), then
+    // `frame_count` frames of positions (each u32 two vertices' x, y bytes inside the box;
+    // a frame's run is (vertices + 1) / 2 words).
     vertex_word: u32,
     // Low 16 bits: vertices; high 16 bits: the body part (for the per-part tint).
     vertex_count: u32,
@@ -27,14 +29,15 @@ struct Part {
     frames: u32,
     // First u32 of the part's per-frame key table in `geometry` (4 frames a word; keys > 1).
     key_table: u32,
-    pad0: u32,
-    pad1: u32,
+    // The block's position box: lower corner x, y (unorm16 pair), then its size (the same).
+    box_lo: u32,
+    box_size: u32,
 };
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<storage, read> views: array<View>;
 @group(0) @binding(2) var<storage, read> parts: array<Part>;
-// Vertex data (u32 words, each an x, y pair of unorm16 values), then the key tables.
+// Vertex data (per block UV words, then position bytes), then the key tables.
 @group(0) @binding(3) var<storage, read> geometry: array<u32>;
 @group(0) @binding(4) var<storage, read> instances: array<Instance>;
 @group(0) @binding(5) var atlas: texture_2d_array<f32>;
@@ -59,6 +62,15 @@ fn key_of(table: u32, f: u32) -> u32 {
     return (geometry[table + f / 4u] >> (8u * (f % 4u))) & 0xffu;
 }
 
+
+// Vertex `local` of a block of `vc` vertices at its frame `g`, (x + 1) / 2, (y + 1) / 2 of the
+// view plane: its byte pair inside the block's box.
+fn block_position(part: Part, vc: u32, g: u32, local: u32) -> vec2<f32> {
+    let word = geometry[part.vertex_word + vc + ((vc + 1u) / 2u) * g + local / 2u];
+    let q = unpack4x8unorm(word);
+    let pair = select(q.xy, q.zw, (local & 1u) == 1u);
+    return unpack2x16unorm(part.box_lo) + pair * unpack2x16unorm(part.box_size);
+}
 
 @vertex
 fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> VertexOut {
@@ -93,9 +105,9 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> 
     let count = max(part.frames >> 16u, 1u);
     let g0 = min((f0 + frames - start % frames) % frames, count - 1u);
     let g1 = min((f1 + frames - start % frames) % frames, count - 1u);
-    let a = unpack2x16unorm(geometry[part.vertex_word + vc * (1u + g0) + local]) * 2.0 - 1.0;
-    let b = unpack2x16unorm(geometry[part.vertex_word + vc * (1u + g1) + local]) * 2.0 - 1.0;
-    let xy = mix(a, b, blend);
+    let a = block_position(part, vc, g0, local);
+    let b = block_position(part, vc, g1, local);
+    let xy = mix(a, b, blend) * 2.0 - 1.0;
     let view = views[part.view];
     let model = view.center.xyz
         + (xy.x * view.right.xyz + xy.y * view.up.xyz) * view.center.w

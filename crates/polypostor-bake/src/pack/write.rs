@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use super::atlas::pack_atlas;
 use crate::bake::pipeline::{Bake, TextureEncoding};
 pub use crate::bake::report::PackStats;
+use crate::pack::quant::PositionBox;
 use crate::pack::{
     Checksums, FORMAT_NAME, FORMAT_VERSION, Manifest, ManifestKey, ManifestPart, ManifestView, PackCamera, put_file,
 };
@@ -161,13 +162,16 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                 vertices.push(unorm(t[0] / aw));
                 vertices.push(unorm(t[1] / ah));
             }
-            // Positions as (x + 1) / 2, (y + 1) / 2 of view-plane coordinates.
-            for s in 0..count {
-                for q in fit.positions((start + s) % frames) {
-                    vertices.push(unorm(q[0] / r));
-                    vertices.push(unorm(1.0 - q[1] / r));
-                }
-            }
+            // Positions as (x + 1) / 2, (y + 1) / 2 of view-plane coordinates, one byte each
+            // inside the block's box (format 7), x and y of a vertex in one u16 slot.
+            let values: Vec<f32> = (0..count)
+                .flat_map(|s| fit.positions((start + s) % frames))
+                .flat_map(|q| [q[0] / r, 1.0 - q[1] / r])
+                .collect();
+            let bx = PositionBox::around(&values);
+            vertices.extend(bx.to_words());
+            let bytes = bx.quantise_all(&values);
+            vertices.extend(bytes.chunks_exact(2).map(|xy| u16::from_le_bytes([xy[0], xy[1]])));
             let index_offset = indices.len() as u64;
             for t in &fit.triangles {
                 indices.extend(t.iter().map(|&i| i as u16));
@@ -188,7 +192,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                 let Some(er) = atlas.rects[item] else { continue };
                 let (vo, io_) = write_key(&e.fit, &er, e.span.start, e.span.count, &mut vertices, &mut indices);
                 stats.extra_key_bytes += 5 * u64::from(er.w) * u64::from(er.h)
-                    + 4 * (e.fit.kept.len() * (1 + e.span.count)) as u64
+                    + (e.fit.kept.len() * (4 + 2 * e.span.count) + 8) as u64
                     + 6 * e.fit.triangles.len() as u64;
                 extra_keys.push(ManifestKey {
                     key_frame: e.frame as u32,

@@ -45,7 +45,10 @@ struct PartGpu {
     frames: u32,
     /// First u32 of the part's per-frame key table in the geometry buffer.
     key_table: u32,
-    pad: [u32; 2],
+    /// The block's position box ([`crate::pack::quant::PositionBox`]): lower corner x, y as
+    /// unorm16 values, then its size.
+    box_lo: u32,
+    box_size: u32,
 }
 
 /// How a frame of polypostors is drawn.
@@ -114,11 +117,12 @@ pub struct GpuPolypostors {
 }
 
 impl GpuPolypostors {
-    /// Uploads `pack`: its vertex values as 16-bit pairs, the parts' records and per-frame key
-    /// tables, per view the full and two coarse index lists, and the views' colour and normal
-    /// atlases shelf-packed into the layers of two texture arrays. [`GpuError::Unsupported`] when
-    /// the pack has no views, more than 255 parts or 65536 part records, a vertex block at an odd
-    /// offset, or atlases past this GPU's texture limits.
+    /// Uploads `pack`: per key block its UVs as 16-bit pairs and its positions as bytes inside
+    /// the block's box ([`crate::pack::quant`], what a format-7 pack stores), the parts'
+    /// records and per-frame key tables, per view the full and two coarse index lists, and the
+    /// views' colour and normal atlases shelf-packed into the layers of two texture arrays.
+    /// [`GpuError::Unsupported`] when the pack has no views, more than 255 parts or 65536 part
+    /// records, a vertex block past the vertex data, or atlases past this GPU's texture limits.
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, input: &PolypostorInput) -> Result<Self, GpuError> {
         let m = input;
         let parts_per_view = m.part_count.max(1) as u32;
@@ -141,31 +145,17 @@ impl GpuPolypostors {
                 pages.count, limits.max_texture_array_layers
             )));
         }
-        // Geometry: vertex values as they are (pairs of u16 = one u32), then the indices.
-        let quantised: Vec<u16> = input.vertices.iter().map(|&x| (x * 65535.0).round() as u16).collect();
-        let mut geometry: Vec<u32> = quantised
-            .chunks(2)
-            .map(|c| c[0] as u32 | (c.get(1).copied().unwrap_or(0) as u32) << 16)
-            .collect();
-        geometry.push(0);
-        if let Some(v) = m.views.iter().position(|v| {
-            v.parts
-                .iter()
-                .flatten()
-                .any(|p| p.keys.iter().any(|k| k.vertex_offset % 2 != 0))
-        }) {
-            return Err(GpuError::Unsupported(format!(
-                "view {v} has a key whose vertex block starts at an odd value (packs written by this tool never do)"
-            )));
-        }
+        // Geometry: per key block its UVs (an x, y pair of unorm16 in one u32 per vertex),
+        // then per frame its positions as bytes inside the block's box (two vertices a u32,
+        // each frame's run whole words); the per-frame key tables follow.
+        let mut geometry: Vec<u32> = Vec::new();
         if parts_per_view > 255 {
             return Err(GpuError::Unsupported(format!(
                 "the pack has {parts_per_view} parts; this renderer draws at most 255"
             )));
         }
         let frames = m.frames.max(1);
-        // Per-frame key tables (4 frames a word) follow the vertex data.
-        let table_base = geometry.len() as u32;
+        // Per-frame key tables (4 frames a word), placed after the vertex data at the end.
         let mut tables: Vec<u32> = Vec::new();
         let mut views = Vec::with_capacity(m.views.len());
         let mut parts: Vec<PartGpu> = Vec::with_capacity(m.views.len() * parts_per_view as usize);
@@ -220,7 +210,7 @@ impl GpuPolypostors {
                 } else {
                     1
                 };
-                let key_table = table_base + tables.len() as u32;
+                let key_table = tables.len() as u32;
                 if keys > 1 {
                     tables.extend(
                         p.frame_keys
@@ -231,14 +221,22 @@ impl GpuPolypostors {
                 for (k, &(offset, count, index_offset, index_count, start, block_frames)) in
                     blocks.iter().enumerate().take(keys)
                 {
+                    let vc = count.clamp(1, 0xffff) as usize;
+                    let Some((vertex_word, bx)) = push_block(&mut geometry, input.vertices, offset, vc, block_frames)
+                    else {
+                        return Err(GpuError::Unsupported(format!(
+                            "view {vi} part {id} key {k}: its vertex block lies past the vertex data"
+                        )));
+                    };
                     let record = PartGpu {
-                        vertex_word: (offset / 2) as u32,
+                        vertex_word,
                         vertex_count: count.clamp(1, 0xffff) | (id.min(0xffff) << 16),
                         view: vi as u32,
                         slot_key: s as u32 | (k as u32) << 8 | (keys as u32) << 16,
                         frames: start.min(0xffff) | block_frames.clamp(1, 0xffff) << 16,
                         key_table,
-                        pad: [0; 2],
+                        box_lo: u32::from(bx.lo[0]) | u32::from(bx.lo[1]) << 16,
+                        box_size: u32::from(bx.size[0]) | u32::from(bx.size[1]) << 16,
                     };
                     let id_record = parts.len() as u32;
                     parts.push(record);
@@ -248,8 +246,7 @@ impl GpuPolypostors {
                     let start = index_offset as usize;
                     let list = input.indices.get(start..start + index_count as usize).unwrap_or(&[]);
                     index_words.extend(list.iter().map(|&i| id_record << 16 | i as u32));
-                    let base = (record.vertex_word * 2) as usize;
-                    let vc = (record.vertex_count & 0xffff) as usize;
+                    let base = offset as usize;
                     let uvs = input.vertices.get(base..base + 2 * vc).unwrap_or(&[]);
                     // Each level thins the previous one; a part too small to thin keeps the
                     // previous level's triangles.
@@ -266,6 +263,10 @@ impl GpuPolypostors {
             for level in 0..2 {
                 coarse_ranges[level].push(coarse_start[level]..coarse_words[level].len() as u32);
             }
+        }
+        let table_base = geometry.len() as u32;
+        for p in &mut parts {
+            p.key_table += table_base;
         }
         geometry.extend_from_slice(&tables);
         geometry.push(0);
@@ -556,6 +557,36 @@ const LEVELS: u32 = 3;
 /// Triangles over every `step`-th vertex of a part's polygon (`uvs`: its vertices in order, x,
 /// y interleaved, as in the pack), as local vertex numbers; `None` when fewer than 4 vertices
 /// would remain or the thinned polygon is not simple (the caller keeps finer triangles).
+/// Appends the GPU form of one key block (`vc` vertices, `frames` frames, at value `offset` of
+/// `vertices`: UVs, then positions frame by frame) to `geometry`: a u32 per UV, then each
+/// frame's positions as bytes of the block's box, two vertices a u32. Returns the block's
+/// first word and its box; `None` when the block runs past `vertices`.
+fn push_block(
+    geometry: &mut Vec<u32>,
+    vertices: &[f32],
+    offset: u64,
+    vc: usize,
+    frames: u32,
+) -> Option<(u32, crate::pack::quant::PositionBox)> {
+    let start = usize::try_from(offset).ok()?;
+    let end = start.checked_add(2 * vc * (1 + frames as usize))?;
+    let block = vertices.get(start..end)?;
+    let (uvs, positions) = block.split_at(2 * vc);
+    let word = geometry.len() as u32;
+    let unorm = |x: f32| (x.clamp(0.0, 1.0) * 65535.0).round() as u32;
+    geometry.extend(uvs.chunks_exact(2).map(|c| unorm(c[0]) | unorm(c[1]) << 16));
+    let bx = crate::pack::quant::PositionBox::around(positions);
+    let bytes = bx.quantise_all(positions);
+    for frame in bytes.chunks_exact(2 * vc) {
+        geometry.extend(frame.chunks(4).map(|c| {
+            c.iter()
+                .enumerate()
+                .fold(0u32, |w, (i, &b)| w | u32::from(b) << (8 * i))
+        }));
+    }
+    Some((word, bx))
+}
+
 fn coarse_triangles(uvs: &[f32], step: usize) -> Option<Vec<u32>> {
     let n = uvs.len() / 2;
     if n < 4 * step {

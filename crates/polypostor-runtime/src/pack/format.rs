@@ -7,9 +7,11 @@ use serde::{Deserialize, Serialize};
 /// The [`Manifest::format`] of every pack; a manifest with another is refused as not a pack.
 pub use crate::limits::PACK_FORMAT_NAME as FORMAT_NAME;
 /// Version 3 added [`Manifest::checksums`], version 5 the clip table ([`Manifest::clips`]:
-/// several clips in one pack); older packs are refused with "re-bake".
-pub const FORMAT_VERSION: u32 = 6;
-/// The oldest format version this build reads (5: the same manifest, textures only as PNG).
+/// several clips in one pack), version 6 BC7 textures, version 7 8-bit positions (see
+/// [`ManifestPart::vertex_offset`]); older packs are refused with "re-bake".
+pub const FORMAT_VERSION: u32 = 7;
+/// The oldest format version this build reads (5: the same manifest, textures only as PNG,
+/// positions as u16 like the UVs).
 pub const OLDEST_FORMAT_VERSION: u32 = 5;
 
 /// Size and CRC-32 (IEEE, as zlib and PNG compute it) of one file of a pack or
@@ -101,10 +103,13 @@ impl PackCamera {
 /// One part in one view.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ManifestPart {
-    /// First value (u16) of this part's block in `vertices.bin`. Every value is a normalised
-    /// u16 (`x / 65535` in [0, 1]). The block holds `vertex_count` UVs (atlas-normalised,
-    /// 2 values each) then `frames × vertex_count` positions (view-plane coordinates
-    /// `(x + 1) / 2, (y + 1) / 2`, 2 values each).
+    /// First value (u16) of this part's block in `vertices.bin`. The block holds
+    /// `vertex_count` UVs (atlas-normalised, 2 normalised u16 values each: `x / 65535`), then
+    /// the block's position box (4 u16: lower corner x, y and size x, y, see
+    /// [`crate::pack::quant::PositionBox`]), then `frames × vertex_count` positions, each one
+    /// u16 slot holding two bytes (x then y) inside the box (view-plane coordinates
+    /// `(x + 1) / 2, (y + 1) / 2`). Format 5 and 6 packs have no box and store each position
+    /// as two normalised u16 values.
     pub vertex_offset: u64,
     /// Vertices of the part's polygon (3 to [`crate::pack::MAX_PART_VERTICES`]): one UV each,
     /// and one position per frame.

@@ -87,8 +87,10 @@ pub struct LoadedView {
 pub struct LoadedPack {
     /// The manifest, every number, range and file name in it checked.
     pub manifest: Manifest,
-    /// `vertices.bin` decoded to [0, 1] (see [`LoadedPack::part_vertices`] for view-plane
-    /// positions).
+    /// `vertices.bin` decoded to [0, 1], each block as UVs then positions frame by frame (2
+    /// values per vertex; format 7's boxes and bytes decoded: the manifest's vertex offsets
+    /// kept here point into this, not the file). See [`LoadedPack::part_vertices`] for
+    /// view-plane positions.
     pub vertices: Vec<f32>,
     /// `indices.bin`: every key's triangles as u16 vertex numbers local to its block, each
     /// checked to be below the block's vertex count.
@@ -157,7 +159,7 @@ impl LoadedPack {
 pub const MAX_VERTEX_FILE_BYTES: u64 = 1 << 30;
 /// Largest manifest read.
 pub const MAX_MANIFEST_BYTES: u64 = 64 << 20;
-/// Most vertices of one part in one view (the bake writes 20).
+/// Most vertices of one part in one view (the bake writes 3 to 40).
 pub const MAX_PART_VERTICES: u32 = 1024;
 /// Largest atlas side.
 pub const MAX_ATLAS_SIDE: u32 = 16384;
@@ -432,15 +434,19 @@ struct KeyBlock {
 }
 
 impl KeyBlock {
-    fn check(&self, w: &str, vertex_values: u64, index_values: u64, [aw, ah]: [u32; 2]) -> Result<(), PackError> {
+    fn check(
+        &self,
+        w: &str,
+        version: u32,
+        vertex_values: u64,
+        index_values: u64,
+        [aw, ah]: [u32; 2],
+    ) -> Result<(), PackError> {
         let vc = u64::from(self.vertex_count);
         if vc < 3 || self.vertex_count > MAX_PART_VERTICES || self.index_count == 0 || self.index_count % 3 != 0 {
             return Err(damaged(format!("{w}: {vc} vertices and {} indices", self.index_count)));
         }
-        let end = self
-            .frames
-            .checked_add(1)
-            .and_then(|f| vc.checked_mul(2)?.checked_mul(f))
+        let end = block_values(version, vc, self.frames)
             .and_then(|n| self.vertex_offset.checked_add(n))
             .ok_or_else(|| damaged(format!("{w}: vertex range overflows")))?;
         if end > vertex_values {
@@ -472,6 +478,46 @@ impl KeyBlock {
         }
         Ok(())
     }
+}
+
+/// u16 values of a vertex block of `vc` vertices and `frames` frames of positions in a pack
+/// of format `version` ([`Manifest`]'s `vertex_offset` docs).
+fn block_values(version: u32, vc: u64, frames: u64) -> Option<u64> {
+    if version >= 7 {
+        vc.checked_mul(2)?.checked_add(4)?.checked_add(vc.checked_mul(frames)?)
+    } else {
+        vc.checked_mul(2)?.checked_mul(frames.checked_add(1)?)
+    }
+}
+
+/// Decodes one format-7 vertex block (UVs, box, byte positions) from `words` at `offset`,
+/// appending UVs then positions as values in [0, 1] to `out` (the layout
+/// [`LoadedPack::vertices`] holds); returns where it starts in `out`.
+fn decode_block(
+    words: &[u16],
+    what: &str,
+    (offset, vc, frames): (u64, u32, u64),
+    out: &mut Vec<f32>,
+) -> Result<u64, PackError> {
+    let vc = u64::from(vc);
+    let n = block_values(7, vc, frames).ok_or_else(|| damaged(format!("{what}: vertex range overflows")))?;
+    // In range: KeyBlock::check ran on every block.
+    let w = &words[offset as usize..(offset + n) as usize];
+    let uv = 2 * vc as usize;
+    let start = out.len() as u64;
+    out.extend(w[..uv].iter().map(|&x| f32::from(x) / 65535.0));
+    let words4 = [w[uv], w[uv + 1], w[uv + 2], w[uv + 3]];
+    let bx = super::quant::PositionBox::from_words(words4).ok_or_else(|| {
+        damaged(format!(
+            "{what}: position box {words4:?} is empty or runs past the view"
+        ))
+    })?;
+    for slot in &w[uv + 4..] {
+        let [x, y] = slot.to_le_bytes();
+        out.push(bx.value(0, x));
+        out.push(bx.value(1, y));
+    }
+    Ok(start)
 }
 
 /// Loads the pack in the folder `dir`: `manifest.json` and every file it names, validating
@@ -581,7 +627,7 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
                 atlas_rect: part.atlas_rect,
                 frames,
             };
-            first.check(&w, vertex_values, index_values, [aw, ah])?;
+            first.check(&w, manifest.version, vertex_values, index_values, [aw, ah])?;
             if part.extra_keys.len() + 1 > crate::pack::MAX_KEYS {
                 return Err(damaged(format!(
                     "{w}: {} key images, more than {}",
@@ -622,7 +668,7 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
                     atlas_rect: key.atlas_rect,
                     frames: u64::from(key.frame_count),
                 }
-                .check(&wk, vertex_values, index_values, [aw, ah])?;
+                .check(&wk, manifest.version, vertex_values, index_values, [aw, ah])?;
             }
             for (f, &k) in part.frame_keys.iter().enumerate() {
                 let k = k as usize;
@@ -656,10 +702,11 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
             .iter()
             .flat_map(|v| [v.atlas_size, [v.atlas_size[0] / 2, v.atlas_size[1] / 2]]),
     )?;
+    let checksums = manifest.checksums.clone();
     let files = FolderReader {
         dir,
         manifest_file: FILE,
-        checksums: &manifest.checksums,
+        checksums: &checksums,
     };
     for name in [&manifest.vertex_file, &manifest.index_file] {
         member(dir, name)?;
@@ -677,10 +724,54 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
             return Err(damaged(format!("{name} has {got} bytes, {FILE} says {want}")));
         }
     }
-    let vertices: Vec<f32> = vbytes
+    let words: Vec<u16> = vbytes
         .chunks_exact(2)
-        .map(|b| u16::from_le_bytes([b[0], b[1]]) as f32 / 65535.0)
+        .map(|b| u16::from_le_bytes([b[0], b[1]]))
         .collect();
+    let mut manifest = manifest;
+    let vertices: Vec<f32> = if manifest.version >= 7 {
+        // Every block decoded into the format-6 layout; the offsets kept in memory point there.
+        // Blocks may not share values: decoding one value many times would multiply the
+        // memory a small file asks for.
+        let frames = u64::from(manifest.frames);
+        let name = manifest.vertex_file.clone();
+        let mut ranges: Vec<(u64, u64)> = Vec::new();
+        for part in manifest.views.iter().flat_map(|v| v.parts.iter().flatten()) {
+            let blocks = std::iter::once((part.vertex_offset, part.vertex_count, frames)).chain(
+                part.extra_keys
+                    .iter()
+                    .map(|k| (k.vertex_offset, k.vertex_count, u64::from(k.frame_count))),
+            );
+            for (offset, vc, f) in blocks {
+                let n = block_values(7, u64::from(vc), f).unwrap_or(u64::MAX);
+                ranges.push((offset, offset.saturating_add(n)));
+            }
+        }
+        ranges.sort_unstable();
+        if let Some(w) = ranges.windows(2).find(|w| w[1].0 < w[0].1) {
+            return Err(damaged(format!(
+                "{name}: vertex blocks overlap (values {}..{} and {}..{})",
+                w[0].0, w[0].1, w[1].0, w[1].1
+            )));
+        }
+        let mut out = Vec::new();
+        for (v, view) in manifest.views.iter_mut().enumerate() {
+            for (p, part) in view.parts.iter_mut().enumerate() {
+                let Some(part) = part else { continue };
+                let what = format!("{name}: view {v} part {p}");
+                part.vertex_offset =
+                    decode_block(&words, &what, (part.vertex_offset, part.vertex_count, frames), &mut out)?;
+                for (k, key) in part.extra_keys.iter_mut().enumerate() {
+                    let block = (key.vertex_offset, key.vertex_count, u64::from(key.frame_count));
+                    let what = format!("{what} key {}", k + 1);
+                    key.vertex_offset = decode_block(&words, &what, block, &mut out)?;
+                }
+            }
+        }
+        out
+    } else {
+        words.iter().map(|&x| f32::from(x) / 65535.0).collect()
+    };
     let indices: Vec<u16> = ibytes
         .chunks_exact(2)
         .map(|b| u16::from_le_bytes([b[0], b[1]]))

@@ -1,12 +1,13 @@
 //! The Polypostor pack: a versioned, documented on-disk format (see `docs/PACK_FORMAT.md`)
 //! and a loader that validates everything it reads (the writer is the studio's).
 //!
-//! A pack is a folder: `manifest.json`, `vertices.bin` (little-endian normalised u16: atlas
-//! UVs and view-plane positions), `indices.bin` (little-endian u16 triangles) and, per view,
+//! A pack is a folder: `manifest.json`, `vertices.bin` (little-endian normalised u16 atlas
+//! UVs, and view-plane positions as bytes inside each block's box: [`quant`]), `indices.bin` (little-endian u16 triangles) and, per view,
 //! a colour atlas PNG holding every part's key images and a normal atlas at half its size.
 
 mod format;
 mod load;
+pub mod quant;
 
 pub use format::{
     Checksums, FORMAT_NAME, FORMAT_VERSION, FileSum, MAX_KEYS, Manifest, ManifestKey, ManifestPart, ManifestView,
