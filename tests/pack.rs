@@ -104,6 +104,23 @@ fn pack_round_trip_and_damage() {
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
 
+    // Every drawn part has its coarse level: half its vertices (the bake's simplification
+    // continued), fewer triangles, indices inside its block.
+    let mut coarse = 0;
+    for view in &p.manifest.views {
+        for part in view.parts.iter().flatten() {
+            assert!(part.coarse_index_count > 0 && part.coarse_index_count < part.index_count);
+            let start = part.coarse_index_offset as usize;
+            let list = &p.indices[start..start + part.coarse_index_count as usize];
+            let mut used: Vec<u16> = list.to_vec();
+            used.sort_unstable();
+            used.dedup();
+            assert_eq!(used.len(), part.vertex_count as usize / 2);
+            coarse += 1;
+        }
+    }
+    assert!(coarse > 0);
+
     // Damage, one kind at a time, on copies.
     let manifest_text = std::fs::read_to_string(out.join("manifest.json")).unwrap();
     let copy = |name: &str| {
@@ -130,6 +147,10 @@ fn pack_round_trip_and_damage() {
         v["views"][0]["parts"][0]["vertex_offset"] = 1_000_000_000u64.into()
     });
     assert!(e.to_string().contains("past the end"), "{e}");
+    let e = edit("coarse", &|v| {
+        v["views"][0]["parts"][0]["coarse_index_offset"] = 4_000_000_000u64.into()
+    });
+    assert!(e.to_string().contains("coarse indices"), "{e}");
     let e = edit("huge", &|v| v["views"][0]["parts"][0]["vertex_count"] = u32::MAX.into());
     assert!(matches!(e, PackError::Damaged(_)), "{e}");
     let e = edit("order", &|v| {

@@ -155,7 +155,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                          count: usize,
                          vertices: &mut Vec<u16>,
                          indices: &mut Vec<u16>|
-         -> (u64, u64) {
+         -> (u64, u64, u64, u32) {
             let vertex_offset = vertices.len() as u64;
             for q in fit.uvs() {
                 let t = rect.to_atlas(q);
@@ -164,8 +164,10 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
             }
             // Positions as (x + 1) / 2, (y + 1) / 2 of view-plane coordinates, one byte each
             // inside the block's box (format 7), x and y of a vertex in one u16 slot.
-            let values: Vec<f32> = (0..count)
-                .flat_map(|s| fit.positions((start + s) % frames))
+            let positions: Vec<Vec<[f32; 2]>> = (0..count).map(|s| fit.positions((start + s) % frames)).collect();
+            let values: Vec<f32> = positions
+                .iter()
+                .flatten()
                 .flat_map(|q| [q[0] / r, 1.0 - q[1] / r])
                 .collect();
             let bx = PositionBox::around(&values);
@@ -176,7 +178,11 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
             for t in &fit.triangles {
                 indices.extend(t.iter().map(|&i| i as u16));
             }
-            (vertex_offset, index_offset)
+            // The coarse level: the polygon simplified on to half its vertices.
+            let coarse_offset = indices.len() as u64;
+            let coarse = crate::bake::part_fit::coarse_triangles(&positions, &fit.uvs());
+            indices.extend(coarse.iter().flatten().map(|&i| i as u16));
+            (vertex_offset, index_offset, coarse_offset, (coarse.len() * 3) as u32)
         };
         let mut parts = Vec::new();
         for (p, part) in view.parts.iter().enumerate() {
@@ -184,22 +190,26 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                 parts.push(None);
                 continue;
             };
-            let (vertex_offset, index_offset) = write_key(fit, &rect, 0, frames, &mut vertices, &mut indices);
+            let (vertex_offset, index_offset, coarse_offset, coarse_count) =
+                write_key(fit, &rect, 0, frames, &mut vertices, &mut indices);
             // Triangles drawn per character (a part's other keys draw instead of its first).
             triangles += fit.triangles.len();
             let mut extra_keys = Vec::new();
             for (e, &item) in part.extra.iter().zip(&extra_item[p]) {
                 let Some(er) = atlas.rects[item] else { continue };
-                let (vo, io_) = write_key(&e.fit, &er, e.span.start, e.span.count, &mut vertices, &mut indices);
+                let (vo, io_, co, cc) = write_key(&e.fit, &er, e.span.start, e.span.count, &mut vertices, &mut indices);
                 stats.extra_key_bytes += 5 * u64::from(er.w) * u64::from(er.h)
                     + (e.fit.kept.len() * (4 + 2 * e.span.count) + 8) as u64
-                    + 6 * e.fit.triangles.len() as u64;
+                    + 6 * e.fit.triangles.len() as u64
+                    + 2 * u64::from(cc);
                 extra_keys.push(ManifestKey {
                     key_frame: e.frame as u32,
                     vertex_offset: vo,
                     vertex_count: e.fit.kept.len() as u32,
                     index_offset: io_,
                     index_count: (e.fit.triangles.len() * 3) as u32,
+                    coarse_index_offset: if cc > 0 { co } else { 0 },
+                    coarse_index_count: cc,
                     atlas_rect: [er.x, er.y, er.w, er.h],
                     transposed: er.transposed,
                     frame_start: e.span.start as u32,
@@ -219,6 +229,8 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                 vertex_count: fit.kept.len() as u32,
                 index_offset,
                 index_count: (fit.triangles.len() * 3) as u32,
+                coarse_index_offset: if coarse_count > 0 { coarse_offset } else { 0 },
+                coarse_index_count: coarse_count,
                 atlas_rect: [rect.x, rect.y, rect.w, rect.h],
                 transposed: rect.transposed,
                 key_frame: fit.key_frame as u32,

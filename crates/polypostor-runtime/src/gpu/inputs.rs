@@ -33,7 +33,7 @@ pub struct ViewFrame {
 /// serves.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct KeyBlock {
-    /// First value of the block in [`PolypostorInput::vertices`] (even).
+    /// First value of the block in [`PolypostorInput::vertices`].
     pub vertex_offset: u64,
     /// Vertices of the polygon (the block holds their atlas UVs, then their view-plane
     /// positions at every frame the key serves).
@@ -42,6 +42,11 @@ pub struct KeyBlock {
     pub index_offset: u64,
     /// Indices of the key's triangles (three per triangle, local to the block).
     pub index_count: u32,
+    /// First index of the key's coarse triangles (the polygon simplified to about half its
+    /// vertices, for characters small on screen) in [`PolypostorInput::indices`].
+    pub coarse_index_offset: u64,
+    /// Indices of the coarse triangles; 0: none (the renderer thins the polygon itself).
+    pub coarse_index_count: u32,
     /// First frame the block holds positions for.
     pub frame_start: u32,
     /// Frames the block holds positions for.

@@ -191,20 +191,7 @@ impl GpuPolypostors {
                     continue;
                 };
                 // The part's key images: its first (every frame), then the extra ones.
-                let blocks: Vec<_> = p
-                    .keys
-                    .iter()
-                    .map(|k| {
-                        (
-                            k.vertex_offset,
-                            k.vertex_count,
-                            k.index_offset,
-                            k.index_count,
-                            k.frame_start,
-                            k.frame_count,
-                        )
-                    })
-                    .collect();
+                let blocks = &p.keys;
                 let keys = if p.frame_keys.len() == frames as usize {
                     blocks.len().min(255)
                 } else {
@@ -218,9 +205,9 @@ impl GpuPolypostors {
                             .map(|c| c.iter().enumerate().fold(0u32, |w, (i, &k)| w | (k as u32) << (8 * i))),
                     );
                 }
-                for (k, &(offset, count, index_offset, index_count, start, block_frames)) in
-                    blocks.iter().enumerate().take(keys)
-                {
+                for (k, block) in blocks.iter().enumerate().take(keys) {
+                    let (offset, count, block_frames) = (block.vertex_offset, block.vertex_count, block.frame_count);
+                    let (index_offset, index_count, start) = (block.index_offset, block.index_count, block.frame_start);
                     let vc = count.clamp(1, 0xffff) as usize;
                     let Some((vertex_word, bx)) = push_block(&mut geometry, input.vertices, offset, vc, block_frames)
                     else {
@@ -248,11 +235,22 @@ impl GpuPolypostors {
                     index_words.extend(list.iter().map(|&i| id_record << 16 | i as u32));
                     let base = offset as usize;
                     let uvs = input.vertices.get(base..base + 2 * vc).unwrap_or(&[]);
-                    // Each level thins the previous one; a part too small to thin keeps the
-                    // previous level's triangles.
+                    // The first coarse level is the pack's (the polygon simplified to half its
+                    // vertices by the bake's rule) where it has one, else every other vertex;
+                    // the second every fourth. A part too small to thin keeps the previous
+                    // level's triangles.
+                    let cstart = block.coarse_index_offset as usize;
+                    let packed = input
+                        .indices
+                        .get(cstart..cstart + block.coarse_index_count as usize)
+                        .filter(|c| !c.is_empty() && c.iter().all(|&i| usize::from(i) < vc));
                     let mut previous: Vec<u32> = list.iter().map(|&i| i as u32).collect();
                     for (level, words) in coarse_words.iter_mut().enumerate() {
-                        if let Some(tris) = coarse_triangles(uvs, 2 << level) {
+                        let tris = match packed {
+                            Some(c) if level == 0 => Some(c.iter().map(|&i| u32::from(i)).collect()),
+                            _ => coarse_triangles(uvs, 2 << level),
+                        };
+                        if let Some(tris) = tris {
                             previous = tris;
                         }
                         words.extend(previous.iter().map(|&i| id_record << 16 | i));

@@ -119,6 +119,15 @@ pub struct ManifestPart {
     /// Indices of the part's triangles in `indices.bin`, three per triangle (a non-zero
     /// multiple of 3).
     pub index_count: u32,
+    /// First u16 of the part's coarse triangles in `indices.bin` (format 7): the polygon
+    /// simplified to about half its vertices by the same deformation-aware rule, drawn for
+    /// characters small on screen. Indices local to the block, like `index_offset`'s.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub coarse_index_offset: u64,
+    /// Indices of the coarse triangles, a multiple of 3; 0: none (the run time thins the
+    /// polygon itself).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub coarse_index_count: u32,
     /// The part's rectangle in the colour atlas, pixels `[x, y, w, h]`.
     pub atlas_rect: [u32; 4],
     /// The part's image is stored transposed in the atlas (for tools; the UVs already say so).
@@ -152,6 +161,12 @@ pub struct ManifestKey {
     pub index_offset: u64,
     /// Indices of this key's triangles, a non-zero multiple of 3.
     pub index_count: u32,
+    /// As [`ManifestPart::coarse_index_offset`], for this key's polygon.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub coarse_index_offset: u64,
+    /// As [`ManifestPart::coarse_index_count`].
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub coarse_index_count: u32,
     /// This key image's rectangle in the view's colour atlas, pixels `[x, y, w, h]`.
     pub atlas_rect: [u32; 4],
     /// The image is stored transposed in the atlas, as [`ManifestPart::transposed`].
@@ -237,6 +252,10 @@ impl Manifest {
     pub fn next_frame(&self, f: usize) -> usize {
         crate::timeline::next_frame(&self.clips, f)
     }
+}
+
+fn is_zero<T: Default + PartialEq>(x: &T) -> bool {
+    *x == T::default()
 }
 
 /// Most key images per part and view the format and the renderer take.

@@ -123,6 +123,8 @@ impl LoadedPack {
                                 vertex_count: p.vertex_count,
                                 index_offset: p.index_offset,
                                 index_count: p.index_count,
+                                coarse_index_offset: p.coarse_index_offset,
+                                coarse_index_count: p.coarse_index_count,
                                 frame_start: 0,
                                 frame_count: m.frames.max(1),
                             })
@@ -131,6 +133,8 @@ impl LoadedPack {
                                 vertex_count: k.vertex_count,
                                 index_offset: k.index_offset,
                                 index_count: k.index_count,
+                                coarse_index_offset: k.coarse_index_offset,
+                                coarse_index_count: k.coarse_index_count,
                                 frame_start: k.frame_start,
                                 frame_count: k.frame_count,
                             }))
@@ -428,6 +432,7 @@ struct KeyBlock {
     vertex_count: u32,
     index_offset: u64,
     index_count: u32,
+    coarse: (u64, u32),
     atlas_rect: [u32; 4],
     /// Frames of positions the block holds.
     frames: u64,
@@ -463,6 +468,15 @@ impl KeyBlock {
             return Err(damaged(format!(
                 "{w}: indices {}..{iend} lie past the end of the index data ({index_values})",
                 self.index_offset
+            )));
+        }
+        let (coarse_offset, coarse_count) = self.coarse;
+        let cend = coarse_offset
+            .checked_add(u64::from(coarse_count))
+            .ok_or_else(|| damaged(format!("{w}: coarse index range overflows")))?;
+        if coarse_count % 3 != 0 || (coarse_count > 0 && cend > index_values) {
+            return Err(damaged(format!(
+                "{w}: coarse indices {coarse_offset}..{cend} are not whole triangles inside the index data ({index_values})"
             )));
         }
         let [x, y, rw, rh] = self.atlas_rect;
@@ -624,6 +638,7 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
                 vertex_count: part.vertex_count,
                 index_offset: part.index_offset,
                 index_count: part.index_count,
+                coarse: (part.coarse_index_offset, part.coarse_index_count),
                 atlas_rect: part.atlas_rect,
                 frames,
             };
@@ -665,6 +680,7 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
                     vertex_count: key.vertex_count,
                     index_offset: key.index_offset,
                     index_count: key.index_count,
+                    coarse: (key.coarse_index_offset, key.coarse_index_count),
                     atlas_rect: key.atlas_rect,
                     frames: u64::from(key.frame_count),
                 }
@@ -779,12 +795,18 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
     for (v, view) in manifest.views.iter().enumerate() {
         for (p, part) in view.parts.iter().enumerate() {
             let Some(part) = part else { continue };
-            let blocks = std::iter::once((part.index_offset, part.index_count, part.vertex_count)).chain(
-                part.extra_keys
-                    .iter()
-                    .map(|k| (k.index_offset, k.index_count, k.vertex_count)),
-            );
-            for (offset, count, vc) in blocks {
+            let blocks = [
+                (part.index_offset, part.index_count, part.vertex_count),
+                (part.coarse_index_offset, part.coarse_index_count, part.vertex_count),
+            ]
+            .into_iter()
+            .chain(part.extra_keys.iter().flat_map(|k| {
+                [
+                    (k.index_offset, k.index_count, k.vertex_count),
+                    (k.coarse_index_offset, k.coarse_index_count, k.vertex_count),
+                ]
+            }));
+            for (offset, count, vc) in blocks.filter(|b| b.1 > 0) {
                 let range = offset as usize..(offset + u64::from(count)) as usize;
                 if let Some(bad) = indices[range].iter().find(|&&i| u32::from(i) >= vc) {
                     return Err(damaged(format!(

@@ -701,6 +701,24 @@ pub fn deformation_aware_simplify(fit_positions: &[Vec<[f32; 2]>], key: &[[f32; 
     kept
 }
 
+/// The coarse level of a fitted polygon, for characters small on screen: the same
+/// deformation-aware simplification continued to half the vertices (`uvs`: the polygon's
+/// vertices in the key image; `positions`: per frame the polygon's positions), triangulated;
+/// triangles as vertex numbers of the full polygon. Because the simplification is greedy and
+/// removes one vertex at a time, its vertices are exactly those the polygon would have kept at
+/// that size. Empty when the polygon has under 8 vertices or its half cannot be triangulated.
+pub fn coarse_triangles(positions: &[Vec<[f32; 2]>], uvs: &[[f32; 2]]) -> Vec<[usize; 3]> {
+    let n = uvs.len();
+    if n < 8 {
+        return Vec::new();
+    }
+    let kept = deformation_aware_simplify(positions, uvs, n / 2);
+    let poly: Vec<[f32; 2]> = kept.iter().map(|&i| uvs[i]).collect();
+    triangulate(&poly)
+        .map(|t| t.iter().map(|tri| tri.map(|i| kept[i])).collect())
+        .unwrap_or_default()
+}
+
 /// The order in which the fast mode fits the frames of a looping clip, each with the
 /// neighbouring frames already fitted (its seeds): the key frame first, then out from it both
 /// ways, alternately, so no chain is longer than half the loop and the last frame, opposite
@@ -1044,6 +1062,54 @@ mod tests {
                 s * area(t.map(|i| fit.targets[f][fit.mappings[f][i]]))
             })
             .collect()
+    }
+
+    #[test]
+    fn the_coarse_level_keeps_half_the_vertices_and_covers_their_polygon() {
+        // A 40-vertex wobbly ring whose every frame stretches it: the coarse level has 20 of
+        // its vertices, in outline order, and its triangles tile the polygon through them
+        // (areas add up, none inside out); the simplification's rule applied from scratch to
+        // 20 keeps the same vertices (the levels nest).
+        let n = 40;
+        let ring: Vec<[f32; 2]> = (0..n)
+            .map(|k| {
+                let a = k as f32 * std::f32::consts::TAU / n as f32;
+                let r = 20.0 + 3.0 * (5.0 * a).sin();
+                [50.0 + r * a.cos(), 50.0 + r * a.sin()]
+            })
+            .collect();
+        let frames: Vec<Vec<[f32; 2]>> = (0..6)
+            .map(|f| ring.iter().map(|p| [p[0] * (1.0 + 0.05 * f as f32), p[1]]).collect())
+            .collect();
+        let tris = coarse_triangles(&frames, &ring);
+        let mut used: Vec<usize> = tris.iter().flatten().copied().collect();
+        used.sort_unstable();
+        used.dedup();
+        assert_eq!(used.len(), n / 2);
+        assert_eq!(used, deformation_aware_simplify(&frames, &ring, n / 2));
+        let area = |t: [[f32; 2]; 3]| {
+            ((t[1][0] - t[0][0]) * (t[2][1] - t[0][1]) - (t[2][0] - t[0][0]) * (t[1][1] - t[0][1])) / 2.0
+        };
+        let poly: Vec<[f32; 2]> = used.iter().map(|&i| ring[i]).collect();
+        let shoelace: f32 = (0..poly.len())
+            .map(|k| {
+                let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+                (a[0] * b[1] - b[0] * a[1]) / 2.0
+            })
+            .sum();
+        let areas: Vec<f32> = tris.iter().map(|t| area(t.map(|i| ring[i]))).collect();
+        assert!(areas.iter().all(|a| a.signum() == shoelace.signum()), "{areas:?}");
+        let sum: f32 = areas.iter().sum();
+        assert!((sum - shoelace).abs() < 1e-3 * shoelace.abs(), "{sum} vs {shoelace}");
+        assert_eq!(tris.len(), n / 2 - 2);
+        // Too small to thin.
+        assert!(
+            coarse_triangles(
+                &frames[..1].iter().map(|f| f[..7].to_vec()).collect::<Vec<_>>(),
+                &ring[..7]
+            )
+            .is_empty()
+        );
     }
 
     #[test]

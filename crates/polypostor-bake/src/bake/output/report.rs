@@ -174,22 +174,23 @@ pub struct ClipReport {
     pub memory_ratio: f64,
 }
 
-/// Bytes of polygon positions a bake's pack holds for the frames in `range` (4 a vertex a
-/// frame: two 16-bit coordinates), over every view, part and key.
+/// Bytes of polygon positions a bake's pack holds for the frames in `range` (2 a vertex a
+/// frame: a byte per coordinate inside the block's box, `pack::quant`), over every view, part
+/// and key.
 pub fn animation_bytes(bake: &Bake, range: std::ops::Range<usize>) -> u64 {
     let frames = bake.frame_times.len();
     let mut n = 0u64;
     for v in &bake.views {
         for part in &v.parts {
             let Some(fit) = &part.fit else { continue };
-            n += 4 * (fit.kept.len() * range.len()) as u64;
+            n += 2 * (fit.kept.len() * range.len()) as u64;
             // Extra keys hold only their span's frames (as the pack writes them).
             if part.frame_key.is_empty() {
                 continue;
             }
             for e in &part.extra {
                 let inside = range.clone().filter(|&f| e.span.contains(f, frames)).count();
-                n += 4 * (e.fit.kept.len() * inside) as u64;
+                n += 2 * (e.fit.kept.len() * inside) as u64;
             }
         }
     }
