@@ -589,9 +589,10 @@ struct BakeArgs {
     /// (default 0.25).
     #[arg(long)]
     key_budget: Option<f64>,
-    /// Vertices of each part's polygon in the pack (3 to 40, the fitted polygon's; default 30,
-    /// chosen by deformation-aware simplification; more: finer warps, a larger pack and more
-    /// vertex work in the crowd).
+    /// Vertices of each part's polygon in the pack (3 to 40, the fitted polygon's; default 40;
+    /// fewer are chosen by deformation-aware simplification: a smaller pack and less vertex
+    /// work in the crowd, coarser warps). The pack also holds each polygon simplified on to
+    /// half its vertices, drawn for characters small on screen.
     #[arg(long)]
     polygon_vertices: Option<usize>,
     /// Most views, as a share of all, that the key budget other views left unspent goes to,

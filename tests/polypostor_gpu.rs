@@ -91,7 +91,7 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
             truth_color.save(dir.join(format!("truth_{v}.png"))).unwrap();
             color.save(dir.join(format!("polypostor_{v}.png"))).unwrap();
         }
-        // Documented tolerance (README): the 30-vertex polygons follow the silhouette to
+        // Documented tolerance (README): the 40-vertex polygons follow the silhouette to
         // about a pixel of the 128² bake, so most of the area overlaps; colours are the
         // key-frame texture warped, close to the real render where both cover.
         let ok = iou > 0.7 && diff < 40.0;
@@ -130,11 +130,12 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
     let covered = crowd.iter().filter(|&&x| x).count();
     assert!(covered > (size * size / 20) as usize, "{covered} pixels");
 
-    // The coarse index levels (every other / every fourth polygon vertex) for small
-    // characters: drawn large, their outline stays within a fraction of a pixel of the full
-    // triangles' once scaled down to the size they are used at (0.08 and 0.035 of the
-    // screen height: 29 and 13 pixels at 720p).
+    // The coarse index levels (the pack's half-vertex polygon / every fourth polygon vertex)
+    // for small characters: drawn large, their outline stays within a fraction of a pixel of
+    // the full triangles' once scaled down to the largest size they are used at by default
+    // (`coarse_below` of the screen height at 720p).
     let default_below = gpu.coarse_below;
+    assert!(default_below[0] > default_below[1] && default_below[1] > 0.0);
     for (v, view) in pack.manifest.views.iter().enumerate() {
         let cam = &view.camera;
         let camera = cam.to_camera(cam.half_size * 4.0, cam.half_size, cam.half_size * 8.0);
@@ -169,7 +170,8 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
             })
             .count();
         // Level 1 everywhere, then level 2 everywhere (any height is under 1e9).
-        for (level, below, pixels_tall) in [(1, [1e9, 0.0], 0.08 * 360.0), (2, [1e9, 1e9], 0.035 * 360.0)] {
+        let tall = default_below.map(|b| f64::from(b) * 360.0);
+        for (level, below, pixels_tall) in [(1, [1e9, 0.0], tall[0]), (2, [1e9, 1e9], tall[1])] {
             let coarse = draw(below);
             let differ = fine.iter().zip(&coarse).filter(|(a, b)| a != b).count();
             // Mean distance between the outlines, in pixels of this image and at the size

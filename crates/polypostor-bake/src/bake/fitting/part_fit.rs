@@ -17,10 +17,11 @@ pub struct PartFitOptions {
     /// Vertices of every frame's polygon T. Default value: 50.
     pub frame_vertices: usize,
     /// Vertices after deformation-aware simplification (at most `key_vertices`). Default
-    /// value: [`DEFAULT_POLYGON_VERTICES`] (30; the paper's 20 lost 0.8–1.4 dB on the shared
-    /// characters for a few percent of the pack: the interior warp, not only the outline, needs
-    /// them; 40 buys a little more at a crowd frame-rate cost on software rasterisers; see the
-    /// README's "Polygon vertices").
+    /// value: [`DEFAULT_POLYGON_VERTICES`] (40, every fitted vertex; the paper's 20 lost
+    /// 1.3–2 dB on the shared characters for a few percent of the pack: the interior warp, not
+    /// only the outline, needs them. The pack also stores the polygon simplified on to half its
+    /// vertices, which the crowd draws for characters small on screen; see the README's
+    /// "Polygon vertices").
     pub final_vertices: usize,
     /// Exact DP over every target vertex (`O(n·m³)`) instead of the fast mode.
     /// Default value: false.
@@ -86,7 +87,7 @@ pub struct PartFitOptions {
 }
 
 /// Vertices of each part's polygon in the pack ([`PartFitOptions::final_vertices`]).
-pub const DEFAULT_POLYGON_VERTICES: usize = 30;
+pub const DEFAULT_POLYGON_VERTICES: usize = 40;
 
 /// Error per source pixel above which the fast mode restarts from a coarse global solution.
 pub const DEFAULT_RESTART_THRESHOLD: f64 = 0.06;
