@@ -44,6 +44,7 @@ pub mod gpu;
 pub mod import;
 pub mod limits;
 pub mod pack;
+pub mod quant;
 pub mod records;
 pub mod reps;
 pub mod safe_fs;

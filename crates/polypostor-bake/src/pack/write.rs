@@ -6,10 +6,10 @@ use std::path::{Path, PathBuf};
 use super::atlas::pack_atlas;
 use crate::bake::pipeline::{Bake, TextureEncoding};
 pub use crate::bake::report::PackStats;
-use crate::pack::quant::PositionBox;
 use crate::pack::{
     Checksums, FORMAT_NAME, FORMAT_VERSION, Manifest, ManifestKey, ManifestPart, ManifestView, PackCamera, put_file,
 };
+use polypostor_runtime::quant::PositionBox;
 use polypostor_runtime::texture::BcFormat;
 
 fn io(path: &Path, e: impl std::fmt::Display) -> String {

@@ -480,7 +480,7 @@ pub fn estimate(
     let r = resolution as u64;
     let atlas = v * (r2 * 42 / 100 + 18 * r) * 5;
     let texture_bytes = texture_bytes * 4 / 3;
-    // Per view, part and frame the polygon's positions (2 bytes each: `pack::quant`), about
+    // Per view, part and frame the polygon's positions (2 bytes each: `quant`), about
     // 10 % more for the extra keys' polygons (they hold only the frames they draw); per view
     // and part the UVs, the position box and the triangles.
     let nv = crate::bake::part_fit::DEFAULT_POLYGON_VERTICES as u64;

@@ -45,7 +45,7 @@ struct PartGpu {
     frames: u32,
     /// First u32 of the part's per-frame key table in the geometry buffer.
     key_table: u32,
-    /// The block's position box ([`crate::pack::quant::PositionBox`]): lower corner x, y as
+    /// The block's position box ([`crate::quant::PositionBox`]): lower corner x, y as
     /// unorm16 values, then its size.
     box_lo: u32,
     box_size: u32,
@@ -121,7 +121,7 @@ pub struct GpuPolypostors {
 
 impl GpuPolypostors {
     /// Uploads `pack`: per key block its UVs as 16-bit pairs and its positions as bytes inside
-    /// the block's box ([`crate::pack::quant`], what a format-7 pack stores), the parts'
+    /// the block's box ([`crate::quant`], what a format-7 pack stores), the parts'
     /// records and per-frame key tables, per view the full and two coarse index lists, and the
     /// views' colour and normal atlases shelf-packed into the layers of two texture arrays.
     /// [`GpuError::Unsupported`] when the pack has no views, more than 255 parts or 65536 part
@@ -568,7 +568,7 @@ fn push_block(
     offset: u64,
     vc: usize,
     frames: u32,
-) -> Option<(u32, crate::pack::quant::PositionBox)> {
+) -> Option<(u32, crate::quant::PositionBox)> {
     let start = usize::try_from(offset).ok()?;
     let end = start.checked_add(2 * vc * (1 + frames as usize))?;
     let block = vertices.get(start..end)?;
@@ -576,7 +576,7 @@ fn push_block(
     let word = geometry.len() as u32;
     let unorm = |x: f32| (x.clamp(0.0, 1.0) * 65535.0).round() as u32;
     geometry.extend(uvs.chunks_exact(2).map(|c| unorm(c[0]) | unorm(c[1]) << 16));
-    let bx = crate::pack::quant::PositionBox::around(positions);
+    let bx = crate::quant::PositionBox::around(positions);
     let bytes = bx.quantise_all(positions);
     for frame in bytes.chunks_exact(2 * vc) {
         geometry.extend(frame.chunks(4).map(|c| {

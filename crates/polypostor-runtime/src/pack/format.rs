@@ -106,7 +106,7 @@ pub struct ManifestPart {
     /// First value (u16) of this part's block in `vertices.bin`. The block holds
     /// `vertex_count` UVs (atlas-normalised, 2 normalised u16 values each: `x / 65535`), then
     /// the block's position box (4 u16: lower corner x, y and size x, y, see
-    /// [`crate::pack::quant::PositionBox`]), then `frames × vertex_count` positions, each one
+    /// [`crate::quant::PositionBox`]), then `frames × vertex_count` positions, each one
     /// u16 slot holding two bytes (x then y) inside the box (view-plane coordinates
     /// `(x + 1) / 2, (y + 1) / 2`). Format 5 and 6 packs have no box and store each position
     /// as two normalised u16 values.

@@ -521,7 +521,7 @@ fn decode_block(
     let start = out.len() as u64;
     out.extend(w[..uv].iter().map(|&x| f32::from(x) / 65535.0));
     let words4 = [w[uv], w[uv + 1], w[uv + 2], w[uv + 3]];
-    let bx = super::quant::PositionBox::from_words(words4).ok_or_else(|| {
+    let bx = crate::quant::PositionBox::from_words(words4).ok_or_else(|| {
         damaged(format!(
             "{what}: position box {words4:?} is empty or runs past the view"
         ))

@@ -7,7 +7,7 @@
 
 mod format;
 mod load;
-pub mod quant;
+pub use crate::quant;
 
 pub use format::{
     Checksums, FORMAT_NAME, FORMAT_VERSION, FileSum, MAX_KEYS, Manifest, ManifestKey, ManifestPart, ManifestView,

@@ -175,7 +175,7 @@ pub struct ClipReport {
 }
 
 /// Bytes of polygon positions a bake's pack holds for the frames in `range` (2 a vertex a
-/// frame: a byte per coordinate inside the block's box, `pack::quant`), over every view, part
+/// frame: a byte per coordinate inside the block's box, `quant`), over every view, part
 /// and key.
 pub fn animation_bytes(bake: &Bake, range: std::ops::Range<usize>) -> u64 {
     let frames = bake.frame_times.len();

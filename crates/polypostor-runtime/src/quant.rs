@@ -1,4 +1,5 @@
-//! 8-bit polygon positions (pack format 7; the GPU layout of every pack).
+//! 8-bit polygon positions (pack format 7 and the GPU layout of every pack; used by the pack
+//! loader and the renderer, so it belongs to neither).
 //!
 //! A key's polygon moves inside a small part of its view, so its positions are stored as one
 //! byte per coordinate inside the block's box: the smallest rectangle, in normalised u16 steps
