@@ -52,6 +52,8 @@ pub struct ExportRequest {
     pub fps: f32,
     pub png: polypostor::bake::pipeline::PngCompression,
     pub textures: polypostor::bake::pipeline::TextureEncoding,
+    /// Vertices of each part's polygon.
+    pub polygon_vertices: usize,
     /// The clips to bake, in the character's order (the project's clip set from now on).
     pub clips: Vec<String>,
 }

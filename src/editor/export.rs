@@ -22,6 +22,8 @@ pub struct ExportDialog {
     pub png: PngCompression,
     /// BC7 (KTX2) or PNG textures.
     pub textures: TextureEncoding,
+    /// Vertices of each part's polygon (3 to the fitted 40).
+    pub polygon_vertices: usize,
     /// Per clip of the character, whether it goes into the pack (several: one
     /// whole-character pack sharing its key images).
     pub clips: Vec<bool>,
@@ -40,6 +42,7 @@ impl Default for ExportDialog {
             fps: polypostor::bake::renders::DEFAULT_FPS,
             png: PngCompression::default(),
             textures: TextureEncoding::default(),
+            polygon_vertices: polypostor::bake::part_fit::DEFAULT_POLYGON_VERTICES,
             clips: Vec::new(),
             folder_check: None,
         }
@@ -64,6 +67,7 @@ impl ExportDialog {
         let b = &doc.project.bake;
         (self.views, self.resolution, self.fps) = (b.views, b.resolution, b.fps);
         (self.png, self.textures) = (b.png, b.textures);
+        self.polygon_vertices = b.polygon_vertices;
         if self.folder.is_empty() {
             let dir = doc
                 .project_file
@@ -180,6 +184,14 @@ impl ExportDialog {
                          level (slower writing gives smaller files)",
                     );
                 ui.end_row();
+                ui.label("Polygon vertices");
+                let most = polypostor::bake::part_fit::PartFitOptions::default().key_vertices;
+                ui.add(egui::Slider::new(&mut self.polygon_vertices, 3..=most))
+                    .on_hover_text(
+                        "Vertices of each part's polygon: fewer make a smaller pack and less work for the crowd, \
+                         with coarser warps (the paper used 20; the crowd draws half of them for small characters)",
+                    );
+                ui.end_row();
             });
             ui.separator();
             // Memory before writing.
@@ -197,6 +209,7 @@ impl ExportDialog {
                 doc.character.vertices.len(),
                 texture_bytes,
             )
+            .with_polygon_vertices(self.polygon_vertices, self.views, frames, doc.segmentation.parts.len())
             .with_textures(self.textures);
             let how = match self.textures {
                 TextureEncoding::Bc7 => "textures as BC7 blocks",
@@ -272,6 +285,7 @@ impl ExportDialog {
                         fps: self.fps,
                         png: self.png,
                         textures: self.textures,
+                        polygon_vertices: self.polygon_vertices,
                         clips: self
                             .clips
                             .iter()

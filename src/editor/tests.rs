@@ -715,9 +715,11 @@ fn export_writes_the_chosen_representations_and_opens_the_preview() {
         e.views = 4;
         e.resolution = 64;
         e.fps = 5.0;
+        e.polygon_vertices = 24;
         e.set = polypostor::reps::RepSet::parse("polypostor,impostor").unwrap();
     }
     h.run_steps(2);
+    h.get_by_label("Polygon vertices");
     h.get_by_label("Export").click();
     h.run_steps(2);
     assert!(!h.state().export.open);
@@ -733,11 +735,15 @@ fn export_writes_the_chosen_representations_and_opens_the_preview() {
     let report = polypostor::bake::report::read_report(&out).unwrap();
     assert_eq!(report.views.len(), 4);
     assert_eq!(report.settings.resolution, 64);
+    // The polygon size chosen in the dialog is the bake's and, from now on, the project's.
+    assert_eq!(report.settings.final_vertices, 24);
+    assert_eq!(h.state().doc.as_ref().unwrap().project.bake.polygon_vertices, 24);
     let reps = polypostor::reps::load_representations(&out).unwrap();
     assert!(reps.impostor.is_some() && reps.np3d.is_none() && reps.rigid.is_none());
     // The estimate shown before writing, against what was written.
     let c = &h.state().doc.as_ref().unwrap().character;
-    let e = polypostor::reps::compare::estimate(4, 64, report.settings.frames, 5, c.vertices.len(), 0);
+    let e = polypostor::reps::compare::estimate(4, 64, report.settings.frames, 5, c.vertices.len(), 0)
+        .with_polygon_vertices(24, 4, report.settings.frames, 5);
     assert_eq!(e.impostor, report.impostor_bytes, "impostor memory is exact");
     let ratio = e.polypostor as f64 / report.pack_bytes as f64;
     assert!(

@@ -93,6 +93,7 @@ impl EditorApp {
                 let mut settings = self.doc.as_ref().map(|d| d.project.bake.clone()).unwrap_or_default();
                 (settings.views, settings.resolution, settings.fps) = (req.views, req.resolution, req.fps);
                 (settings.png, settings.textures) = (req.png, req.textures);
+                settings.polygon_vertices = req.polygon_vertices;
                 if let Some(doc) = self.doc.as_mut()
                     && (doc.project.clips != req.clips || doc.project.bake != settings)
                 {

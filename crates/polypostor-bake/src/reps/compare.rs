@@ -411,13 +411,39 @@ mod tests {
         assert_eq!(chosen_views(137, 24).len(), 24);
         assert_eq!(chosen_views(5, 24), vec![0, 1, 2, 3, 4]);
     }
+
+    #[test]
+    fn the_estimate_follows_the_polygon_vertices() {
+        let e = estimate(137, 128, 57, 5, 5000, 0);
+        let same = e.with_polygon_vertices(crate::bake::part_fit::DEFAULT_POLYGON_VERTICES, 137, 57, 5);
+        assert_eq!(same, e);
+        let fewer = e.with_polygon_vertices(20, 137, 57, 5);
+        assert_eq!(fewer.polypostor_atlas, e.polypostor_atlas);
+        assert_eq!(fewer.impostor, e.impostor);
+        // Positions are most of the geometry: 20 vertices hold about half of 40's.
+        let (g40, g20) = (
+            e.polypostor - e.polypostor_atlas,
+            fewer.polypostor - fewer.polypostor_atlas,
+        );
+        assert!(
+            g20 < g40 && g20 * 2 > g40 * 9 / 10 && g20 * 2 < g40 * 11 / 10,
+            "{g20} vs {g40}"
+        );
+        // Either order with the textures gives the same.
+        let bc = crate::bake::pipeline::TextureEncoding::Bc7;
+        assert_eq!(
+            fewer.with_textures(bc),
+            e.with_textures(bc).with_polygon_vertices(20, 137, 57, 5)
+        );
+    }
 }
 
 /// Memory of each representation estimated before baking (uncompressed bytes, textures and
 /// geometry): exact for classic impostors (a colour and a normal image per view per frame);
 /// for Polypostors and NP3D from densities measured on the default character (atlas texels
-/// per view ≈ 0.48 r² + 21 r with the extra key images, plus a quarter for normals; 20
-/// vertices per part and frame);
+/// per view ≈ 0.42 r² + 18 r with the extra key images, plus a quarter for normals; the
+/// default polygon's vertices per part and frame, two bytes each, or
+/// [`Estimate::with_polygon_vertices`]);
 /// skinned and rigid from the mesh (the character's textures with their mipmaps).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Estimate {
@@ -431,6 +457,15 @@ pub struct Estimate {
 }
 
 impl Estimate {
+    /// The same bake with polygons of `vertices` vertices instead of the default's (the
+    /// bake's `views`, `frames` and `parts`, as given to [`estimate`]).
+    pub fn with_polygon_vertices(self, vertices: usize, views: usize, frames: usize, parts: usize) -> Self {
+        Self {
+            polypostor: self.polypostor_atlas + polygon_geometry(views, frames, parts, vertices),
+            ..self
+        }
+    }
+
     /// The same bake's bytes with `textures` chosen: BC7 keeps one byte a texel for the
     /// Polypostor's colour and normal atlases and the impostors' colour sheets (four as
     /// RGBA8); the impostors' normal sheets, NP3D's images and the meshes' textures stay as
@@ -454,6 +489,15 @@ impl Estimate {
     }
 }
 
+/// Bytes of the Polypostor's polygons: per view, part and frame the polygon's positions (2
+/// bytes each: `quant`), about 10 % more for the extra keys' polygons (they hold only the
+/// frames they draw); per view and part the UVs, the position box, the triangles and the
+/// coarse level's (about half as many).
+fn polygon_geometry(views: usize, frames: usize, parts: usize, vertices: usize) -> u64 {
+    let (v, f, p, nv) = (views as u64, frames.max(1) as u64, parts as u64, vertices.max(3) as u64);
+    v * p * f * nv * 2 * 11 / 10 + v * p * ((nv - 2) * 3 * 2 * 3 / 2 + nv * 4 + 8)
+}
+
 /// See [`Estimate`]. `texture_bytes`: the character's own textures, uncompressed.
 pub fn estimate(
     views: usize,
@@ -463,11 +507,10 @@ pub fn estimate(
     vertices: usize,
     texture_bytes: u64,
 ) -> Estimate {
-    let (v, r2, f, p, n) = (
+    let (v, r2, f, n) = (
         views as u64,
         (resolution as u64).pow(2),
         frames.max(1) as u64,
-        parts as u64,
         vertices as u64,
     );
     // Atlas texels per view, key images after the first included (`bake::keys`, default
@@ -480,11 +523,7 @@ pub fn estimate(
     let r = resolution as u64;
     let atlas = v * (r2 * 42 / 100 + 18 * r) * 5;
     let texture_bytes = texture_bytes * 4 / 3;
-    // Per view, part and frame the polygon's positions (2 bytes each: `quant`), about
-    // 10 % more for the extra keys' polygons (they hold only the frames they draw); per view
-    // and part the UVs, the position box and the triangles.
-    let nv = crate::bake::part_fit::DEFAULT_POLYGON_VERTICES as u64;
-    let poly_geometry = v * p * f * nv * 2 * 11 / 10 + v * p * ((nv - 2) * 3 * 2 + nv * 4 + 8);
+    let poly_geometry = polygon_geometry(views, frames, parts, crate::bake::part_fit::DEFAULT_POLYGON_VERTICES);
     Estimate {
         polypostor: atlas + poly_geometry,
         polypostor_atlas: atlas,
