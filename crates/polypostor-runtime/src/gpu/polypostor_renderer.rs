@@ -561,7 +561,7 @@ const LEVELS: u32 = 3;
 /// Appends the GPU form of one key block (`vc` vertices, `frames` frames, at value `offset` of
 /// `vertices`: UVs, then positions frame by frame) to `geometry`: a u32 per UV, then each
 /// frame's positions as bytes of the block's box, two vertices a u32. Returns the block's
-/// first word and its box; `None` when the block runs past `vertices`.
+/// first word and its box; `None` when the block (at least one frame) runs past `vertices`.
 fn push_block(
     geometry: &mut Vec<u32>,
     vertices: &[f32],
@@ -569,8 +569,10 @@ fn push_block(
     vc: usize,
     frames: u32,
 ) -> Option<(u32, crate::quant::PositionBox)> {
+    // At least one frame, as the shader reads it (`frames` in the part record is clamped so).
+    let frames = frames.max(1) as usize;
     let start = usize::try_from(offset).ok()?;
-    let end = start.checked_add(2 * vc * (1 + frames as usize))?;
+    let end = start.checked_add(2 * vc * (1 + frames))?;
     let block = vertices.get(start..end)?;
     let (uvs, positions) = block.split_at(2 * vc);
     let word = geometry.len() as u32;
@@ -677,6 +679,34 @@ fn atlas_pages(sizes: &[[u32; 2]], max_side: u32) -> Option<AtlasPages> {
 #[cfg(test)]
 mod tests {
     use super::atlas_pages;
+
+    #[test]
+    fn a_block_is_uvs_then_whole_words_of_position_bytes_per_frame() {
+        // 3 vertices, 2 frames: 3 UV words, then 2 words a frame (two vertices a word).
+        let uv = [0.0, 0.0, 1.0, 0.0, 0.5, 1.0];
+        let f0 = [0.2, 0.2, 0.4, 0.2, 0.3, 0.4];
+        let f1 = [0.25, 0.2, 0.45, 0.2, 0.35, 0.4];
+        let values: Vec<f32> = uv.iter().chain(&f0).chain(&f1).copied().collect();
+        let mut geometry = vec![7u32];
+        let (word, bx) = super::push_block(&mut geometry, &values, 0, 3, 2).unwrap();
+        assert_eq!(word, 1);
+        assert_eq!(geometry.len(), 1 + 3 + 2 * 2);
+        assert_eq!(geometry[1], 0);
+        assert_eq!(geometry[2], 0xffff);
+        // Every byte decodes to within half a step of its value.
+        let bytes: Vec<u8> = geometry[4..].iter().flat_map(|w| w.to_le_bytes()).collect();
+        let decoded: Vec<f32> = [&bytes[0..6], &bytes[8..14]]
+            .into_iter()
+            .flat_map(|b| bx.values(b).collect::<Vec<_>>())
+            .collect();
+        let err = bx.max_error();
+        for (i, (a, b)) in f0.iter().chain(&f1).zip(&decoded).enumerate() {
+            assert!((a - b).abs() <= err[i % 2] + 2.0 / 65535.0, "{a} vs {b}");
+        }
+        // No frames counts as one (as the shader reads it); a block past the data is refused.
+        assert!(super::push_block(&mut geometry, &values, 0, 3, 0).is_some());
+        assert!(super::push_block(&mut geometry, &values, 6, 3, 2).is_none());
+    }
 
     #[test]
     fn coarse_triangles_use_every_other_or_fourth_vertex() {
