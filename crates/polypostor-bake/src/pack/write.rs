@@ -93,6 +93,16 @@ pub fn write_folder_atomic<T>(out: &Path, fill: &dyn Fn(&Path) -> Result<T, Stri
     }
 }
 
+/// Where one key's block, triangles and coarse triangles went, and their bytes.
+struct WrittenKey {
+    vertex_offset: u64,
+    index_offset: u64,
+    /// 0 when the polygon has no coarse level.
+    coarse_offset: u64,
+    coarse_count: u32,
+    bytes: u64,
+}
+
 fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> Result<PackStats, String> {
     let r = bake.options.resolution as f32;
     let frames = bake.frame_times.len();
@@ -155,8 +165,9 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                          count: usize,
                          vertices: &mut Vec<u16>,
                          indices: &mut Vec<u16>|
-         -> (u64, u64, u64, u32) {
+         -> WrittenKey {
             let vertex_offset = vertices.len() as u64;
+            let index_start = indices.len();
             for q in fit.uvs() {
                 let t = rect.to_atlas(q);
                 vertices.push(unorm(t[0] / aw));
@@ -182,7 +193,14 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
             let coarse_offset = indices.len() as u64;
             let coarse = crate::bake::part_fit::coarse_triangles(&positions, &fit.uvs());
             indices.extend(coarse.iter().flatten().map(|&i| i as u16));
-            (vertex_offset, index_offset, coarse_offset, (coarse.len() * 3) as u32)
+            let coarse_count = (coarse.len() * 3) as u32;
+            WrittenKey {
+                vertex_offset,
+                index_offset,
+                coarse_offset: if coarse_count > 0 { coarse_offset } else { 0 },
+                coarse_count,
+                bytes: 2 * ((vertices.len() as u64 - vertex_offset) + (indices.len() - index_start) as u64),
+            }
         };
         let mut parts = Vec::new();
         for (p, part) in view.parts.iter().enumerate() {
@@ -190,26 +208,22 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                 parts.push(None);
                 continue;
             };
-            let (vertex_offset, index_offset, coarse_offset, coarse_count) =
-                write_key(fit, &rect, 0, frames, &mut vertices, &mut indices);
+            let first = write_key(fit, &rect, 0, frames, &mut vertices, &mut indices);
             // Triangles drawn per character (a part's other keys draw instead of its first).
             triangles += fit.triangles.len();
             let mut extra_keys = Vec::new();
             for (e, &item) in part.extra.iter().zip(&extra_item[p]) {
                 let Some(er) = atlas.rects[item] else { continue };
-                let (vo, io_, co, cc) = write_key(&e.fit, &er, e.span.start, e.span.count, &mut vertices, &mut indices);
-                stats.extra_key_bytes += 5 * u64::from(er.w) * u64::from(er.h)
-                    + (e.fit.kept.len() * (4 + 2 * e.span.count) + 8) as u64
-                    + 6 * e.fit.triangles.len() as u64
-                    + 2 * u64::from(cc);
+                let k = write_key(&e.fit, &er, e.span.start, e.span.count, &mut vertices, &mut indices);
+                stats.extra_key_bytes += 5 * u64::from(er.w) * u64::from(er.h) + k.bytes;
                 extra_keys.push(ManifestKey {
                     key_frame: e.frame as u32,
-                    vertex_offset: vo,
+                    vertex_offset: k.vertex_offset,
                     vertex_count: e.fit.kept.len() as u32,
-                    index_offset: io_,
+                    index_offset: k.index_offset,
                     index_count: (e.fit.triangles.len() * 3) as u32,
-                    coarse_index_offset: if cc > 0 { co } else { 0 },
-                    coarse_index_count: cc,
+                    coarse_index_offset: k.coarse_offset,
+                    coarse_index_count: k.coarse_count,
                     atlas_rect: [er.x, er.y, er.w, er.h],
                     transposed: er.transposed,
                     frame_start: e.span.start as u32,
@@ -225,12 +239,12 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                 extra_keys.clear();
             }
             parts.push(Some(ManifestPart {
-                vertex_offset,
+                vertex_offset: first.vertex_offset,
                 vertex_count: fit.kept.len() as u32,
-                index_offset,
+                index_offset: first.index_offset,
                 index_count: (fit.triangles.len() * 3) as u32,
-                coarse_index_offset: if coarse_count > 0 { coarse_offset } else { 0 },
-                coarse_index_count: coarse_count,
+                coarse_index_offset: first.coarse_offset,
+                coarse_index_count: first.coarse_count,
                 atlas_rect: [rect.x, rect.y, rect.w, rect.h],
                 transposed: rect.transposed,
                 key_frame: fit.key_frame as u32,
