@@ -19,7 +19,7 @@ struct Rig {
     skeleton: Skeleton,
     bones: Vec<Bone>,
     bindings: HashMap<usize, Binding>,
-    /// File node index -> skeleton node index (empty for skinless files).
+    /// File node index -> skeleton node index (empty for static files).
     node_map: HashMap<usize, usize>,
 }
 
@@ -97,7 +97,11 @@ impl Builder<'_> {
             world_rest: vec![None; root.nodes.len()],
             parent,
         };
-        let rig = if any_skin {
+        // Without a skin, a file whose animations move its mesh nodes (a prop: a door, a
+        // windmill, a wheel) is rigged like the skinned files' rigid meshes: each mesh node a
+        // bone that follows its node. Otherwise it is static.
+        let rigged = any_skin || animates_meshes(root, &mesh_nodes, &hierarchy.parent);
+        let rig = if rigged {
             self.skinned_rig(&mesh_nodes, &hierarchy)?
         } else {
             static_rig(&mesh_nodes)
@@ -111,7 +115,7 @@ impl Builder<'_> {
                 ))
             })?;
             let mesh_name = mesh.name.clone().unwrap_or_else(|| format!("mesh {mesh_index}"));
-            let static_world = match (any_skin, node) {
+            let static_world = match (rigged, node) {
                 (true, _) => None,
                 (false, Some(n)) => Some(hierarchy.world(n)),
                 (false, None) => Some(Mat4::IDENTITY),
@@ -123,7 +127,7 @@ impl Builder<'_> {
         if g.indices.is_empty() {
             return Err(ImportError::NoGeometry);
         }
-        let clips = self.clips(&rig.node_map, any_skin)?;
+        let clips = self.clips(&rig.node_map, rigged)?;
         let name = scene_name(root).unwrap_or_else(|| name.to_string());
         let mut character = Character {
             name,
@@ -515,6 +519,32 @@ impl Builder<'_> {
 
 /// The rig of a file without skins: one root joint every mesh follows rigidly (the
 /// geometry is placed by its nodes' rest transforms).
+/// Whether an animation channel (translation, rotation or scale) targets a mesh node or one
+/// of its ancestors.
+fn animates_meshes(root: &json::Root, mesh_nodes: &[usize], parent: &[Option<usize>]) -> bool {
+    let mut moves = vec![false; root.nodes.len()];
+    for &m in mesh_nodes {
+        let mut at = Some(m);
+        while let Some(i) = at {
+            if moves[i] {
+                break;
+            }
+            moves[i] = true;
+            at = parent[i];
+        }
+    }
+    root.animations.iter().flat_map(|a| &a.channels).any(|ch| {
+        matches!(
+            ch.target.path,
+            Checked::Valid(
+                json::animation::Property::Translation
+                    | json::animation::Property::Rotation
+                    | json::animation::Property::Scale
+            )
+        ) && moves.get(ch.target.node.value()).copied().unwrap_or(false)
+    })
+}
+
 fn static_rig(mesh_nodes: &[usize]) -> Rig {
     let mut rig = Rig::default();
     rig.skeleton.nodes.push(Node {

@@ -3,7 +3,9 @@
 //! [`import_path`] / [`import_slice`] turn a file into a [`Character`]: the default scene's
 //! skinned primitives merged into one mesh with its skeleton and all animation clips. Meshes
 //! without a skin join rigidly bound to their own node (props parented to a joint follow it);
-//! a file with no skin at all becomes a one-joint character. Every offset and count is checked
+//! a file with no skin at all becomes a one-joint static character, unless its animations
+//! move its mesh nodes (an animated prop): then each mesh node is a rigid bone following its
+//! node, as the skinned files' rigid meshes are. Every offset and count is checked
 //! against the data before use, so malformed files give an [`ImportError`] naming the
 //! problem, never a panic or an unbounded allocation. Harmless problems become
 //! [`Character::warnings`].
@@ -577,7 +579,7 @@ impl Builder<'_> {
         })
     }
 
-    fn clips(&mut self, node_map: &HashMap<usize, usize>, any_skin: bool) -> Result<Vec<Clip>, ImportError> {
+    fn clips(&mut self, node_map: &HashMap<usize, usize>, rigged: bool) -> Result<Vec<Clip>, ImportError> {
         let root = self.root;
         let mut clips = Vec::new();
         let mut skipped_skinless = 0usize;
@@ -627,7 +629,7 @@ impl Builder<'_> {
                     continue;
                 }
                 let file_node = ch.target.node.value();
-                let node = if any_skin {
+                let node = if rigged {
                     match node_map.get(&file_node) {
                         Some(&n) => n,
                         None => continue, // animates a node that does not move the character

@@ -920,8 +920,24 @@ pub fn fit_part_span(
             count: done,
         }
     };
-    // Frames outside the span borrow the nearest fitted frame's mapping and polygon.
     let mut targets: Vec<Vec<[f32; 2]>> = targets.to_vec();
+    // The key frame, and every frame showing exactly its image, draws the key image itself:
+    // S onto its own vertices (the identity, cost 0). Fitted onto T, the frame's outline
+    // simplified to more vertices and grown on its own, each S vertex lands on a T vertex up
+    // to a pixel away, which bends straight edges and cuts or spikes corners of the very
+    // image the texture is (a static prop was drawn that way in every frame). Pinned frames
+    // keep the artist's correspondences.
+    let identity: Vec<usize> = (0..key_polygon.len()).collect();
+    let key_target = targets[key].clone();
+    for f in 0..frames {
+        let unpinned = pins.get(f).is_none_or(|p| p.is_empty());
+        if fitted[f] && unpinned && (f == key || (tiles[f].px == tiles[key].px && targets[f] == key_target)) {
+            targets[f] = key_polygon.clone();
+            mappings[f] = identity.clone();
+            costs[f] = 0.0;
+        }
+    }
+    // Frames outside the span borrow the nearest fitted frame's mapping and polygon.
     for f in 0..frames {
         if !fitted[f] {
             let g = span.nearest(f, frames);
@@ -1000,6 +1016,45 @@ mod tests {
                 PartTile { size, px }
             })
             .collect()
+    }
+
+    #[test]
+    fn the_key_frame_and_frames_showing_its_image_draw_the_key_polygon_itself() {
+        // Moving: the key frame is S onto itself (the key image, unwarped), the others fitted.
+        let t = tiles(5);
+        let o = PartFitOptions::default();
+        for key in [0, 2] {
+            let fit = fit_part(&t, key, &o, &[]).unwrap();
+            assert_eq!(fit.positions(key), fit.key_polygon, "key {key}");
+            assert_eq!(fit.costs[key], 0.0);
+            // The identity really costs nothing under the fit's own objective.
+            let samples = SourceSamples::new(&t[key], &fit.key_polygon, &fit.key_triangles, o.fold_free);
+            let grid = target_grid(&t[key], &fit.targets[key], &o);
+            let identity: f64 = fit
+                .key_triangles
+                .iter()
+                .enumerate()
+                .map(|(k, tri)| samples.cost_indexed(k, &grid, &fit.targets[key], *tri, f64::INFINITY))
+                .sum();
+            assert!(identity < 1e-9, "{identity}");
+            for f in (0..5).filter(|&f| f != key) {
+                assert!(fit.costs[f] > 0.0 && fit.positions(f) != fit.key_polygon, "frame {f}");
+            }
+        }
+        // Still (a static prop): every frame is the key image.
+        let still = vec![t[1].clone(); 4];
+        let fit = fit_part(&still, 1, &o, &[]).unwrap();
+        for f in 0..4 {
+            assert_eq!(fit.positions(f), fit.key_polygon, "frame {f}");
+            assert_eq!(fit.costs[f], 0.0);
+        }
+        // A pin at the key frame keeps the artist's correspondence (fitted onto T).
+        let j = 3;
+        let mut pins = vec![Vec::new(); 5];
+        pins[0] = vec![(0, j)];
+        let pinned = fit_part(&t, 0, &o, &pins).unwrap();
+        assert_eq!(pinned.mappings[0][0], j);
+        assert_eq!(pinned.positions(0)[0], pinned.targets[0][j]);
     }
 
     #[test]
