@@ -410,13 +410,20 @@ impl Inspector {
         let pins_here: Vec<Pin> = s.ov.pins.get(&part).cloned().unwrap_or_default();
         ui.horizontal(|ui| {
             ui.vertical(|ui| {
-                let hint = if first_key {
+                // The key frame (and frames showing exactly its image) draw the key image
+                // itself: the key polygon onto its own vertices, nothing to correct.
+                let own_image =
+                    fit.targets[f] == fit.key_polygon && fit.mappings[f].iter().enumerate().all(|(i, &j)| i == j);
+                let pinnable = first_key && !own_image;
+                let hint = if own_image {
+                    "the key image itself (pin at other frames)"
+                } else if first_key {
                     "target + fit (drag a vertex to pin)"
                 } else {
                     "target + fit (pins: frames of the first key)"
                 };
                 ui.label(egui::RichText::new(hint).small());
-                let sense = if first_key {
+                let sense = if pinnable {
                     egui::Sense::drag()
                 } else {
                     egui::Sense::hover()
