@@ -223,6 +223,9 @@ fn joint_of_node(c: &Character, joints: &[usize], mut n: usize) -> Option<usize>
 
 /// The automatic segmentation.
 pub fn auto_segment(c: &Character) -> Segmentation {
+    if let Some(seg) = moving_pieces(c) {
+        return seg;
+    }
     let tree = JointTree::new(c);
     let count = tree.node.len();
     // part_of_joint[j]: the part each joint's influence goes to (0 = trunk).
@@ -508,6 +511,120 @@ pub fn auto_segment(c: &Character) -> Segmentation {
     let mut seg = Segmentation { parts, labels };
     compact(&mut seg);
     seg
+}
+
+/// Most parts [`moving_pieces`] makes (the largest pieces keep their own; the rest join the
+/// piece they hang from, or the body).
+pub const MAX_PIECES: usize = 16;
+
+/// The parts of an animated prop: a file without a skin whose animations move its mesh
+/// nodes, imported as rigid bones that follow their nodes (no joint in the skeleton). Each
+/// animated node carries its own part (a windmill's rotor, a car's wheels, a door): a rigid
+/// piece turning in its own plane is an affine warp of its image, where drawn with the rest
+/// it is not. A bone whose node is not animated goes with the nearest animated node above
+/// it, else with the body (what does not move). Parts are named after their nodes. `None`
+/// for anything else (a skinned character, a static file).
+fn moving_pieces(c: &Character) -> Option<Segmentation> {
+    let nodes = &c.skeleton.nodes;
+    if c.bones.is_empty() || nodes.iter().any(|n| n.is_joint) || c.clips.iter().all(|k| k.channels.is_empty()) {
+        return None;
+    }
+    let mut animated = vec![false; nodes.len()];
+    for ch in c.clips.iter().flat_map(|k| &k.channels) {
+        if let Some(a) = animated.get_mut(ch.node) {
+            *a = true;
+        }
+    }
+    // The nearest animated node at or above each node (`None`: nothing above it moves).
+    let mover = |mut n: usize| -> Option<usize> {
+        for _ in 0..=nodes.len() {
+            if animated[n] {
+                return Some(n);
+            }
+            n = nodes[n].parent?;
+        }
+        None
+    };
+    let bone_mover: Vec<Option<usize>> = c
+        .bones
+        .iter()
+        .map(|b| (b.node < nodes.len()).then(|| mover(b.node)).flatten())
+        .collect();
+    // Triangles per mover (by their first vertex's main bone: every vertex of a rigid piece
+    // follows one bone).
+    let main_bone = |v: u32| -> usize {
+        let v = &c.vertices[v as usize];
+        let k = (0..4)
+            .max_by(|&a, &b| v.weights[a].total_cmp(&v.weights[b]))
+            .unwrap_or(0);
+        v.bones[k] as usize
+    };
+    let tri_mover: Vec<Option<usize>> = c
+        .indices
+        .chunks_exact(3)
+        .map(|t| bone_mover.get(main_bone(t[0])).copied().flatten())
+        .collect();
+    let mut count: std::collections::BTreeMap<usize, usize> = Default::default();
+    for m in tri_mover.iter().flatten() {
+        *count.entry(*m).or_default() += 1;
+    }
+    // The largest pieces keep their own part; others join the nearest kept one above them.
+    let mut by_size: Vec<(usize, usize)> = count.iter().map(|(&m, &n)| (m, n)).collect();
+    by_size.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    let kept: Vec<usize> = by_size.iter().take(MAX_PIECES - 1).map(|x| x.0).collect();
+    let kept_above = |m: usize| -> Option<usize> {
+        let mut at = Some(m);
+        for _ in 0..=nodes.len() {
+            let n = at?;
+            if kept.contains(&n) {
+                return Some(n);
+            }
+            at = nodes[n].parent.and_then(&mover);
+        }
+        None
+    };
+    let mut parts = vec![Part {
+        name: "Body".into(),
+        color: PALETTE[0],
+    }];
+    let mut part_of: std::collections::BTreeMap<usize, u16> = Default::default();
+    for &m in &kept {
+        let base = pretty(&nodes[m].name);
+        let base = if base.is_empty() {
+            format!("Piece {}", parts.len())
+        } else {
+            base
+        };
+        let mut name = base.clone();
+        let mut k = 2;
+        while parts.iter().any(|p| p.name == name) {
+            name = format!("{base} {k}");
+            k += 1;
+        }
+        part_of.insert(m, parts.len() as u16);
+        parts.push(Part {
+            name,
+            color: PALETTE[parts.len() % PALETTE.len()],
+        });
+    }
+    let mut labels: Vec<u16> = tri_mover
+        .iter()
+        .map(|m| {
+            m.and_then(kept_above)
+                .and_then(|k| part_of.get(&k).copied())
+                .unwrap_or(0)
+        })
+        .collect();
+    // Everything moves (the whole prop turns): no body.
+    if !labels.contains(&0) {
+        parts.remove(0);
+        for l in &mut labels {
+            *l -= 1;
+        }
+    }
+    let mut seg = Segmentation { parts, labels };
+    compact(&mut seg);
+    Some(seg)
 }
 
 fn pretty(base: &str) -> String {

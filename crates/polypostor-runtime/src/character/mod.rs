@@ -175,7 +175,8 @@ pub struct Clip {
     /// End time of the last key of any channel, in seconds (the clip loops over `[0, duration)`).
     pub duration_secs: f32,
     /// The animated properties; a node without a channel keeps its rest transform. Empty for a
-    /// clip all of whose channels were skipped (and for every clip of a file without a skin).
+    /// clip all of whose channels were skipped (and for every clip of a static file without a
+    /// skin: one whose animations move none of its meshes).
     pub channels: Vec<Channel>,
     /// Horizontal velocity `(x, 0, z)` in model units per second that sampling takes out, so
     /// the clip plays in place: a locomotion clip's root motion, found at import by
