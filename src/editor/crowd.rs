@@ -606,9 +606,12 @@ impl CrowdPanel {
                 row(ui, "draw calls", stats.draw_calls.to_string());
                 row(ui, "agents / visible", format!("{} / {}", stats.agents, stats.visible));
 
-                // The size the crowd follows (measured over the clip, in the file's metres);
-                // each character mixed in keeps its own spacing, in proportion to its size.
-                let p = assets.crowd_params(stats.agents);
+                // The size the crowd follows (measured over the clip, in the file's metres),
+                // spaced for the largest character mixed in.
+                let mut p = assets.crowd_params(stats.agents);
+                for g in &self.guests {
+                    p.spaced_for(&g.assets.size);
+                }
                 row(
                     ui,
                     "character",
@@ -631,10 +634,9 @@ impl CrowdPanel {
                         ui,
                         a.character.name.as_str(),
                         format!(
-                            "{} tall, {} long, {} apart; {} clips (walk {}, run {}, {} standing)",
+                            "{} tall, {} long; {} clips (walk {}, run {}, {} standing)",
                             metres(a.size.height),
                             metres(a.size.length),
-                            metres(p.min_distance * a.size.scale() / p.scale()),
                             a.timeline.spans.len(),
                             speed(gaits.walk),
                             speed(gaits.run),

@@ -469,7 +469,7 @@ impl CrowdScene {
 
     /// A crowd of several characters: `count` agents of `assets[0]`, `assets[1]`, … dealt
     /// out in proportion to `shares` (one per character; only the ratios count), each at its
-    /// real size, playing its own clips, drawn by its own renderers, keeping its own spacing.
+    /// real size, playing its own clips, drawn by its own renderers; spaced for the largest.
     /// Errors: no character, more than [`crate::crowd::MAX_SPECIES`], shares that do not match or
     /// are all zero, or a character that cannot be drawn.
     pub fn mixed(
@@ -484,7 +484,7 @@ impl CrowdScene {
             return Err(GpuError::Unsupported("a crowd needs at least one character".into()));
         };
         let species: Vec<Species> = others.iter().map(|a| a.species()).collect();
-        let params = spaced(first.crowd_params(count), &species, shares);
+        let params = spaced(first.crowd_params(count), &species);
         let mut scene = Self::with_impostors(device, queue, first, params, full_impostors)?;
         for a in others {
             let mut r = renderers_of(device, queue, a, full_impostors)?;
@@ -499,13 +499,13 @@ impl CrowdScene {
         Ok(scene)
     }
 
-    /// A new crowd of `params` (same renderers, same characters and shares; the ground sized
-    /// for the mix, each character at its own spacing).
+    /// A new crowd of `params` (same renderers, same characters and shares; spacing widened
+    /// for the largest character mixed in).
     pub fn respawn(&mut self, params: CrowdParams) {
         let paused = self.crowd.paused();
         let parallel = self.crowd.parallel();
         let params = match &self.mix {
-            Some((species, shares)) => spaced(params, species, shares),
+            Some((species, _)) => spaced(params, species),
             None => params,
         };
         self.crowd = Crowd::new(params);
@@ -729,11 +729,11 @@ pub fn crowd_inputs<'a>(
     }
 }
 
-/// `params` with the ground sized for the mix ([`CrowdParams::spaced_for_mix`]: each
-/// character keeps its own spacing).
-fn spaced(mut params: CrowdParams, species: &[Species], shares: &[f32]) -> CrowdParams {
-    let sizes: Vec<_> = species.iter().map(|s| s.size).collect();
-    params.spaced_for_mix(&sizes, shares);
+/// `params` with the spacing widened for the largest of `species` ([`CrowdParams::spaced_for`]).
+fn spaced(mut params: CrowdParams, species: &[Species]) -> CrowdParams {
+    for s in species {
+        params.spaced_for(&s.size);
+    }
     params
 }
 

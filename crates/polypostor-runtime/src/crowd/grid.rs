@@ -85,35 +85,8 @@ impl OccupancyGrid {
         self.cells[cell] = EMPTY;
     }
 
-    /// Whether an agent other than `me` within `reach` cells of `cell` (an inner cell; the
-    /// square of `2·reach + 1` cells, clipped to the grid) lies closer to `p` than
-    /// `sqrt(min2_of(agent))`: each pair's own distance (characters of different sizes).
-    #[inline(never)]
-    pub fn crowded_within(
-        &self,
-        cell: usize,
-        p: Vec2,
-        reach: usize,
-        me: u32,
-        pos: &[Vec2],
-        min2_of: impl Fn(u32) -> f32,
-    ) -> bool {
-        let (x, y) = (cell % self.stride, cell / self.stride);
-        let (x0, x1) = (x.saturating_sub(reach), (x + reach).min(self.stride - 1));
-        let (y0, y1) = (y.saturating_sub(reach), (y + reach).min(self.stride - 1));
-        for row in y0..=y1 {
-            for &a in &self.cells[row * self.stride + x0..=row * self.stride + x1] {
-                if a != EMPTY && a != me && pos[a as usize].distance_squared(p) < min2_of(a) {
-                    return true;
-                }
-            }
-        }
-        false
-    }
-
     /// Whether an agent other than `me` in the 3×3 cells around `cell` (an inner cell) lies
     /// closer than `sqrt(min2)` to `p`; `pos` are the agents' positions.
-    #[inline(always)]
     pub fn crowded(&self, cell: usize, p: Vec2, min2: f32, me: u32, pos: &[Vec2]) -> bool {
         for row in [cell - self.stride, cell, cell + self.stride] {
             for &a in &self.cells[row - 1..=row + 1] {

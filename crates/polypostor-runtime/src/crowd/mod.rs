@@ -360,39 +360,12 @@ impl CrowdParams {
     }
 
     /// Widens the spacing (minimum distance, ground per agent) to what a character of `size`
-    /// needs, when it is bigger: everyone spaced for the largest. A crowd that mixes characters
-    /// is better laid out by [`CrowdParams::spaced_for_mix`], where each keeps its own spacing.
+    /// needs, when it is bigger: a crowd mixing characters spaces everyone for the largest.
     pub fn spaced_for(&mut self, size: &CharacterSize) {
         let d = Self::default();
         let s = size.scale();
         self.min_distance = self.min_distance.max(d.min_distance * s);
         self.density = self.density.min(d.density / (s * s));
-    }
-
-    /// Sizes the ground for a crowd of this character (kind 0) mixed with characters of
-    /// `sizes` in `shares` (kind 0's share first, as [`Crowd::mix`] takes them): each kind
-    /// needs ground in proportion to its [`CharacterSize::scale`] squared against this
-    /// character's, and the ground per agent is the shares' mean of those. `min_distance`
-    /// stays this character's; [`Crowd::mix`] gives the others theirs in proportion to their
-    /// size. Shares that do not fit (count, negative, all zero) fall back to
-    /// [`CrowdParams::spaced_for`] the largest.
-    pub fn spaced_for_mix(&mut self, sizes: &[CharacterSize], shares: &[f32]) {
-        let valid = shares.len() == sizes.len() + 1
-            && shares.iter().all(|s| s.is_finite() && *s >= 0.0)
-            && shares.iter().sum::<f32>() > 0.0;
-        if !valid {
-            for s in sizes {
-                self.spaced_for(s);
-            }
-            return;
-        }
-        let own = self.scale();
-        let rel: Vec<f32> = std::iter::once(1.0)
-            .chain(sizes.iter().map(|s| s.scale() / own))
-            .collect();
-        let total: f32 = shares.iter().sum();
-        let ground: f32 = rel.iter().zip(shares).map(|(r, w)| w / total * r * r).sum();
-        self.density /= ground.max(1e-12);
     }
 }
 
@@ -516,17 +489,7 @@ pub struct Crowd {
     pub instances: Vec<[Vec<Instance>; Level::COUNT]>,
     /// Agents per run of [`Crowd::select_over`] (runs go to the rayon pool).
     select_run: usize,
-    /// Closest approach of each kind of character ([`Crowd::mix`]): two agents keep the mean
-    /// of theirs apart. One kind: the occupancy grid's cell.
-    spacing: Vec<f32>,
-    /// Cells either side of an agent's within which another may be too close (1 unless a mix
-    /// has characters more than a cell apart).
-    reach: usize,
 }
-
-/// Most cells either side an agent looks at for neighbours: a mix of characters whose sizes
-/// differ by more than this keeps the larger ones this many smallest spacings apart.
-pub const MAX_REACH: usize = 4;
 
 /// Agents a selection hands to one task: large enough that a task outweighs its scheduling
 /// (about 0.1 ms of work), small enough that a 100,000 crowd keeps 12 cores busy.
@@ -612,8 +575,6 @@ impl Crowd {
             species: Vec::new(),
             instances: vec![Default::default()],
             select_run: SELECT_RUN,
-            spacing: vec![c],
-            reach: 1,
         }
     }
 
@@ -636,9 +597,8 @@ impl Crowd {
     /// Mixes other characters into the crowd: `species[k]` becomes kind `k + 1`, and the
     /// agents are dealt out in proportion to `shares` (the crowd's own character first, then
     /// each species; any scale, only the ratios count), at random places on the ground; every
-    /// agent starts afresh. Each character keeps its own spacing: the crowd's own
-    /// `params.min_distance`, the others in proportion to their size (size the ground for the
-    /// mix with [`CrowdParams::spaced_for_mix`] before [`Crowd::new`]). Errors: more than [`MAX_SPECIES`] characters, a share count
+    /// agent starts afresh. Spacing stays the crowd's ([`CrowdParams::spaced_for`] the largest
+    /// before [`Crowd::new`]). Errors: more than [`MAX_SPECIES`] characters, a share count
     /// that does not match, or shares that are negative, not finite or all zero.
     pub fn mix(&mut self, species: Vec<Species>, shares: &[f32]) -> Result<(), String> {
         if species.len() + 1 > MAX_SPECIES {
@@ -679,83 +639,10 @@ impl Crowd {
         }
         self.species = species;
         self.instances = vec![Default::default(); self.species.len() + 1];
-        self.space_out();
         for i in 0..n {
             self.restart(i);
         }
         Ok(())
-    }
-
-    /// Gives each kind its own spacing (`params.min_distance` for the crowd's own character,
-    /// the others in proportion to their size), makes the occupancy grid's cells as small as
-    /// the smallest (no finer than 64 cells an agent) and places every agent afresh at a
-    /// random free cell's centre where it keeps its spacing from those already placed (the
-    /// first free cell after a bounded search, should none).
-    fn space_out(&mut self) {
-        let own = self.params.scale();
-        // The crowd's own character keeps the spacing the ground was laid out with.
-        let base = self.spacing[0];
-        let rel: Vec<f32> = std::iter::once(1.0)
-            .chain(self.species.iter().map(|s| s.size.scale() / own))
-            .collect();
-        let spacing: Vec<f32> = rel.iter().map(|r| (base * r).min(1e15)).collect();
-        let n = self.agents.pos.len().max(1);
-        let side = 2.0 * self.half_extent;
-        let floor = (side * side / (64.0 * n as f32)).sqrt();
-        let smallest = spacing
-            .iter()
-            .copied()
-            .fold(f32::INFINITY, f32::min)
-            .max(floor)
-            .max(1e-6);
-        if smallest < self.grid.cell {
-            let dim = ((side / smallest).ceil() as usize).max(2);
-            self.grid = OccupancyGrid::new(dim, side / dim as f32, self.half_extent);
-        } else {
-            for &c in &self.cell_of {
-                self.grid.clear(c as usize);
-            }
-        }
-        let cell = self.grid.cell;
-        self.spacing = spacing.iter().map(|s| s.min(cell * MAX_REACH as f32)).collect();
-        self.reach = self
-            .spacing
-            .iter()
-            .map(|s| (s / cell).ceil() as usize)
-            .max()
-            .unwrap_or(1)
-            .clamp(1, MAX_REACH);
-        let dim = self.grid.dim();
-        let cells = dim * dim;
-        let a = &mut self.agents;
-        for i in 0..a.pos.len() {
-            let si = self.spacing[(a.kind[i] as usize).min(self.spacing.len() - 1)];
-            let fits = |grid: &OccupancyGrid, c: usize, pos: &[Vec2], kind: &[u8]| {
-                grid.get(c).is_none()
-                    && !grid.crowded_within(c, grid.centre(c), self.reach, u32::MAX, pos, |j| {
-                        let d = 0.5 * (si + self.spacing[(kind[j as usize] as usize).min(self.spacing.len() - 1)]);
-                        d * d
-                    })
-            };
-            let mut chosen = None;
-            for _ in 0..64 {
-                let c = self.grid.inner(self.rng.below(cells));
-                if fits(&self.grid, c, &a.pos, &a.kind) {
-                    chosen = Some(c);
-                    break;
-                }
-            }
-            let c = chosen.unwrap_or_else(|| {
-                let start = self.rng.below(cells);
-                (0..cells)
-                    .map(|k| self.grid.inner((start + k) % cells))
-                    .find(|&c| self.grid.get(c).is_none())
-                    .unwrap_or_else(|| self.grid.inner(start))
-            });
-            self.grid.set(c, i as u32);
-            self.cell_of[i] = c as u32;
-            a.pos[i] = self.grid.centre(c);
-        }
     }
 
     /// The characters mixed in by [`Crowd::mix`] (kind `k` is `species()[k - 1]`).
@@ -861,12 +748,6 @@ impl Crowd {
         } else {
             f32::INFINITY
         };
-        // One spacing for everyone: the cell (the 3×3 cells around hold every agent that
-        // close); a mix of sizes: each pair the mean of theirs, within `reach` cells.
-        let uniform = self.reach == 1 && self.spacing.iter().all(|&s| s == self.grid.cell);
-        let spacing = &self.spacing;
-        let reach = self.reach;
-        let last_kind = spacing.len() - 1;
         let a = &mut self.agents;
         for i in 0..a.pos.len() {
             let k = a.kind[i] as usize;
@@ -913,16 +794,7 @@ impl Crowd {
             let ok = to.x.abs() < limit
                 && to.y.abs() < limit
                 && (cell == from_cell || self.grid.get(cell).is_none())
-                && if uniform {
-                    !self.grid.crowded(cell, to, min2, i as u32, &a.pos)
-                } else {
-                    let si = spacing[k.min(last_kind)];
-                    let kind = &a.kind;
-                    !self.grid.crowded_within(cell, to, reach, i as u32, &a.pos, |j| {
-                        let d = 0.5 * (si + spacing[(kind[j as usize] as usize).min(last_kind)]);
-                        d * d
-                    })
-                };
+                && !self.grid.crowded(cell, to, min2, i as u32, &a.pos);
             if ok {
                 if cell != from_cell {
                     self.grid.clear(from_cell);
