@@ -152,7 +152,11 @@ impl ViewsPanel {
         let file = dir.join("report.json");
         let Ok(modified) = std::fs::metadata(&file).and_then(|m| m.modified()) else {
             self.report = None;
-            self.error = Some(format!("no bake report yet at {} (bake with Ctrl+B)", file.display()));
+            self.error = Some(format!(
+                "no bake report yet at {} (bake with Ctrl+B, or `polypostor bake PROJECT --out {}`)",
+                file.display(),
+                dir.display()
+            ));
             return;
         };
         if self

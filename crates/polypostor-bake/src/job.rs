@@ -220,19 +220,21 @@ pub fn default_out(character_path: &Path, clips: &ClipChoice, c: &Character) -> 
 
 /// Checks, before any work, that a bake may write `out`: never over what this tool did not
 /// write, never over the character or the project file, and (when `project_file` is given:
-/// the command line's rule for a named `--out`) never into the project's own folder.
+/// the command line's rule for a named `--out`) never into the project's own folder but for
+/// its [`crate::project::PROJECT_PACK`], where the editor bakes it and reads it back.
 pub fn check_output(out: &Path, character_path: &Path, project_file: Option<&Path>) -> Result<(), String> {
     let mut protected: Vec<&Path> = vec![character_path];
     if let Some(f) = project_file {
         protected.push(f);
         if let Some(dir) = f.parent().filter(|d| !d.as_os_str().is_empty()) {
             let (dir_real, out_real) = (crate::safe_fs::resolved(dir), crate::safe_fs::resolved(out));
-            if out_real.starts_with(&dir_real) {
+            if out_real.starts_with(&dir_real) && out_real != dir_real.join(crate::project::PROJECT_PACK) {
                 return Err(format!(
-                    "'{}' {} the project folder '{}'; write packs beside the project, not into it",
+                    "'{}' {} the project folder '{}'; write packs beside the project, not into it (its {} is the one folder inside it a bake may write: the editor's)",
                     out.display(),
                     if out_real == dir_real { "is" } else { "lies inside" },
-                    dir.display()
+                    dir.display(),
+                    crate::project::PROJECT_PACK
                 ));
             }
         }
@@ -694,6 +696,15 @@ mod tests {
         assert!(inside.contains("lies inside the project folder"), "{inside}");
         let on = check_output(&project_dir, &character, Some(&project_file)).unwrap_err();
         assert!(on.contains("is the project folder"), "{on}");
+        // Except the project's own pack, where the editor bakes it and reads it back; still
+        // never over a folder of the user's own of that name.
+        let own = project_dir.join(crate::project::PROJECT_PACK);
+        assert!(check_output(&own, &character, Some(&project_file)).is_ok());
+        std::fs::create_dir_all(&own).unwrap();
+        std::fs::write(own.join("notes.txt"), b"mine").unwrap();
+        assert!(check_output(&own, &character, Some(&project_file)).is_err());
+        assert!(own.join("notes.txt").exists());
+        std::fs::remove_dir_all(&own).unwrap();
         assert!(check_output(&character, &character, None).is_err());
         // A folder of the user's own is never written over.
         let theirs = dir.path().join("photos");

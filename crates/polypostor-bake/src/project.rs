@@ -12,6 +12,10 @@ pub const FORMAT_VERSION: u32 = 1;
 pub const PROJECT_FILE: &str = "project.json";
 /// The default project, relative to the repository root.
 pub const DEFAULT_PROJECT_DIR: &str = "projects/default";
+
+/// The folder, inside a project's folder, that the editor bakes the project into and its Views
+/// tab and crowd preview read: the one place inside a project folder a bake may write.
+pub const PROJECT_PACK: &str = "crowd.pack";
 /// Largest project file read (segmentations are run-length encoded; corrections are small).
 pub const MAX_PROJECT_BYTES: u64 = 256 << 20;
 

@@ -198,7 +198,11 @@ impl EditorApp {
 /// for a project never saved.
 pub(super) fn bake_dir(doc: &Document) -> PathBuf {
     match &doc.project_file {
-        Some(f) => f.parent().map(Path::to_owned).unwrap_or_default().join("crowd.pack"),
+        Some(f) => f
+            .parent()
+            .map(Path::to_owned)
+            .unwrap_or_default()
+            .join(polypostor::project::PROJECT_PACK),
         None => temp_bake_dir(std::process::id()),
     }
 }
