@@ -159,28 +159,8 @@ fn a_file_without_skin_is_a_one_joint_character() {
 
 #[test]
 fn a_skinless_prop_whose_animation_moves_its_mesh_node_is_rigged() {
-    // A triangle on a child node, 1 up from its parent, turning a quarter about +Z over one
-    // second: no skin, only a node animation (a door, a windmill blade).
-    let json = r#"{
-        "asset": {"version": "2.0"},
-        "scene": 0, "scenes": [{"nodes": [0]}],
-        "nodes": [{"name": "base", "children": [1]}, {"name": "blade", "mesh": 0, "translation": [0, 1, 0]}],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
-        "accessors": [
-            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]},
-            {"bufferView": 1, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0], "max": [1]},
-            {"bufferView": 2, "componentType": 5126, "count": 2, "type": "VEC4"}
-        ],
-        "bufferViews": [
-            {"buffer": 0, "byteLength": 36},
-            {"buffer": 0, "byteOffset": 36, "byteLength": 8},
-            {"buffer": 0, "byteOffset": 44, "byteLength": 32}
-        ],
-        "animations": [{"name": "Turn", "channels": [{"sampler": 0, "target": {"node": 1, "path": "rotation"}}],
-                        "samplers": [{"input": 1, "output": 2}]}],
-        "buffers": [{"byteLength": 76, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAAAAAAAgD8AAAAAAAAAAAAAAAAAAIA/AAAAAAAAAADzBDU/8wQ1Pw=="}]
-    }"#;
-    let c = import_slice(json.as_bytes(), None, "prop").unwrap();
+    // A windmill: the rotor turns on the tower (a node animation, no skin).
+    let c = import_slice(common::TURNING_PROP.as_bytes(), None, "prop").unwrap();
     assert!(
         !c.warnings.iter().any(|w| w.contains("do not move it")),
         "{:?}",
@@ -188,25 +168,22 @@ fn a_skinless_prop_whose_animation_moves_its_mesh_node_is_rigged() {
     );
     assert_eq!(c.clips.len(), 1);
     assert!((c.clips[0].duration_secs - 1.0).abs() < 1e-6);
-    // At rest the triangle spans x 0..1, y 1..2 (its node's offset applied); turning towards
-    // a quarter about its node it reaches towards x = -1 (the clip's samples stop short of
-    // its end, which loops back to the start).
+    // At rest: the tower's triangle at the origin, the rotor's 1 up, the hub's 0.5 in front
+    // of it; turning towards a quarter about the rotor's node, they reach towards x = -1 (the
+    // clip's samples stop short of its end, which loops back to the start) and stay below 2.
     let (lo, hi) = polypostor::animation::clip_bounds(&c, None, 2);
-    assert!((lo - Vec3::new(0.0, 1.0, 0.0)).length() < 1e-5, "{lo}");
-    assert!((hi - Vec3::new(1.0, 2.0, 0.0)).length() < 1e-5, "{hi}");
+    assert!(lo.length() < 1e-5, "{lo}");
+    assert!((hi - Vec3::new(1.0, 2.0, 0.5)).length() < 1e-5, "{hi}");
     let (lo, hi) = polypostor::animation::clip_bounds(&c, Some(0), 9);
     assert!(lo.x < -0.95 && (hi.x - 1.0).abs() < 1e-4, "{lo} {hi}");
-    assert!((lo.y - 1.0).abs() < 1e-4 && (hi.y - 2.0).abs() < 1e-4, "{lo} {hi}");
-    // The same file without its animation stays the static one-joint character.
-    let still = json.replace(
-        r#""animations": [{"name": "Turn", "channels": [{"sampler": 0, "target": {"node": 1, "path": "rotation"}}],
-                        "samplers": [{"input": 1, "output": 2}]}],"#,
-        "",
-    );
-    let s = import_slice(still.as_bytes(), None, "still").unwrap();
+    assert!(lo.y.abs() < 1e-4 && hi.y <= 2.0 + 1e-4, "{lo} {hi}");
+    // The same file without its animation stays the static one-joint character, each piece
+    // placed by its nodes.
+    let s = import_slice(common::still_prop().as_bytes(), None, "still").unwrap();
     assert_eq!(s.clips.len(), 0);
     assert_eq!(s.skeleton.joint_count(), 1);
-    assert!((s.vertices[1].position - Vec3::new(1.0, 1.0, 0.0)).length() < 1e-6);
+    assert!((s.vertices[4].position - Vec3::new(1.0, 1.0, 0.0)).length() < 1e-6);
+    assert!((s.vertices[7].position - Vec3::new(1.0, 1.0, 0.5)).length() < 1e-6);
 }
 
 #[test]

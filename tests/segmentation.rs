@@ -162,30 +162,7 @@ fn quadruped_parts_are_named_by_what_they_are() {
 /// does not move is the body.
 #[test]
 fn an_animated_prop_gets_a_part_per_moving_piece() {
-    let json = r#"{
-        "asset": {"version": "2.0"},
-        "scene": 0, "scenes": [{"nodes": [0]}],
-        "nodes": [
-            {"name": "Tower", "mesh": 0, "children": [1]},
-            {"name": "rotor_01", "mesh": 0, "translation": [0, 1, 0], "children": [2]},
-            {"name": "Hub", "mesh": 0, "translation": [0, 0, 0.5]}
-        ],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
-        "accessors": [
-            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]},
-            {"bufferView": 1, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0], "max": [1]},
-            {"bufferView": 2, "componentType": 5126, "count": 2, "type": "VEC4"}
-        ],
-        "bufferViews": [
-            {"buffer": 0, "byteLength": 36},
-            {"buffer": 0, "byteOffset": 36, "byteLength": 8},
-            {"buffer": 0, "byteOffset": 44, "byteLength": 32}
-        ],
-        "animations": [{"name": "Turn", "channels": [{"sampler": 0, "target": {"node": 1, "path": "rotation"}}],
-                        "samplers": [{"input": 1, "output": 2}]}],
-        "buffers": [{"byteLength": 76, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAAAAAAAgD8AAAAAAAAAAAAAAAAAAIA/AAAAAAAAAADzBDU/8wQ1Pw=="}]
-    }"#;
-    let c = polypostor::import::import_slice(json.as_bytes(), None, "windmill").unwrap();
+    let c = polypostor::import::import_slice(common::TURNING_PROP.as_bytes(), None, "windmill").unwrap();
     assert_eq!(c.triangle_count(), 3);
     let seg = auto_segment(&c);
     let names: Vec<&str> = seg.parts.iter().map(|p| p.name.as_str()).collect();
@@ -193,15 +170,10 @@ fn an_animated_prop_gets_a_part_per_moving_piece() {
     // Triangles in node order: the tower's, the rotor's, the hub's (which follows the rotor).
     assert_eq!(seg.labels, [0, 1, 1]);
     // Without the animation the same file is one static piece: the usual segmentation.
-    let still = json.replace(
-        r#""animations": [{"name": "Turn", "channels": [{"sampler": 0, "target": {"node": 1, "path": "rotation"}}],
-                        "samplers": [{"input": 1, "output": 2}]}],"#,
-        "",
-    );
-    let s = polypostor::import::import_slice(still.as_bytes(), None, "still").unwrap();
+    let s = polypostor::import::import_slice(common::still_prop().as_bytes(), None, "still").unwrap();
     assert_eq!(auto_segment(&s).parts.len(), 1);
     // The whole prop turning (the animation on its top node): one part, named after it.
-    let whole = json.replace(r#""target": {"node": 1"#, r#""target": {"node": 0"#);
+    let whole = common::TURNING_PROP.replace(r#""target": {"node": 1"#, r#""target": {"node": 0"#);
     let w = polypostor::import::import_slice(whole.as_bytes(), None, "whole").unwrap();
     let seg = auto_segment(&w);
     assert_eq!(seg.parts.iter().map(|p| p.name.as_str()).collect::<Vec<_>>(), ["Tower"]);

@@ -246,3 +246,41 @@ pub mod images {
         ))
     }
 }
+
+/// A prop without a skin (a windmill made of three triangles): the "Tower" node, the "rotor_01"
+/// node 1 up from it turning a quarter about +Z over one second (a node animation, "Turn"),
+/// and the "Hub" node below the rotor, 0.5 in front, which does not move by itself. Triangles
+/// in node order: the tower's, the rotor's, the hub's, each (0,0,0) (1,0,0) (0,1,0) in its
+/// node.
+pub const TURNING_PROP: &str = r#"{
+    "asset": {"version": "2.0"},
+    "scene": 0, "scenes": [{"nodes": [0]}],
+    "nodes": [
+        {"name": "Tower", "mesh": 0, "children": [1]},
+        {"name": "rotor_01", "mesh": 0, "translation": [0, 1, 0], "children": [2]},
+        {"name": "Hub", "mesh": 0, "translation": [0, 0, 0.5]}
+    ],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+    "accessors": [
+        {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]},
+        {"bufferView": 1, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0], "max": [1]},
+        {"bufferView": 2, "componentType": 5126, "count": 2, "type": "VEC4"}
+    ],
+    "bufferViews": [
+        {"buffer": 0, "byteLength": 36},
+        {"buffer": 0, "byteOffset": 36, "byteLength": 8},
+        {"buffer": 0, "byteOffset": 44, "byteLength": 32}
+    ],
+    "animations": [{"name": "Turn", "channels": [{"sampler": 0, "target": {"node": 1, "path": "rotation"}}],
+                    "samplers": [{"input": 1, "output": 2}]}],
+    "buffers": [{"byteLength": 76, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAAAAAAAgD8AAAAAAAAAAAAAAAAAAIA/AAAAAAAAAADzBDU/8wQ1Pw=="}]
+}"#;
+
+/// [`TURNING_PROP`] without its animation (a static prop).
+pub fn still_prop() -> String {
+    TURNING_PROP.replace(
+        r#""animations": [{"name": "Turn", "channels": [{"sampler": 0, "target": {"node": 1, "path": "rotation"}}],
+                    "samplers": [{"input": 1, "output": 2}]}],"#,
+        "",
+    )
+}

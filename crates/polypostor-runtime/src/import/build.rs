@@ -193,16 +193,7 @@ impl Builder<'_> {
             .copied()
             .filter(|&i| root.nodes[i].skin.is_none())
             .collect();
-        for &start in joint_nodes.iter().chain(&rigid) {
-            let mut at = Some(start);
-            while let Some(i) = at {
-                if needed[i] {
-                    break;
-                }
-                needed[i] = true;
-                at = parent[i];
-            }
-        }
+        mark_with_ancestors(joint_nodes.iter().chain(&rigid).copied(), parent, &mut needed);
         // Parents first, otherwise in file order (a file that already lists parents
         // first keeps its order). The hierarchy is a forest, so each pass emits at least
         // one node.
@@ -517,22 +508,25 @@ impl Builder<'_> {
     }
 }
 
-/// The rig of a file without skins: one root joint every mesh follows rigidly (the
-/// geometry is placed by its nodes' rest transforms).
+/// Marks `starts` and all their ancestors in `marks` (stopping at a node already marked).
+fn mark_with_ancestors(starts: impl IntoIterator<Item = usize>, parent: &[Option<usize>], marks: &mut [bool]) {
+    for start in starts {
+        let mut at = Some(start);
+        while let Some(i) = at {
+            if marks[i] {
+                break;
+            }
+            marks[i] = true;
+            at = parent[i];
+        }
+    }
+}
+
 /// Whether an animation channel (translation, rotation or scale) targets a mesh node or one
 /// of its ancestors.
 fn animates_meshes(root: &json::Root, mesh_nodes: &[usize], parent: &[Option<usize>]) -> bool {
     let mut moves = vec![false; root.nodes.len()];
-    for &m in mesh_nodes {
-        let mut at = Some(m);
-        while let Some(i) = at {
-            if moves[i] {
-                break;
-            }
-            moves[i] = true;
-            at = parent[i];
-        }
-    }
+    mark_with_ancestors(mesh_nodes.iter().copied(), parent, &mut moves);
     root.animations.iter().flat_map(|a| &a.channels).any(|ch| {
         matches!(
             ch.target.path,
@@ -545,6 +539,8 @@ fn animates_meshes(root: &json::Root, mesh_nodes: &[usize], parent: &[Option<usi
     })
 }
 
+/// The rig of a file without skins: one root joint every mesh follows rigidly (the
+/// geometry is placed by its nodes' rest transforms).
 fn static_rig(mesh_nodes: &[usize]) -> Rig {
     let mut rig = Rig::default();
     rig.skeleton.nodes.push(Node {
