@@ -293,10 +293,7 @@ pub fn auto_segment(c: &Character) -> Segmentation {
         let bone_joint: Vec<Option<usize>> = c.bones.iter().map(|b| joint_of_node(c, &tree.node, b.node)).collect();
         let mut carried: Vec<Vec<Vec3>> = vec![Vec::new(); count];
         for (v, p) in c.vertices.iter().zip(&rest) {
-            let k = (0..4)
-                .max_by(|&a, &b| v.weights[a].total_cmp(&v.weights[b]))
-                .unwrap_or(0);
-            if let Some(Some(j)) = bone_joint.get(v.bones[k] as usize) {
+            if let Some(Some(j)) = bone_joint.get(main_bone(v)) {
                 carried[*j].push(*p);
             }
         }
@@ -552,17 +549,10 @@ fn moving_pieces(c: &Character) -> Option<Segmentation> {
         .collect();
     // Triangles per mover (by their first vertex's main bone: every vertex of a rigid piece
     // follows one bone).
-    let main_bone = |v: u32| -> usize {
-        let v = &c.vertices[v as usize];
-        let k = (0..4)
-            .max_by(|&a, &b| v.weights[a].total_cmp(&v.weights[b]))
-            .unwrap_or(0);
-        v.bones[k] as usize
-    };
     let tri_mover: Vec<Option<usize>> = c
         .indices
         .chunks_exact(3)
-        .map(|t| bone_mover.get(main_bone(t[0])).copied().flatten())
+        .map(|t| bone_mover.get(main_bone(&c.vertices[t[0] as usize])).copied().flatten())
         .collect();
     let mut count: std::collections::BTreeMap<usize, usize> = Default::default();
     for m in tri_mover.iter().flatten() {
@@ -625,6 +615,14 @@ fn moving_pieces(c: &Character) -> Option<Segmentation> {
     let mut seg = Segmentation { parts, labels };
     compact(&mut seg);
     Some(seg)
+}
+
+/// The bone carrying most of a vertex's weight.
+fn main_bone(v: &crate::character::Vertex) -> usize {
+    let k = (0..4)
+        .max_by(|&a, &b| v.weights[a].total_cmp(&v.weights[b]))
+        .unwrap_or(0);
+    v.bones[k] as usize
 }
 
 fn pretty(base: &str) -> String {

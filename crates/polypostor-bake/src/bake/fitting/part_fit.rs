@@ -927,11 +927,11 @@ pub fn fit_part_span(
     // to a pixel away, which bends straight edges and cuts or spikes corners of the very
     // image the texture is (a static prop was drawn that way in every frame). Pinned frames
     // keep the artist's correspondences.
+    // (A frame's target is traced from its image, so the same image has the same target.)
     let identity: Vec<usize> = (0..key_polygon.len()).collect();
-    let key_target = targets[key].clone();
     for f in 0..frames {
         let unpinned = pins.get(f).is_none_or(|p| p.is_empty());
-        if fitted[f] && unpinned && (f == key || (tiles[f].px == tiles[key].px && targets[f] == key_target)) {
+        if fitted[f] && unpinned && (f == key || tiles[f].px == tiles[key].px) {
             targets[f] = key_polygon.clone();
             mappings[f] = identity.clone();
             costs[f] = 0.0;
