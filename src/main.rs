@@ -578,6 +578,11 @@ struct BakeArgs {
     /// characters with thin limbs, about 3 % further from the exact optimum.
     #[arg(long, conflicts_with = "exhaustive")]
     no_restarts: bool,
+    /// Leave every drawn vertex on the traced outline's vertices instead of placing it to a
+    /// quarter pixel where that lowers the drawn error (faster bakes, about 1 dB less
+    /// faithful).
+    #[arg(long)]
+    no_subpixel: bool,
     /// Most key images per part and view (1: the paper's single key; up to 8; default 4).
     #[arg(long)]
     max_keys: Option<usize>,
@@ -658,6 +663,7 @@ impl BakeArgs {
         settings.allow_folds |= self.allow_folds;
         settings.paper_objective |= self.paper_objective;
         settings.no_restarts |= self.no_restarts;
+        settings.no_subpixel |= self.no_subpixel;
         settings.validate().map_err(anyhow::Error::msg)?;
         Ok(settings)
     }

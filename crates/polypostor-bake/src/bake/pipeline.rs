@@ -944,6 +944,7 @@ impl Prepared {
                         restart_threshold: f64::INFINITY,
                         refine_passes: 1,
                         sweeps: 0,
+                        subpixel: false,
                         ..options.fit
                     };
                     // Each part's fit checks the cancel flag first, so a cancel is not held

@@ -5,3 +5,4 @@ pub mod fit;
 pub mod gap;
 pub mod image_cost;
 pub mod part_fit;
+pub mod subpixel;

@@ -84,6 +84,9 @@ pub struct PartFitOptions {
     /// of theirs; it is then stuck too. 0 restarts on the threshold alone. Default value:
     /// [`RESTART_TRUST`].
     pub restart_trust: f64,
+    /// After the correspondence, move each drawn vertex by fractions of a pixel where that
+    /// lowers the drawn error ([`crate::bake::subpixel`]). Default value: true.
+    pub subpixel: bool,
 }
 
 /// Vertices of each part's polygon in the pack ([`PartFitOptions::final_vertices`]).
@@ -121,6 +124,7 @@ impl Default for PartFitOptions {
             refine_hint: REFINE_HINT,
             restart_jump: RESTART_JUMP,
             restart_trust: RESTART_TRUST,
+            subpixel: true,
         }
     }
 }
@@ -152,14 +156,24 @@ pub struct PartFit {
     pub kept: Vec<usize>,
     /// Final triangles, indices into `kept`.
     pub triangles: Vec<[usize; 3]>,
+    /// Per frame, each S vertex's sub-pixel move off the target vertex it maps to
+    /// ([`crate::bake::subpixel`]); empty where the frame has none.
+    pub offsets: Vec<Vec<[f32; 2]>>,
 }
 
 impl PartFit {
     /// Positions of the final polygon's vertices at frame `f` (pixels of that frame's tile).
     pub fn positions(&self, f: usize) -> Vec<[f32; 2]> {
+        let moved = self.offsets.get(f).filter(|o| !o.is_empty());
         self.kept
             .iter()
-            .map(|&i| self.targets[f][self.mappings[f][i]])
+            .map(|&i| {
+                let p = self.targets[f][self.mappings[f][i]];
+                match moved {
+                    Some(o) => [p[0] + o[i][0], p[1] + o[i][1]],
+                    None => p,
+                }
+            })
             .collect()
     }
 
@@ -953,19 +967,59 @@ pub fn fit_part_span(
     let kept = deformation_aware_simplify(&positions, &key_polygon, options.final_vertices);
     let final_poly: Vec<[f32; 2]> = kept.iter().map(|&i| key_polygon[i]).collect();
     let triangles = triangulate(&final_poly)?;
-    Ok((
-        PartFit {
-            key_frame: key,
-            key_polygon,
-            key_triangles,
-            targets,
-            mappings,
-            costs,
-            kept,
-            triangles,
-        },
-        span,
-    ))
+    let mut fit = PartFit {
+        key_frame: key,
+        key_polygon,
+        key_triangles,
+        targets,
+        mappings,
+        costs,
+        kept,
+        triangles,
+        offsets: vec![Vec::new(); frames],
+    };
+    if options.subpixel {
+        let _subpixel = crate::bake::profile::leaf("subpixel");
+        subpixel_frames(&mut fit, tiles, &fitted, pins, &|f| span.nearest(f, frames));
+    }
+    Ok((fit, span))
+}
+
+/// Moves every fitted frame's drawn vertices by fractions of a pixel where that lowers the
+/// drawn error ([`crate::bake::subpixel`]); frames drawing the key image itself stay, pinned
+/// vertices stay, and frames outside the fitted span borrow the moves of the frame whose
+/// mapping they borrow (`nearest`).
+fn subpixel_frames(
+    fit: &mut PartFit,
+    tiles: &[PartTile],
+    fitted: &[bool],
+    pins: &[Vec<(usize, usize)>],
+    nearest: &dyn Fn(usize) -> usize,
+) {
+    let uvs = fit.uvs();
+    let key_tile = &tiles[fit.key_frame];
+    for f in 0..tiles.len() {
+        let identity = fit.targets[f] == fit.key_polygon && fit.mappings[f].iter().enumerate().all(|(i, &j)| i == j);
+        if !fitted[f] || identity {
+            continue;
+        }
+        let pinned: Vec<usize> = pins.get(f).map_or(Vec::new(), |p| p.iter().map(|&(s, _)| s).collect());
+        let fixed: Vec<bool> = fit.kept.iter().map(|i| pinned.contains(i)).collect();
+        let before = fit.positions(f);
+        let mut pos = before.clone();
+        let truth = crate::bake::raster::tile_canvas(&tiles[f]);
+        crate::bake::subpixel::refine(&mut pos, &uvs, &fit.triangles, key_tile, &truth, &fixed);
+        let mut offsets = vec![[0.0f32; 2]; fit.key_polygon.len()];
+        for (k, &i) in fit.kept.iter().enumerate() {
+            offsets[i] = [pos[k][0] - before[k][0], pos[k][1] - before[k][1]];
+        }
+        fit.offsets[f] = offsets;
+    }
+    for f in 0..tiles.len() {
+        if !fitted[f] {
+            fit.offsets[f] = fit.offsets[nearest(f)].clone();
+        }
+    }
 }
 
 /// S: the key frame's outline simplified to [`PartFitOptions::key_vertices`].

@@ -89,6 +89,10 @@ pub struct Settings {
     /// Fast mode: error per source pixel above which a frame is searched again from a
     /// coarse global solution (`null`: restarts off).
     pub restart_threshold: Option<f64>,
+    /// Drawn vertices placed to fractions of a pixel after the fit (false in reports written
+    /// before they were).
+    #[serde(default)]
+    pub subpixel: bool,
     pub key_vertices: usize,
     pub frame_vertices: usize,
     pub final_vertices: usize,
@@ -228,6 +232,7 @@ impl Report {
                 fold_free: s.fold_free,
                 charge_missed_coverage: s.charge_missed_coverage,
                 restart_threshold: s.restart_threshold.unwrap_or(f64::INFINITY),
+                subpixel: s.subpixel,
                 ..Default::default()
             },
             keys: s.keys.unwrap_or(crate::bake::keys::KeyOptions::SINGLE),
@@ -364,6 +369,7 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
             fold_free: bake.options.fit.fold_free,
             charge_missed_coverage: bake.options.fit.charge_missed_coverage,
             restart_threshold: Some(bake.options.fit.restart_threshold).filter(|t| t.is_finite()),
+            subpixel: bake.options.fit.subpixel,
             key_vertices: bake.options.fit.key_vertices,
             frame_vertices: bake.options.fit.frame_vertices,
             final_vertices: bake.options.fit.final_vertices,

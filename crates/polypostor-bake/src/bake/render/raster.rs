@@ -5,6 +5,9 @@
 
 use crate::bake::image_cost::PartTile;
 
+/// Coverage below which a sampled texel is not drawn (the shaders' alpha test).
+pub const ALPHA_CUTOFF: f32 = 0.5;
+
 /// An RGBA float image (colour in 0..1, alpha = coverage).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Canvas {
@@ -33,6 +36,23 @@ impl Canvas {
         texture: &PartTile,
         keep: &dyn Fn(u32, u32) -> bool,
     ) {
+        let n = self.size as i64;
+        self.draw_clipped(pos, uv, texture, keep, [0, 0, n, n]);
+    }
+
+    /// [`Canvas::draw_textured`] on the pixels of the box `[x0, x1) × [y0, y1)` only.
+    pub fn draw_textured_in(&mut self, pos: [[f32; 2]; 3], uv: [[f32; 2]; 3], texture: &PartTile, clip: [i64; 4]) {
+        self.draw_clipped(pos, uv, texture, &|_, _| true, clip);
+    }
+
+    fn draw_clipped(
+        &mut self,
+        pos: [[f32; 2]; 3],
+        uv: [[f32; 2]; 3],
+        texture: &PartTile,
+        keep: &dyn Fn(u32, u32) -> bool,
+        clip: [i64; 4],
+    ) {
         let area =
             (pos[1][0] - pos[0][0]) * (pos[2][1] - pos[0][1]) - (pos[1][1] - pos[0][1]) * (pos[2][0] - pos[0][0]);
         if area.abs() < 1e-9 {
@@ -52,6 +72,8 @@ impl Canvas {
             .fold(f32::NEG_INFINITY, f32::max)
             .ceil()
             .min(self.size as f32) as i64;
+        let (min_x, max_x) = (min_x.max(clip[0]), max_x.min(clip[2]));
+        let (min_y, max_y) = (min_y.max(clip[1]), max_y.min(clip[3]));
         for y in min_y..max_y {
             for x in min_x..max_x {
                 if !keep(x as u32, y as u32) {
@@ -68,8 +90,11 @@ impl Canvas {
                 let v = w0 * uv[0][1] + w1 * uv[1][1] + w2 * uv[2][1];
                 let s = texture.sample(u, v);
                 // Texture values are premultiplied by coverage; un-premultiply the colour.
+                // Texels less than half covered are not drawn, as the run time's shaders
+                // discard them (`polypostor.wgsl`): the polygon's outline alone does not
+                // decide what shows, the key image's own edge does too.
                 let a = s[6];
-                if a <= 1e-3 {
+                if a < ALPHA_CUTOFF {
                     continue;
                 }
                 self.px[(y as u32 * self.size + x as u32) as usize] = [s[0] / a, s[1] / a, s[2] / a, 1.0];

@@ -45,6 +45,8 @@ pub struct BakeSettings {
     pub paper_objective: bool,
     /// The fast mode without restarts.
     pub no_restarts: bool,
+    /// Vertices stay on the traced outlines' vertices (no sub-pixel placement).
+    pub no_subpixel: bool,
     /// Vertices of each part's polygon in the pack (3 to the fitted polygon's 40; fewer are
     /// chosen by deformation-aware simplification).
     pub polygon_vertices: usize,
@@ -69,6 +71,7 @@ impl Default for BakeSettings {
             allow_folds: false,
             paper_objective: false,
             no_restarts: false,
+            no_subpixel: false,
             polygon_vertices: crate::bake::part_fit::DEFAULT_POLYGON_VERTICES,
         }
     }
@@ -169,6 +172,7 @@ impl BakeSettings {
                 } else {
                     crate::bake::part_fit::DEFAULT_RESTART_THRESHOLD
                 },
+                subpixel: !self.no_subpixel,
                 ..Default::default()
             },
             keys: KeyOptions {
