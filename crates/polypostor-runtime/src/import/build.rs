@@ -21,6 +21,9 @@ struct Rig {
     bindings: HashMap<usize, Binding>,
     /// File node index -> skeleton node index (empty for static files).
     node_map: HashMap<usize, usize>,
+    /// Per bone, whether its skinning transform at rest mirrors (negative determinant: a
+    /// skeleton under a node scaled by -1), which turns its triangles' winding around.
+    mirrored: Vec<bool>,
 }
 
 /// The geometry gathered so far, with the materials and textures it uses.
@@ -101,11 +104,17 @@ impl Builder<'_> {
         // windmill, a wheel) is rigged like the skinned files' rigid meshes: each mesh node a
         // bone that follows its node. Otherwise it is static.
         let rigged = any_skin || animates_meshes(root, &mesh_nodes, &hierarchy.parent);
-        let rig = if rigged {
+        let mut rig = if rigged {
             self.skinned_rig(&mesh_nodes, &hierarchy)?
         } else {
             static_rig(&mesh_nodes)
         };
+        let rest = rig.skeleton.rest_world();
+        rig.mirrored = rig
+            .bones
+            .iter()
+            .map(|b| rest.get(b.node).is_some_and(|w| (*w * b.inverse_bind).determinant() < 0.0))
+            .collect();
         let mut g = Geometry::default();
         for &(node, mesh_index) in &instances {
             let mesh = root.meshes.get(mesh_index).ok_or_else(|| {
@@ -278,6 +287,7 @@ impl Builder<'_> {
             bones,
             bindings,
             node_map,
+            mirrored: Vec::new(),
         })
     }
 
@@ -472,11 +482,14 @@ impl Builder<'_> {
         if bad_weights {
             self.warn(format!("{what}: vertices with zero weights bound to their first joint"));
         }
-        // Mirrored node transforms flip the winding.
-        let flip = static_world.is_some_and(|w| w.determinant() < 0.0);
+        // Mirrored transforms flip the winding: a static node's (its vertices are placed
+        // mirrored here, so before any normals are computed from the winding), or the skinning
+        // transform of a triangle's main bone (vertices stay in bind space, where the file's
+        // winding is the outside; turned after the normals).
+        let flip_static = static_world.is_some_and(|w| w.determinant() < 0.0);
         let first_index = g.indices.len() as u32;
         for t in tris.chunks_exact(3) {
-            if flip {
+            if flip_static {
                 g.indices.extend_from_slice(&[base + t[0], base + t[2], base + t[1]]);
             } else {
                 g.indices.extend_from_slice(&[base + t[0], base + t[1], base + t[2]]);
@@ -488,6 +501,17 @@ impl Builder<'_> {
                 &g.indices[first_index as usize..],
                 base,
             );
+        }
+        if static_world.is_none() && rig.mirrored.iter().any(|&m| m) {
+            let main_bone = |v: &Vertex| {
+                let k = (0..4).max_by(|&a, &b| v.weights[a].total_cmp(&v.weights[b])).unwrap_or(0);
+                v.bones[k] as usize
+            };
+            for t in g.indices[first_index as usize..].chunks_exact_mut(3) {
+                if rig.mirrored.get(main_bone(&g.vertices[t[0] as usize])).copied().unwrap_or(false) {
+                    t.swap(1, 2);
+                }
+            }
         }
         let mat_index = prim.material.map(|x| x.value());
         let material = match g.material_map.get(&mat_index) {
