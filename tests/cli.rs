@@ -315,6 +315,24 @@ fn bench_sim_runs_a_crowd_of_two_characters() {
     assert!(v["cpu_ms"]["mean"].as_f64().unwrap() > 0.0);
 }
 
+/// `bench sim` refuses crowds and runs it would not finish (a hundred million agents took
+/// 12.8 GB and ran on; a billion frames never ends) and zero frames, naming the flag.
+#[test]
+fn bench_sim_refuses_absurd_sizes_before_any_work() {
+    for (args, flag) in [
+        (["--agents", "100000000", "--frames", "5"], "--agents"),
+        (["--agents", "0", "--frames", "5"], "--agents"),
+        (["--agents", "100", "--frames", "1000000000"], "--frames"),
+        (["--agents", "100", "--frames", "0"], "--frames"),
+    ] {
+        let t = std::time::Instant::now();
+        let out = polypostor(&["bench", "sim", args[0], args[1], args[2], args[3]]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(flag), "{args:?}: {err}");
+        assert!(t.elapsed().as_secs() < 30, "{args:?} took {:?}", t.elapsed());
+    }
+}
+
 #[test]
 fn bake_settings_come_from_the_project_and_flags_override_single_fields() {
     let dir = common::temp_dir("cli-settings");

@@ -316,11 +316,18 @@ pub struct ClipMotion {
     pub spread: f32,
     /// Top minus bottom of the mesh over the clip.
     pub height: f32,
+    /// The clip's length in seconds.
+    pub duration: f32,
 }
 
 /// Least ground speed of locomotion, in heights per second (9 cm/s for a 1.8 m person):
 /// slower, a clip stands (a dance that drifts, a sway).
 pub const LOCOMOTION_MIN_SPEED: f32 = 0.05;
+
+/// Shortest locomotion clip, in seconds: a gait cycle takes longer (a sprint's stride about a
+/// third of a second), and a clip of a frame or two has no cycle to measure (a 0.01 s clip read
+/// 178 m/s and became the crowd's run).
+pub const LOCOMOTION_MIN_SECS: f32 = 0.2;
 
 /// Largest [`ClipMotion::closure`] of a clip that loops.
 pub const LOOP_CLOSURE: f32 = 0.1;
@@ -341,6 +348,7 @@ impl ClipMotion {
     /// run, a trot; not a jump, a fall or a sit).
     pub fn is_locomotion(&self) -> bool {
         self.loops()
+            && self.duration >= LOCOMOTION_MIN_SECS
             && self.contact >= LOCOMOTION_CONTACT
             && self.spread <= LOCOMOTION_SPREAD
             && (self.root - self.feet).length() >= LOCOMOTION_MIN_SPEED * self.height
@@ -496,6 +504,7 @@ pub fn measure_motion(character: &Character, clip: Option<usize>) -> ClipMotion 
         contact: if grounded >= 0.2 { contact } else { 0.0 },
         spread: if spread.is_finite() { spread } else { f32::INFINITY },
         height,
+        duration: d,
     }
 }
 
@@ -563,6 +572,24 @@ mod tests {
         assert!(run > walk * 1.2, "run {run} walk {walk}");
         assert!(idle < 0.1 * walk, "idle {idle}");
         assert_eq!(ground_speed(&c, None), 0.0);
+    }
+
+    /// A walk squeezed into a hundredth of a second (a clip of a frame or two) has no gait
+    /// cycle to measure: it is not locomotion (it read 178 m/s and became the crowd's run).
+    #[test]
+    fn a_clip_too_short_for_a_stride_does_not_walk() {
+        let mut c = crate::default_character::generate();
+        let walk = c.find_clip("Walk").unwrap();
+        assert!(ground_speed(&c, Some(walk)) > 0.5);
+        let d = c.clips[walk].duration_secs;
+        for ch in &mut c.clips[walk].channels {
+            for t in &mut ch.times {
+                *t *= 0.01 / d;
+            }
+        }
+        c.clips[walk].duration_secs = 0.01;
+        assert_eq!(ground_speed(&c, Some(walk)), 0.0);
+        assert!(!measure_motion(&c, Some(walk)).is_locomotion());
     }
 
     #[test]

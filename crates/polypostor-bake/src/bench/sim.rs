@@ -5,7 +5,19 @@ use super::*;
 /// `bench sim`: a 1600×900 camera at the edge of the crowd looking across it from 10 m up,
 /// 137 hemisphere views, a 10-frame clip, the default three-level mix; the simulation on one
 /// thread, the selection on the rayon pool (`RAYON_NUM_THREADS=1`: one thread).
+/// Most agents `bench sim` takes (as `bench crowd`).
+pub const MAX_AGENTS: usize = 1_000_000;
+
+/// Most timed frames `bench sim` takes.
+pub const MAX_FRAMES: usize = 100_000;
+
 pub fn bench_sim(agents: usize, frames: usize, mixed: bool, json: bool) -> anyhow::Result<String> {
+    if !(1..=MAX_AGENTS).contains(&agents) {
+        anyhow::bail!("--agents {agents}: choose 1 to 1,000,000");
+    }
+    if !(1..=MAX_FRAMES).contains(&frames) {
+        anyhow::bail!("--frames {frames}: choose 1 to {MAX_FRAMES}");
+    }
     let mut t = String::new();
     use crate::bake::viewpoints::{Coverage, ViewLookup, directions};
     use crate::crowd::lod::{Level, LodDistances, LodPolicy};

@@ -585,7 +585,11 @@ impl Builder<'_> {
         let mut skipped_skinless = 0usize;
         let mut morph_clips: Vec<String> = Vec::new();
         for (ai, anim) in root.animations.iter().enumerate() {
-            let name = anim.name.clone().unwrap_or_else(|| format!("Animation {ai}"));
+            let name = anim
+                .name
+                .clone()
+                .filter(|n| !n.trim().is_empty())
+                .unwrap_or_else(|| format!("Animation {ai}"));
             let mut channels = Vec::new();
             let mut duration = 0.0f32;
             for (ci, ch) in anim.channels.iter().enumerate() {
@@ -718,6 +722,9 @@ impl Builder<'_> {
                 "the file has no skin: imported as a rigid one-joint character; {skipped_skinless} node animation channels do not move it"
             ));
         }
+        for (from, to) in unique_clip_names(&mut clips) {
+            self.warn(format!("clip '{from}' is called '{to}' here (clip names are chosen by name: --clips, the pack's clip table)"));
+        }
         Ok(clips)
     }
 }
@@ -844,5 +851,67 @@ mod normal_tests {
         // A degenerate transform does not give NaN.
         let flat = Mat4::from_scale(Vec3::new(1.0, 0.0, 1.0));
         assert!((super::normal_matrix(flat) * Vec3::Y).is_finite());
+    }
+}
+
+/// Gives every clip a name the command line and the pack's clip table can choose it by: no
+/// comma (`--clips` separates names with them; it becomes ';'), not `all` (`--clips all`), and
+/// no name twice (a second `Walk` becomes `Walk (2)`). Returns what was renamed, from → to.
+pub(crate) fn unique_clip_names(clips: &mut [Clip]) -> Vec<(String, String)> {
+    let mut renamed = Vec::new();
+    let mut taken: std::collections::HashSet<String> = std::collections::HashSet::new();
+    for i in 0..clips.len() {
+        let original = clips[i].name.clone();
+        let mut base = original.trim().replace(',', ";");
+        if base.eq_ignore_ascii_case("all") {
+            base = format!("{base} (clip)");
+        }
+        let mut name = base.clone();
+        let mut k = 2;
+        // Later clips' own names are kept for them: a renamed clip does not take one.
+        while taken.contains(&name) || clips[i + 1..].iter().any(|c| c.name == name && name != original) {
+            name = format!("{base} ({k})");
+            k += 1;
+        }
+        taken.insert(name.clone());
+        if name != original {
+            clips[i].name = name.clone();
+            renamed.push((original, name));
+        }
+    }
+    renamed
+}
+
+#[cfg(test)]
+mod clip_name_tests {
+    use super::*;
+
+    fn named(names: &[&str]) -> Vec<Clip> {
+        names
+            .iter()
+            .map(|n| Clip {
+                name: n.to_string(),
+                duration_secs: 1.0,
+                channels: Vec::new(),
+                in_place_velocity: glam::Vec3::ZERO,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn every_clip_gets_a_name_it_can_be_chosen_by() {
+        let mut clips = named(&["Walk", "Walk", "Run, fast", "Run; fast", "all", "Walk (2)", "Idle"]);
+        let renamed = unique_clip_names(&mut clips);
+        let names: Vec<&str> = clips.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(
+            names,
+            ["Walk", "Walk (3)", "Run; fast (2)", "Run; fast", "all (clip)", "Walk (2)", "Idle"]
+        );
+        assert_eq!(renamed.len(), 3, "{renamed:?}");
+        // Unique, free of commas, never `all`; names that were fine stay as they were.
+        let mut seen = std::collections::HashSet::new();
+        assert!(names.iter().all(|n| seen.insert(*n) && !n.contains(',') && *n != "all"));
+        let mut fine = named(&["Walk", "Run", "Idle"]);
+        assert!(unique_clip_names(&mut fine).is_empty());
     }
 }
