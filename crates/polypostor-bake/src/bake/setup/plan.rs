@@ -140,6 +140,25 @@ pub fn check(
             hi.to_array()
         ));
     }
+    // A character scaled to nothing in every baked frame (a clip that animates its scale to
+    // 0) would bake to an empty pack that reports a perfect fit.
+    let clips = options.clip_list();
+    let visible = clips.iter().any(|&c| {
+        let duration = c.and_then(|i| character.clips.get(i)).map_or(0.0, |c| c.duration_secs);
+        (0..16).any(|s| {
+            let pose = crate::animation::Pose::sample_index(character, c, duration * s as f32 / 16.0);
+            let (lo, hi) = crate::character::bounds(crate::animation::skin_vertices(character, &pose).0);
+            // Rounding in the skinning leaves a point-sized character a few ulps wide.
+            let far = lo.abs().max(hi.abs()).max_element().max(1e-6);
+            (hi - lo).max_element() > 1e-5 * far
+        })
+    });
+    if !visible {
+        return fail(
+            "the character has no size in any baked frame (every vertex at one point: a scale animated to 0?); nothing to bake"
+                .into(),
+        );
+    }
     if !(extent.max_element() > 0.0) {
         return fail("the character has no extent (every vertex lies at one point)".into());
     }
@@ -235,6 +254,26 @@ mod tests {
         let c = crate::default_character::generate();
         let seg = crate::bake::segment::auto_segment(&c);
         (c, seg)
+    }
+
+    /// A character scaled to nothing (every vertex at one point in every frame) is refused
+    /// before any work; the same character at its size passes.
+    #[test]
+    fn a_character_with_no_size_is_refused() {
+        let (mut c, seg) = setup();
+        assert!(check(&c, &seg, &BakeOptions::default(), RepSet::POLYPOSTOR, 16384).is_ok());
+        for n in c.skeleton.nodes.iter_mut().filter(|n| n.parent.is_none()) {
+            n.rest.scale = glam::Vec3::ZERO;
+        }
+        for clip in &mut c.clips {
+            for ch in &mut clip.channels {
+                if let crate::character::ChannelValues::Scale(v) = &mut ch.values {
+                    v.iter_mut().for_each(|s| *s = glam::Vec3::ZERO);
+                }
+            }
+        }
+        let e = check(&c, &seg, &BakeOptions::default(), RepSet::POLYPOSTOR, 16384).unwrap_err();
+        assert!(e.0.contains("no size"), "{e}");
     }
 
     #[test]
