@@ -137,6 +137,23 @@ impl CrowdAssets {
                 )));
             }
         }
+        // And at the size baked: the bake's cameras frame the character it saw (half their
+        // side is about its radius); a copy at other units (a centimetre file with the metre
+        // pack) would be drawn at the wrong size and compared with the wrong images.
+        if let Some(p) = &pack {
+            let framed = p.manifest.views.iter().map(|v| v.camera.half_size).fold(0.0f32, f32::max);
+            let radius = CharacterSize::measure_clips(&c, &clips).radius;
+            let ratio = framed / radius;
+            if framed > 0.0 && radius > 0.0 && ratio.is_finite() && !(0.2..=5.0).contains(&ratio) {
+                return Err(not_baked(format!(
+                    "{} is {:.3e} units across, but the bake framed a character about {:.3e} across ({:.3}× this one)",
+                    path.display(),
+                    2.0 * radius,
+                    2.0 * framed,
+                    ratio
+                )));
+            }
+        }
         // The table as baked (with its measured ground speeds).
         let timeline = crate::timeline::Timeline { spans, ..timeline };
         let clip = clips.first().copied().flatten();
