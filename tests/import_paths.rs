@@ -229,7 +229,10 @@ fn a_mirrored_skeleton_keeps_its_triangles_facing_out() {
             out += usize::from(face.dot(n) > 0.0);
         }
         assert!(total > 100, "{name}: {total} triangles");
-        assert!(out as f64 > 0.95 * total as f64, "{name}: {out} of {total} triangles face out");
+        assert!(
+            out as f64 > 0.95 * total as f64,
+            "{name}: {out} of {total} triangles face out"
+        );
     }
     // The mirror is really there: the rest pose is the plain one reflected in x.
     let (a, _) = skin_vertices(&plain, &Pose::rest(&plain));

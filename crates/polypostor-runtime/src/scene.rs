@@ -141,7 +141,12 @@ impl CrowdAssets {
         // side is about its radius); a copy at other units (a centimetre file with the metre
         // pack) would be drawn at the wrong size and compared with the wrong images.
         if let Some(p) = &pack {
-            let framed = p.manifest.views.iter().map(|v| v.camera.half_size).fold(0.0f32, f32::max);
+            let framed = p
+                .manifest
+                .views
+                .iter()
+                .map(|v| v.camera.half_size)
+                .fold(0.0f32, f32::max);
             let radius = CharacterSize::measure_clips(&c, &clips).radius;
             let ratio = framed / radius;
             if framed > 0.0 && radius > 0.0 && ratio.is_finite() && !(0.2..=5.0).contains(&ratio) {

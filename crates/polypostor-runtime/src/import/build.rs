@@ -113,7 +113,10 @@ impl Builder<'_> {
         rig.mirrored = rig
             .bones
             .iter()
-            .map(|b| rest.get(b.node).is_some_and(|w| (*w * b.inverse_bind).determinant() < 0.0))
+            .map(|b| {
+                rest.get(b.node)
+                    .is_some_and(|w| (*w * b.inverse_bind).determinant() < 0.0)
+            })
             .collect();
         let mut g = Geometry::default();
         for &(node, mesh_index) in &instances {
@@ -504,11 +507,18 @@ impl Builder<'_> {
         }
         if static_world.is_none() && rig.mirrored.iter().any(|&m| m) {
             let main_bone = |v: &Vertex| {
-                let k = (0..4).max_by(|&a, &b| v.weights[a].total_cmp(&v.weights[b])).unwrap_or(0);
+                let k = (0..4)
+                    .max_by(|&a, &b| v.weights[a].total_cmp(&v.weights[b]))
+                    .unwrap_or(0);
                 v.bones[k] as usize
             };
             for t in g.indices[first_index as usize..].chunks_exact_mut(3) {
-                if rig.mirrored.get(main_bone(&g.vertices[t[0] as usize])).copied().unwrap_or(false) {
+                if rig
+                    .mirrored
+                    .get(main_bone(&g.vertices[t[0] as usize]))
+                    .copied()
+                    .unwrap_or(false)
+                {
                     t.swap(1, 2);
                 }
             }

@@ -723,7 +723,9 @@ impl Builder<'_> {
             ));
         }
         for (from, to) in unique_clip_names(&mut clips) {
-            self.warn(format!("clip '{from}' is called '{to}' here (clip names are chosen by name: --clips, the pack's clip table)"));
+            self.warn(format!(
+                "clip '{from}' is called '{to}' here (clip names are chosen by name: --clips, the pack's clip table)"
+            ));
         }
         Ok(clips)
     }
@@ -905,7 +907,15 @@ mod clip_name_tests {
         let names: Vec<&str> = clips.iter().map(|c| c.name.as_str()).collect();
         assert_eq!(
             names,
-            ["Walk", "Walk (3)", "Run; fast (2)", "Run; fast", "all (clip)", "Walk (2)", "Idle"]
+            [
+                "Walk",
+                "Walk (3)",
+                "Run; fast (2)",
+                "Run; fast",
+                "all (clip)",
+                "Walk (2)",
+                "Idle"
+            ]
         );
         assert_eq!(renamed.len(), 3, "{renamed:?}");
         // Unique, free of commas, never `all`; names that were fine stay as they were.

@@ -94,7 +94,12 @@ impl KeyImage {
             return None;
         }
         let i = (yi * s + xi) as usize;
-        let (a, b, c, d) = (self.px[i], self.px[i + 1], self.px[i + self.stride], self.px[i + self.stride + 1]);
+        let (a, b, c, d) = (
+            self.px[i],
+            self.px[i + 1],
+            self.px[i + self.stride],
+            self.px[i + self.stride + 1],
+        );
         let mut o = [0.0f32; 4];
         for k in 0..4 {
             let top = a[k] + (b[k] - a[k]) * tx;
@@ -135,9 +140,8 @@ impl Placed {
         };
         let (w0, w1) = (edge(pos[1], pos[2]), edge(pos[2], pos[0]));
         let w2 = [1.0 - w0[0] - w1[0], -w0[1] - w1[1], -w0[2] - w1[2]];
-        let along = |k: usize| -> [f32; 3] {
-            std::array::from_fn(|c| w0[c] * uv[0][k] + w1[c] * uv[1][k] + w2[c] * uv[2][k])
-        };
+        let along =
+            |k: usize| -> [f32; 3] { std::array::from_fn(|c| w0[c] * uv[0][k] + w1[c] * uv[1][k] + w2[c] * uv[2][k]) };
         Self {
             pos,
             area,
@@ -216,61 +220,62 @@ pub fn refine(
     let n = size as usize;
     let mut scratch: Vec<(u8, [f32; 4])> = vec![(0, [0.0; 4]); n * n];
     let mut touched: Vec<usize> = Vec::new();
-    let mut change = |cur: &Canvas, old: &[Placed], new: &[Placed], r: PixelBox, visit: &mut dyn FnMut(usize, [f32; 4])| -> f64 {
-        let clip = |t: &Placed| -> PixelBox {
-            let b = triangle_box(t.pos);
-            [
-                (b[0].floor() as i64).max(r[0]),
-                (b[1].floor() as i64).max(r[1]),
-                (b[2].ceil() as i64).min(r[2]),
-                (b[3].ceil() as i64).min(r[3]),
-            ]
-        };
-        for t in new {
-            let c = clip(t);
-            for y in c[1]..c[3] {
-                let py = y as f32 + 0.5;
-                let row = (y * size) as usize;
-                for x in c[0]..c[2] {
-                    let at = row + x as usize;
-                    if scratch[at].0 == 2 {
-                        continue;
-                    }
-                    if let Some(uv) = t.cover(x as f32 + 0.5, py) {
-                        if scratch[at].0 == 0 {
-                            touched.push(at);
+    let mut change =
+        |cur: &Canvas, old: &[Placed], new: &[Placed], r: PixelBox, visit: &mut dyn FnMut(usize, [f32; 4])| -> f64 {
+            let clip = |t: &Placed| -> PixelBox {
+                let b = triangle_box(t.pos);
+                [
+                    (b[0].floor() as i64).max(r[0]),
+                    (b[1].floor() as i64).max(r[1]),
+                    (b[2].ceil() as i64).min(r[2]),
+                    (b[3].ceil() as i64).min(r[3]),
+                ]
+            };
+            for t in new {
+                let c = clip(t);
+                for y in c[1]..c[3] {
+                    let py = y as f32 + 0.5;
+                    let row = (y * size) as usize;
+                    for x in c[0]..c[2] {
+                        let at = row + x as usize;
+                        if scratch[at].0 == 2 {
+                            continue;
                         }
-                        scratch[at] = (2, image.texel(uv[0], uv[1]).unwrap_or([0.0; 4]));
+                        if let Some(uv) = t.cover(x as f32 + 0.5, py) {
+                            if scratch[at].0 == 0 {
+                                touched.push(at);
+                            }
+                            scratch[at] = (2, image.texel(uv[0], uv[1]).unwrap_or([0.0; 4]));
+                        }
                     }
                 }
             }
-        }
-        for t in old {
-            let c = clip(t);
-            for y in c[1]..c[3] {
-                let py = y as f32 + 0.5;
-                let row = (y * size) as usize;
-                for x in c[0]..c[2] {
-                    let at = row + x as usize;
-                    if scratch[at].0 == 0 && t.cover(x as f32 + 0.5, py).is_some() {
-                        touched.push(at);
-                        scratch[at] = (1, [0.0; 4]);
+            for t in old {
+                let c = clip(t);
+                for y in c[1]..c[3] {
+                    let py = y as f32 + 0.5;
+                    let row = (y * size) as usize;
+                    for x in c[0]..c[2] {
+                        let at = row + x as usize;
+                        if scratch[at].0 == 0 && t.cover(x as f32 + 0.5, py).is_some() {
+                            touched.push(at);
+                            scratch[at] = (1, [0.0; 4]);
+                        }
                     }
                 }
             }
-        }
-        let mut delta = 0.0;
-        for &at in &touched {
-            let value = scratch[at].1;
-            scratch[at] = (0, [0.0; 4]);
-            if value != cur.px[at] {
-                delta += pixel_error(&value, &truth.px[at]) - pixel_error(&cur.px[at], &truth.px[at]);
-                visit(at, value);
+            let mut delta = 0.0;
+            for &at in &touched {
+                let value = scratch[at].1;
+                scratch[at] = (0, [0.0; 4]);
+                if value != cur.px[at] {
+                    delta += pixel_error(&value, &truth.px[at]) - pixel_error(&cur.px[at], &truth.px[at]);
+                    visit(at, value);
+                }
             }
-        }
-        touched.clear();
-        delta
-    };
+            touched.clear();
+            delta
+        };
     let mut error = before;
     for step in STEPS {
         let mut dirty = vec![true; positions.len()];
@@ -389,9 +394,15 @@ mod tests {
         }
         let measured: f64 = drawn.px.iter().zip(&truth.px).map(|(a, b)| pixel_error(a, b)).sum();
         assert!(after < 0.2 * before, "{before} -> {after}");
-        assert!((measured - after).abs() < 1e-6 * before.max(1.0), "{measured} vs {after}");
+        assert!(
+            (measured - after).abs() < 1e-6 * before.max(1.0),
+            "{measured} vs {after}"
+        );
         for (p, u) in pos.iter().zip(&uvs) {
-            assert!((p[0] - u[0] - 2.0).abs() <= 0.5 && (p[1] - u[1] + 1.0).abs() <= 0.5, "{p:?} from {u:?}");
+            assert!(
+                (p[0] - u[0] - 2.0).abs() <= 0.5 && (p[1] - u[1] + 1.0).abs() <= 0.5,
+                "{p:?} from {u:?}"
+            );
         }
     }
 
@@ -456,7 +467,10 @@ mod tests {
         }
         let redrawn: f64 = drawn.px.iter().zip(&truth.px).map(|(a, b)| pixel_error(a, b)).sum();
         assert!(after < 0.7 * before, "{before} -> {after}");
-        assert!((redrawn - after).abs() < 1e-4 * before, "tracked {after}, redrawn {redrawn}");
+        assert!(
+            (redrawn - after).abs() < 1e-4 * before,
+            "tracked {after}, redrawn {redrawn}"
+        );
     }
 
     #[test]

@@ -293,7 +293,14 @@ mod tests {
             m
         };
         assert!(check(&moved(1800.0), &seg, &BakeOptions::default(), RepSet::POLYPOSTOR, 16384).is_ok());
-        let e = check(&moved(100_000.0), &seg, &BakeOptions::default(), RepSet::POLYPOSTOR, 16384).unwrap_err();
+        let e = check(
+            &moved(100_000.0),
+            &seg,
+            &BakeOptions::default(),
+            RepSet::POLYPOSTOR,
+            16384,
+        )
+        .unwrap_err();
         assert!(e.0.contains("from the origin"), "{e}");
     }
 
