@@ -315,6 +315,58 @@ fn bench_sim_runs_a_crowd_of_two_characters() {
     assert!(v["cpu_ms"]["mean"].as_f64().unwrap() > 0.0);
 }
 
+/// A Polypostor pack baked from a glTF file names that file, so `bench crowd` (and `--with`,
+/// which has no flag for a character) and `compare` find the character without being told.
+#[test]
+fn a_pack_names_the_file_it_was_baked_from() {
+    let dir = common::temp_dir("cli-character-path");
+    let glb = common::repo_path(polypostor::default_character::DEFAULT_CHARACTER_PATH);
+    let out = dir.join("p.pack");
+    let bake = polypostor(&[
+        "bake",
+        glb.to_str().unwrap(),
+        "--views",
+        "2",
+        "--resolution",
+        "32",
+        "--max-keys",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(bake.status.success(), "{}", String::from_utf8_lossy(&bake.stderr));
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let named = std::path::PathBuf::from(manifest["character_path"].as_str().expect("character_path"));
+    assert_eq!(
+        std::fs::canonicalize(&named).unwrap(),
+        std::fs::canonicalize(&glb).unwrap()
+    );
+    let pack = out.to_str().unwrap();
+    let crowd = polypostor(&[
+        "bench",
+        "crowd",
+        "--pack",
+        pack,
+        "--with",
+        pack,
+        "--counts",
+        "20",
+        "--frames",
+        "1",
+        "--width",
+        "160",
+        "--height",
+        "90",
+        "--representations",
+        "polypostor",
+        "--out",
+        dir.join("bench").to_str().unwrap(),
+    ]);
+    assert!(crowd.status.success(), "{}", String::from_utf8_lossy(&crowd.stderr));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 /// `bench sim` refuses crowds and runs it would not finish (a hundred million agents took
 /// 12.8 GB and ran on; a billion frames never ends) and zero frames, naming the flag.
 #[test]

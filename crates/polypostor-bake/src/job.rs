@@ -424,7 +424,7 @@ pub fn run(
         path: job.out.display().to_string(),
         message,
     };
-    let Some(b) = bake else {
+    let Some(mut b) = bake else {
         crate::pack::write_folder_atomic(job.out, &|dir| {
             write_reps(dir)?;
             extra(dir, None)
@@ -436,6 +436,9 @@ pub fn run(
             reuse: None,
         });
     };
+    // The pack names the file it was baked from, so `compare` and the crowd find it.
+    let source = std::fs::canonicalize(job.character_path).unwrap_or_else(|_| job.character_path.to_owned());
+    b.character_path = Some(source.display().to_string());
     let write_started = std::time::Instant::now();
     let stats = crate::pack::write_pack_with(&b, &job.character.name, clip_name, job.out, &|dir, stats| {
         // Read the pack back through the validating loader before it replaces anything.

@@ -74,6 +74,7 @@ impl CrowdAssets {
             None => reps
                 .as_ref()
                 .and_then(|r| r.manifest.character_path.clone())
+                .or_else(|| pack.as_ref().and_then(|p| p.manifest.character_path.clone()))
                 .map(PathBuf::from)
                 .ok_or_else(|| {
                     "the pack does not say which character it was baked from: give the character (--character)"

@@ -282,6 +282,9 @@ pub struct Bake {
     /// Seconds per stage.
     pub stage_secs: BTreeMap<String, f64>,
     pub adapter: String,
+    /// The file the character came from, when the caller knows it (written into the pack's
+    /// manifest: [`polypostor_runtime::pack::Manifest::character_path`]).
+    pub character_path: Option<String>,
 }
 
 impl Bake {
@@ -1124,6 +1127,7 @@ pub fn bake_sharing(
         views,
         stage_secs,
         adapter: ctx.adapter_description(),
+        character_path: None,
     })
 }
 
@@ -1381,6 +1385,7 @@ pub fn rebake_sharing(
             views,
             stage_secs,
             adapter: ctx.adapter_description(),
+            character_path: prev.character_path.clone(),
         },
         reuse,
     ))

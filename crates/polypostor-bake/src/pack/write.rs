@@ -270,6 +270,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
         format: FORMAT_NAME.into(),
         version: FORMAT_VERSION,
         character: character.into(),
+        character_path: bake.character_path.clone(),
         clip: clip.map(String::from),
         fps: bake.options.fps,
         frames: frames as u32,

@@ -208,6 +208,12 @@ pub struct Manifest {
     pub version: u32,
     /// Name of the character baked.
     pub character: String,
+    /// The file the character was baked from, as the bake found it (absolute), so that
+    /// `compare` and the crowd find it without being told; absent in packs written by the
+    /// library alone and before it was recorded. Only a hint: whoever loads it checks that the
+    /// character's clips, frames and size are the baked ones.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub character_path: Option<String>,
     /// The first clip's name (`None`: the rest pose).
     pub clip: Option<String>,
     /// Frames per second every clip was sampled at ([`crate::limits::MIN_FPS`] to
