@@ -232,37 +232,25 @@ pub fn refine(
                 ]
             };
             for t in new {
-                let c = clip(t);
-                for y in c[1]..c[3] {
-                    let py = y as f32 + 0.5;
-                    let row = (y * size) as usize;
-                    for x in c[0]..c[2] {
-                        let at = row + x as usize;
-                        if scratch[at].0 == 2 {
-                            continue;
-                        }
-                        if let Some(uv) = t.cover(x as f32 + 0.5, py) {
-                            if scratch[at].0 == 0 {
-                                touched.push(at);
-                            }
-                            scratch[at] = (2, image.texel(uv[0], uv[1]).unwrap_or([0.0; 4]));
-                        }
+                each_pixel(clip(t), size, |at, px, py| {
+                    if scratch[at].0 == 2 {
+                        return;
                     }
-                }
+                    if let Some(uv) = t.cover(px, py) {
+                        if scratch[at].0 == 0 {
+                            touched.push(at);
+                        }
+                        scratch[at] = (2, image.texel(uv[0], uv[1]).unwrap_or([0.0; 4]));
+                    }
+                });
             }
             for t in old {
-                let c = clip(t);
-                for y in c[1]..c[3] {
-                    let py = y as f32 + 0.5;
-                    let row = (y * size) as usize;
-                    for x in c[0]..c[2] {
-                        let at = row + x as usize;
-                        if scratch[at].0 == 0 && t.cover(x as f32 + 0.5, py).is_some() {
-                            touched.push(at);
-                            scratch[at] = (1, [0.0; 4]);
-                        }
+                each_pixel(clip(t), size, |at, px, py| {
+                    if scratch[at].0 == 0 && t.cover(px, py).is_some() {
+                        touched.push(at);
+                        scratch[at] = (1, [0.0; 4]);
                     }
-                }
+                });
             }
             let mut delta = 0.0;
             for &at in &touched {
@@ -353,6 +341,19 @@ pub fn refine(
         }
     }
     (before, error.max(0.0))
+}
+
+/// Calls `f(index, x, y)` for every pixel of box `c` (index into a `size`-wide image, x and y
+/// the pixel's centre).
+#[inline(always)]
+fn each_pixel(c: PixelBox, size: i64, mut f: impl FnMut(usize, f32, f32)) {
+    for y in c[1]..c[3] {
+        let py = y as f32 + 0.5;
+        let row = (y * size) as usize;
+        for x in c[0]..c[2] {
+            f(row + x as usize, x as f32 + 0.5, py);
+        }
+    }
 }
 
 #[cfg(test)]
