@@ -466,6 +466,12 @@ fn render(
         None => (!c.clips.is_empty()).then_some(0),
     };
     polypostor::safe_fs::check_output_file(out, polypostor::safe_fs::OutputFile::Png).map_err(anyhow::Error::msg)?;
+    // Said now, not after the render that would fill it.
+    if let Some(folder) = out.parent().filter(|p| !p.as_os_str().is_empty())
+        && !folder.is_dir()
+    {
+        anyhow::bail!("-o {}: the folder '{}' does not exist", out.display(), folder.display());
+    }
     if !time.is_finite() || !yaw.is_finite() || !pitch.is_finite() {
         anyhow::bail!("--time, --yaw and --pitch must be finite numbers");
     }

@@ -180,6 +180,18 @@ fn bake_out_replaces_only_what_this_tool_wrote() {
     assert!(o.status.success(), "{}", stderr(&o));
     let o = run_in(&dir, &["render", glb, "-o", "r.png", "--size", "32"]);
     assert!(o.status.success(), "{}", stderr(&o));
+    // A PNG under another name (it wrote PNG bytes into x.jpg) and a missing folder (said
+    // after the render) are refused before any work.
+    let o = run_in(&dir, &["render", glb, "-o", "x.jpg", "--size", "32"]);
+    refused(&o, ".png");
+    assert!(!dir.join("x.jpg").exists());
+    let o = run_in(&dir, &["render", glb, "-o", "nodir/x.png", "--size", "32"]);
+    refused(&o, "does not exist");
+    assert!(
+        !stderr(&o).contains("adapter"),
+        "refused before the GPU: {}",
+        stderr(&o)
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
