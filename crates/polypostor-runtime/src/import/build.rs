@@ -151,7 +151,7 @@ impl Builder<'_> {
             skeleton: rig.skeleton,
             bones: rig.bones,
             clips,
-            warnings: self.warnings,
+            warnings: collapse_warnings(self.warnings),
         };
         // Measured skinned in the rest pose (a skinned mesh's own node transform does not
         // apply; its joints' do).
@@ -533,6 +533,11 @@ impl Builder<'_> {
                 g.materials.len() - 1
             }
         };
+        if uvs.is_none() && g.materials[material].base_color_texture.is_some() {
+            self.warn(format!(
+                "{what}: its material has a texture but the primitive has no TEXCOORD_0; drawn in the texture's first texel"
+            ));
+        }
         g.submeshes.push(Submesh {
             first_index,
             index_count: g.indices.len() as u32 - first_index,
@@ -591,4 +596,66 @@ fn static_rig(mesh_nodes: &[usize]) -> Rig {
         rig.bindings.insert(m, Binding::Rigid(0));
     }
     rig
+}
+
+/// Warnings alike but for their numbers (one per channel of a damaged clip: a file gave 57)
+/// are said once when there are more than three, the first of them with how many more there
+/// are; fewer are kept as they are.
+fn collapse_warnings(warnings: Vec<String>) -> Vec<String> {
+    const KEEP: usize = 3;
+    // Each run of digits (and decimal points within it) becomes one '#'.
+    let shape = |w: &str| -> String {
+        let mut out = String::with_capacity(w.len());
+        for c in w.chars() {
+            if c.is_ascii_digit() || (c == '.' && out.ends_with('#')) {
+                if !out.ends_with('#') {
+                    out.push('#');
+                }
+            } else {
+                out.push(c);
+            }
+        }
+        out
+    };
+    let mut groups: Vec<(String, Vec<String>)> = Vec::new();
+    for w in warnings {
+        let s = shape(&w);
+        match groups.iter_mut().find(|(k, _)| *k == s) {
+            Some((_, list)) => list.push(w),
+            None => groups.push((s, vec![w])),
+        }
+    }
+    groups
+        .into_iter()
+        .flat_map(|(_, list)| {
+            if list.len() > KEEP {
+                vec![format!("{} (and {} more like it)", list[0], list.len() - 1)]
+            } else {
+                list
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod warning_tests {
+    #[test]
+    fn many_warnings_alike_are_said_once_and_a_few_as_they_are() {
+        let mut w: Vec<String> = (0..57)
+            .map(|c| format!("animation 'A' channel {c}: output has 48 values"))
+            .collect();
+        w.push("mesh 'm': no normals".into());
+        w.push("clip 'x' 1".into());
+        w.push("clip 'y' 2".into());
+        let got = super::collapse_warnings(w);
+        assert_eq!(
+            got,
+            [
+                "animation 'A' channel 0: output has 48 values (and 56 more like it)",
+                "mesh 'm': no normals",
+                "clip 'x' 1",
+                "clip 'y' 2"
+            ]
+        );
+    }
 }
