@@ -466,6 +466,13 @@ fn render(
         None => (!c.clips.is_empty()).then_some(0),
     };
     polypostor::safe_fs::check_output_file(out, polypostor::safe_fs::OutputFile::Png).map_err(anyhow::Error::msg)?;
+    // `render` writes PNG only: a .jpg name would get PNG bytes.
+    if !out.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+        anyhow::bail!(
+            "-o {}: render writes a PNG image; give the file a .png name",
+            out.display()
+        );
+    }
     // Said now, not after the render that would fill it.
     if let Some(folder) = out.parent().filter(|p| !p.as_os_str().is_empty())
         && !folder.is_dir()
