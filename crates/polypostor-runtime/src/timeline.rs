@@ -29,10 +29,19 @@ pub struct ClipSpan {
     /// that does not (a fall, a sit) holds its last frame instead of wrapping.
     #[serde(default = "yes")]
     pub looping: bool,
-    /// Ground speed when played at its own rate, in the character's world units per second
-    /// ([`ground_speed`]); 0 for a clip standing still.
+    /// Ground speed when played at the timeline's rate (one frame every `1 / fps` seconds),
+    /// in the character's world units per second ([`ground_speed`], scaled by
+    /// `secs_per_frame × fps`); 0 for a clip standing still.
     #[serde(default)]
     pub ground_speed: f32,
+    /// Seconds of the clip between two of its frames: its duration over its frame count, so
+    /// a loop's frames are evenly spaced, the last one to the first included (a 1.25 s clip
+    /// at 10 fps has 13 frames 0.096 s apart, not 13 at 0.1 s and a short 0.05 s wrap); for a
+    /// clip that does not loop, its duration over one frame fewer (its last frame is its end
+    /// pose, which it holds). 0 (packs written before this field) means `1 / fps`. The clip plays one frame per
+    /// `1 / fps` seconds, so it runs at most one frame longer than its own duration.
+    #[serde(default)]
+    pub secs_per_frame: f32,
 }
 
 fn yes() -> bool {
@@ -43,6 +52,35 @@ impl ClipSpan {
     /// The frames `start..start + frames`.
     pub fn range(&self) -> std::ops::Range<usize> {
         self.start as usize..(self.start + self.frames) as usize
+    }
+
+    /// Seconds into the clip of (fractional) frame `k` of the span, for a timeline at `fps`.
+    pub fn clip_secs(&self, k: f32, fps: f32) -> f32 {
+        k * self.step(fps)
+    }
+
+    /// Seconds of the clip between two frames ([`ClipSpan::secs_per_frame`], else `1 / fps`).
+    pub fn step(&self, fps: f32) -> f32 {
+        if self.secs_per_frame > 0.0 && self.secs_per_frame.is_finite() {
+            self.secs_per_frame
+        } else {
+            1.0 / fps.max(1e-3)
+        }
+    }
+}
+
+/// Seconds between the frames of a clip of `duration_secs` sampled as `frames` frames at
+/// `fps`: `1 / fps` where the duration holds a whole number of frames, else the duration over
+/// the frames (evenly spaced round the loop).
+pub fn clip_step(duration_secs: f32, frames: usize, fps: f32) -> f32 {
+    let whole = 1.0 / fps.max(1e-3);
+    if !(duration_secs > 0.0 && duration_secs.is_finite()) || frames == 0 {
+        return whole;
+    }
+    if ((duration_secs * fps) - frames as f32).abs() < 1e-3 {
+        whole
+    } else {
+        duration_secs / frames as f32
     }
 }
 
@@ -109,6 +147,7 @@ impl Timeline {
                 frames: frames as u32,
                 looping: true,
                 ground_speed: 0.0,
+                secs_per_frame: clip_step(duration, frames, fps),
             });
             total += frames;
             if total > crate::limits::MAX_FRAMES {
@@ -131,8 +170,16 @@ impl Timeline {
         let mut t = Self::new(character, clips, fps)?;
         for (span, &c) in t.spans.iter_mut().zip(&t.clips) {
             let m = measure_motion(character, c);
-            span.ground_speed = m.ground_speed();
             span.looping = m.loops();
+            // A clip that does not loop holds its last frame: make that its last pose (its
+            // frames spread from its start to its end, both shown).
+            let duration = c.and_then(|i| character.clips.get(i)).map_or(0.0, |c| c.duration_secs);
+            if !span.looping && span.frames > 1 && duration > 0.0 && duration.is_finite() {
+                // (A hair before the end: sampling wraps the end itself to the start.)
+                span.secs_per_frame = duration * (1.0 - 1e-4) / (span.frames - 1) as f32;
+            }
+            // Played one frame per 1 / fps seconds, not one per secs_per_frame.
+            span.ground_speed = m.ground_speed() * span.step(fps) * fps;
         }
         Ok(t)
     }
@@ -146,7 +193,7 @@ impl Timeline {
     pub fn samples(&self) -> Vec<(Option<usize>, f32)> {
         let mut out = Vec::with_capacity(self.frames());
         for (s, &c) in self.spans.iter().zip(&self.clips) {
-            out.extend((0..s.frames).map(|k| (c, k as f32 / self.fps)));
+            out.extend((0..s.frames).map(|k| (c, s.clip_secs(k as f32, self.fps))));
         }
         out
     }
@@ -176,6 +223,7 @@ impl Timeline {
                 frames: frames.max(1) as u32,
                 looping: true,
                 ground_speed: 0.0,
+                secs_per_frame: 0.0,
             }],
             clips: vec![None],
         }
@@ -263,7 +311,8 @@ pub fn prev_frame(spans: &[ClipSpan], f: usize) -> usize {
 }
 
 /// Checks a clip table against a frame count: consecutive spans from 0 covering exactly
-/// `frames` frames, each at least one frame, speeds finite and non-negative, names short.
+/// `frames` frames, each at least one frame, speeds finite and non-negative, frame spacing
+/// finite and at most an hour, names short.
 pub fn validate(spans: &[ClipSpan], frames: usize) -> Result<(), String> {
     if spans.is_empty() {
         return Err("the clip table is empty".into());
@@ -281,6 +330,12 @@ pub fn validate(spans: &[ClipSpan], frames: usize) -> Result<(), String> {
         }
         if !(s.ground_speed.is_finite() && s.ground_speed >= 0.0) {
             return Err(format!("clip {i} ('{}') has ground speed {}", s.name, s.ground_speed));
+        }
+        if !(s.secs_per_frame.is_finite() && (0.0..=3600.0).contains(&s.secs_per_frame)) {
+            return Err(format!(
+                "clip {i} ('{}') has {} seconds between frames",
+                s.name, s.secs_per_frame
+            ));
         }
         if s.name.len() > 1024 {
             return Err(format!("clip {i}'s name is {} bytes long", s.name.len()));
@@ -508,20 +563,60 @@ pub fn measure_motion(character: &Character, clip: Option<usize>) -> ClipMotion 
     }
 }
 
-/// Sample times of a looping clip at `fps`: `0, 1/fps, …` strictly before the end (the end
-/// equals the start). At least one frame.
+/// Sample times of a looping clip at `fps`: as many frames as `1/fps` steps start before the
+/// end ([`crate::limits::frame_count`]), spread evenly over the loop ([`clip_step`]), so the
+/// wrap from the last frame to the first is as long as every other step. At least one frame.
 pub fn frame_times(duration_secs: f32, fps: f32) -> Vec<f32> {
     if !(duration_secs > 0.0) || !(fps > 0.0) {
         return vec![0.0];
     }
     // Callers check the count first ([`crate::limits::frame_count`]); never more than the limit.
     let n = crate::limits::frame_count(duration_secs, fps).unwrap_or(crate::limits::MAX_FRAMES);
-    (0..n).map(|k| k as f32 / fps).collect()
+    let step = clip_step(duration_secs, n, fps);
+    (0..n).map(|k| k as f32 * step).collect()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_clip_of_a_fractional_frame_count_is_sampled_evenly_round_its_loop() {
+        let mut c = crate::default_character::generate();
+        let walk = c.find_clip("Walk").unwrap();
+        let whole = Timeline::measured(&c, &[Some(walk)], 10.0).unwrap();
+        // The Walk lasts 1 s: ten frames 0.1 s apart, as before this field.
+        assert_eq!(whole.spans[0].frames, 10);
+        assert_eq!(whole.spans[0].step(10.0), 0.1);
+        // Stretched to 1.25 s (12.5 frames' worth at 10 fps): 13 frames, 1.25 / 13 apart, so
+        // the last frame is one step before the loop's end, not half a step.
+        c.clips[walk].duration_secs = 1.25;
+        for ch in &mut c.clips[walk].channels {
+            for t in &mut ch.times {
+                *t *= 1.25;
+            }
+        }
+        c.clips[walk].in_place_velocity /= 1.25;
+        let t = Timeline::measured(&c, &[Some(walk)], 10.0).unwrap();
+        let s = &t.spans[0];
+        assert_eq!(s.frames, 13);
+        let step = 1.25 / 13.0;
+        assert!((s.step(10.0) - step).abs() < 1e-6);
+        for (k, &(clip, secs)) in t.samples().iter().enumerate() {
+            assert_eq!(clip, Some(walk));
+            assert!((secs - k as f32 * step).abs() < 1e-5);
+        }
+        assert!((s.clip_secs(13.0, 10.0) - 1.25).abs() < 1e-5);
+        // Played one frame every 0.1 s, the stretched walk covers its loop's distance in 1.3 s:
+        // its ground speed at that rate is the measured one × 1.25 / 1.3.
+        let measured = ground_speed(&c, Some(walk));
+        assert!(measured > 0.5);
+        assert!((s.ground_speed - measured * 1.25 / 1.3).abs() < 1e-4 * measured, "{} {measured}", s.ground_speed);
+        // A damaged spacing is named.
+        let mut bad = t.spans.clone();
+        bad[0].secs_per_frame = f32::NAN;
+        assert!(validate(&bad, 13).unwrap_err().contains("between frames"));
+    }
 
     #[test]
     fn clips_follow_each_other_and_loop_on_their_own() {
@@ -713,8 +808,15 @@ mod tests {
         assert_eq!(forward.clips[walk].in_place_velocity, Vec3::ZERO);
         let t = Timeline::measured(&c, &[Some(walk), Some(idle)], 10.0).unwrap();
         assert!(!t.spans[0].looping && t.spans[1].looping);
-        // A clip that does not loop holds its last frame.
+        // A clip that does not loop holds its last frame, and that frame is its end pose.
         assert_eq!(t.next(9), 9);
         assert_eq!(t.prev(0), 0);
+        let (clip, secs) = t.samples()[9];
+        assert_eq!(clip, Some(walk));
+        assert!(secs < d && secs > d * 0.999, "{secs} of {d}");
+        let end = Pose::sample(&c, &c.clips[walk], secs).locals[r].translation;
+        assert!((end.y - (rest.y - 0.6)).abs() < 1e-3, "{end} {rest}");
+        // The loop after it keeps its even frames.
+        assert_eq!(t.spans[1].step(10.0), 0.1);
     }
 }

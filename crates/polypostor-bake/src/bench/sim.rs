@@ -34,6 +34,7 @@ pub fn bench_sim(agents: usize, frames: usize, mixed: bool, json: bool) -> anyho
         frames,
         looping: true,
         ground_speed,
+        secs_per_frame: 0.0,
     };
     let beast_size =
         crate::crowd::CharacterSize::from_bounds(glam::Vec3::new(-0.3, 0.0, -1.2), glam::Vec3::new(0.3, 0.9, 1.2));

@@ -206,8 +206,13 @@ impl<'a> Renders<'a> {
         let f = t.max(0.0).floor() as usize;
         let span = tl.span_of(f);
         let clip = tl.clips.get(span).copied().unwrap_or(self.assets.clip);
-        let local = t - tl.spans.get(span).map_or(0.0, |s| s.start as f32);
-        let pose = Pose::sample_index(&self.assets.character, clip, local / fps);
+        let mut local = t - tl.spans.get(span).map_or(0.0, |s| s.start as f32);
+        // A clip that does not loop holds its last frame (as the crowd shows it).
+        if let Some(s) = tl.spans.get(span).filter(|s| !s.looping) {
+            local = local.min(s.frames.saturating_sub(1) as f32);
+        }
+        let secs = tl.spans.get(span).map_or(local / fps, |s| s.clip_secs(local, fps));
+        let pose = Pose::sample_index(&self.assets.character, clip, secs);
         self.renderer.render(
             device,
             queue,

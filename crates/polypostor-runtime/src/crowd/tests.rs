@@ -239,6 +239,7 @@ fn span(name: &str, start: u32, frames: u32, ground_speed: f32) -> crate::timeli
         frames,
         looping: true,
         ground_speed,
+        secs_per_frame: 0.0,
     }
 }
 

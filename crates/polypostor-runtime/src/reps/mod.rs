@@ -1083,6 +1083,7 @@ mod tests {
             frames,
             looping: true,
             ground_speed: 0.0,
+            secs_per_frame: 0.0,
         };
         // Short timelines are kept whole.
         assert!(far_frames(&[span(0, 10)], 10).is_none());

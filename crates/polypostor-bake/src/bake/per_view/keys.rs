@@ -749,6 +749,7 @@ mod tests {
             frames,
             looping: true,
             ground_speed: 0.0,
+            secs_per_frame: 0.0,
         };
         // Clips of 4, 3 and 5 frames; a key fitted over frames 2..=8.
         let clips = vec![span("a", 0, 4), span("b", 4, 3), span("c", 7, 5)];

@@ -127,7 +127,16 @@ mod tests {
     fn frame_times_cover_the_loop_once() {
         assert_eq!(frame_times(1.0, 10.0).len(), 10);
         assert_eq!(frame_times(0.7, 10.0).len(), 7);
-        assert_eq!(frame_times(0.75, 10.0), vec![0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7]);
+        // 7.5 frames' worth: 8 frames spread evenly round the loop (the wrap from the last to
+        // the first as long as every other step), not 0.1 apart with a 0.05 s wrap.
+        let t = frame_times(0.75, 10.0);
+        assert_eq!(t.len(), 8);
+        for (k, &x) in t.iter().enumerate() {
+            assert!((x - k as f32 * 0.75 / 8.0).abs() < 1e-6, "{t:?}");
+        }
+        assert!((0.75 - t[7] - (t[1] - t[0])).abs() < 1e-6);
+        // A whole number of frames keeps the steps of 1 / fps exactly.
+        assert_eq!(frame_times(0.3, 10.0), vec![0.0, 0.1, 0.2]);
         assert_eq!(frame_times(0.0, 10.0), vec![0.0]);
     }
 

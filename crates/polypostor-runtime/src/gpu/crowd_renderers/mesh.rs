@@ -16,13 +16,18 @@ pub fn joint_samples(
 ) -> Vec<[[f32; 4]; 2]> {
     let per_frame = per_frame.max(1);
     let frames = timeline.samples();
-    let frames = if frames.is_empty() { vec![(None, 0.0)] } else { frames };
-    let step = 1.0 / (timeline.fps.max(1e-3) * per_frame as f32);
-    let mut out = Vec::with_capacity(frames.len() * per_frame * character.bones.len().max(1));
-    for (clip, t0) in frames
+    // Each frame's step between samples: its clip's frame spacing over `per_frame`.
+    let steps: Vec<f32> = timeline
+        .spans
         .iter()
-        .flat_map(|&(c, t)| (0..per_frame).map(move |k| (c, t + k as f32 * step)))
-    {
+        .flat_map(|s| std::iter::repeat_n(s.step(timeline.fps) / per_frame as f32, s.frames as usize))
+        .collect();
+    let frames = if frames.is_empty() { vec![(None, 0.0)] } else { frames };
+    let mut out = Vec::with_capacity(frames.len() * per_frame * character.bones.len().max(1));
+    for (clip, t0) in frames.iter().enumerate().flat_map(|(f, &(c, t))| {
+        let step = steps.get(f).copied().unwrap_or(1.0 / (timeline.fps.max(1e-3) * per_frame as f32));
+        (0..per_frame).map(move |k| (c, t + k as f32 * step))
+    }) {
         let pose = Pose::sample_index(character, clip, t0);
         if character.bones.is_empty() {
             out.push([[0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]]);
