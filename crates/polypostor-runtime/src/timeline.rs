@@ -611,7 +611,11 @@ mod tests {
         // its ground speed at that rate is the measured one × 1.25 / 1.3.
         let measured = ground_speed(&c, Some(walk));
         assert!(measured > 0.5);
-        assert!((s.ground_speed - measured * 1.25 / 1.3).abs() < 1e-4 * measured, "{} {measured}", s.ground_speed);
+        assert!(
+            (s.ground_speed - measured * 1.25 / 1.3).abs() < 1e-4 * measured,
+            "{} {measured}",
+            s.ground_speed
+        );
         // A damaged spacing is named.
         let mut bad = t.spans.clone();
         bad[0].secs_per_frame = f32::NAN;

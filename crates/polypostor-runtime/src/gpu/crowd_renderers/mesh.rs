@@ -15,19 +15,27 @@ pub fn joint_samples(
     per_frame: usize,
 ) -> Vec<[[f32; 4]; 2]> {
     let per_frame = per_frame.max(1);
-    let frames = timeline.samples();
-    // Each frame's step between samples: its clip's frame spacing over `per_frame`.
-    let steps: Vec<f32> = timeline
-        .spans
-        .iter()
-        .flat_map(|s| std::iter::repeat_n(s.step(timeline.fps) / per_frame as f32, s.frames as usize))
-        .collect();
-    let frames = if frames.is_empty() { vec![(None, 0.0)] } else { frames };
+    // Per frame: its clip, its time, the step between its samples (its clip's frame spacing
+    // over `per_frame`) and the latest time its samples may reach (a clip that does not loop
+    // holds its last frame; sampling past its end would wrap to its start).
+    let mut frames: Vec<(Option<usize>, f32, f32, f32)> = Vec::with_capacity(timeline.frames());
+    for (s, &c) in timeline.spans.iter().zip(&timeline.clips) {
+        let step = s.step(timeline.fps);
+        let last = if s.looping {
+            f32::INFINITY
+        } else {
+            s.clip_secs(s.frames.saturating_sub(1) as f32, timeline.fps)
+        };
+        frames.extend((0..s.frames).map(|k| (c, s.clip_secs(k as f32, timeline.fps), step / per_frame as f32, last)));
+    }
+    if frames.is_empty() {
+        frames.push((None, 0.0, 0.0, 0.0));
+    }
     let mut out = Vec::with_capacity(frames.len() * per_frame * character.bones.len().max(1));
-    for (clip, t0) in frames.iter().enumerate().flat_map(|(f, &(c, t))| {
-        let step = steps.get(f).copied().unwrap_or(1.0 / (timeline.fps.max(1e-3) * per_frame as f32));
-        (0..per_frame).map(move |k| (c, t + k as f32 * step))
-    }) {
+    for (clip, t0) in frames
+        .iter()
+        .flat_map(|&(c, t, step, last)| (0..per_frame).map(move |k| (c, (t + k as f32 * step).min(last))))
+    {
         let pose = Pose::sample_index(character, clip, t0);
         if character.bones.is_empty() {
             out.push([[0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]]);
@@ -265,5 +273,50 @@ impl GpuMeshCrowd {
             calls += self.character.draw_instanced(pass, rigid as u32);
         }
         calls
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::joint_samples;
+    use crate::animation::Pose;
+
+    #[test]
+    fn joint_samples_follow_each_clip_and_hold_the_end_of_one_that_does_not_loop() {
+        let c = crate::default_character::generate();
+        let (walk, run) = (c.find_clip("Walk").unwrap(), c.find_clip("Run").unwrap());
+        let mut t = crate::timeline::Timeline::new(&c, &[Some(walk), Some(run)], 10.0).unwrap();
+        // The Run played once and held (as a clip that does not come back to its first pose).
+        t.spans[1].looping = false;
+        t.spans[1].secs_per_frame = 0.7 * 0.9999 / (t.spans[1].frames - 1) as f32;
+        let per = 4;
+        let s = joint_samples(&c, &t, per);
+        let bones = c.bones.len();
+        let at = |frame: usize, k: usize| &s[(frame * per + k) * bones..(frame * per + k + 1) * bones];
+        let expect = |clip: usize, secs: f32| -> Vec<[f32; 4]> {
+            Pose::sample(&c, &c.clips[clip], secs)
+                .skin_from_bind
+                .iter()
+                .map(|m| m.to_scale_rotation_translation().1.to_array())
+                .collect()
+        };
+        let close = |got: &[[[f32; 4]; 2]], want: &[[f32; 4]]| {
+            got.iter().zip(want).all(|(g, w)| {
+                let d: f32 = (0..4).map(|i| g[0][i] * w[i]).sum();
+                d.abs() > 0.9999
+            })
+        };
+        assert_eq!(s.len(), t.frames() * per * bones);
+        // The Walk's samples a quarter frame apart, the Run's at its own spacing.
+        assert!(close(at(3, 2), &expect(walk, 0.35)));
+        let step = t.spans[1].secs_per_frame;
+        assert!(close(at(10 + 2, 1), &expect(run, step * 2.25)));
+        // The Run's last frame holds: every sample of it is its end pose, none wrapped to
+        // the start.
+        let last = 10 + t.spans[1].frames as usize - 1;
+        let end = expect(run, step * (t.spans[1].frames - 1) as f32);
+        for k in 0..per {
+            assert!(close(at(last, k), &end), "sample {k} of the last frame");
+        }
     }
 }
