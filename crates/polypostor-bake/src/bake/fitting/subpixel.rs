@@ -152,57 +152,6 @@ impl Placed {
         }
     }
 
-    /// Calls `f(index, x, y)` for the pixels of box `c` (in a `size`-wide image) whose
-    /// centre may lie in the triangle: per row, the run between where its edge functions
-    /// cross zero, widened by a pixel each way (the caller's [`Placed::cover`] decides), so a
-    /// long thin triangle costs its area, not its bounding box.
-    #[inline(always)]
-    fn each_near(&self, c: PixelBox, size: i64, mut f: impl FnMut(usize, f32, f32)) {
-        let w2 = [
-            1.0 - self.w0[0] - self.w1[0],
-            -self.w0[1] - self.w1[1],
-            -self.w0[2] - self.w1[2],
-        ];
-        // Rounding slack per edge function: [`Placed::cover`] evaluates it another way, so
-        // a pixel centre on an edge (common: edges along rows of pixel centres) may come out
-        // just covered there and just not here; the runs allow far more than either error.
-        let reach = (size.max(c[2]).max(c[3]) + 2) as f32;
-        let slack = |w: &[f32; 3]| 1e-4 * (w[0].abs() + (w[1].abs() + w[2].abs()) * reach) + 1e-6;
-        let slacks = [slack(&self.w0), slack(&self.w1), slack(&w2)];
-        for y in c[1]..c[3] {
-            let py = y as f32 + 0.5;
-            // Pixel centres x + 0.5 in [lo, hi]: where k + a·x >= -slack for each function.
-            let (mut lo, mut hi) = (f32::NEG_INFINITY, f32::INFINITY);
-            for (w, e) in [&self.w0, &self.w1, &w2].into_iter().zip(slacks) {
-                let (k, a) = (w[0] + w[2] * py + e, w[1]);
-                if a > 0.0 {
-                    lo = lo.max(-k / a);
-                } else if a < 0.0 {
-                    hi = hi.min(-k / a);
-                } else if k < 0.0 {
-                    hi = f32::NEG_INFINITY;
-                }
-            }
-            if !(lo <= hi) {
-                continue;
-            }
-            let x0 = if lo.is_finite() {
-                ((lo - 0.5).ceil() as i64 - 1).max(c[0])
-            } else {
-                c[0]
-            };
-            let x1 = if hi.is_finite() {
-                ((hi - 0.5).floor() as i64 + 2).min(c[2])
-            } else {
-                c[2]
-            };
-            let row = (y * size) as usize;
-            for x in x0..x1 {
-                f(row + x as usize, x as f32 + 0.5, py);
-            }
-        }
-    }
-
     /// Texture coordinates at pixel centre `(px, py)` when the triangle covers it (the rule of
     /// [`Canvas::draw_textured`]: every barycentric weight at least 0; degenerate triangles
     /// cover nothing).
@@ -283,7 +232,7 @@ pub fn refine(
                 ]
             };
             for t in new {
-                t.each_near(clip(t), size, |at, px, py| {
+                each_pixel(clip(t), size, |at, px, py| {
                     if scratch[at].0 == 2 {
                         return;
                     }
@@ -296,7 +245,7 @@ pub fn refine(
                 });
             }
             for t in old {
-                t.each_near(clip(t), size, |at, px, py| {
+                each_pixel(clip(t), size, |at, px, py| {
                     if scratch[at].0 == 0 && t.cover(px, py).is_some() {
                         touched.push(at);
                         scratch[at] = (1, [0.0; 4]);
@@ -394,72 +343,22 @@ pub fn refine(
     (before, error.max(0.0))
 }
 
+/// Calls `f(index, x, y)` for every pixel of box `c` (index into a `size`-wide image, x and y
+/// the pixel's centre).
+#[inline(always)]
+fn each_pixel(c: PixelBox, size: i64, mut f: impl FnMut(usize, f32, f32)) {
+    for y in c[1]..c[3] {
+        let py = y as f32 + 0.5;
+        let row = (y * size) as usize;
+        for x in c[0]..c[2] {
+            f(row + x as usize, x as f32 + 0.5, py);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn the_row_runs_hold_every_pixel_a_triangle_covers() {
-        // Brute force over the whole box against the runs, on random triangles of every
-        // shape (long slivers, tiny, degenerate, both orientations, partly off the image).
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut rnd = |lo: f32, hi: f32| {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            lo + (hi - lo) * ((seed >> 40) as f32 / (1u64 << 24) as f32)
-        };
-        let size = 40i64;
-        let uv = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
-        let mut covered_total = 0usize;
-        for n in 0..30000 {
-            let mut pos = [[0.0f32; 2]; 3];
-            for p in &mut pos {
-                *p = [rnd(-5.0, 45.0), rnd(-5.0, 45.0)];
-            }
-            if n % 7 == 0 {
-                // A sliver: the third corner just off the line through the first two.
-                let t = rnd(0.0, 1.0);
-                pos[2] = [
-                    pos[0][0] + t * (pos[1][0] - pos[0][0]) + rnd(-0.3, 0.3),
-                    pos[0][1] + t * (pos[1][1] - pos[0][1]),
-                ];
-            }
-            if n % 11 == 0 {
-                pos[2] = pos[1];
-            }
-            if n % 3 == 1 {
-                // On the quarter-pixel grid the placement moves on, with edges along rows and
-                // columns of pixel centres.
-                for p in &mut pos {
-                    *p = [(p[0] * 4.0).round() / 4.0, (p[1] * 4.0).round() / 4.0];
-                }
-                if n % 2 == 0 {
-                    pos[1][1] = pos[0][1].floor() + 0.5;
-                    pos[0][1] = pos[1][1];
-                } else {
-                    pos[1][0] = pos[0][0].floor() + 0.5;
-                    pos[0][0] = pos[1][0];
-                }
-            }
-            let t = Placed::new(pos, uv);
-            let b = [0, 0, size, size];
-            let mut seen = vec![false; (size * size) as usize];
-            t.each_near(b, size, |at, _, _| seen[at] = true);
-            for y in 0..size {
-                for x in 0..size {
-                    if t.cover(x as f32 + 0.5, y as f32 + 0.5).is_some() {
-                        covered_total += 1;
-                        assert!(
-                            seen[(y * size + x) as usize],
-                            "{pos:?}: pixel {x}, {y} covered but not visited"
-                        );
-                    }
-                }
-            }
-        }
-        assert!(covered_total > 10_000, "{covered_total}");
-    }
     use crate::bake::raster::tile_canvas;
 
     /// A flat-coloured rectangle with a stripe, `size`² pixels.
