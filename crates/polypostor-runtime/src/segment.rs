@@ -468,6 +468,49 @@ pub fn auto_segment(c: &Character) -> Segmentation {
                 part_of_joint[j] = part;
             }
         }
+        // The head: the trunk beyond the last joint a limb hangs from (neck and head, on a
+        // quadruped as on a humanoid), a part of its own where it turns on its own — one
+        // warped image of the torso cannot show a head turning away (RobotExpressive's
+        // Dance: the torso's key showed the face where the mesh showed the back of the head).
+        let attach = limbs
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| target[*i] == Some(*i))
+            .filter_map(|(_, (r, _))| tree.parent[*r])
+            .filter_map(|j| trunk.iter().position(|&t| t == j))
+            .max();
+        if let Some(k) = attach
+            && k + 1 < trunk.len()
+        {
+            let joints = subtree(trunk[k + 1]);
+            let carried_here: usize = joints
+                .iter()
+                .filter(|&&j| part_of_joint[j] == 0)
+                .map(|&j| carried[j].len())
+                .sum();
+            let carried_all: usize = carried.iter().map(Vec::len).sum();
+            let top = *trunk.last().expect("the trunk holds the head's joints");
+            let turn = head_turn(c, tree.node[trunk[k]], tree.node[top]);
+            let share = carried_here as f64 / carried_all.max(1) as f64;
+            if turn > HEAD_TURN_DEGREES && (HEAD_SHARE..=HEAD_SHARE_MAX).contains(&share) {
+                let mut name = "Head".to_string();
+                let mut n = 2;
+                while parts.iter().any(|p| p.name == name) {
+                    name = format!("Head {n}");
+                    n += 1;
+                }
+                let part = parts.len();
+                parts.push(Part {
+                    name,
+                    color: PALETTE[part % PALETTE.len()],
+                });
+                for j in joints {
+                    if part_of_joint[j] == 0 {
+                        part_of_joint[j] = part;
+                    }
+                }
+            }
+        }
     }
     // Vertex parts by summed weight, triangle parts by the majority of weight.
     let bone_part: Vec<usize> = c
@@ -508,6 +551,41 @@ pub fn auto_segment(c: &Character) -> Segmentation {
     let mut seg = Segmentation { parts, labels };
     compact(&mut seg);
     seg
+}
+
+/// A head turning (or nodding, tilting) by more than this against the chest in any clip is a
+/// part of its own ([`auto_segment`]).
+pub const HEAD_TURN_DEGREES: f32 = 20.0;
+
+/// ... when it carries at least this share of the mesh ...
+pub const HEAD_SHARE: f64 = 0.03;
+
+/// ... and at most this (more is not a head: CesiumMan's chest is weighted to its neck).
+pub const HEAD_SHARE_MAX: f64 = 0.4;
+
+/// Largest turn (degrees) of node `top` against node `base` from the start of any clip of
+/// `c` to any of 16 times through it.
+fn head_turn(c: &Character, base: usize, top: usize) -> f32 {
+    let mut most = 0.0f32;
+    for clip in &c.clips {
+        let mut first: Option<glam::Quat> = None;
+        for s in 0..=16 {
+            let t = clip.duration_secs * s as f32 / 16.0 * (1.0 - 1e-4);
+            let pose = crate::animation::Pose::sample(c, clip, t);
+            let (Some(b), Some(h)) = (pose.world_from_node.get(base), pose.world_from_node.get(top)) else {
+                return 0.0;
+            };
+            let q = (b.inverse() * *h).to_scale_rotation_translation().1.normalize();
+            if !q.is_finite() {
+                continue;
+            }
+            match first {
+                None => first = Some(q),
+                Some(q0) => most = most.max(q0.angle_between(q).to_degrees()),
+            }
+        }
+    }
+    most
 }
 
 /// Most parts [`moving_pieces`] makes (the largest pieces keep their own; the rest join the
@@ -713,6 +791,58 @@ mod tests {
         };
         assert_eq!(label_of_bone(head), "Torso");
         assert_eq!(label_of_bone(hand), "Left Arm");
+    }
+
+    #[test]
+    fn a_head_that_turns_on_its_own_is_a_part_of_its_own() {
+        use crate::character::{Channel, ChannelValues, Interpolation};
+        let mut c = crate::default_character::generate();
+        let neck = c.skeleton.find("Neck").unwrap();
+        let head = c.skeleton.find("Head").unwrap();
+        // The default's head moves with its chest (5 parts, above); turned 60° about the
+        // vertical through the Wave, it becomes a part: the neck and head, nothing else.
+        let wave = c.find_clip("Wave").unwrap();
+        let d = c.clips[wave].duration_secs;
+        let rest = c.skeleton.nodes[head].rest.rotation;
+        let clip = &mut c.clips[wave];
+        clip.channels
+            .retain(|ch| !(ch.node == head && matches!(ch.values, ChannelValues::Rotation(_))));
+        clip.channels.push(Channel {
+            node: head,
+            interpolation: Interpolation::Linear,
+            times: vec![0.0, 0.5 * d, d],
+            values: ChannelValues::Rotation(vec![rest, glam::Quat::from_rotation_y(60f32.to_radians()) * rest, rest]),
+        });
+        let s = auto_segment(&c);
+        let names: Vec<&str> = s.parts.iter().map(|p| p.name.as_str()).collect();
+        assert_eq!(s.parts.len(), 6, "{names:?}");
+        let h = s.parts.iter().position(|p| p.name == "Head").unwrap() as u16;
+        let plain = auto_segment(&crate::default_character::generate());
+        for (t, tri) in c.indices.chunks_exact(3).enumerate() {
+            let v = &c.vertices[tri[0] as usize];
+            let node = c.bones[main_bone(v)].node;
+            let on_head = node == head || node == neck;
+            if s.labels[t] == h {
+                // Only what the torso had, and mostly the head's own triangles.
+                assert_eq!(plain.parts[plain.labels[t] as usize].name, "Torso");
+            } else if on_head && v.weights.iter().copied().fold(0.0, f32::max) > 0.99 {
+                panic!(
+                    "triangle {t} on the head's joints is in {}",
+                    names[s.labels[t] as usize]
+                );
+            }
+            if s.labels[t] != h {
+                assert_eq!(
+                    s.parts[s.labels[t] as usize].name,
+                    plain.parts[plain.labels[t] as usize].name
+                );
+            }
+        }
+        // A turn under the threshold keeps the paper's five parts.
+        if let Some(ChannelValues::Rotation(q)) = c.clips[wave].channels.last_mut().map(|ch| &mut ch.values) {
+            q[1] = glam::Quat::from_rotation_y(10f32.to_radians()) * rest;
+        }
+        assert_eq!(auto_segment(&c).parts.len(), 5);
     }
 
     #[test]
