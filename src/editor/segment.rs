@@ -413,7 +413,11 @@ impl SegmentPanel {
                     }
                 });
                 if caps.is_empty() {
-                    ui.label("(no cuts: a single part)");
+                    ui.label(if doc.segmentation.parts.len() > 1 {
+                        "(no cuts: the parts are separate pieces of the mesh)"
+                    } else {
+                        "(no cuts: a single part)"
+                    });
                 }
                 if let Some(id) = self.eyedropper.clone()
                     && let Some(picked) = self.texture_picker(ui, doc)
