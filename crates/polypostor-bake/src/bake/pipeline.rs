@@ -28,6 +28,28 @@ use crate::timeline::Timeline;
 /// Most frames tried as the key frame by [`KeyFrame::Auto`] (evenly spread over the clip).
 pub const KEY_FRAME_CANDIDATES: usize = 5;
 
+/// Most frames the key-frame ranking fits per candidate and probe view: a longer timeline
+/// (several clips: 57 frames for the default's four, 203 for RobotExpressive's fourteen) is
+/// ranked on every k-th frame and the candidates, so the ranking's cost stops growing with
+/// the clip set. One clip of up to 4 s at 10 fps is ranked on every frame, as before.
+pub const KEY_FRAME_PROBE_FRAMES: usize = 40;
+
+/// The frames the key-frame ranking fits, in order: every frame of a timeline of up to
+/// [`KEY_FRAME_PROBE_FRAMES`], else evenly spaced ones at most that many, plus `candidates`.
+pub fn key_frame_probe_frames(frames: usize, candidates: &[usize]) -> Vec<usize> {
+    if frames <= KEY_FRAME_PROBE_FRAMES {
+        return (0..frames).collect();
+    }
+    let k = frames.div_ceil(KEY_FRAME_PROBE_FRAMES);
+    let mut out: Vec<usize> = (0..frames)
+        .step_by(k)
+        .chain(candidates.iter().copied().filter(|&f| f < frames))
+        .collect();
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
 /// How the texture key-frame is chosen.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum KeyFrame {
@@ -930,6 +952,13 @@ impl Prepared {
                 let mut totals = vec![0.0f64; candidates.len()];
                 // Every clip counts the same (a long idle does not outvote a short run).
                 let weights = keys::frame_weights(&self.timeline.spans, times.len());
+                // A long timeline is ranked on a subset of its frames (the candidates in it).
+                let probed = key_frame_probe_frames(times.len(), &candidates);
+                let weights: Vec<f64> = probed.iter().map(|&f| weights[f]).collect();
+                let at: Vec<usize> = candidates
+                    .iter()
+                    .map(|k| probed.iter().position(|f| f == k).expect("the candidates are probed"))
+                    .collect();
                 for (n, &v) in probes.iter().enumerate() {
                     if cancel.load(Ordering::Relaxed) {
                         return Err(BakeError::Cancelled);
@@ -940,6 +969,13 @@ impl Prepared {
                         total: probes.len(),
                     });
                     let data = self.render(ctx, v)?;
+                    let subset: Option<Vec<Vec<PartTile>>> = (probed.len() < times.len()).then(|| {
+                        data.tiles
+                            .iter()
+                            .map(|t| probed.iter().map(|&f| t[f].clone()).collect())
+                            .collect()
+                    });
+                    let part_tiles = subset.as_ref().unwrap_or(&data.tiles);
                     // Ranking key frames needs no restarts (they polish the poorest frames of
                     // whichever key) and one refinement pass without sweeps: the candidates are
                     // compared with each other, all fitted the same way, at about half the time.
@@ -952,10 +988,10 @@ impl Prepared {
                     };
                     // Each part's fit checks the cancel flag first, so a cancel is not held
                     // up by a whole probe view.
-                    let per_key: Vec<f64> = candidates
+                    let per_key: Vec<f64> = at
                         .par_iter()
                         .map(|&k| {
-                            data.tiles
+                            part_tiles
                                 .iter()
                                 .map(|tiles| {
                                     let _probe = profile::root("key frame");
@@ -1394,6 +1430,28 @@ pub fn rebake_sharing(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_key_frame_ranking_fits_every_frame_of_a_clip_and_a_bounded_subset_of_many() {
+        // Up to the limit: every frame, as before.
+        for n in [1, 10, 34, KEY_FRAME_PROBE_FRAMES] {
+            assert_eq!(key_frame_probe_frames(n, &[0, n / 2]), (0..n).collect::<Vec<_>>());
+        }
+        // Beyond it: increasing, bounded, evenly spread, every candidate in it.
+        for n in [KEY_FRAME_PROBE_FRAMES + 1, 57, 203, 4000] {
+            let step = n.div_ceil(KEY_FRAME_CANDIDATES);
+            let candidates: Vec<usize> = (0..n).step_by(step).collect();
+            let p = key_frame_probe_frames(n, &candidates);
+            assert!(p.windows(2).all(|w| w[0] < w[1]), "{n}: {p:?}");
+            assert!(p.len() <= KEY_FRAME_PROBE_FRAMES + candidates.len(), "{n}: {} frames", p.len());
+            assert!(p.len() >= KEY_FRAME_PROBE_FRAMES / 2, "{n}: {} frames", p.len());
+            assert!(candidates.iter().all(|c| p.contains(c)), "{n}");
+            assert!(p.iter().all(|&f| f < n));
+            // No gap longer than the spacing.
+            let k = n.div_ceil(KEY_FRAME_PROBE_FRAMES);
+            assert!(p.windows(2).all(|w| w[1] - w[0] <= k), "{n}");
+        }
+    }
 
     /// Tiles of a part whose image is a `w[f]` × 10 block of covered pixels at frame `f`.
     fn widths(w: &[u32]) -> Vec<PartTile> {
