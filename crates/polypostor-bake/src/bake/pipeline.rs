@@ -1443,7 +1443,11 @@ mod tests {
             let candidates: Vec<usize> = (0..n).step_by(step).collect();
             let p = key_frame_probe_frames(n, &candidates);
             assert!(p.windows(2).all(|w| w[0] < w[1]), "{n}: {p:?}");
-            assert!(p.len() <= KEY_FRAME_PROBE_FRAMES + candidates.len(), "{n}: {} frames", p.len());
+            assert!(
+                p.len() <= KEY_FRAME_PROBE_FRAMES + candidates.len(),
+                "{n}: {} frames",
+                p.len()
+            );
             assert!(p.len() >= KEY_FRAME_PROBE_FRAMES / 2, "{n}: {} frames", p.len());
             assert!(candidates.iter().all(|c| p.contains(c)), "{n}");
             assert!(p.iter().all(|&f| f < n));
