@@ -363,11 +363,14 @@ pub struct ClipMotion {
     /// vertex distance over the clip's height (about 0 for a clip that loops).
     pub closure: f32,
     /// Share of the samples on the ground (lowest vertex within 3 % of the height of the
-    /// ground, the fifth-lowest of the samples' lowest points) whose contact point moves within half the ground speed of `feet`
-    /// (1 for a clip going nowhere; 0 when under a fifth of the samples are on the ground).
+    /// ground, the fifth-lowest of the samples' lowest points) whose contact point moves
+    /// within half the ground speed of `feet` (the ground speed taken as at least
+    /// [`LOCOMOTION_MIN_SPEED`] heights a second, so a clip standing still with planted feet
+    /// reads about 1; 0 when under a fifth of the samples are on the ground).
     pub contact: f32,
     /// Mean distance of each sample's contact velocity from `feet`, over the ground speed
-    /// (small: the feet slide back evenly, as in a walk; large for a jump or a punch).
+    /// (at least [`LOCOMOTION_MIN_SPEED`] heights a second, as for `contact`; small: the
+    /// feet slide back evenly, as in a walk, or stay planted; large for a jump or a punch).
     pub spread: f32,
     /// Top minus bottom of the mesh over the clip.
     pub height: f32,
@@ -535,18 +538,20 @@ pub fn measure_motion(character: &Character, clip: Option<usize>) -> ClipMotion 
         dir * along[along.len() / 2]
     };
     // How steadily the contact point moves at the feet's velocity: the share of samples within
-    // half the ground speed of it.
-    let speed = (root - feet).length();
-    let contact = if speed > 1e-6 * height {
+    // half the ground speed of it. The speed is taken as at least the slowest locomotion's
+    // ([`LOCOMOTION_MIN_SPEED`]): a clip that stands measures its feet against a walk's pace,
+    // not against the drift of a sway (an idle's or a jump's spread read in the thousands).
+    let speed = (root - feet).length().max(LOCOMOTION_MIN_SPEED * height);
+    let contact = if velocities.is_empty() {
+        1.0
+    } else {
         velocities
             .iter()
             .filter(|v| (**v - feet).length() <= 0.5 * speed)
             .count() as f32
-            / velocities.len().max(1) as f32
-    } else {
-        1.0
+            / velocities.len() as f32
     };
-    let spread = if velocities.is_empty() || speed <= 1e-6 * height {
+    let spread = if velocities.is_empty() {
         0.0
     } else {
         velocities.iter().map(|v| (*v - feet).length()).sum::<f32>() / (velocities.len() as f32 * speed)
@@ -785,6 +790,9 @@ mod tests {
         assert!(m.loops() && m.is_locomotion(), "{m:?}");
         let m = measure_motion(&c, Some(idle));
         assert!(m.loops() && !m.is_locomotion() && m.ground_speed() == 0.0, "{m:?}");
+        // Standing (its feet shuffle at about 6 cm/s): measured against the slowest walk's
+        // pace, a spread of the order of 1; against the sway's own drift it read 41.
+        assert!(m.spread < 1.5 && m.contact > 0.3, "{m:?}");
         // The walk sinking by a third of its height over the clip (a fall, a sit): its last
         // pose is not its first.
         let r = c.skeleton.nodes.iter().position(|n| n.parent.is_none()).unwrap();
