@@ -220,19 +220,23 @@ pub fn refine(
     let n = size as usize;
     let mut scratch: Vec<(u8, [f32; 4])> = vec![(0, [0.0; 4]); n * n];
     let mut touched: Vec<usize> = Vec::new();
+    // The pixels of box `r` that triangles `old` cover, triangle by triangle in scan order
+    // (a pixel under two of them twice): the same for every trial move of one vertex.
+    let covered = |old: &[Placed], r: PixelBox| -> Vec<usize> {
+        let mut out = Vec::new();
+        for t in old {
+            each_pixel(clip(t, r), size, |at, px, py| {
+                if t.cover(px, py).is_some() {
+                    out.push(at);
+                }
+            });
+        }
+        out
+    };
     let mut change =
-        |cur: &Canvas, old: &[Placed], new: &[Placed], r: PixelBox, visit: &mut dyn FnMut(usize, [f32; 4])| -> f64 {
-            let clip = |t: &Placed| -> PixelBox {
-                let b = triangle_box(t.pos);
-                [
-                    (b[0].floor() as i64).max(r[0]),
-                    (b[1].floor() as i64).max(r[1]),
-                    (b[2].ceil() as i64).min(r[2]),
-                    (b[3].ceil() as i64).min(r[3]),
-                ]
-            };
+        |cur: &Canvas, old: &[usize], new: &[Placed], r: PixelBox, visit: &mut dyn FnMut(usize, [f32; 4])| -> f64 {
             for t in new {
-                each_pixel(clip(t), size, |at, px, py| {
+                each_pixel(clip(t, r), size, |at, px, py| {
                     if scratch[at].0 == 2 {
                         return;
                     }
@@ -244,13 +248,11 @@ pub fn refine(
                     }
                 });
             }
-            for t in old {
-                each_pixel(clip(t), size, |at, px, py| {
-                    if scratch[at].0 == 0 && t.cover(px, py).is_some() {
-                        touched.push(at);
-                        scratch[at] = (1, [0.0; 4]);
-                    }
-                });
+            for &at in old {
+                if scratch[at].0 == 0 {
+                    touched.push(at);
+                    scratch[at] = (1, [0.0; 4]);
+                }
             }
             let mut delta = 0.0;
             for &at in &touched {
@@ -298,6 +300,7 @@ pub fn refine(
                 if r[0] >= r[2] || r[1] >= r[3] {
                     continue;
                 }
+                let was_cover = covered(&was, r);
                 let mut best: Option<([f32; 2], f64)> = None;
                 for (n, d) in DIRECTIONS.into_iter().enumerate() {
                     // The diagonals only where no move along the axes helps.
@@ -315,7 +318,7 @@ pub fn refine(
                     if now.iter().zip(&around[i]).any(|(t, &k)| t.area * orient[k] < 0.0) {
                         continue;
                     }
-                    let delta = change(&cur, &was, &now, r, &mut |_, _| {});
+                    let delta = change(&cur, &was_cover, &now, r, &mut |_, _| {});
                     if delta < -1e-9 && best.is_none_or(|(_, bd)| delta < bd) {
                         best = Some((q, delta));
                     }
@@ -324,7 +327,7 @@ pub fn refine(
                     positions[i] = q;
                     let now = placed(positions);
                     let mut changed = Vec::new();
-                    error += change(&cur, &was, &now, r, &mut |at, v| changed.push((at, v)));
+                    error += change(&cur, &was_cover, &now, r, &mut |at, v| changed.push((at, v)));
                     for (at, v) in changed {
                         cur.px[at] = v;
                     }
@@ -341,6 +344,17 @@ pub fn refine(
         }
     }
     (before, error.max(0.0))
+}
+
+/// The whole pixels of triangle `t`'s bounding box inside box `r`.
+fn clip(t: &Placed, r: PixelBox) -> PixelBox {
+    let b = triangle_box(t.pos);
+    [
+        (b[0].floor() as i64).max(r[0]),
+        (b[1].floor() as i64).max(r[1]),
+        (b[2].ceil() as i64).min(r[2]),
+        (b[3].ceil() as i64).min(r[3]),
+    ]
 }
 
 /// Calls `f(index, x, y)` for every pixel of box `c` (index into a `size`-wide image, x and y
