@@ -1159,20 +1159,20 @@ mod tests {
         assert!((c4 - c0 - 8.0).abs() < 3.0, "{c0} -> {c4}");
     }
 
+    /// The exact DP's fit from key frame 0.
+    fn exact_fit(t: &[PartTile]) -> PartFit {
+        let exhaustive = PartFitOptions {
+            exhaustive: true,
+            ..Default::default()
+        };
+        fit_part(t, 0, &exhaustive, &[]).unwrap()
+    }
+
     #[test]
     fn fast_mode_is_within_two_percent_of_the_exact_dp() {
         let t = tiles(4);
         let fast = fit_part(&t, 0, &PartFitOptions::default(), &[]).unwrap();
-        let exact = fit_part(
-            &t,
-            0,
-            &PartFitOptions {
-                exhaustive: true,
-                ..Default::default()
-            },
-            &[],
-        )
-        .unwrap();
+        let exact = exact_fit(&t);
         assert!(exact.total_cost() <= fast.total_cost() + 1e-9);
         assert!(
             fast.total_cost() <= exact.total_cost() * 1.02 + 1e-6,
@@ -1201,17 +1201,7 @@ mod tests {
         let (skipping, always, never_interior) = (with(REFINE_MARGIN), with(usize::MAX), with(HINT_RADIUS + 1));
         // A margin wider than the hint never finds a solve interior: the same as always.
         assert_eq!(always, never_interior);
-        let exact = fit_part(
-            &t,
-            0,
-            &PartFitOptions {
-                exhaustive: true,
-                ..Default::default()
-            },
-            &[],
-        )
-        .unwrap()
-        .total_cost();
+        let exact = exact_fit(&t).total_cost();
         assert!(exact <= skipping + 1e-9 && exact <= always + 1e-9);
         assert!(skipping <= always * 1.005 + 1e-6, "skipping {skipping} always {always}");
     }
