@@ -302,6 +302,7 @@ pub fn fit_frame_stuck(
     // The fast mode solves several overlapping candidate sets: remember every triangle cost
     // (exact, or a lower bound where the evaluation gave up) so no triple is sampled twice.
     let memo = std::cell::RefCell::new(CostCache::new(plan, target.len()));
+    let raw_dyn: &dyn Fn(usize, [usize; 3], f64) -> f64 = &raw;
     let cost = |t: usize, p: [usize; 3], limit: f64| {
         looked.set(looked.get() + 1);
         // A fold costs a table lookup and a few multiplications: cheaper than the memo.
@@ -319,13 +320,7 @@ pub fn fit_frame_stuck(
         if -v >= limit {
             return f64::INFINITY;
         }
-        let c = raw(t, p, limit);
-        if c.is_finite() {
-            *cell = c;
-        } else if limit > 0.0 {
-            *cell = -limit;
-        }
-        c
+        miss(cell, &raw_dyn, t, p, limit)
     };
     // Candidate windows: the `window` target vertices nearest in space to where the vertex is
     // expected, plus a run along the target contour around the index it is expected at
@@ -527,6 +522,20 @@ pub fn fit_frame_stuck(
         a.fetch_add(c.get(), std::sync::atomic::Ordering::Relaxed);
     }
     Ok((best, stuck))
+}
+
+/// A cost the fast mode's cache does not hold yet: evaluated and stored in `cell` (exact, or
+/// `-limit` as a lower bound where the evaluation gave up). Kept out of line so that the
+/// cache's look-up inlines into the DP's inner loop.
+#[inline(never)]
+fn miss(cell: &mut f64, raw: &dyn Fn(usize, [usize; 3], f64) -> f64, t: usize, p: [usize; 3], limit: f64) -> f64 {
+    let c = raw(t, p, limit);
+    if c.is_finite() {
+        *cell = c;
+    } else if limit > 0.0 {
+        *cell = -limit;
+    }
+    c
 }
 
 /// The fast mode's cache of triangle costs: for each triangle and targets of the two corners
