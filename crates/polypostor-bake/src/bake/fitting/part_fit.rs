@@ -525,8 +525,8 @@ pub fn fit_frame_stuck(
 }
 
 /// A cost the fast mode's cache does not hold yet: evaluated and stored in `cell` (exact, or
-/// `-limit` as a lower bound where the evaluation gave up). Kept out of line so that the
-/// cache's look-up inlines into the DP's inner loop.
+/// `-limit` as a lower bound where the evaluation gave up). Kept out of line, so the look-up
+/// that finds its cost in the cache (most of them) stays a short function.
 #[inline(never)]
 fn miss(cell: &mut f64, raw: &dyn Fn(usize, [usize; 3], f64) -> f64, t: usize, p: [usize; 3], limit: f64) -> f64 {
     let c = raw(t, p, limit);
