@@ -374,14 +374,10 @@ fn inspect(file: &Path, json: bool) -> anyhow::Result<()> {
         Ok(c) => {
             let s = polypostor::summary::Summary::of(&c);
             // How each clip moves (what a crowd does with it).
-            let motion: Vec<(String, polypostor::timeline::ClipMotion, f32)> = (0..c.clips.len())
-                .map(|i| {
-                    (
-                        c.clips[i].name.clone(),
-                        polypostor::timeline::measure_motion(&c, Some(i)),
-                        c.clips[i].in_place_velocity.length(),
-                    )
-                })
+            let motion: Vec<(String, polypostor::timeline::ClipMotion, f32)> = polypostor::timeline::measure_clips(&c)
+                .into_iter()
+                .enumerate()
+                .map(|(i, m)| (c.clips[i].name.clone(), m, c.clips[i].in_place_velocity.length()))
                 .collect();
             if json {
                 let mut v = serde_json::to_value(&s)?;
@@ -394,6 +390,8 @@ fn inspect(file: &Path, json: bool) -> anyhow::Result<()> {
                             "root_motion_taken_out": root,
                             "loops": m.loops(),
                             "locomotion": m.is_locomotion(),
+                            "stride_estimate": m.is_stride_estimate(),
+                            "leg_sweep": m.sweep,
                             "closure": m.closure,
                             "contact": m.contact,
                             "spread": m.spread,
@@ -404,14 +402,18 @@ fn inspect(file: &Path, json: bool) -> anyhow::Result<()> {
             } else {
                 print!("{}", s.to_text());
                 if !motion.is_empty() {
-                    println!("clip motion (ground speed in scene units/s; closure, contact and spread as measured)");
+                    println!(
+                        "clip motion (ground speed in scene units/s; closure, contact, spread and the legs' sweep as measured)"
+                    );
                     for (name, m, root) in &motion {
                         println!(
-                            "  {:<24} {:>8.3}/s  {:<16} closure {:.3}  contact {:.2}  spread {:.2}{}",
+                            "  {:<24} {:>8.3}/s  {:<16} closure {:.3}  contact {:.2}  spread {:.2}  sweep {:.3}/s{}",
                             name,
                             m.ground_speed(),
                             if m.is_locomotion() {
                                 "locomotion"
+                            } else if m.is_stride_estimate() {
+                                "strides (sweep)"
                             } else if m.loops() {
                                 "loops in place"
                             } else {
@@ -420,6 +422,7 @@ fn inspect(file: &Path, json: bool) -> anyhow::Result<()> {
                             m.closure,
                             m.contact,
                             m.spread,
+                            m.sweep,
                             if *root > 0.0 {
                                 format!("  (root motion {root:.3}/s played in place)")
                             } else {

@@ -226,6 +226,49 @@ pub fn auto_segment(c: &Character) -> Segmentation {
     if let Some(seg) = moving_pieces(c) {
         return seg;
     }
+    let mut seg = skeleton_parts(c).0;
+    // Drop parts that received no triangle (keeps labels dense).
+    compact(&mut seg);
+    seg
+}
+
+/// Which leg each vertex of `c` belongs to, by its largest share of skin weight: `Some(k)`
+/// for the `k`-th leg [`auto_segment`] finds (limbs in mirror pairs that reach the ground from
+/// the lowest-hung pairs: a humanoid's two, a quadruped's four; not a robot's long arms that
+/// reach down), `None` for the rest. Empty when the character has fewer than two legs or is a
+/// prop of moving pieces. What touches the ground when it walks: [`crate::timeline`] measures
+/// stride speed on these.
+pub fn leg_vertices(c: &Character) -> Vec<Option<usize>> {
+    if moving_pieces(c).is_some() {
+        return Vec::new();
+    }
+    let (_, legs, vertex_weights) = skeleton_parts(c);
+    let leg_index: Vec<Option<usize>> = legs
+        .iter()
+        .scan(0usize, |n, &is| {
+            Some(is.then(|| {
+                *n += 1;
+                *n - 1
+            }))
+        })
+        .collect();
+    if leg_index.iter().flatten().count() < 2 {
+        return Vec::new();
+    }
+    vertex_weights
+        .iter()
+        .map(|w| {
+            (0..w.len())
+                .max_by(|&a, &b| w[a].total_cmp(&w[b]).then(b.cmp(&a)))
+                .and_then(|p| leg_index.get(p).copied().flatten())
+        })
+        .collect()
+}
+
+/// The skeleton's parts before empty ones are dropped, whether each is a leg, and each
+/// vertex's skin weight per part.
+#[allow(clippy::type_complexity)]
+fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
     let tree = JointTree::new(c);
     let count = tree.node.len();
     // part_of_joint[j]: the part each joint's influence goes to (0 = trunk).
@@ -234,6 +277,7 @@ pub fn auto_segment(c: &Character) -> Segmentation {
         name: "Torso".into(),
         color: PALETTE[0],
     }];
+    let mut leg_parts: Vec<usize> = Vec::new();
     if count > 0 {
         let root = (0..count)
             .filter(|&j| tree.parent[j].is_none())
@@ -457,6 +501,9 @@ pub fn auto_segment(c: &Character) -> Segmentation {
                 k += 1;
             }
             part_of_limb[i] = parts.len();
+            if is_leg(i) {
+                leg_parts.push(parts.len());
+            }
             parts.push(Part {
                 name: label,
                 color: PALETTE[parts.len() % PALETTE.len()],
@@ -547,10 +594,8 @@ pub fn auto_segment(c: &Character) -> Segmentation {
                 .unwrap_or(0) as u16
         })
         .collect();
-    // Drop parts that received no triangle (keeps labels dense).
-    let mut seg = Segmentation { parts, labels };
-    compact(&mut seg);
-    seg
+    let legs = (0..np).map(|p| leg_parts.contains(&p)).collect();
+    (Segmentation { parts, labels }, legs, vertex_weights)
 }
 
 /// A head turning (or nodding, tilting) by more than this against the chest in any clip is a

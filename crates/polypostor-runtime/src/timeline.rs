@@ -168,8 +168,13 @@ impl Timeline {
     /// [`ClipSpan::looping`] measured ([`measure_motion`]).
     pub fn measured(character: &Character, clips: &[Option<usize>], fps: f32) -> Result<Self, LimitError> {
         let mut t = Self::new(character, clips, fps)?;
+        let motions = if t.clips.iter().any(Option::is_some) {
+            measure_clips(character)
+        } else {
+            Vec::new()
+        };
         for (span, &c) in t.spans.iter_mut().zip(&t.clips) {
-            let m = measure_motion(character, c);
+            let m = c.and_then(|i| motions.get(i).copied()).unwrap_or_default();
             span.looping = m.loops();
             // A clip that does not loop holds its last frame: make that its last pose (its
             // frames spread from its start to its end, both shown).
@@ -376,6 +381,19 @@ pub struct ClipMotion {
     pub height: f32,
     /// The clip's length in seconds.
     pub duration: f32,
+    /// How fast the feet sweep back under the body while they push ([`leg_sweep`]): scene
+    /// units a second, 0 when the legs do not stride (fewer than two legs found, a clip that
+    /// does not loop, legs that do not alternate, swing less than a fifth of the height, or
+    /// one that never reaches the ground).
+    pub sweep: f32,
+    /// Share of the time with every foot on the ground (within [`STRIDE_GROUND`] of the
+    /// lowest they get; 1 when the legs do not stride).
+    pub all_down: f32,
+    /// Ground speed estimated from [`ClipMotion::sweep`] for a clip whose contact point
+    /// cannot measure it (a cartoon run whose feet slide along the floor both ways: no speed
+    /// keeps them planted), scaled by how the sweep compares with the contact speed on the
+    /// character's clips that have both ([`measure_clips`]); 0 for every other clip.
+    pub stride: f32,
 }
 
 /// Least ground speed of locomotion, in heights per second (9 cm/s for a 1.8 m person):
@@ -412,11 +430,86 @@ impl ClipMotion {
             && (self.root - self.feet).length() >= LOCOMOTION_MIN_SPEED * self.height
     }
 
-    /// The ground speed: root motion minus planted-feet velocity for locomotion, 0 otherwise.
+    /// The ground speed: root motion minus planted-feet velocity for locomotion, else the
+    /// stride estimate ([`ClipMotion::stride`], 0 for a clip that does not stride).
     pub fn ground_speed(&self) -> f32 {
         let v = (self.root - self.feet).length();
-        if self.is_locomotion() && v.is_finite() { v } else { 0.0 }
+        if self.is_locomotion() && v.is_finite() {
+            v
+        } else if self.stride.is_finite() {
+            self.stride
+        } else {
+            0.0
+        }
     }
+
+    /// Whether the speed is the stride estimate (the contact point could not measure it).
+    pub fn is_stride_estimate(&self) -> bool {
+        !self.is_locomotion() && self.ground_speed() > 0.0
+    }
+
+    /// Whether [`ClipMotion::sweep`] may stand in for the contact speed: the legs stride, in
+    /// place (no root motion), for a gait cycle's length, with flight phases (a run), and the
+    /// contact point failed.
+    fn may_stride(&self) -> bool {
+        self.sweep >= LOCOMOTION_MIN_SPEED * self.height
+            && self.sweep.is_finite()
+            && !self.is_locomotion()
+            && self.loops()
+            && self.duration >= LOCOMOTION_MIN_SECS
+            && self.root.length() < LOCOMOTION_MIN_SPEED * self.height
+            && self.all_down <= STRIDE_MAX_ALL_DOWN
+    }
+}
+
+/// Least fore-aft swing of every leg's foot, relative to the body, for [`leg_sweep`] to call
+/// it a stride (a fifth of the height: the walks and runs tried swing 0.3–0.6).
+pub const STRIDE_MIN_SWING: f32 = 0.2;
+
+/// How close to the clip's lowest point every foot must come at some time (a share of the
+/// height) for [`leg_sweep`]: each leg takes its turn on the ground (a jump off one foot does
+/// not).
+pub const STRIDE_GROUND: f32 = 0.05;
+
+/// Largest share of the time with every foot down ([`ClipMotion::all_down`]) of a clip whose
+/// speed the sweep may give: it stands in for runs, whose flight phases leave the contact point nothing to follow;
+/// a walk or a stand has every foot down longer (RobotExpressive's standing leap, WalkJump,
+/// half its time).
+pub const STRIDE_MAX_ALL_DOWN: f32 = 0.25;
+
+/// Most the correlation of two legs' fore-aft swings may be, for some pair, in a stride: they
+/// alternate (a jump swings them together).
+pub const STRIDE_ANTIPHASE: f32 = -0.5;
+
+/// Bounds of the factor that turns a character's leg sweep into ground speed
+/// ([`measure_clips`]).
+pub const STRIDE_SCALE: (f32, f32) = (0.5, 2.0);
+
+/// Measures every clip of `character` ([`measure_motion`]) and fills in [`ClipMotion::stride`]
+/// for in-place clips whose legs stride but whose contact point does not give a speed: the
+/// leg sweep times the median ratio of contact speed to sweep over the character's clips that
+/// measure both (each rig rolls its feet and swings its legs its own way: the sweep read 0.7
+/// to 1.0 of the contact speed on the walks and trots tried), 1 when none does, within
+/// [`STRIDE_SCALE`].
+pub fn measure_clips(character: &Character) -> Vec<ClipMotion> {
+    let legs = crate::segment::leg_vertices(character);
+    let mut all: Vec<ClipMotion> = (0..character.clips.len())
+        .map(|i| measure_with_legs(character, Some(i), &legs))
+        .collect();
+    let mut ratios: Vec<f32> = all
+        .iter()
+        .filter(|m| m.is_locomotion() && m.sweep > 0.0)
+        .map(|m| (m.root - m.feet).length() / m.sweep)
+        .filter(|r| r.is_finite())
+        .collect();
+    ratios.sort_by(f32::total_cmp);
+    let scale = ratios
+        .get(ratios.len() / 2)
+        .map_or(1.0, |r| r.clamp(STRIDE_SCALE.0, STRIDE_SCALE.1));
+    for m in &mut all {
+        m.stride = if m.may_stride() { m.sweep * scale } else { 0.0 };
+    }
+    all
 }
 
 /// How fast a clip moves over the ground when played at its own rate, in the character's world
@@ -425,8 +518,10 @@ impl ClipMotion {
 /// motion); one that walks in place has planted feet that slide back at the walking speed
 /// (speed = foot travel); an idle clip has neither (0); a clip that is not steady locomotion
 /// (does not loop, is mostly in the air, or its feet move unevenly: a jump, a fall) counts 0.
+/// A clip whose feet slide both ways gets the stride estimate ([`measure_clips`]).
 pub fn ground_speed(character: &Character, clip: Option<usize>) -> f32 {
-    measure_motion(character, clip).ground_speed()
+    clip.and_then(|i| measure_clips(character).get(i).map(ClipMotion::ground_speed))
+        .unwrap_or(0.0)
 }
 
 /// Makes every locomotion clip with root motion play in place: its measured root velocity
@@ -440,7 +535,8 @@ pub fn play_in_place(character: &mut Character) -> Vec<(String, f32)> {
     let mut changed = Vec::new();
     for i in 0..character.clips.len() {
         character.clips[i].in_place_velocity = Vec3::ZERO;
-        let m = measure_motion(character, Some(i));
+        // Root motion only: no legs needed.
+        let m = measure_with_legs(character, Some(i), &[]);
         if m.is_locomotion() && m.root.length() >= LOCOMOTION_MIN_SPEED * m.height && m.root.is_finite() {
             character.clips[i].in_place_velocity = Vec3::new(m.root.x, 0.0, m.root.y);
             changed.push((character.clips[i].name.clone(), m.root.length()));
@@ -457,8 +553,16 @@ pub fn ground_velocities(character: &Character, clip: Option<usize>) -> (Vec2, V
 }
 
 /// Measures how `clip` moves ([`ClipMotion`]); the rest pose, an empty clip or an empty mesh
-/// gives a still clip that loops.
+/// gives a still clip that loops. [`ClipMotion::stride`] is the uncalibrated sweep where the
+/// clip may stride; [`measure_clips`] calibrates it against the character's other clips.
 pub fn measure_motion(character: &Character, clip: Option<usize>) -> ClipMotion {
+    let legs = crate::segment::leg_vertices(character);
+    let mut m = measure_with_legs(character, clip, &legs);
+    m.stride = if m.may_stride() { m.sweep } else { 0.0 };
+    m
+}
+
+fn measure_with_legs(character: &Character, clip: Option<usize>, legs: &[Option<usize>]) -> ClipMotion {
     let none = ClipMotion::default();
     let Some(c) = clip.and_then(|i| character.clips.get(i)) else {
         return none;
@@ -556,6 +660,11 @@ pub fn measure_motion(character: &Character, clip: Option<usize>) -> ClipMotion 
     } else {
         velocities.iter().map(|v| (*v - feet).length()).sum::<f32>() / (velocities.len() as f32 * speed)
     };
+    let (sweep, all_down) = if closure <= LOOP_CLOSURE {
+        leg_sweep(&pos, end, legs, height)
+    } else {
+        (0.0, 1.0)
+    };
     ClipMotion {
         root,
         feet,
@@ -565,7 +674,144 @@ pub fn measure_motion(character: &Character, clip: Option<usize>) -> ClipMotion 
         spread: if spread.is_finite() { spread } else { f32::INFINITY },
         height,
         duration: d,
+        sweep,
+        all_down,
+        stride: 0.0,
     }
+}
+
+/// How fast the feet sweep back under the body as they push, from skinned samples `pos` of one
+/// loop (the last one the next loop's first, `end` seconds after the first) and each vertex's
+/// leg ([`crate::segment::leg_vertices`]): per leg, the foot (the tenth of the leg's vertices
+/// lowest on average over the clip) followed relative to the body's mean along the axis the
+/// feet swing on; the phase of its swing spent lower (the stance) is the backward one, and the
+/// sweep is its travel over its time, averaged over the legs. This is the foot travel of a
+/// clip that runs in place: in a physical gait the stance foot moves back against the body at
+/// the ground speed. 0 unless the legs stride ([`ClipMotion::sweep`]). Also returns the
+/// share of the time with every foot down (1 when they do not stride).
+pub fn leg_sweep(pos: &[Vec<Vec3>], end: f32, legs: &[Option<usize>], height: f32) -> (f32, f32) {
+    let count = legs.iter().flatten().max().map_or(0, |m| m + 1);
+    let n = pos.len().saturating_sub(1);
+    if count < 2 || n < 4 || !(height > 0.0) || !(end > 0.0) || pos.iter().any(|p| p.len() != legs.len()) {
+        return (0.0, 1.0);
+    }
+    let dt = end / n as f32;
+    // Each leg's foot: the tenth of its vertices lowest on average over the clip.
+    let mut feet: Vec<Vec<usize>> = vec![Vec::new(); count];
+    for (v, l) in legs.iter().enumerate() {
+        if let Some(l) = l {
+            feet[*l].push(v);
+        }
+    }
+    let mean_y = |v: usize| pos.iter().map(|p| p[v].y).sum::<f32>();
+    for f in &mut feet {
+        f.sort_by(|&a, &b| mean_y(a).total_cmp(&mean_y(b)));
+        f.truncate((f.len() / 10).max(1));
+    }
+    let body: Vec<Vec3> = pos
+        .iter()
+        .map(|p| p.iter().copied().sum::<Vec3>() / p.len().max(1) as f32)
+        .collect();
+    // Foot relative to the body horizontally, at its own height.
+    let rel: Vec<Vec<Vec3>> = feet
+        .iter()
+        .map(|f| {
+            (0..=n)
+                .map(|k| {
+                    let p = f.iter().map(|&v| pos[k][v]).sum::<Vec3>() / f.len() as f32;
+                    Vec3::new(p.x - body[k].x, p.y, p.z - body[k].z)
+                })
+                .collect()
+        })
+        .collect();
+    // Every foot comes down to the ground (the lowest any foot gets) at some time.
+    let ground = rel.iter().flatten().map(|p| p.y).fold(f32::INFINITY, f32::min);
+    let lowest: Vec<f32> = feet
+        .iter()
+        .map(|f| {
+            pos.iter()
+                .flat_map(|p| f.iter().map(move |&v| p[v].y))
+                .fold(f32::INFINITY, f32::min)
+        })
+        .collect();
+    let floor = lowest.iter().copied().fold(f32::INFINITY, f32::min);
+    if lowest.iter().any(|&l| l > floor + STRIDE_GROUND * height) || !ground.is_finite() {
+        return (0.0, 1.0);
+    }
+    // How long they are all down at once (a run has flight phases instead).
+    let all_down = (0..n)
+        .filter(|&k| {
+            feet.iter()
+                .all(|f| f.iter().any(|&v| pos[k][v].y <= floor + STRIDE_GROUND * height))
+        })
+        .count();
+    let all_down = all_down as f32 / n as f32;
+    // The swing axis: the main horizontal direction of the feet's motion against the body.
+    let (mut xx, mut xz, mut zz) = (0.0f32, 0.0f32, 0.0f32);
+    for r in &rel {
+        let m = r.iter().sum::<Vec3>() / r.len() as f32;
+        for p in r {
+            let q = *p - m;
+            xx += q.x * q.x;
+            xz += q.x * q.z;
+            zz += q.z * q.z;
+        }
+    }
+    let angle = 0.5 * (2.0 * xz).atan2(xx - zz);
+    let axis = Vec3::new(angle.cos(), 0.0, angle.sin());
+    let along: Vec<Vec<f32>> = rel.iter().map(|r| r.iter().map(|p| p.dot(axis)).collect()).collect();
+    // The legs alternate: some pair swings against each other.
+    let centred: Vec<Vec<f32>> = along
+        .iter()
+        .map(|x| {
+            let m = x[..n].iter().sum::<f32>() / n as f32;
+            x[..n].iter().map(|v| v - m).collect()
+        })
+        .collect();
+    let mut least = 1.0f32;
+    for a in 0..count {
+        for b in a + 1..count {
+            let (ab, aa, bb) = centred[a]
+                .iter()
+                .zip(&centred[b])
+                .fold((0.0, 0.0, 0.0), |(ab, aa, bb), (p, q)| {
+                    (ab + p * q, aa + p * p, bb + q * q)
+                });
+            if aa > 0.0 && bb > 0.0 {
+                least = least.min(ab / (aa * bb).sqrt());
+            }
+        }
+    }
+    if least > STRIDE_ANTIPHASE {
+        return (0.0, 1.0);
+    }
+    let mut sum = 0.0f32;
+    for (x, r) in along.iter().zip(&rel) {
+        let swing =
+            x.iter().copied().fold(f32::NEG_INFINITY, f32::max) - x.iter().copied().fold(f32::INFINITY, f32::min);
+        if !(swing >= STRIDE_MIN_SWING * height) {
+            return (0.0, 1.0);
+        }
+        // Time, travel and mean height of the foot's backward and forward phases.
+        let (mut back, mut fore) = ([0.0f32; 3], [0.0f32; 3]);
+        for k in 0..n {
+            let d = x[k + 1] - x[k];
+            let y = 0.5 * (r[k].y + r[k + 1].y);
+            let phase = if d < 0.0 { &mut back } else { &mut fore };
+            phase[0] += dt;
+            phase[1] += d.abs();
+            phase[2] += y * dt;
+        }
+        // The stance is the phase spent lower.
+        let lower = |p: &[f32; 3]| if p[0] > 0.0 { p[2] / p[0] } else { f32::INFINITY };
+        let stance = if lower(&back) <= lower(&fore) { back } else { fore };
+        if !(stance[0] > 0.0) {
+            return (0.0, 1.0);
+        }
+        sum += stance[1] / stance[0];
+    }
+    let v = sum / count as f32;
+    if v.is_finite() { (v, all_down) } else { (0.0, 1.0) }
 }
 
 /// Sample times of a looping clip at `fps`: as many frames as `1/fps` steps start before the
@@ -830,5 +1076,74 @@ mod tests {
         assert!((end.y - (rest.y - 0.6)).abs() < 1e-3, "{end} {rest}");
         // The loop after it keeps its even frames.
         assert_eq!(t.spans[1].step(10.0), 0.1);
+    }
+
+    /// The leg sweep against an independent answer, the contact speed: calibrated on the Walk,
+    /// it predicts the Run's contact speed; shaking the whole body back and forth (six times a
+    /// loop) spoils the contact point's speed but not the feet's sweep under the body, and the
+    /// shaken Run then gets the stride estimate near its true speed.
+    #[test]
+    fn the_leg_sweep_stands_in_for_the_contact_speed_of_a_run_whose_feet_slide() {
+        use crate::character::{Channel, ChannelValues, Interpolation};
+        let mut c = crate::default_character::generate();
+        let (walk, run) = (c.find_clip("Walk").unwrap(), c.find_clip("Run").unwrap());
+        let m = measure_clips(&c);
+        let (w, r) = (m[walk], m[run]);
+        assert!(w.is_locomotion() && r.is_locomotion() && !r.is_stride_estimate());
+        assert!(w.sweep > 0.0 && r.sweep > 0.0, "{w:?} {r:?}");
+        let truth = r.ground_speed();
+        let predicted = r.sweep * w.ground_speed() / w.sweep;
+        assert!((predicted / truth - 1.0).abs() < 0.25, "{predicted} against {truth}");
+        // Standing clips do not stride.
+        for name in ["Idle", "Wave"] {
+            let s = m[c.find_clip(name).unwrap()];
+            assert_eq!(s.sweep, 0.0, "{name} {s:?}");
+            assert_eq!(s.ground_speed(), 0.0);
+        }
+        // The shake: the root's translation plus a fore-aft oscillation, six periods a loop.
+        let root = c.skeleton.nodes.iter().position(|n| n.parent.is_none()).unwrap();
+        let d = c.clips[run].duration_secs;
+        let amplitude = 0.15 * w.height;
+        let keys = 97;
+        let times: Vec<f32> = (0..keys).map(|k| d * k as f32 / (keys - 1) as f32).collect();
+        let clip = &c.clips[run];
+        let base: Vec<Vec3> = times
+            .iter()
+            .map(|&t| Pose::sample(&c, clip, t.min(d * (1.0 - 1e-4))).locals[root].translation)
+            .collect();
+        let values = times
+            .iter()
+            .zip(&base)
+            .map(|(&t, b)| *b + Vec3::new(0.0, 0.0, amplitude * (std::f32::consts::TAU * 6.0 * t / d).sin()))
+            .collect();
+        let clip = &mut c.clips[run];
+        clip.channels
+            .retain(|ch| !(ch.node == root && matches!(ch.values, ChannelValues::Translation(_))));
+        clip.channels.push(Channel {
+            node: root,
+            interpolation: Interpolation::Linear,
+            times,
+            values: ChannelValues::Translation(values),
+        });
+        let shaken = measure_clips(&c);
+        let s = shaken[run];
+        assert!(!s.is_locomotion(), "the shake should spoil the contact point: {s:?}");
+        assert!(s.is_stride_estimate(), "{s:?}");
+        assert!(
+            (s.sweep / r.sweep - 1.0).abs() < 0.05,
+            "sweep {} against {}",
+            s.sweep,
+            r.sweep
+        );
+        assert!(
+            (s.ground_speed() / truth - 1.0).abs() < 0.25,
+            "{} against {truth}",
+            s.ground_speed()
+        );
+        assert_eq!(ground_speed(&c, Some(run)), s.ground_speed());
+        // The Walk is untouched, and the timeline carries the estimate.
+        assert_eq!(shaken[walk], w);
+        let t = Timeline::measured(&c, &[Some(walk), Some(run)], 10.0).unwrap();
+        assert!(t.spans[1].ground_speed > 1.3 * t.spans[0].ground_speed, "{:?}", t.spans);
     }
 }
