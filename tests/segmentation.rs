@@ -193,8 +193,8 @@ fn an_animated_prop_gets_a_part_per_moving_piece() {
 /// The legs found for measuring strides are the parts named legs, and on RobotExpressive they
 /// give the crowd a run: its Running slides its feet along the floor both ways (no contact
 /// speed), so its speed comes from the legs' sweep, faster than its Walking by at least the
-/// crowd's run ratio; its jumps (the standing leap WalkJump too), punch and dances stay put; and a copy a hundred times larger
-/// runs a hundred times faster.
+/// crowd's run ratio; its jumps (the standing leap WalkJump too), punch and dances stay put;
+/// and a copy a hundred times larger runs a hundred times faster.
 #[test]
 fn legs_are_found_and_robot_expressive_runs() {
     use polypostor::crowd::{Gait, Gaits};
