@@ -168,15 +168,11 @@ impl Plan {
         self.solve_bounded(candidates, |t, p, _| cost(t, p))
     }
 
-    /// [`Plan::solve_candidates`] with a cost that may stop early: `cost(t, p, limit)` must
+    /// [`Plan::solve_candidates`] with a cost that may stop early: `cost.cost(t, p, limit)` must
     /// return the exact error when it is below `limit`, and any value `>= limit` otherwise.
     /// Costs are non-negative, so a choice whose subtrees alone already reach the best found
     /// so far is skipped without evaluating its triangle; the result is still exact.
-    pub fn solve_bounded(
-        &self,
-        candidates: &[Vec<usize>],
-        cost: impl Fn(usize, [usize; 3], f64) -> f64,
-    ) -> Result<Fit, FitError> {
+    pub fn solve_bounded(&self, candidates: &[Vec<usize>], cost: impl TriangleCost) -> Result<Fit, FitError> {
         Ok(self
             .solve_below(candidates, cost, f64::INFINITY)?
             .expect("a finite optimum is below infinity"))
@@ -189,7 +185,7 @@ impl Plan {
     pub fn solve_below(
         &self,
         candidates: &[Vec<usize>],
-        cost: impl Fn(usize, [usize; 3], f64) -> f64,
+        cost: impl TriangleCost,
         upper: f64,
     ) -> Result<Option<Fit>, FitError> {
         if candidates.len() < self.n || candidates.iter().take(self.n).any(|c| c.is_empty()) {
@@ -245,24 +241,29 @@ impl Plan {
                 let mut warm = 0usize;
                 for (ka, &pa) in ca.iter().enumerate() {
                     for (kb, &pb) in cb.iter().enumerate() {
-                        let eval = |kc: usize, bound: f64| {
-                            let lb = at(vac, ka, kc) + at(vcb, kc, kb);
-                            if lb >= bound {
-                                return f64::INFINITY;
-                            }
-                            let q = [pa, pb, cc[kc]];
-                            lb + cost(t, slot.map(|s| q[s]), bound - lb)
-                        };
-                        // Start from the previous pair's answer: neighbouring pairs usually
-                        // share it, and a good first bound prunes the rest.
-                        let mut bc = eval(warm, upper).min(upper);
+                        // Start from the previous pair's answer (`warm`): neighbouring pairs
+                        // usually share it, and a good first bound prunes the rest. Then the
+                        // others in order. One call site, so the cost is compiled inline.
+                        let mut bc = upper;
                         let mut bi = warm;
-                        for kc in 0..cc.len() {
-                            if kc == warm {
-                                continue;
-                            }
-                            let v = eval(kc, bc);
-                            if v < bc || (v == bc && kc < bi) {
+                        for step in 0..cc.len() {
+                            let kc = if step == 0 {
+                                warm
+                            } else if step <= warm {
+                                step - 1
+                            } else {
+                                step
+                            };
+                            let lb = at(vac, ka, kc) + at(vcb, kc, kb);
+                            let v = if lb >= bc {
+                                f64::INFINITY
+                            } else {
+                                let q = [pa, pb, cc[kc]];
+                                lb + cost.cost(t, slot.map(|s| q[s]), bc - lb)
+                            };
+                            if step == 0 {
+                                bc = v.min(upper);
+                            } else if v < bc || (v == bc && kc < bi) {
                                 bc = v;
                                 bi = kc;
                             }
@@ -297,7 +298,7 @@ impl Plan {
                         continue;
                     }
                     let q = [pa, pb, pc];
-                    let v = lb + cost(t, slot.map(|s| q[s]), best.0 - lb);
+                    let v = lb + cost.cost(t, slot.map(|s| q[s]), best.0 - lb);
                     if v < best.0 {
                         best = (v, ka, kb, kc);
                     }
@@ -322,6 +323,22 @@ impl Plan {
             .map(|(i, &ki)| candidates[i][if ki == usize::MAX { 0 } else { ki }])
             .collect();
         Ok(Some(Fit { mapping, cost: best.0 }))
+    }
+}
+
+/// The error of mapping a triangle onto target vertices, as the solves ask for it:
+/// `cost(t, p, limit)` is the error of triangle `t` mapped onto `p`, exact when below `limit`
+/// and any value `>= limit` otherwise. Every such closure is one; a type of its own (the fast
+/// mode's cost cache) has its look-up compiled into the solve's inner loop, where a closure
+/// called through a reference was not inlined and passed its corners through memory.
+pub trait TriangleCost {
+    fn cost(&self, t: usize, p: [usize; 3], limit: f64) -> f64;
+}
+
+impl<F: Fn(usize, [usize; 3], f64) -> f64> TriangleCost for F {
+    #[inline(always)]
+    fn cost(&self, t: usize, p: [usize; 3], limit: f64) -> f64 {
+        self(t, p, limit)
     }
 }
 

@@ -303,24 +303,13 @@ pub fn fit_frame_stuck(
     // (exact, or a lower bound where the evaluation gave up) so no triple is sampled twice.
     let memo = std::cell::RefCell::new(CostCache::new(plan, target.len()));
     let raw_dyn: &dyn Fn(usize, [usize; 3], f64) -> f64 = &raw;
-    let cost = |t: usize, p: [usize; 3], limit: f64| {
-        looked.set(looked.get() + 1);
-        // A fold costs a table lookup and a few multiplications: cheaper than the memo.
-        if samples.folds(t, target, p) {
-            return samples.cost_indexed(t, target_tile, target, p, limit);
-        }
-        let mut memo = memo.borrow_mut();
-        let cell = memo.cell(t, p);
-        // Stored values >= 0 are exact; a negative value -b records "cost >= b"; NaN: not
-        // evaluated yet.
-        let v = *cell;
-        if v >= 0.0 {
-            return v;
-        }
-        if -v >= limit {
-            return f64::INFINITY;
-        }
-        miss(cell, &raw_dyn, t, p, limit)
+    let cost = Cached {
+        samples,
+        target_tile,
+        target,
+        memo: &memo,
+        raw: raw_dyn,
+        looked: &looked,
     };
     // Candidate windows: the `window` target vertices nearest in space to where the vertex is
     // expected, plus a run along the target contour around the index it is expected at
@@ -346,7 +335,7 @@ pub fn fit_frame_stuck(
     let mut best: Option<Fit> = None;
     let mut centre: Option<Vec<usize>> = None;
     for seed in seeds {
-        let fit = plan.solve_bounded(&windows(&seed.positions, seed.indices.as_deref(), &near, win), &cost)?;
+        let fit = plan.solve_bounded(&windows(&seed.positions, seed.indices.as_deref(), &near, win), cost)?;
         if best.as_ref().is_none_or(|b| fit.cost < b.cost) {
             best = Some(fit);
             centre = seed.indices.clone();
@@ -380,7 +369,7 @@ pub fn fit_frame_stuck(
             let at: Vec<[f32; 2]> = best.mapping.iter().map(|&j| target[j]).collect();
             let next = plan.solve_bounded(
                 &windows(&at, Some(&best.mapping), &refine_near, options.refine_window),
-                &cost,
+                cost,
             )?;
             if next.cost < best.cost - 1e-12 {
                 best = next;
@@ -439,7 +428,7 @@ pub fn fit_frame_stuck(
                     })
                     .collect();
                 pin(&mut cands);
-                let next = plan.solve_bounded(&cands, &cost)?;
+                let next = plan.solve_bounded(&cands, cost)?;
                 if next.cost < best.cost - 1e-12 {
                     best = next;
                     improved = true;
@@ -483,7 +472,7 @@ pub fn fit_frame_stuck(
         let restarted = match coarse {
             Some(coarse) => {
                 let at: Vec<[f32; 2]> = coarse.mapping.iter().map(|&j| target[j]).collect();
-                let start = plan.solve_bounded(&windows(&at, Some(&coarse.mapping), &near, win), &cost)?;
+                let start = plan.solve_bounded(&windows(&at, Some(&coarse.mapping), &near, win), cost)?;
                 Some(local_search(start, Some(&coarse.mapping))?)
             }
             None => None,
@@ -522,6 +511,48 @@ pub fn fit_frame_stuck(
         a.fetch_add(c.get(), std::sync::atomic::Ordering::Relaxed);
     }
     Ok((best, stuck))
+}
+
+/// The fast mode's triangle cost: folds priced directly, everything else through the cost
+/// cache (evaluated on first use with `raw`). Its look-up is compiled into the solves' inner
+/// loop ([`crate::bake::fitting::fit::TriangleCost`]); the rare paths stay out of line.
+#[derive(Clone, Copy)]
+struct Cached<'a> {
+    samples: &'a SourceSamples,
+    target_tile: &'a TargetGrid,
+    target: &'a [[f32; 2]],
+    memo: &'a std::cell::RefCell<CostCache>,
+    raw: &'a dyn Fn(usize, [usize; 3], f64) -> f64,
+    looked: &'a std::cell::Cell<u64>,
+}
+
+impl crate::bake::fitting::fit::TriangleCost for Cached<'_> {
+    #[inline(always)]
+    fn cost(&self, t: usize, p: [usize; 3], limit: f64) -> f64 {
+        self.looked.set(self.looked.get() + 1);
+        // A fold costs a table lookup and a few multiplications: cheaper than the memo.
+        if self.samples.folds(t, self.target, p) {
+            return fold(self.samples, self.target_tile, self.target, t, p, limit);
+        }
+        let mut memo = self.memo.borrow_mut();
+        let cell = memo.cell(t, p);
+        // Stored values >= 0 are exact; a negative value -b records "cost >= b"; NaN: not
+        // evaluated yet.
+        let v = *cell;
+        if v >= 0.0 {
+            return v;
+        }
+        if -v >= limit {
+            return f64::INFINITY;
+        }
+        miss(cell, self.raw, t, p, limit)
+    }
+}
+
+/// A fold's cost, out of line (see [`Cached`]).
+#[inline(never)]
+fn fold(samples: &SourceSamples, tile: &TargetGrid, target: &[[f32; 2]], t: usize, p: [usize; 3], limit: f64) -> f64 {
+    samples.cost_indexed(t, tile, target, p, limit)
 }
 
 /// A cost the fast mode's cache does not hold yet: evaluated and stored in `cell` (exact, or
@@ -576,7 +607,7 @@ impl CostCache {
     }
 
     /// The cached value of triangle `t` mapped onto `p` (NaN where not evaluated yet).
-    #[inline]
+    #[inline(always)]
     fn cell(&mut self, t: usize, p: [usize; 3]) -> &mut f64 {
         let (inner, a, b) = match self.inner[t] {
             0 => (p[0], p[1], p[2]),
