@@ -168,13 +168,17 @@ impl Timeline {
     /// [`ClipSpan::looping`] measured ([`measure_motion`]).
     pub fn measured(character: &Character, clips: &[Option<usize>], fps: f32) -> Result<Self, LimitError> {
         let mut t = Self::new(character, clips, fps)?;
-        let motions = if t.clips.iter().any(Option::is_some) {
-            measure_clips(character)
-        } else {
+        let used: Vec<usize> = t.clips.iter().flatten().copied().collect();
+        let motions = if used.is_empty() {
             Vec::new()
+        } else {
+            measure_some(character, &used)
         };
         for (span, &c) in t.spans.iter_mut().zip(&t.clips) {
-            let m = c.and_then(|i| motions.get(i).copied()).unwrap_or_default();
+            let m = c
+                .and_then(|i| used.iter().position(|&u| u == i))
+                .and_then(|k| motions.get(k).copied())
+                .unwrap_or_default();
             span.looping = m.loops();
             // A clip that does not loop holds its last frame: make that its last pose (its
             // frames spread from its start to its end, both shown).
@@ -492,12 +496,30 @@ pub const STRIDE_SCALE: (f32, f32) = (0.5, 2.0);
 /// to 1.0 of the contact speed on the walks and trots tried), 1 when none does, within
 /// [`STRIDE_SCALE`].
 pub fn measure_clips(character: &Character) -> Vec<ClipMotion> {
+    let all: Vec<usize> = (0..character.clips.len()).collect();
+    measure_some(character, &all)
+}
+
+/// [`measure_clips`] for the clips `wanted` (indices into the character's clips, in the order
+/// given; an index out of range measures as no clip). The others are measured only when one
+/// of these needs the stride scale (a character with a hundred clips baked one at a time does
+/// not measure all hundred).
+pub fn measure_some(character: &Character, wanted: &[usize]) -> Vec<ClipMotion> {
     let legs = crate::segment::leg_vertices(character);
-    let mut all: Vec<ClipMotion> = (0..character.clips.len())
+    let mut out: Vec<ClipMotion> = wanted
+        .iter()
+        .map(|&i| measure_with_legs(character, Some(i).filter(|&i| i < character.clips.len()), &legs))
+        .collect();
+    if !out.iter().any(ClipMotion::may_stride) {
+        return out;
+    }
+    let others: Vec<ClipMotion> = (0..character.clips.len())
+        .filter(|i| !wanted.contains(i))
         .map(|i| measure_with_legs(character, Some(i), &legs))
         .collect();
-    let mut ratios: Vec<f32> = all
+    let mut ratios: Vec<f32> = out
         .iter()
+        .chain(&others)
         .filter(|m| m.is_locomotion() && m.sweep > 0.0)
         .map(|m| (m.root - m.feet).length() / m.sweep)
         .filter(|r| r.is_finite())
@@ -506,22 +528,16 @@ pub fn measure_clips(character: &Character) -> Vec<ClipMotion> {
     let scale = ratios
         .get(ratios.len() / 2)
         .map_or(1.0, |r| r.clamp(STRIDE_SCALE.0, STRIDE_SCALE.1));
-    for m in &mut all {
+    for m in &mut out {
         m.stride = if m.may_stride() { m.sweep * scale } else { 0.0 };
     }
-    all
+    out
 }
 
-/// How fast a clip moves over the ground when played at its own rate, in the character's world
-/// units per second ([`measure_motion`]): the horizontal speed of its root motion minus that of
-/// its planted feet. A clip that walks forward has planted feet that stay put (speed = root
-/// motion); one that walks in place has planted feet that slide back at the walking speed
-/// (speed = foot travel); an idle clip has neither (0); a clip that is not steady locomotion
-/// (does not loop, is mostly in the air, or its feet move unevenly: a jump, a fall) counts 0.
 /// A clip whose feet slide both ways gets the stride estimate ([`measure_clips`]).
 pub fn ground_speed(character: &Character, clip: Option<usize>) -> f32 {
-    clip.and_then(|i| measure_clips(character).get(i).map(ClipMotion::ground_speed))
-        .unwrap_or(0.0)
+    clip.filter(|&i| i < character.clips.len())
+        .map_or(0.0, |i| measure_some(character, &[i])[0].ground_speed())
 }
 
 /// Makes every locomotion clip with root motion play in place: its measured root velocity
@@ -703,10 +719,11 @@ pub fn leg_sweep(pos: &[Vec<Vec3>], end: f32, legs: &[Option<usize>], height: f3
             feet[*l].push(v);
         }
     }
-    let mean_y = |v: usize| pos.iter().map(|p| p[v].y).sum::<f32>();
     for f in &mut feet {
-        f.sort_by(|&a, &b| mean_y(a).total_cmp(&mean_y(b)));
-        f.truncate((f.len() / 10).max(1));
+        let mean_y: Vec<f32> = f.iter().map(|&v| pos.iter().map(|p| p[v].y).sum::<f32>()).collect();
+        let mut order: Vec<usize> = (0..f.len()).collect();
+        order.sort_by(|&a, &b| mean_y[a].total_cmp(&mean_y[b]));
+        *f = order.iter().take((f.len() / 10).max(1)).map(|&k| f[k]).collect();
     }
     let body: Vec<Vec3> = pos
         .iter()
@@ -1141,6 +1158,9 @@ mod tests {
             s.ground_speed()
         );
         assert_eq!(ground_speed(&c, Some(run)), s.ground_speed());
+        // Measured alone, a clip reads as measured with all (the scale comes from the others).
+        assert_eq!(measure_some(&c, &[run])[0], s);
+        assert_eq!(measure_some(&c, &[run, walk]), vec![s, w]);
         // The Walk is untouched, and the timeline carries the estimate.
         assert_eq!(shaken[walk], w);
         let t = Timeline::measured(&c, &[Some(walk), Some(run)], 10.0).unwrap();
