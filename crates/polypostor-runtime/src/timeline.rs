@@ -742,7 +742,6 @@ pub fn leg_sweep(pos: &[Vec<Vec3>], end: f32, legs: &[Option<usize>], height: f3
         })
         .collect();
     // Every foot comes down to the ground (the lowest any foot gets) at some time.
-    let ground = rel.iter().flatten().map(|p| p.y).fold(f32::INFINITY, f32::min);
     let lowest: Vec<f32> = feet
         .iter()
         .map(|f| {
@@ -752,7 +751,7 @@ pub fn leg_sweep(pos: &[Vec<Vec3>], end: f32, legs: &[Option<usize>], height: f3
         })
         .collect();
     let floor = lowest.iter().copied().fold(f32::INFINITY, f32::min);
-    if lowest.iter().any(|&l| l > floor + STRIDE_GROUND * height) || !ground.is_finite() {
+    if lowest.iter().any(|&l| l > floor + STRIDE_GROUND * height) || !floor.is_finite() {
         return (0.0, 1.0);
     }
     // How long they are all down at once (a run has flight phases instead).
