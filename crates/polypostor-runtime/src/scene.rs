@@ -427,24 +427,25 @@ pub fn next_budget(budget: usize, interval_secs: f32, records: usize) -> usize {
     }
 }
 
-/// Keeps at most `budget` of `lists`' records in all, the same share of each list, evenly
-/// spread through it (record `k` of a list of `n` is kept when `⌊(k + 1)·r⌋ > ⌊k·r⌋`,
-/// `r = budget / total`); returns how many were dropped.
-pub fn thin_out<T>(lists: &mut [Vec<T>], budget: usize) -> usize {
+/// Keeps at most `budget` of `lists`' records in all, chosen by `key` (a per-character seed):
+/// the records whose key is among the `budget` smallest, strictly below the first key left
+/// out, so every record of one character — both copies of a cross-fade, of a level switch or a
+/// clip change — is kept or dropped with the others (split, a fading character showed as a
+/// see-through ghost), and the same characters stay drawn from frame to frame whatever order
+/// the lists come in (dropping every k-th record changed who vanished each frame). With keys
+/// drawn at random per character, each list keeps about the same share. Returns how many were
+/// dropped.
+pub fn thin_out<T>(lists: &mut [Vec<T>], budget: usize, key: impl Fn(&T) -> u32) -> usize {
     let total: usize = lists.iter().map(Vec::len).sum();
     if total <= budget {
         return 0;
     }
-    let r = budget as f64 / total as f64;
+    let mut keys: Vec<u32> = lists.iter().flatten().map(&key).collect();
+    let (_, &mut cut, _) = keys.select_nth_unstable(budget);
     let mut dropped = 0;
     for list in lists.iter_mut() {
-        let mut k = 0usize;
         let before = list.len();
-        list.retain(|_| {
-            let keep = ((k + 1) as f64 * r).floor() > (k as f64 * r).floor();
-            k += 1;
-            keep
-        });
+        list.retain(|r| key(r) < cut);
         dropped += before - list.len();
     }
     dropped
@@ -612,7 +613,9 @@ impl CrowdScene {
         self.renderers.ground_y = self.crowd.params.size.ground_y;
         self.renderers.ground_scale = self.crowd.params.scale();
         self.fall_back();
-        let skipped = thin_out(self.crowd.instances.as_flattened_mut(), self.draw_budget);
+        let skipped = thin_out(self.crowd.instances.as_flattened_mut(), self.draw_budget, |r| {
+            r.variant & crate::crowd::VARIANT_SEED_MASK
+        });
         frame.per_level = [0; Level::COUNT];
         for lists in &self.crowd.instances {
             for (n, list) in frame.per_level.iter_mut().zip(lists) {

@@ -660,42 +660,74 @@ fn level_and_view_switches_cross_fade_for_the_fade_time() {
     assert_eq!(fade_bits(1.5, true), 0);
 }
 
-/// Thinning a crowd too heavy for the machine: at most the budget is kept, the same share of
-/// every level, evenly spread (no gap longer than the stride); the budget halves on slow
-/// frames down to a floor and grows back to "everyone" on fast ones.
+/// Thinning a crowd too heavy for the machine: at most the budget is kept (and no fewer than
+/// the budget less one character's records), a character's records — both copies of a
+/// cross-fade, in one level's list or two — are kept or dropped together, who is kept does not
+/// depend on the lists' order, and every level keeps about the same share; the budget halves
+/// on slow frames down to a floor and grows back to "everyone" on fast ones.
 #[test]
 fn a_crowd_too_heavy_for_the_machine_thins_out_evenly_and_recovers() {
     use crate::scene::{FAST_FRAME_SECS, MIN_DRAWN, SLOW_FRAME_SECS, next_budget, thin_out};
-    for (sizes, budget) in [
-        (vec![20_000usize, 0, 3_000], 5_000usize),
-        (vec![7, 7], 5),
-        (vec![10], 100),
-    ] {
-        let mut lists: Vec<Vec<usize>> = sizes.iter().map(|&n| (0..n).collect()).collect();
-        let total: usize = sizes.iter().sum();
-        let dropped = thin_out(&mut lists, budget);
+    let mut rng = crate::crowd::Rng::new(7);
+    for (characters, budget) in [(20_000usize, 5_000usize), (7, 5), (10, 100), (3_000, 2_999)] {
+        // Records (character id, seed): a quarter of the characters fade, drawn twice, the
+        // second copy in another level's list.
+        let seeds: Vec<u32> = (0..characters)
+            .map(|_| rng.next_u64() as u32 & VARIANT_SEED_MASK)
+            .collect();
+        let mut lists: Vec<Vec<(usize, u32)>> = vec![Vec::new(); 3];
+        for (c, &seed) in seeds.iter().enumerate() {
+            lists[c % 3].push((c, seed));
+            if c % 4 == 0 {
+                lists[(c + 1) % 3].push((c, seed));
+            }
+        }
+        let total: usize = lists.iter().map(Vec::len).sum();
+        let sizes: Vec<usize> = lists.iter().map(Vec::len).collect();
+        let mut reversed: Vec<Vec<(usize, u32)>> =
+            lists.iter().rev().map(|l| l.iter().rev().copied().collect()).collect();
+        let dropped = thin_out(&mut lists, budget, |r| r.1);
         let kept: usize = lists.iter().map(Vec::len).sum();
         assert_eq!(kept + dropped, total);
-        assert!(
-            kept <= budget.max(0) && kept + sizes.len() >= budget.min(total),
-            "{kept} of {total} for {budget}"
-        );
+        if total <= budget {
+            assert_eq!(dropped, 0);
+            continue;
+        }
+        assert!(kept <= budget && kept + 1 >= budget, "{kept} of {total} for {budget}");
+        // Brute force: a character is drawn whole or not at all, and the kept ones are those
+        // with the smallest seeds.
+        let mut copies = vec![0usize; characters];
+        for &(c, _) in lists.iter().flatten() {
+            copies[c] += 1;
+        }
+        for c in 0..characters {
+            let whole = 1 + (c % 4 == 0) as usize;
+            assert!(
+                copies[c] == 0 || copies[c] == whole,
+                "character {c}: {} of {whole}",
+                copies[c]
+            );
+        }
+        let largest_kept = lists.iter().flatten().map(|r| r.1).max().unwrap_or(0);
+        let smallest_dropped = (0..characters)
+            .filter(|&c| copies[c] == 0)
+            .map(|c| seeds[c])
+            .min()
+            .unwrap();
+        assert!(largest_kept < smallest_dropped);
+        // The same characters whatever the order.
+        thin_out(&mut reversed, budget, |r| r.1);
+        let mut a: Vec<usize> = lists.iter().flatten().map(|r| r.0).collect();
+        let mut b: Vec<usize> = reversed.iter().flatten().map(|r| r.0).collect();
+        a.sort_unstable();
+        b.sort_unstable();
+        assert_eq!(a, b);
+        // Each level about the same share (random seeds: within a few standard deviations).
+        let r = budget as f64 / total as f64;
         for (list, &n) in lists.iter().zip(&sizes) {
-            if n == 0 || total <= budget {
-                assert_eq!(list.len(), n);
-                continue;
-            }
-            // Brute force over the kept indices: gaps at most the stride, rounded up.
-            let stride = (total as f64 / budget as f64).ceil() as usize;
-            let mut last = None;
-            for &k in list {
-                if let Some(l) = last {
-                    assert!(k - l <= stride, "gap {} > {stride}", k - l);
-                }
-                last = Some(k);
-            }
             let share = list.len() as f64 / n as f64;
-            assert!((share - budget as f64 / total as f64).abs() < 0.01 + 1.0 / n as f64);
+            let sigma = (r * (1.0 - r) / n as f64).sqrt();
+            assert!((share - r).abs() <= 5.0 * sigma + 1.0 / n as f64, "{share} against {r}");
         }
     }
     // Slow frames halve (never below the floor); fast ones grow back to everyone.
