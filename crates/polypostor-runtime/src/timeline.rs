@@ -564,7 +564,8 @@ pub fn play_in_place(character: &mut Character) -> Vec<(String, f32)> {
 /// The horizontal velocities (x, z) behind [`ground_speed`]: the root motion's and the
 /// planted feet's (zero vectors for the rest pose, an empty clip or an empty mesh).
 pub fn ground_velocities(character: &Character, clip: Option<usize>) -> (Vec2, Vec2) {
-    let m = measure_motion(character, clip);
+    // Root and contact only: no legs (the segmentation) needed.
+    let m = measure_with_legs(character, clip, &[]);
     (m.root, m.feet)
 }
 
