@@ -493,7 +493,8 @@ impl CrowdScene {
 
     /// A crowd of several characters: `count` agents of `assets[0]`, `assets[1]`, … dealt
     /// out in proportion to `shares` (one per character; only the ratios count), each at its
-    /// real size, playing its own clips, drawn by its own renderers; spaced for the largest.
+    /// real size, playing its own clips, drawn by its own renderers; each keeping its own
+    /// spacing on a ground sized for the shares ([`CrowdParams::spaced_for_shares`]).
     /// Errors: no character, more than [`crate::crowd::MAX_SPECIES`], shares that do not match or
     /// are all zero, or a character that cannot be drawn.
     pub fn mixed(
@@ -508,7 +509,7 @@ impl CrowdScene {
             return Err(GpuError::Unsupported("a crowd needs at least one character".into()));
         };
         let species: Vec<Species> = others.iter().map(|a| a.species()).collect();
-        let params = spaced(first.crowd_params(count), &species);
+        let params = spaced(first.crowd_params(count), &species, shares);
         let mut scene = Self::with_impostors(device, queue, first, params, full_impostors)?;
         for a in others {
             let mut r = renderers_of(device, queue, a, full_impostors)?;
@@ -529,7 +530,7 @@ impl CrowdScene {
         let paused = self.crowd.paused();
         let parallel = self.crowd.parallel();
         let params = match &self.mix {
-            Some((species, _)) => spaced(params, species),
+            Some((species, shares)) => spaced(params, species, shares),
             None => params,
         };
         self.crowd = Crowd::new(params);
@@ -755,11 +756,11 @@ pub fn crowd_inputs<'a>(
     }
 }
 
-/// `params` with the spacing widened for the largest of `species` ([`CrowdParams::spaced_for`]).
-fn spaced(mut params: CrowdParams, species: &[Species]) -> CrowdParams {
-    for s in species {
-        params.spaced_for(&s.size);
-    }
+/// `params` spaced for a mix with `species` in `shares` ([`CrowdParams::spaced_for_shares`]:
+/// the grid's cell for the largest, the ground for the shares).
+fn spaced(mut params: CrowdParams, species: &[Species], shares: &[f32]) -> CrowdParams {
+    let sizes: Vec<_> = species.iter().map(|s| s.size).collect();
+    params.spaced_for_shares(&sizes, shares);
     params
 }
 

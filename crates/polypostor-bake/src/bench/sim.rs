@@ -39,7 +39,7 @@ pub fn bench_sim(agents: usize, frames: usize, mixed: bool, json: bool) -> anyho
     let beast_size =
         crate::crowd::CharacterSize::from_bounds(glam::Vec3::new(-0.3, 0.0, -1.2), glam::Vec3::new(0.3, 0.9, 1.2));
     if mixed {
-        params.spaced_for(&beast_size);
+        params.spaced_for_shares(&[beast_size], &[0.7, 0.3]);
     }
     let mut crowd = Crowd::new(params);
     if mixed {

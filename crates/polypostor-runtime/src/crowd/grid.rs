@@ -6,6 +6,14 @@
 use glam::Vec2;
 
 const EMPTY: u32 = u32::MAX;
+/// A cell holds its agent's index in the low bits and the agent's kind of character above
+/// them, so the per-pair test ([`OccupancyGrid::crowded_by_kind`]) reads no other memory.
+const KIND_SHIFT: u32 = 29;
+const AGENT_MASK: u32 = (1 << KIND_SHIFT) - 1;
+/// Agents a grid can hold: indices below this (the all-ones value marks an empty cell).
+pub const MAX_AGENTS: usize = AGENT_MASK as usize;
+// Every kind fits the bits above the index.
+const _: () = assert!(super::MAX_SPECIES <= 1 << (32 - KIND_SHIFT));
 
 /// The grid over the square ground `[-half_extent, half_extent]²` (x, z): `dim`×`dim` inner
 /// cells plus the border ring, each holding at most one agent index. Cell arguments are
@@ -71,13 +79,18 @@ impl OccupancyGrid {
 
     /// The agent in `cell`; `None` when it is empty (or `cell` is out of range).
     pub fn get(&self, cell: usize) -> Option<u32> {
-        self.cells.get(cell).copied().filter(|&a| a != EMPTY)
+        self.cells
+            .get(cell)
+            .copied()
+            .filter(|&a| a != EMPTY)
+            .map(|a| a & AGENT_MASK)
     }
 
-    /// Puts `agent` in `cell`, replacing whatever was there (`u32::MAX` reads back as empty).
-    /// Panics when `cell` is out of range.
+    /// Puts `agent` (below [`MAX_AGENTS`]), of kind 0, in `cell`, replacing whatever was
+    /// there. Panics when `cell` is out of range.
     pub fn set(&mut self, cell: usize, agent: u32) {
-        self.cells[cell] = agent;
+        debug_assert!((agent as usize) < MAX_AGENTS);
+        self.cells[cell] = agent & AGENT_MASK;
     }
 
     /// Empties `cell`. Panics when it is out of range.
@@ -85,13 +98,60 @@ impl OccupancyGrid {
         self.cells[cell] = EMPTY;
     }
 
+    /// Records the kind of character of the agent in `cell` ([`OccupancyGrid::crowded_by_kind`]
+    /// reads it). Panics when `cell` is out of range.
+    pub fn set_kind(&mut self, cell: usize, kind: u8) {
+        let a = self.cells[cell];
+        if a != EMPTY {
+            self.cells[cell] = (a & AGENT_MASK) | ((kind as u32 % super::MAX_SPECIES as u32) << KIND_SHIFT);
+        }
+    }
+
+    /// Moves the agent in `from` (and its kind) to `to`, emptying `from`. Panics when either
+    /// is out of range.
+    pub fn move_agent(&mut self, from: usize, to: usize) {
+        self.cells[to] = self.cells[from];
+        self.cells[from] = EMPTY;
+    }
+
     /// Whether an agent other than `me` in the 3×3 cells around `cell` (an inner cell) lies
     /// closer than `sqrt(min2)` to `p`; `pos` are the agents' positions.
     pub fn crowded(&self, cell: usize, p: Vec2, min2: f32, me: u32, pos: &[Vec2]) -> bool {
         for row in [cell - self.stride, cell, cell + self.stride] {
             for &a in &self.cells[row - 1..=row + 1] {
-                if a != EMPTY && a != me && pos[a as usize].distance_squared(p) < min2 {
+                if a != EMPTY && a & AGENT_MASK != me && pos[(a & AGENT_MASK) as usize].distance_squared(p) < min2 {
                     return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// [`OccupancyGrid::crowded`] with a distance per pair of characters: whether an agent
+    /// other than `me` in the 3×3 cells around `cell` lies closer to `p` than
+    /// `sqrt(min2[kind])` (its kind as [`OccupancyGrid::set_kind`] recorded it) and no further
+    /// than from `from` (where the agent stands: a pair already too close may move apart).
+    /// Every entry of `min2` must be at most the squared cell width (the 3×3 cells then hold
+    /// everyone who could be too close).
+    pub fn crowded_by_kind(
+        &self,
+        cell: usize,
+        p: Vec2,
+        from: Vec2,
+        min2: &[f32; super::MAX_SPECIES],
+        me: u32,
+        pos: &[Vec2],
+    ) -> bool {
+        for row in [cell - self.stride, cell, cell + self.stride] {
+            for &v in &self.cells[row - 1..=row + 1] {
+                let a = v & AGENT_MASK;
+                if v != EMPTY && a != me {
+                    let need = min2[(v >> KIND_SHIFT) as usize % super::MAX_SPECIES];
+                    let q = pos[a as usize];
+                    let d2 = q.distance_squared(p);
+                    if d2 < need && d2 <= q.distance_squared(from) {
+                        return true;
+                    }
                 }
             }
         }

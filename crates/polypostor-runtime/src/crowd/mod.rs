@@ -367,6 +367,38 @@ impl CrowdParams {
         self.min_distance = self.min_distance.max(d.min_distance * s);
         self.density = self.density.min(d.density / (s * s));
     }
+
+    /// Spacing for a crowd that mixes its own character with characters of `sizes` in
+    /// `shares` (its own first; only the ratios count): the minimum distance, which is the
+    /// occupancy grid's cell, widened for the largest as [`CrowdParams::spaced_for`] does,
+    /// and the ground sized for the shares — each character's agents take the ground their
+    /// own size asks (in proportion to its [`CharacterSize::scale`] squared), so a few big
+    /// animals among many people do not spread the people out. [`Crowd::mix`] then keeps
+    /// each pair of agents the mean of their own spacings apart. Shares that do not match
+    /// `sizes` or are not a valid mix: the ground of the largest, as `spaced_for` gives.
+    pub fn spaced_for_shares(&mut self, sizes: &[CharacterSize], shares: &[f32]) {
+        let (own, s0) = (self.density, self.scale());
+        for s in sizes {
+            self.spaced_for(s);
+        }
+        let valid = shares.len() == sizes.len() + 1
+            && shares.iter().all(|s| s.is_finite() && *s >= 0.0)
+            && shares.iter().sum::<f32>() > 0.0;
+        if !valid || !(own > 0.0 && own.is_finite()) {
+            return;
+        }
+        let total: f64 = shares.iter().map(|&s| s as f64).sum();
+        // Ground per agent: its own character's, 1 / own, times (its scale / the own scale)².
+        let per_agent: f64 = std::iter::once(s0)
+            .chain(sizes.iter().map(|s| s.scale()))
+            .zip(shares)
+            .map(|(s, &w)| w as f64 / total * (s as f64 / s0 as f64).powi(2) / own as f64)
+            .sum();
+        let density = (1.0 / per_agent) as f32;
+        if density.is_finite() && density > 0.0 {
+            self.density = density;
+        }
+    }
 }
 
 /// Agents, one entry per agent in each vector (structure of arrays: the per-frame passes
@@ -489,6 +521,10 @@ pub struct Crowd {
     pub instances: Vec<[Vec<Instance>; Level::COUNT]>,
     /// Agents per run of [`Crowd::select_over`] (runs go to the rayon pool).
     select_run: usize,
+    /// Squared least distance between two agents by their kinds (`[mine][theirs]`), when
+    /// the crowd mixes characters of different sizes ([`Crowd::mix`]); `None`: everyone
+    /// keeps the grid's cell width apart.
+    pair_min2: Option<Box<[[f32; MAX_SPECIES]; MAX_SPECIES]>>,
 }
 
 /// Agents a selection hands to one task: large enough that a task outweighs its scheduling
@@ -524,7 +560,7 @@ impl Crowd {
         // Distinct random cells (partial Fisher–Yates), agents at their centres: neighbours
         // are exactly one cell apart, so the minimum distance holds from the start.
         let mut cells: Vec<u32> = (0..(dim * dim) as u32).collect();
-        let count = params.count.min(cells.len());
+        let count = params.count.min(cells.len()).min(grid::MAX_AGENTS);
         for i in 0..count {
             let j = i + rng.below(cells.len() - i);
             cells.swap(i, j);
@@ -575,6 +611,7 @@ impl Crowd {
             species: Vec::new(),
             instances: vec![Default::default()],
             select_run: SELECT_RUN,
+            pair_min2: None,
         }
     }
 
@@ -597,8 +634,12 @@ impl Crowd {
     /// Mixes other characters into the crowd: `species[k]` becomes kind `k + 1`, and the
     /// agents are dealt out in proportion to `shares` (the crowd's own character first, then
     /// each species; any scale, only the ratios count), at random places on the ground; every
-    /// agent starts afresh. Spacing stays the crowd's ([`CrowdParams::spaced_for`] the largest
-    /// before [`Crowd::new`]). Errors: more than [`MAX_SPECIES`] characters, a share count
+    /// agent starts afresh. Each character keeps its own spacing: two agents stay the mean of
+    /// their characters' least distances apart, the largest character's being the grid's
+    /// cell (the ground and the cell are laid out by [`Crowd::new`]: use
+    /// [`CrowdParams::spaced_for_shares`] before it), the others' in proportion to their
+    /// [`CharacterSize::scale`]. Agents dealt out again where they stand may start closer
+    /// than their new spacing: such a pair may only move apart. Errors: more than [`MAX_SPECIES`] characters, a share count
     /// that does not match, or shares that are negative, not finite or all zero.
     pub fn mix(&mut self, species: Vec<Species>, shares: &[f32]) -> Result<(), String> {
         if species.len() + 1 > MAX_SPECIES {
@@ -639,10 +680,36 @@ impl Crowd {
         }
         self.species = species;
         self.instances = vec![Default::default(); self.species.len() + 1];
+        self.pair_min2 = self.pair_distances();
+        for (&cell, &k) in self.cell_of.iter().zip(&self.agents.kind) {
+            self.grid.set_kind(cell as usize, k);
+        }
         for i in 0..n {
             self.restart(i);
         }
         Ok(())
+    }
+
+    /// Squared least distances by pair of kinds for [`Crowd::mix`]: each character's spacing
+    /// is the grid's cell times its scale over the largest's, a pair's the mean of theirs.
+    /// `None` when every character has the same scale (everyone keeps the cell apart).
+    fn pair_distances(&self) -> Option<Box<[[f32; MAX_SPECIES]; MAX_SPECIES]>> {
+        let scales: Vec<f32> = std::iter::once(self.params.size.scale())
+            .chain(self.species.iter().map(|s| s.size.scale()))
+            .collect();
+        let largest = scales.iter().copied().fold(0.0f32, f32::max);
+        if scales.iter().all(|&s| s == largest) || !(largest > 0.0) {
+            return None;
+        }
+        let spacing: Vec<f32> = scales.iter().map(|&s| self.grid.cell * s / largest).collect();
+        let mut min2 = Box::new([[0.0f32; MAX_SPECIES]; MAX_SPECIES]);
+        for (a, &sa) in spacing.iter().enumerate() {
+            for (b, &sb) in spacing.iter().enumerate() {
+                let d = 0.5 * (sa + sb);
+                min2[a][b] = d * d;
+            }
+        }
+        Some(min2)
     }
 
     /// The characters mixed in by [`Crowd::mix`] (kind `k` is `species()[k - 1]`).
@@ -729,14 +796,25 @@ impl Crowd {
 
     /// Advances every agent by `dt` seconds: a random walk in heading; a step is taken only
     /// if it stays on the ground, lands in a free cell (or the agent's own) and keeps
-    /// `min_distance` from everyone in the 3×3 cells around; otherwise the agent turns away
-    /// and waits. Paused crowds do not move.
+    /// `min_distance` from everyone in the 3×3 cells around (in a mix of characters, each
+    /// pair the distance [`Crowd::mix`] gives it); otherwise the agent turns away and waits.
+    /// Paused crowds do not move.
     pub fn simulate(&mut self, dt: f32) {
         if self.paused || dt <= 0.0 {
             return;
         }
+        // One loop compiled per spacing rule: the uniform one keeps the plain test.
+        match self.pair_min2.take() {
+            None => self.step(dt, Uniform(self.grid.cell * self.grid.cell)),
+            Some(pairs) => {
+                self.step(dt, ByKind(&pairs));
+                self.pair_min2 = Some(pairs);
+            }
+        }
+    }
+
+    fn step<S: Spacing>(&mut self, dt: f32, spacing: S) {
         let dt = dt.min(0.25);
-        let min2 = self.grid.cell * self.grid.cell;
         let limit = self.half_extent - 0.5 * self.grid.cell;
         // The turning rate's drift over `dt` (exact for the Ornstein–Uhlenbeck process): it
         // keeps `keep` of itself and gains uniform noise of the matching spread, so its
@@ -794,11 +872,10 @@ impl Crowd {
             let ok = to.x.abs() < limit
                 && to.y.abs() < limit
                 && (cell == from_cell || self.grid.get(cell).is_none())
-                && !self.grid.crowded(cell, to, min2, i as u32, &a.pos);
+                && !spacing.crowded(&self.grid, cell, to, i, k, a);
             if ok {
                 if cell != from_cell {
-                    self.grid.clear(from_cell);
-                    self.grid.set(cell, i as u32);
+                    self.grid.move_agent(from_cell, cell);
                     self.cell_of[i] = cell as u32;
                 }
                 a.pos[i] = to;
@@ -1208,6 +1285,33 @@ impl SelectContext<'_> {
             out.visible += 1;
         }
         out
+    }
+}
+
+/// Who is too close to a step's landing point ([`Crowd::simulate`]).
+trait Spacing {
+    /// Whether agent `i` (of kind `k`) may not step to `to` in `cell`.
+    fn crowded(&self, grid: &OccupancyGrid, cell: usize, to: Vec2, i: usize, k: usize, a: &Agents) -> bool;
+}
+
+/// Everyone keeps the same distance (its square) from everyone.
+struct Uniform(f32);
+
+impl Spacing for Uniform {
+    #[inline(always)]
+    fn crowded(&self, grid: &OccupancyGrid, cell: usize, to: Vec2, i: usize, _: usize, a: &Agents) -> bool {
+        grid.crowded(cell, to, self.0, i as u32, &a.pos)
+    }
+}
+
+/// Squared distances by pair of kinds ([`Crowd::pair_distances`]).
+struct ByKind<'a>(&'a [[f32; MAX_SPECIES]; MAX_SPECIES]);
+
+impl Spacing for ByKind<'_> {
+    #[inline(always)]
+    fn crowded(&self, grid: &OccupancyGrid, cell: usize, to: Vec2, i: usize, k: usize, a: &Agents) -> bool {
+        let mine = &self.0[k % MAX_SPECIES];
+        grid.crowded_by_kind(cell, to, a.pos[i], mine, i as u32, &a.pos)
     }
 }
 

@@ -798,7 +798,8 @@ fn beast() -> Species {
 /// Two characters in one crowd: agents dealt out in the shares asked (exactly, at random
 /// places), each walking its own character's clips at their speeds with feet on the ground
 /// (brute force per agent per step), drawn from its own kind's lists with its own frames and
-/// views, everyone spaced for the larger character; bad mixes are refused.
+/// views, each pair of agents the mean of their characters' spacings apart (brute force over
+/// every pair) on a ground sized for the shares; bad mixes are refused.
 #[test]
 fn two_characters_share_a_crowd_in_their_shares_each_walking_its_own_clips() {
     let person = four_clips();
@@ -808,10 +809,26 @@ fn two_characters_share_a_crowd_in_their_shares_each_walking_its_own_clips() {
         seed: 21,
         ..Default::default()
     };
-    params.spaced_for(&beast.size);
+    let mut largest = params.clone();
+    largest.spaced_for(&beast.size);
+    params.spaced_for_shares(&[beast.size], &[3.0, 1.0]);
+    let s_beast = beast.size.scale() / params.size.scale();
+    assert!(s_beast > 1.3, "the beast is the larger: {s_beast}");
     assert!(
-        params.min_distance > CrowdParams::default().min_distance * 1.3,
-        "spaced for the beast"
+        (params.min_distance / CrowdParams::default().min_distance - s_beast).abs() < 1e-5,
+        "the grid's cell is the beast's spacing"
+    );
+    // Ground per agent: 3/4 of a person's, 1/4 of the beast's (its scale² times a person's).
+    let expected =
+        1.0 / (0.75 / CrowdParams::default().density + 0.25 * s_beast * s_beast / CrowdParams::default().density);
+    assert!(
+        (params.density / expected - 1.0).abs() < 1e-4,
+        "{} vs {expected}",
+        params.density
+    );
+    assert!(
+        params.density > 1.3 * largest.density,
+        "the people are not spread out for the beast"
     );
     let mut crowd = Crowd::new(params.clone());
     crowd.set_clips(&person, 10.0);
@@ -871,8 +888,30 @@ fn two_characters_share_a_crowd_in_their_shares_each_walking_its_own_clips() {
         }
     }
     assert!(checked[0] > 5_000 && checked[1] > 1_000, "{checked:?}");
-    // Spaced for the larger one, whoever stands next to whom.
-    assert!(closest_pair(&crowd.agents.pos) >= params.min_distance * (1.0 - 1e-5));
+    // Each pair the mean of their spacings apart, whoever stands next to whom (every pair),
+    // and people do come closer to each other than the beast's spacing.
+    let spacing = |k: u8| params.min_distance * if k == 0 { 1.0 / s_beast } else { 1.0 };
+    let (pos, kind) = (&crowd.agents.pos, &crowd.agents.kind);
+    let mut closest_people = f32::INFINITY;
+    for i in 0..pos.len() {
+        for j in i + 1..pos.len() {
+            let d = pos[i].distance(pos[j]);
+            let need = 0.5 * (spacing(kind[i]) + spacing(kind[j]));
+            assert!(
+                d >= need * (1.0 - 1e-5),
+                "agents {i}, {j} (kinds {}, {}): {d} < {need}",
+                kind[i],
+                kind[j]
+            );
+            if kind[i] == 0 && kind[j] == 0 {
+                closest_people = closest_people.min(d);
+            }
+        }
+    }
+    assert!(
+        closest_people < 0.9 * params.min_distance,
+        "people keep their own spacing, not the beast's: closest {closest_people}"
+    );
     // Refused: share count, negative or all-zero shares, too many characters.
     for shares in [&[1.0][..], &[1.0, -1.0], &[0.0, 0.0], &[1.0, f32::NAN]] {
         assert!(crowd.mix(vec![beast.clone()], shares).is_err(), "{shares:?}");
@@ -882,6 +921,36 @@ fn two_characters_share_a_crowd_in_their_shares_each_walking_its_own_clips() {
             .mix(vec![beast.clone(); MAX_SPECIES], &[1.0; MAX_SPECIES + 1])
             .is_err()
     );
+    // Dealt out again where they stand, with more beasts: pairs now too close for their new
+    // spacing only move apart, and every other pair keeps its spacing (every pair, each step).
+    crowd.mix(vec![beast.clone()], &[1.0, 3.0]).unwrap();
+    let gaps = |crowd: &Crowd| {
+        let (pos, kind) = (&crowd.agents.pos, &crowd.agents.kind);
+        let mut out = Vec::new();
+        for i in 0..pos.len() {
+            for j in i + 1..pos.len() {
+                out.push((pos[i].distance(pos[j]), 0.5 * (spacing(kind[i]) + spacing(kind[j]))));
+            }
+        }
+        out
+    };
+    let mut before = gaps(&crowd);
+    let too_close = before.iter().filter(|(d, need)| *d < need * (1.0 - 1e-5)).count();
+    assert!(
+        too_close > 0,
+        "re-dealing made no pair too close: the check below tests nothing"
+    );
+    for step in 0..10 {
+        crowd.simulate(0.05);
+        let now = gaps(&crowd);
+        for (k, (&(d, need), &(was, _))) in now.iter().zip(&before).enumerate() {
+            assert!(
+                d >= need * (1.0 - 1e-5) || d >= was * (1.0 - 1e-5),
+                "step {step}, pair {k}: {was} -> {d} < {need}"
+            );
+        }
+        before = now;
+    }
     // All of one kind: everyone is the beast.
     crowd.mix(vec![beast.clone()], &[0.0, 1.0]).unwrap();
     assert_eq!(crowd.kind_counts(), vec![0, 2000]);
