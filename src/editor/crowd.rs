@@ -606,12 +606,9 @@ impl CrowdPanel {
                 row(ui, "draw calls", stats.draw_calls.to_string());
                 row(ui, "agents / visible", format!("{} / {}", stats.agents, stats.visible));
 
-                // The size the crowd follows (measured over the clip, in the file's metres),
-                // spaced for the largest character mixed in.
-                let mut p = assets.crowd_params(stats.agents);
-                for g in &self.guests {
-                    p.spaced_for(&g.assets.size);
-                }
+                // The size the crowd follows (measured over the clip, in the file's metres);
+                // in a mix each character keeps its own spacing (a pair the mean of theirs).
+                let p = assets.crowd_params(stats.agents);
                 row(
                     ui,
                     "character",
@@ -645,7 +642,25 @@ impl CrowdPanel {
                     );
                 }
                 // Speeds come from the clips (below) when the pack measured them.
-                if assets.timeline.spans.iter().any(|c| c.ground_speed > 0.0) {
+                let others: Vec<String> = self
+                    .guests
+                    .iter()
+                    .map(|g| {
+                        let q = g.assets.crowd_params(1);
+                        format!("{} {}", g.assets.character.name, metres(q.min_distance))
+                    })
+                    .collect();
+                if !others.is_empty() {
+                    row(
+                        ui,
+                        "spacing",
+                        format!(
+                            "{} apart; {} (a pair: the mean of theirs)",
+                            metres(p.min_distance),
+                            others.join(", ")
+                        ),
+                    );
+                } else if assets.timeline.spans.iter().any(|c| c.ground_speed > 0.0) {
                     row(ui, "spacing", format!("{} apart", metres(p.min_distance)));
                 } else {
                     row(
