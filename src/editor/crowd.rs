@@ -775,6 +775,9 @@ impl CrowdPanel {
             // Never under the ground.
             self.camera.target.y = self.camera.target.y.clamp(ground, ground + 1000.0 * scale);
         }
+        if let Some((_, a)) = &self.assets {
+            keep_above_ground(&mut self.camera, a.size.ground_y, a.size.scale());
+        }
         let Some((generation, assets)) = &self.assets else {
             ui.painter().text(
                 rect.center(),
@@ -1057,5 +1060,65 @@ fn metres(x: f32) -> String {
         format!("{x:.2} m")
     } else {
         format!("{:.2} km", x / 1000.0)
+    }
+}
+
+/// Keeps the crowd preview's orbit above the ground it looks at: the point it turns about
+/// no lower than the ground, and the eye at least a fifth of the character's height above it
+/// (orbiting down ends at a view along the ground instead of passing under it).
+fn keep_above_ground(camera: &mut super::viewport::OrbitCamera, ground: f32, scale: f32) {
+    if !(ground.is_finite() && scale.is_finite()) {
+        return;
+    }
+    camera.target.y = camera.target.y.max(ground);
+    let lowest = ground + 0.2 * polypostor::crowd::CharacterSize::REFERENCE_METRES * scale;
+    let eye_y = camera.target.y + camera.distance * camera.pitch_rad.sin();
+    if eye_y < lowest && camera.distance > 0.0 {
+        let sin = ((lowest - camera.target.y) / camera.distance).clamp(-1.0, 0.999);
+        camera.pitch_rad = sin.asin();
+    }
+}
+
+#[cfg(test)]
+mod orbit_tests {
+    use super::*;
+
+    /// Whatever the orbit's pitch, distance, target and the character's size and ground, the
+    /// eye (from the camera the renderer gets) ends at least a fifth of the character's height
+    /// above the ground; an orbit already above it is left as it was.
+    #[test]
+    fn the_crowd_orbit_never_goes_under_the_ground() {
+        let mut moved = 0;
+        for &(ground, scale) in &[(0.0f32, 1.0f32), (-3.0, 0.01), (250.0, 100.0)] {
+            for k in 0..=30 {
+                let pitch = -1.55 + 3.1 * k as f32 / 30.0;
+                for &d in &[0.5f32, 5.0, 400.0] {
+                    for &ty in &[ground - 2.0 * scale, ground, ground + 3.0 * scale] {
+                        let mut cam = super::super::viewport::OrbitCamera {
+                            target: Vec3::new(1.0, ty, -2.0),
+                            pitch_rad: pitch,
+                            distance: d * scale,
+                            ..Default::default()
+                        };
+                        let before = cam;
+                        keep_above_ground(&mut cam, ground, scale);
+                        let lowest = ground + 0.36 * scale;
+                        let eye = cam.camera().eye;
+                        assert!(
+                            eye.y >= lowest - 1e-3 * scale.max(1.0),
+                            "{ground} {scale} {pitch} {d} {ty}: eye {eye}"
+                        );
+                        assert!(cam.target.y >= ground);
+                        let was = before.target.y.max(ground) + before.distance * before.pitch_rad.sin();
+                        if before.target.y >= ground && was >= lowest {
+                            assert_eq!(cam, before);
+                        } else {
+                            moved += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(moved > 100, "the cases never went under: {moved}");
     }
 }
