@@ -772,8 +772,9 @@ impl CrowdPanel {
             step += right * (d as i32 - a as i32) as f32;
             step += Vec3::Y * (e as i32 - q as i32) as f32;
             self.camera.target += step * speed;
-            // Never under the ground.
-            self.camera.target.y = self.camera.target.y.clamp(ground, ground + 1000.0 * scale);
+            // Not past a kilometre per metre of character above the ground (below it:
+            // `keep_above_ground`).
+            self.camera.target.y = self.camera.target.y.min(ground + 1000.0 * scale);
         }
         if let Some((_, a)) = &self.assets {
             keep_above_ground(&mut self.camera, a.size.ground_y, a.size.scale());

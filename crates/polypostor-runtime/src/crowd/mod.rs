@@ -381,10 +381,7 @@ impl CrowdParams {
         for s in sizes {
             self.spaced_for(s);
         }
-        let valid = shares.len() == sizes.len() + 1
-            && shares.iter().all(|s| s.is_finite() && *s >= 0.0)
-            && shares.iter().sum::<f32>() > 0.0;
-        if !valid || !(own > 0.0 && own.is_finite()) {
+        if check_shares(shares, sizes.len() + 1).is_err() || !(own > 0.0 && own.is_finite()) {
             return;
         }
         let total: f64 = shares.iter().map(|&s| s as f64).sum();
@@ -399,6 +396,20 @@ impl CrowdParams {
             self.density = density;
         }
     }
+}
+
+/// Checks the shares of a crowd mixing `characters` characters (its own first): one share
+/// per character, each finite and ≥ 0, not all 0 (only the ratios count).
+fn check_shares(shares: &[f32], characters: usize) -> Result<(), String> {
+    if shares.len() != characters {
+        return Err(format!("{} shares for {characters} characters", shares.len()));
+    }
+    if shares.iter().any(|s| !s.is_finite() || *s < 0.0) || !(shares.iter().sum::<f32>() > 0.0) {
+        return Err(format!(
+            "shares {shares:?}: each must be a finite number ≥ 0, not all 0"
+        ));
+    }
+    Ok(())
 }
 
 /// Agents, one entry per agent in each vector (structure of arrays: the per-frame passes
@@ -639,8 +650,9 @@ impl Crowd {
     /// cell (the ground and the cell are laid out by [`Crowd::new`]: use
     /// [`CrowdParams::spaced_for_shares`] before it), the others' in proportion to their
     /// [`CharacterSize::scale`]. Agents dealt out again where they stand may start closer
-    /// than their new spacing: such a pair may only move apart. Errors: more than [`MAX_SPECIES`] characters, a share count
-    /// that does not match, or shares that are negative, not finite or all zero.
+    /// than their new spacing: such a pair may only move apart. Errors: more than
+    /// [`MAX_SPECIES`] characters, a share count that does not match, or shares that are
+    /// negative, not finite or all zero.
     pub fn mix(&mut self, species: Vec<Species>, shares: &[f32]) -> Result<(), String> {
         if species.len() + 1 > MAX_SPECIES {
             return Err(format!(
@@ -648,14 +660,7 @@ impl Crowd {
                 species.len() + 1
             ));
         }
-        if shares.len() != species.len() + 1 {
-            return Err(format!("{} shares for {} characters", shares.len(), species.len() + 1));
-        }
-        if shares.iter().any(|s| !s.is_finite() || *s < 0.0) || !(shares.iter().sum::<f32>() > 0.0) {
-            return Err(format!(
-                "shares {shares:?}: each must be a finite number ≥ 0, not all 0"
-            ));
-        }
+        check_shares(shares, species.len() + 1)?;
         let n = self.agents.pos.len();
         // Exact counts (cumulative rounding), dealt to a random order of the agents.
         let total: f64 = shares.iter().map(|&s| s as f64).sum();
