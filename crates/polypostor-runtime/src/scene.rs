@@ -379,6 +379,8 @@ pub struct CrowdScene {
     pub guests: Vec<CrowdRenderers>,
     /// The characters mixed in and every kind's share (kept for [`CrowdScene::respawn`]).
     mix: Option<(Vec<Species>, Vec<f32>)>,
+    /// The crowd's params before they were spaced for the mix (its own character's spacing).
+    unspaced: CrowdParams,
     /// Nearest-view lookup over the baked view directions of the crowd's own character.
     pub views: ViewLookup,
     /// Frames and rate of the crowd's own baked animation (what its instances' frame numbers
@@ -474,10 +476,12 @@ impl CrowdScene {
     ) -> Result<Self, GpuError> {
         let timing = assets.timing();
         let renderers = renderers_of(device, queue, assets, full_impostors)?;
+        let unspaced = params.clone();
         let mut crowd = Crowd::new(params);
         crowd.set_clips(&assets.timeline.spans, timing.fps);
         Ok(Self {
             crowd,
+            unspaced,
             clips: assets.timeline.spans.clone(),
             renderers,
             guests: Vec::new(),
@@ -509,8 +513,10 @@ impl CrowdScene {
             return Err(GpuError::Unsupported("a crowd needs at least one character".into()));
         };
         let species: Vec<Species> = others.iter().map(|a| a.species()).collect();
-        let params = spaced(first.crowd_params(count), &species, shares);
+        let unspaced = first.crowd_params(count);
+        let params = spaced(unspaced.clone(), &species, shares);
         let mut scene = Self::with_impostors(device, queue, first, params, full_impostors)?;
+        scene.unspaced = unspaced;
         for a in others {
             let mut r = renderers_of(device, queue, a, full_impostors)?;
             r.ground_half_extent = 0.0;
@@ -529,6 +535,7 @@ impl CrowdScene {
     pub fn respawn(&mut self, params: CrowdParams) {
         let paused = self.crowd.paused();
         let parallel = self.crowd.parallel();
+        self.unspaced = params.clone();
         let params = match &self.mix {
             Some((species, shares)) => spaced(params, species, shares),
             None => params,
@@ -544,19 +551,34 @@ impl CrowdScene {
     }
 
     /// New shares of the characters mixed in ([`CrowdScene::mixed`]; one per character):
-    /// agents are dealt out again where they stand, each starting afresh. A crowd of one
-    /// character takes only `[x]`.
+    /// agents are dealt out again where they stand, each starting afresh; where the new
+    /// shares ask for a ground more than a tenth larger or smaller
+    /// ([`CrowdParams::respaced_for_shares`]: a mix tipping towards its big characters), a
+    /// new crowd is laid out on it instead. A crowd of one character takes only `[x]`.
     pub fn set_shares(&mut self, shares: &[f32]) -> Result<(), String> {
-        match &mut self.mix {
-            Some((_, old)) if old.as_slice() == shares => Ok(()),
-            Some((species, old)) => {
-                self.crowd.mix(species.clone(), shares)?;
-                *old = shares.to_vec();
-                Ok(())
-            }
-            None if shares.len() == 1 => Ok(()),
-            None => Err(format!("{} shares for one character", shares.len())),
+        let species = match &self.mix {
+            Some((_, old)) if old.as_slice() == shares => return Ok(()),
+            Some((species, _)) => species.clone(),
+            None if shares.len() == 1 => return Ok(()),
+            None => return Err(format!("{} shares for one character", shares.len())),
+        };
+        self.crowd.mix(species.clone(), shares)?;
+        let sizes: Vec<CharacterSize> = species.iter().map(|s| s.size).collect();
+        let relay = self
+            .crowd
+            .params
+            .respaced_for_shares(&self.unspaced, &sizes, shares)
+            .is_some();
+        self.mix = Some((species, shares.to_vec()));
+        if relay {
+            // Everything the caller set on the crowd's params is kept; only the spacing
+            // starts again from the character's own.
+            let mut params = self.crowd.params.clone();
+            params.density = self.unspaced.density;
+            params.min_distance = self.unspaced.min_distance;
+            self.respawn(params);
         }
+        Ok(())
     }
 
     /// The shares the characters were dealt out in (one, 1, for a crowd of one character).

@@ -398,6 +398,26 @@ impl CrowdParams {
     }
 }
 
+/// How far (as a ratio of densities) the ground new shares of a mix ask for may be from the
+/// one laid out before [`CrowdParams::respaced_for_shares`] asks for a new one.
+pub const RELAY_GROUND: f32 = 0.1;
+
+impl CrowdParams {
+    /// For new `shares` of a mix laid out by [`CrowdParams::spaced_for_shares`] (these are the
+    /// params it gave; `own`, the params before it): the params of a new layout when the ground
+    /// the new shares ask for differs from this one by more than [`RELAY_GROUND`] (a mix
+    /// tipping towards its big characters needs more ground; one tipping towards the small,
+    /// less), `None` while this ground still fits. Everything but the spacing is kept.
+    pub fn respaced_for_shares(&self, own: &CrowdParams, sizes: &[CharacterSize], shares: &[f32]) -> Option<Self> {
+        let mut p = self.clone();
+        p.density = own.density;
+        p.min_distance = own.min_distance;
+        p.spaced_for_shares(sizes, shares);
+        let ratio = p.density / self.density;
+        (!(ratio.is_finite() && (ratio - 1.0).abs() <= RELAY_GROUND)).then_some(p)
+    }
+}
+
 /// Checks the shares of a crowd mixing `characters` characters (its own first): one share
 /// per character, each finite and ≥ 0, not all 0 (only the ratios count).
 fn check_shares(shares: &[f32], characters: usize) -> Result<(), String> {

@@ -1077,3 +1077,47 @@ fn selecting_in_parallel_runs_gives_exactly_the_serial_selection() {
         "the sweep made {faded} cross-fading copies: it tests too little"
     );
 }
+
+/// New shares of a mix keep the ground while it still fits (a few more or fewer big
+/// characters), and ask for the ground a fresh layout for them gets once they tip the mix
+/// (most agents now the big character), keeping everything but the spacing.
+#[test]
+fn new_shares_lay_out_a_new_ground_only_when_the_old_one_no_longer_fits() {
+    let beast = beast();
+    let own = CrowdParams {
+        count: 3000,
+        seed: 5,
+        behaviour: Behaviour {
+            walk: 0.2,
+            run: 0.7,
+            idle: 0.1,
+        },
+        ..Default::default()
+    };
+    let mut laid = own.clone();
+    laid.spaced_for_shares(&[beast.size], &[0.9, 0.1]);
+    assert_eq!(laid.respaced_for_shares(&own, &[beast.size], &[0.9, 0.1]), None);
+    // 10 % → 15 % beasts: the ground per agent grows by about 4 %.
+    assert_eq!(laid.respaced_for_shares(&own, &[beast.size], &[0.85, 0.15]), None);
+    // 90 % beasts: about 60 % more ground per agent.
+    let relaid = laid
+        .respaced_for_shares(&own, &[beast.size], &[0.1, 0.9])
+        .expect("a mix of mostly beasts needs more ground");
+    let mut fresh = own.clone();
+    fresh.spaced_for_shares(&[beast.size], &[0.1, 0.9]);
+    assert_eq!(
+        relaid, fresh,
+        "the new layout is the one a fresh mix in those shares gets"
+    );
+    assert!(
+        relaid.density < 0.7 * laid.density,
+        "{} vs {}",
+        relaid.density,
+        laid.density
+    );
+    // And back: from a ground for mostly beasts, a mix of mostly people asks for less.
+    let back = relaid
+        .respaced_for_shares(&own, &[beast.size], &[0.9, 0.1])
+        .expect("a mix of mostly people needs less ground");
+    assert_eq!(back, laid);
+}

@@ -912,6 +912,7 @@ pub fn fit_part_span(
         if let Some(&same) = neighbours.iter().find(|&&g| {
             tiles[g].px == tiles[f].px && targets[g] == targets[f] && pins.get(g).unwrap_or(&none) == pins_f
         }) {
+            crate::bake::profile::tally("frames still");
             fitted[f] = true;
             let was_stuck = stuck.borrow()[same];
             stuck.borrow_mut()[f] = was_stuck;
@@ -920,6 +921,10 @@ pub fn fit_part_span(
         }
         // A seed holds a fitted neighbour's positions and its contour indices carried over
         // by the cyclic shift between the two target polygons.
+        crate::bake::profile::tally("frames fitted");
+        if neighbours.iter().any(|&g| targets[g] == targets[f]) {
+            crate::bake::profile::tally("frames same outline");
+        }
         let mut seeds: Vec<Seed> = neighbours
             .into_iter()
             .map(|pf| Seed {
