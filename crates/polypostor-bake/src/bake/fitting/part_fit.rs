@@ -922,9 +922,6 @@ pub fn fit_part_span(
         // A seed holds a fitted neighbour's positions and its contour indices carried over
         // by the cyclic shift between the two target polygons.
         crate::bake::profile::tally("frames fitted");
-        if neighbours.iter().any(|&g| targets[g] == targets[f]) {
-            crate::bake::profile::tally("frames same outline");
-        }
         let mut seeds: Vec<Seed> = neighbours
             .into_iter()
             .map(|pf| Seed {
