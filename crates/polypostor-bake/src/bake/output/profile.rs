@@ -104,6 +104,16 @@ pub fn tally(name: &str) {
     t.entry(name.to_string()).or_insert((0.0, 0)).1 += 1;
 }
 
+/// Adds `n` to the count under `name` (no time): how much work of one kind was done
+/// (triangle costs evaluated).
+pub fn count(name: &str, n: u64) {
+    if n == 0 {
+        return;
+    }
+    let mut t = TOTALS.lock().unwrap_or_else(|e| e.into_inner());
+    t.entry(name.to_string()).or_insert((0.0, 0)).1 += n;
+}
+
 /// The totals so far: seconds and count per stage.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Snapshot(pub BTreeMap<String, (f64, u64)>);
