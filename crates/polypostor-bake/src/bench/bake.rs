@@ -6,7 +6,7 @@ use super::*;
 
 /// The stages of `bench bake`'s table: a column name and the `cpu_seconds` keys it sums
 /// (`*` matches any job: `*/trace` is tracing wherever it ran).
-const BENCH_STAGES: [(&str, &[&str]); 12] = [
+const BENCH_STAGES: [(&str, &[&str]); 13] = [
     ("render", &["render", "prepare"]),
     ("key frame", &["key frame", "key frame/*"]),
     ("trace", &["part fit/trace", "key choice/trace"]),
@@ -22,12 +22,16 @@ const BENCH_STAGES: [(&str, &[&str]); 12] = [
         ],
     ),
     ("simplify", &["part fit/simplify"]),
+    ("sub-pixel", &["part fit/subpixel", "key choice/subpixel"]),
     ("measure", &["measure", "composite"]),
     ("order", &["order"]),
     ("atlas", &["atlas"]),
     ("encode+write", &["encode", "write"]),
     ("other reps", &["other representations"]),
 ];
+
+/// The count in `report.json`'s `cpu_counts` of the triangle costs the fit evaluated.
+const TRIANGLE_COSTS: &str = crate::bake::part_fit::TRIANGLE_COSTS_COUNT;
 
 /// CPU seconds of one column of [`BENCH_STAGES`].
 fn stage_sum(cpu: &std::collections::BTreeMap<String, f64>, keys: &[&str]) -> f64 {
@@ -143,20 +147,32 @@ pub fn bench_bake(
         ctx.adapter_description(),
         rayon::current_num_threads()
     );
-    say_part!(t, "{:<18} {:>6} {:>7} {:>6}", "character", "frames", "wall s", "CPU s");
+    say_part!(
+        t,
+        "{:<18} {:>6} {:>7} {:>6} {:>8}",
+        "character",
+        "frames",
+        "wall s",
+        "CPU s",
+        "M costs"
+    );
     for (col, _) in BENCH_STAGES {
         say_part!(t, " {col:>9}");
     }
     say!(t, " {:>8} {:>10}", "other", "fast−exact");
     for (name, r, gap) in &rows {
         let total = cpu_total(r);
+        // The fit's unit of work, the same on any host however busy: triangle costs
+        // evaluated, in millions.
+        let costs = r.cpu_counts.get(TRIANGLE_COSTS).map_or(0.0, |&n| n as f64 / 1e6);
         say_part!(
             t,
-            "{:<18} {:>6} {:>7.1} {:>6.1}",
+            "{:<18} {:>6} {:>7.1} {:>6.1} {:>8.1}",
             name,
             r.views.first().map_or(0, |v| v.psnr.len()),
             r.seconds_total,
-            total
+            total,
+            costs
         );
         let mut listed = 0.0;
         for (_, keys) in BENCH_STAGES {
