@@ -1145,7 +1145,7 @@ fn subpixel_frames(
     nearest: &dyn Fn(usize) -> usize,
 ) {
     let uvs = fit.uvs();
-    let key_tile = &tiles[fit.key_frame];
+    let refiner = crate::bake::subpixel::Refiner::new(&tiles[fit.key_frame]);
     for f in 0..tiles.len() {
         let identity = fit.targets[f] == fit.key_polygon && fit.mappings[f].iter().enumerate().all(|(i, &j)| i == j);
         if !fitted[f] || identity {
@@ -1156,7 +1156,7 @@ fn subpixel_frames(
         let before = fit.positions(f);
         let mut pos = before.clone();
         let truth = crate::bake::raster::tile_canvas(&tiles[f]);
-        crate::bake::subpixel::refine(&mut pos, &uvs, &fit.triangles, key_tile, &truth, &fixed);
+        refiner.refine(&mut pos, &uvs, &fit.triangles, &truth, &fixed);
         let mut offsets = vec![[0.0f32; 2]; fit.key_polygon.len()];
         for (k, &i) in fit.kept.iter().enumerate() {
             offsets[i] = [pos[k][0] - before[k][0], pos[k][1] - before[k][1]];

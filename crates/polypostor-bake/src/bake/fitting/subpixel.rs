@@ -83,9 +83,10 @@ impl KeyImage {
 
     /// What [`Canvas::draw_textured`] writes for a pixel textured at `(u, v)` (the same
     /// bilinear sample of [`PartTile::sample`]); `None` where the texel is not drawn.
+    #[inline(always)]
     fn texel(&self, u: f32, v: f32) -> Option<[f32; 4]> {
         let (fx, fy) = (u - 0.5, v - 0.5);
-        let (x0, y0) = (fx.floor(), fy.floor());
+        let (x0, y0) = (floor(fx), floor(fy));
         let (tx, ty) = (fx - x0, fy - y0);
         // Border-shifted indices; taps outside the image read the empty border or nothing.
         let (xi, yi) = (x0 as i64 + 1, y0 as i64 + 1);
@@ -94,20 +95,70 @@ impl KeyImage {
             return None;
         }
         let i = (yi * s + xi) as usize;
-        let (a, b, c, d) = (
-            self.px[i],
-            self.px[i + 1],
-            self.px[i + self.stride],
-            self.px[i + self.stride + 1],
-        );
-        let mut o = [0.0f32; 4];
-        for k in 0..4 {
+        texel_of(
+            [
+                self.px[i],
+                self.px[i + 1],
+                self.px[i + self.stride],
+                self.px[i + self.stride + 1],
+            ],
+            tx,
+            ty,
+        )
+    }
+}
+
+/// Bilinear blend of four premultiplied taps (top left, top right, bottom left, bottom right)
+/// at `(tx, ty)` — `top + (bottom - top) ty` with `top = a + (b - a) tx`, `bottom = c + (d -
+/// c) tx` — then divided by its coverage: `None` under [`crate::bake::raster::ALPHA_CUTOFF`].
+/// On x86_64 every channel in one SSE register: the same operations in the same order as
+/// channel by channel, so the same values.
+#[inline(always)]
+fn texel_of(taps: [[f32; 4]; 4], tx: f32, ty: f32) -> Option<[f32; 4]> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE is part of x86_64; the loads and the store read and write arrays of four
+        // f32s.
+        unsafe {
+            let [a, b, c, d] = taps.map(|t| _mm_loadu_ps(t.as_ptr()));
+            let (vx, vy) = (_mm_set1_ps(tx), _mm_set1_ps(ty));
+            let top = _mm_add_ps(a, _mm_mul_ps(_mm_sub_ps(b, a), vx));
+            let bottom = _mm_add_ps(c, _mm_mul_ps(_mm_sub_ps(d, c), vx));
+            let o = _mm_add_ps(top, _mm_mul_ps(_mm_sub_ps(bottom, top), vy));
+            let alpha = _mm_cvtss_f32(_mm_shuffle_ps::<0b11_11_11_11>(o, o));
+            if !(alpha >= crate::bake::raster::ALPHA_CUTOFF) {
+                return None;
+            }
+            let mut out = [0.0f32; 4];
+            _mm_storeu_ps(out.as_mut_ptr(), _mm_div_ps(o, _mm_set1_ps(alpha)));
+            out[3] = 1.0;
+            Some(out)
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let [a, b, c, d] = taps;
+        let o: [f32; 4] = std::array::from_fn(|k| {
             let top = a[k] + (b[k] - a[k]) * tx;
             let bottom = c[k] + (d[k] - c[k]) * tx;
-            o[k] = top + (bottom - top) * ty;
+            top + (bottom - top) * ty
+        });
+        let alpha = o[3];
+        if !(alpha >= crate::bake::raster::ALPHA_CUTOFF) {
+            return None;
         }
-        (o[3] >= crate::bake::raster::ALPHA_CUTOFF).then(|| [o[0] / o[3], o[1] / o[3], o[2] / o[3], 1.0])
+        Some([o[0] / alpha, o[1] / alpha, o[2] / alpha, 1.0])
     }
+}
+
+/// `x.floor()` without the library call (the build targets CPUs without SSE4.1's rounding
+/// instruction): exact for |x| < 2²³, which texture coordinates of a tile are; NaN gives 0,
+/// whose taps then read NaN weights and draw nothing, as `floor` would.
+#[inline(always)]
+fn floor(x: f32) -> f32 {
+    let i = x as i32 as f32;
+    if i > x { i - 1.0 } else { i }
 }
 
 /// A triangle ready for pixel tests: barycentric weights and texture coordinates as linear
@@ -152,6 +203,51 @@ impl Placed {
         }
     }
 
+    /// Calls `f(index, x, y)` for the pixels of box `c` (index into a `size`-wide image, x
+    /// and y the pixel's centre) within a pixel of the triangle's span on each row: every
+    /// pixel [`Placed::cover`] accepts, and few others (a long thin triangle's box is mostly
+    /// empty). The span comes from each weight's zero crossing along the row; a weight that
+    /// barely changes along the row does not narrow it.
+    #[inline(always)]
+    fn each_pixel_near(&self, c: PixelBox, size: i64, mut f: impl FnMut(usize, f32, f32)) {
+        let w2 = [
+            1.0 - self.w0[0] - self.w1[0],
+            -self.w0[1] - self.w1[1],
+            -self.w0[2] - self.w1[2],
+        ];
+        for y in c[1]..c[3] {
+            let py = y as f32 + 0.5;
+            let (mut lo, mut hi) = (c[0] as f32, c[2] as f32);
+            for w in [&self.w0, &self.w1, &w2] {
+                // w(x) = w[0] + w[1] x + w[2] py >= 0.
+                if w[1].abs() < 1e-3 {
+                    continue;
+                }
+                let at = -(w[0] + w[2] * py) / w[1];
+                if w[1] > 0.0 {
+                    lo = lo.max(at);
+                } else {
+                    hi = hi.min(at);
+                }
+            }
+            // Pixel x has its centre at x + 0.5; a pixel of margin each side.
+            let x0 = (floor(lo - 1.5) as i64).max(c[0]);
+            let x1 = (floor(hi + 2.0) as i64).min(c[2]);
+            let row = (y * size) as usize;
+            for x in x0..x1 {
+                f(row + x as usize, x as f32 + 0.5, py);
+            }
+        }
+    }
+
+    /// Whether the triangle covers pixel centre `(px, py)` (as [`Placed::cover`]).
+    #[inline(always)]
+    fn covers(&self, px: f32, py: f32) -> bool {
+        let w0 = self.w0[0] + self.w0[1] * px + self.w0[2] * py;
+        let w1 = self.w1[0] + self.w1[1] * px + self.w1[2] * py;
+        !(w0 < 0.0 || w1 < 0.0 || 1.0 - w0 - w1 < 0.0)
+    }
+
     /// Texture coordinates at pixel centre `(px, py)` when the triangle covers it (the rule of
     /// [`Canvas::draw_textured`]: every barycentric weight at least 0; degenerate triangles
     /// cover nothing).
@@ -181,13 +277,52 @@ pub fn refine(
     truth: &Canvas,
     fixed: &[bool],
 ) -> (f64, f64) {
+    Refiner::new(key).refine(positions, uvs, triangles, truth, fixed)
+}
+
+/// [`refine`] for many frames drawn from one key image, prepared once.
+pub struct Refiner<'k> {
+    key: &'k PartTile,
+    image: KeyImage,
+}
+
+impl<'k> Refiner<'k> {
+    pub fn new(key: &'k PartTile) -> Self {
+        Self {
+            key,
+            image: KeyImage::new(key),
+        }
+    }
+
+    /// [`refine`] with this key image.
+    pub fn refine(
+        &self,
+        positions: &mut [[f32; 2]],
+        uvs: &[[f32; 2]],
+        triangles: &[[usize; 3]],
+        truth: &Canvas,
+        fixed: &[bool],
+    ) -> (f64, f64) {
+        refine_with(positions, uvs, triangles, self.key, &self.image, truth, fixed)
+    }
+}
+
+fn refine_with(
+    positions: &mut [[f32; 2]],
+    uvs: &[[f32; 2]],
+    triangles: &[[usize; 3]],
+    key: &PartTile,
+    image: &KeyImage,
+    truth: &Canvas,
+    fixed: &[bool],
+) -> (f64, f64) {
     let size = truth.size as i64;
     let mut cur = Canvas::new(truth.size);
     for t in triangles {
         cur.draw_textured(t.map(|i| positions[i]), t.map(|i| uvs[i]), key);
     }
-    let before: f64 = cur.px.iter().zip(&truth.px).map(|(a, b)| pixel_error(a, b)).sum();
-    let image = KeyImage::new(key);
+    let mut drawing = Drawing::new(cur, truth, image);
+    let before: f64 = drawing.err.iter().sum();
     // Orientation of each triangle in the key image: a move may flatten a triangle but not
     // turn it over.
     let orient: Vec<f32> = triangles
@@ -212,60 +347,17 @@ pub fn refine(
             }
         }
     }
-    // What moving vertex `i`'s triangles from `old` to `new` does to the pixels of box `r`:
-    // pixels the old triangles covered and the new ones do not fall back to the background,
-    // pixels the new ones cover take their texel. Calls `visit(index, new value)` for each
-    // changed pixel and returns the change in error. `scratch` marks pixels (0 untouched, 1
-    // uncovered, 2 drawn) and is left all 0.
-    let n = size as usize;
-    let mut scratch: Vec<(u8, [f32; 4])> = vec![(0, [0.0; 4]); n * n];
-    let mut touched: Vec<usize> = Vec::new();
-    // The pixels of box `r` that triangles `old` cover, triangle by triangle in scan order
-    // (a pixel under two of them twice): the same for every trial move of one vertex.
-    let covered = |old: &[Placed], r: PixelBox| -> Vec<usize> {
-        let mut out = Vec::new();
-        for t in old {
-            each_pixel(clip(t, r), size, |at, px, py| {
-                if t.cover(px, py).is_some() {
-                    out.push(at);
-                }
-            });
-        }
-        out
+    let mut was: Vec<Placed> = Vec::new();
+    let mut now: Vec<Placed> = Vec::new();
+    let mut was_cover: Vec<usize> = Vec::new();
+    let place = |out: &mut Vec<Placed>, around: &[usize], at: &[[f32; 2]]| {
+        out.clear();
+        out.extend(
+            around
+                .iter()
+                .map(|&k| Placed::new(triangles[k].map(|j| at[j]), triangles[k].map(|j| uvs[j]))),
+        );
     };
-    let mut change =
-        |cur: &Canvas, old: &[usize], new: &[Placed], r: PixelBox, visit: &mut dyn FnMut(usize, [f32; 4])| -> f64 {
-            for t in new {
-                each_pixel(clip(t, r), size, |at, px, py| {
-                    if scratch[at].0 == 2 {
-                        return;
-                    }
-                    if let Some(uv) = t.cover(px, py) {
-                        if scratch[at].0 == 0 {
-                            touched.push(at);
-                        }
-                        scratch[at] = (2, image.texel(uv[0], uv[1]).unwrap_or([0.0; 4]));
-                    }
-                });
-            }
-            for &at in old {
-                if scratch[at].0 == 0 {
-                    touched.push(at);
-                    scratch[at] = (1, [0.0; 4]);
-                }
-            }
-            let mut delta = 0.0;
-            for &at in &touched {
-                let value = scratch[at].1;
-                scratch[at] = (0, [0.0; 4]);
-                if value != cur.px[at] {
-                    delta += pixel_error(&value, &truth.px[at]) - pixel_error(&cur.px[at], &truth.px[at]);
-                    visit(at, value);
-                }
-            }
-            touched.clear();
-            delta
-        };
     let mut error = before;
     for step in STEPS {
         let mut dirty = vec![true; positions.len()];
@@ -277,13 +369,7 @@ pub fn refine(
                     continue;
                 }
                 let old = positions[i];
-                let placed = |at: &[[f32; 2]]| -> Vec<Placed> {
-                    around[i]
-                        .iter()
-                        .map(|&k| Placed::new(triangles[k].map(|j| at[j]), triangles[k].map(|j| uvs[j])))
-                        .collect()
-                };
-                let was = placed(positions);
+                place(&mut was, &around[i], positions);
                 // The box the triangles around the vertex cover at the old place or any trial
                 // place, in whole pixels.
                 let mut b = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
@@ -300,7 +386,16 @@ pub fn refine(
                 if r[0] >= r[2] || r[1] >= r[3] {
                     continue;
                 }
-                let was_cover = covered(&was, r);
+                // The pixels of box `r` the old triangles cover, triangle by triangle in scan
+                // order (a pixel under two of them twice): the same for every trial move.
+                was_cover.clear();
+                for t in &was {
+                    t.each_pixel_near(clip(t, r), size, |at, px, py| {
+                        if t.covers(px, py) {
+                            was_cover.push(at);
+                        }
+                    });
+                }
                 let mut best: Option<([f32; 2], f64)> = None;
                 for (n, d) in DIRECTIONS.into_iter().enumerate() {
                     // The diagonals only where no move along the axes helps.
@@ -313,24 +408,20 @@ pub fn refine(
                     }
                     let q = [old[0] + step * d[0], old[1] + step * d[1]];
                     positions[i] = q;
-                    let now = placed(positions);
+                    place(&mut now, &around[i], positions);
                     positions[i] = old;
                     if now.iter().zip(&around[i]).any(|(t, &k)| t.area * orient[k] < 0.0) {
                         continue;
                     }
-                    let delta = change(&cur, &was_cover, &now, r, &mut |_, _| {});
+                    let delta = drawing.change::<false>(&was_cover, &now, r);
                     if delta < -1e-9 && best.is_none_or(|(_, bd)| delta < bd) {
                         best = Some((q, delta));
                     }
                 }
                 if let Some((q, _)) = best {
                     positions[i] = q;
-                    let now = placed(positions);
-                    let mut changed = Vec::new();
-                    error += change(&cur, &was_cover, &now, r, &mut |at, v| changed.push((at, v)));
-                    for (at, v) in changed {
-                        cur.px[at] = v;
-                    }
+                    place(&mut now, &around[i], positions);
+                    error += drawing.change::<true>(&was_cover, &now, r);
                     moved = true;
                     for &j in &linked[i] {
                         next[j] = true;
@@ -346,6 +437,95 @@ pub fn refine(
     (before, error.max(0.0))
 }
 
+/// The drawing as the refinement keeps it up to date, with what a trial move needs at hand:
+/// each pixel's error against the truth, and what it would be left empty.
+struct Drawing<'a> {
+    cur: Canvas,
+    truth: &'a Canvas,
+    image: &'a KeyImage,
+    /// Each pixel's error now ([`pixel_error`] of `cur` against the truth).
+    err: Vec<f64>,
+    /// Each pixel's error if nothing covered it.
+    empty: Vec<f64>,
+    /// `mark[i] == stamp`: pixel `i` already counted in the current [`Drawing::change`].
+    mark: Vec<u32>,
+    stamp: u32,
+}
+
+impl<'a> Drawing<'a> {
+    fn new(cur: Canvas, truth: &'a Canvas, image: &'a KeyImage) -> Self {
+        let err = cur.px.iter().zip(&truth.px).map(|(a, b)| pixel_error(a, b)).collect();
+        let empty = truth.px.iter().map(|b| pixel_error(&[0.0; 4], b)).collect();
+        let mark = vec![0; cur.px.len()];
+        Self {
+            cur,
+            truth,
+            image,
+            err,
+            empty,
+            mark,
+            stamp: 0,
+        }
+    }
+
+    /// What moving a vertex's triangles from `old` (the pixels they covered, as listed for
+    /// the move) to `new` does to the pixels of box `r`: pixels the new triangles cover take
+    /// their texel (the first triangle's where two cover one), pixels only the old ones
+    /// covered fall back to the background. Returns the change in error; with `COMMIT` the
+    /// drawing takes the new pixels.
+    fn change<const COMMIT: bool>(&mut self, old: &[usize], new: &[Placed], r: PixelBox) -> f64 {
+        if self.stamp == u32::MAX {
+            self.mark.fill(0);
+            self.stamp = 0;
+        }
+        self.stamp += 1;
+        let stamp = self.stamp;
+        let size = self.truth.size as i64;
+        let mut delta = 0.0;
+        let Self {
+            cur,
+            truth,
+            image,
+            err,
+            empty,
+            mark,
+            ..
+        } = self;
+        for t in new {
+            t.each_pixel_near(clip(t, r), size, |at, px, py| {
+                if mark[at] == stamp {
+                    return;
+                }
+                if let Some(uv) = t.cover(px, py) {
+                    mark[at] = stamp;
+                    let value = image.texel(uv[0], uv[1]).unwrap_or([0.0; 4]);
+                    if value != cur.px[at] {
+                        let e = pixel_error(&value, &truth.px[at]);
+                        delta += e - err[at];
+                        if COMMIT {
+                            cur.px[at] = value;
+                            err[at] = e;
+                        }
+                    }
+                }
+            });
+        }
+        for &at in old {
+            if mark[at] != stamp {
+                mark[at] = stamp;
+                if cur.px[at] != [0.0; 4] {
+                    delta += empty[at] - err[at];
+                    if COMMIT {
+                        cur.px[at] = [0.0; 4];
+                        err[at] = empty[at];
+                    }
+                }
+            }
+        }
+        delta
+    }
+}
+
 /// The whole pixels of triangle `t`'s bounding box inside box `r`.
 fn clip(t: &Placed, r: PixelBox) -> PixelBox {
     let b = triangle_box(t.pos);
@@ -355,19 +535,6 @@ fn clip(t: &Placed, r: PixelBox) -> PixelBox {
         (b[2].ceil() as i64).min(r[2]),
         (b[3].ceil() as i64).min(r[3]),
     ]
-}
-
-/// Calls `f(index, x, y)` for every pixel of box `c` (index into a `size`-wide image, x and y
-/// the pixel's centre).
-#[inline(always)]
-fn each_pixel(c: PixelBox, size: i64, mut f: impl FnMut(usize, f32, f32)) {
-    for y in c[1]..c[3] {
-        let py = y as f32 + 0.5;
-        let row = (y * size) as usize;
-        for x in c[0]..c[2] {
-            f(row + x as usize, x as f32 + 0.5, py);
-        }
-    }
 }
 
 #[cfg(test)]
@@ -486,6 +653,97 @@ mod tests {
             (redrawn - after).abs() < 1e-4 * before,
             "tracked {after}, redrawn {redrawn}"
         );
+    }
+
+    /// A small deterministic generator (no dependency for three tests).
+    fn lcg(state: &mut u64) -> f32 {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (*state >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// The row spans visit every pixel the per-pixel test covers (brute force over the
+    /// whole box), on random triangles: long and thin ones, nearly horizontal and vertical
+    /// edges, tiny and degenerate ones.
+    #[test]
+    fn row_spans_miss_no_covered_pixel() {
+        let size = 64i64;
+        let mut state = 7u64;
+        for n in 0..4000 {
+            let mut p = [[0.0f32; 2]; 3];
+            for q in &mut p {
+                *q = [lcg(&mut state) * 70.0 - 3.0, lcg(&mut state) * 70.0 - 3.0];
+            }
+            match n % 5 {
+                // Nearly horizontal edge.
+                1 => p[1][1] = p[0][1] + 1e-4 * lcg(&mut state),
+                // Nearly vertical edge.
+                2 => p[1][0] = p[0][0] + 1e-4 * lcg(&mut state),
+                // A sliver.
+                3 => {
+                    p[2] = [
+                        p[0][0] + 0.3 * (p[1][0] - p[0][0]),
+                        p[0][1] + 0.3 * (p[1][1] - p[0][1]) + 0.05,
+                    ]
+                }
+                // Degenerate.
+                4 if n % 10 == 4 => p[2] = p[1],
+                _ => {}
+            }
+            let t = Placed::new(p, p);
+            let r: PixelBox = [0, 0, size, size];
+            let c = clip(&t, r);
+            let mut brute = Vec::new();
+            for y in c[1].max(0)..c[3] {
+                for x in c[0].max(0)..c[2] {
+                    if t.cover(x as f32 + 0.5, y as f32 + 0.5).is_some() {
+                        brute.push((y * size + x) as usize);
+                    }
+                }
+            }
+            let mut spans = Vec::new();
+            t.each_pixel_near(c, size, |at, px, py| {
+                if t.covers(px, py) {
+                    spans.push(at);
+                }
+            });
+            assert_eq!(spans, brute, "triangle {p:?}");
+        }
+    }
+
+    /// The SSE texel is the channel-by-channel bilinear blend and division, bit for bit, and
+    /// the floor without the library call is `f32::floor`.
+    #[test]
+    fn the_texel_is_the_scalar_blend_and_floor_is_floor() {
+        let mut state = 11u64;
+        for _ in 0..20000 {
+            let taps: [[f32; 4]; 4] = std::array::from_fn(|_| {
+                let a = lcg(&mut state);
+                [lcg(&mut state) * a, lcg(&mut state) * a, lcg(&mut state) * a, a]
+            });
+            let (tx, ty) = (lcg(&mut state), lcg(&mut state));
+            let [a, b, c, d] = taps;
+            let o: [f32; 4] = std::array::from_fn(|k| {
+                let top = a[k] + (b[k] - a[k]) * tx;
+                let bottom = c[k] + (d[k] - c[k]) * tx;
+                top + (bottom - top) * ty
+            });
+            let want =
+                (o[3] >= crate::bake::raster::ALPHA_CUTOFF).then(|| [o[0] / o[3], o[1] / o[3], o[2] / o[3], 1.0]);
+            let got = texel_of(taps, tx, ty);
+            assert_eq!(
+                got.map(|v| v.map(f32::to_bits)),
+                want.map(|v| v.map(f32::to_bits)),
+                "{taps:?} at {tx} {ty}"
+            );
+            let x = (lcg(&mut state) - 0.5) * 600.0;
+            assert_eq!(floor(x), x.floor(), "{x}");
+        }
+        for x in [-1.0f32, -0.5, -0.0, 0.0, 0.5, 1.0, 127.999, -127.999, 1e7, -1e7] {
+            assert_eq!(floor(x), x.floor(), "{x}");
+        }
+        assert!(floor(f32::NAN) == 0.0);
     }
 
     #[test]
