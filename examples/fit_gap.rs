@@ -30,7 +30,13 @@ fn main() {
         .unwrap()
         .to_string_lossy()
         .to_string();
-    let cache = format!("/tmp/fitgap_{label}_{views_n}_{stride}_{key}.json");
+    // FIT_CLIP=N: the character's N-th clip instead of its first.
+    let clip: usize = std::env::var("FIT_CLIP").ok().and_then(|s| s.parse().ok()).unwrap_or(0);
+    let cache = if clip == 0 {
+        format!("/tmp/fitgap_{label}_{views_n}_{stride}_{key}.json")
+    } else {
+        format!("/tmp/fitgap_{label}_clip{clip}_{views_n}_{stride}_{key}.json")
+    };
     let mut exact: BTreeMap<String, Vec<f64>> = std::fs::read_to_string(&cache)
         .ok()
         .and_then(|s| serde_json::from_str(&s).ok())
@@ -39,8 +45,8 @@ fn main() {
     let seg = auto_segment(&c);
     let caps = find_caps(&c, &seg);
     let (merged, ranges) = merge_parts(&c, &seg, &caps, &CapOverrides::default());
-    let times = frame_times(c.clips[0].duration_secs, 10.0);
-    let (poses, points) = sample_frames(&merged, Some(0), &times);
+    let times = frame_times(c.clips[clip].duration_secs, 10.0);
+    let (poses, points) = sample_frames(&merged, Some(clip), &times);
     let dirs = directions(views_n, Coverage::UpperHemisphere);
     let cameras = view_cameras(&points, &dirs);
     let renderer = CharacterRenderer::new(&ctx.device);
@@ -138,6 +144,9 @@ fn main() {
     knob("FIT_RHINT", &mut options.refine_hint);
     if let Some(t) = std::env::var("FIT_TRUST").ok().and_then(|s| s.parse().ok()) {
         options.restart_trust = t;
+    }
+    if let Some(t) = std::env::var("FIT_STILL").ok().and_then(|s| s.parse().ok()) {
+        options.near_still_px2 = t;
     }
     options.finish_exact = std::env::var("FIT_EXACT").is_ok();
     if let Some(t) = std::env::var("FIT_BOUND").ok().and_then(|s| s.parse().ok()) {
