@@ -521,6 +521,7 @@ pub fn fit_frame_stuck(
         }
     }
     EVALUATIONS.fetch_add(evaluated.get(), std::sync::atomic::Ordering::Relaxed);
+    THREAD_EVALUATIONS.with(|n| n.set(n.get() + evaluated.get()));
     crate::bake::profile::count(TRIANGLE_COSTS_COUNT, evaluated.get());
     LOOKUPS.fetch_add(looked.get(), std::sync::atomic::Ordering::Relaxed);
     for (a, c) in PHASES.iter().zip(&by_phase) {
@@ -671,6 +672,16 @@ pub fn evaluations_by_phase() -> [u64; 4] {
 /// counted): the fitting's unit of work, steadier than timings on a shared machine.
 pub fn evaluations() -> u64 {
     EVALUATIONS.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+thread_local! {
+    static THREAD_EVALUATIONS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+/// [`evaluations`] made on this thread (a fit runs on the thread that asks for it), so a
+/// caller can measure one fit's work while other threads fit too.
+pub fn evaluations_on_this_thread() -> u64 {
+    THREAD_EVALUATIONS.with(|n| n.get())
 }
 
 /// Pinned correspondences `(S vertex, T vertex)` leave that vertex one candidate; pins out of
@@ -1288,11 +1299,18 @@ mod tests {
 
     /// A textured ellipse that moves and stretches over frames.
     fn tiles(frames: usize) -> Vec<PartTile> {
+        moving_tiles(frames, 1.0)
+    }
+
+    /// [`tiles`] moving `step` times as fast: 2 `step` pixels a frame to the right, growing
+    /// `step` pixels a frame wide and shrinking half that high.
+    fn moving_tiles(frames: usize, step: f32) -> Vec<PartTile> {
         (0..frames)
             .map(|f| {
                 let size = 64u32;
-                let (cx, cy) = (28.0 + f as f32 * 2.0, 32.0);
-                let (rx, ry) = (14.0 + f as f32, 20.0 - f as f32 * 0.5);
+                let f = f as f32 * step;
+                let (cx, cy) = (28.0 + f * 2.0, 32.0);
+                let (rx, ry) = (14.0 + f, 20.0 - f * 0.5);
                 let px = (0..size * size)
                     .map(|i| {
                         let (x, y) = ((i % size) as f32 + 0.5, (i / size) as f32 + 0.5);
@@ -1409,6 +1427,38 @@ mod tests {
             fast.total_cost(),
             exact.total_cost()
         );
+    }
+
+    /// Frames where a part barely moves are fitted with narrower windows: less work for
+    /// nearly the same answer; a part that moves far is fitted as before.
+    #[test]
+    fn near_still_frames_cost_less_work_for_nearly_the_same_fit() {
+        let fit = |tiles: &[PartTile], options: &PartFitOptions| {
+            let before = evaluations_on_this_thread();
+            let total = fit_part(tiles, 0, options, &[]).unwrap().total_cost();
+            (total, evaluations_on_this_thread() - before)
+        };
+        let off = PartFitOptions {
+            near_still_px2: 0.0,
+            ..Default::default()
+        };
+        let on = PartFitOptions::default();
+        assert!(on.near_still_px2 > 0.0, "narrowing is on by default");
+        // A third of a pixel a frame: every frame is near its neighbour.
+        let slow = moving_tiles(8, 0.15);
+        let (full_cost, full_work) = fit(&slow, &off);
+        let (narrow_cost, narrow_work) = fit(&slow, &on);
+        assert!(
+            (narrow_work as f64) < 0.85 * full_work as f64,
+            "narrow windows evaluated {narrow_work} triangle costs, full ones {full_work}"
+        );
+        assert!(
+            narrow_cost <= 1.01 * full_cost + 1e-6,
+            "narrow windows cost {narrow_cost}, full ones {full_cost}"
+        );
+        // Four pixels a frame is never near: the same fit and the same work either way.
+        let fast = moving_tiles(4, 2.0);
+        assert_eq!(fit(&fast, &off), fit(&fast, &on));
     }
 
     #[test]

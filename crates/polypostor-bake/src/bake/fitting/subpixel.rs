@@ -482,15 +482,8 @@ impl<'a> Drawing<'a> {
         let stamp = self.stamp;
         let size = self.truth.size as i64;
         let mut delta = 0.0;
-        let Self {
-            cur,
-            truth,
-            image,
-            err,
-            empty,
-            mark,
-            ..
-        } = self;
+        let (cur, truth, image) = (&mut self.cur, self.truth, self.image);
+        let (err, empty, mark) = (&mut self.err, &self.empty, &mut self.mark);
         for t in new {
             t.each_pixel_near(clip(t, r), size, |at, px, py| {
                 if mark[at] == stamp {
