@@ -537,6 +537,12 @@ fn clip_range(part: &PartKeys<'_>, clip: Option<usize>, frames: usize) -> std::o
     }
 }
 
+/// Least cut of a part's squared colour error (summed over its pixels and frames, channels
+/// 0–1) an added key must buy besides [`KeyOptions::min_gain_db`]: a pixel's worth. A ratio
+/// alone lets a key in for cutting an error that is already next to nothing (a part its first
+/// key draws all but perfectly: a few hundredths cut by half is 3 dB).
+const MIN_KEY_GAIN: f64 = 1.0;
+
 /// Part `part`'s next key for clip `clip` (`None`: all frames) to try, or `None` when it is
 /// done (its keys at `max_keys`, no key could buy `threshold` on the clip, or the key's image
 /// would be past the `budget` left).
@@ -565,7 +571,7 @@ fn propose(
     let floor = part.primary_sse[part.primary.key_frame];
     let now: f64 = cur[range.clone()].iter().sum();
     let best_case: f64 = range.clone().map(|f| cur[f].min(floor * w[f])).sum();
-    if !(now > 0.0) || now <= best_case * threshold {
+    if !(now > 0.0) || now <= best_case * threshold || now - best_case < MIN_KEY_GAIN {
         return None;
     }
     let frame = range
@@ -612,7 +618,7 @@ fn evaluate(
     let range = clip_range(part, x.clip, frames);
     let before_clip: f64 = weighted(&part.extra)[range.clone()].iter().sum();
     let after_clip: f64 = after_frames[range].iter().sum();
-    if !(before_clip > 0.0) || before_clip < after_clip * threshold {
+    if !(before_clip > 0.0) || before_clip < after_clip * threshold || before_clip - after_clip < MIN_KEY_GAIN {
         return None;
     }
     let key = extra.pop().expect("just pushed");
