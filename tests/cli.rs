@@ -56,7 +56,7 @@ fn inspect_exits_1_with_a_message_on_every_bad_file() {
         std::fs::write(path, bytes).unwrap();
     }
     let missing = dir.join("does-not-exist.glb");
-    for path in cases.iter().map(|c| c.0.clone()).chain([missing, dir.clone()]) {
+    for path in cases.iter().map(|c| c.0.clone()).chain([missing, dir.to_path_buf()]) {
         for json in [false, true] {
             let mut args = vec!["inspect", path.to_str().unwrap()];
             if json {

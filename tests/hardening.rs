@@ -47,7 +47,7 @@ fn default_glb() -> PathBuf {
 fn small_bake() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
-        let dir = common::temp_dir("hardening-bake");
+        let dir = common::temp_dir("hardening-bake").keep();
         let out = dir.join("small.pack");
         let o = run_in(
             &dir,
@@ -799,7 +799,7 @@ fn an_interrupted_benchmark_leaves_nothing_behind() {
     std::fs::write(tmp.join("polypostor-bench-999999999/big.bin"), [0u8; 4096]).unwrap();
     let child = bin()
         .current_dir(&tmp)
-        .env("TMPDIR", &tmp)
+        .env("TMPDIR", &*tmp)
         .args(["bench", "crowd", "--counts", "10", "--out", "bench"])
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::piped())

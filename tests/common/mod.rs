@@ -34,12 +34,51 @@ pub fn real_characters() -> Vec<PathBuf> {
     v
 }
 
-/// A fresh temporary folder for one test.
-pub fn temp_dir(name: &str) -> PathBuf {
+/// A fresh temporary folder for one test, removed when the test ends well (kept, and its path
+/// printed, when the test fails, to look at what it left).
+pub fn temp_dir(name: &str) -> TempDir {
     let dir = std::env::temp_dir().join(format!("polypostor-test-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    dir
+    TempDir(dir)
+}
+
+/// See [`temp_dir`]: a folder path that removes its folder when dropped, unless the thread is
+/// panicking (a failing test keeps its files).
+pub struct TempDir(PathBuf);
+
+impl TempDir {
+    /// The path, and the folder kept after the test (for a bake shared by a whole test run
+    /// through a `static`, which is never dropped anyway).
+    #[allow(dead_code)]
+    pub fn keep(self) -> PathBuf {
+        let path = self.0.clone();
+        std::mem::forget(self);
+        path
+    }
+}
+
+impl std::ops::Deref for TempDir {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for TempDir {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            eprintln!("kept {} (the test failed)", self.0.display());
+        } else {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
 }
 
 /// Copies a folder's plain files into `to` (made anew).
