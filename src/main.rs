@@ -620,6 +620,11 @@ struct BakeArgs {
     /// worst views first (0 to 1; 0: each view spends only its own; default 0.1).
     #[arg(long)]
     key_share: Option<f64>,
+    /// A view may also spend on added key images whatever keeps it this many times smaller
+    /// than classic impostors of one clip, up to as many bytes as its first key images (long
+    /// clips, whose packs are small beside impostors, get more keys; 0: off; default 35).
+    #[arg(long)]
+    key_ratio: Option<f64>,
     /// Views on the whole sphere instead of the upper hemisphere.
     #[arg(long)]
     full_sphere: bool,
@@ -663,6 +668,9 @@ impl BakeArgs {
         }
         if let Some(s) = self.key_share {
             settings.key_share = s;
+        }
+        if let Some(r) = self.key_ratio {
+            settings.key_ratio = r;
         }
         if let Some(n) = self.polygon_vertices {
             settings.polygon_vertices = n;

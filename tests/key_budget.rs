@@ -6,6 +6,7 @@
 mod common;
 
 use polypostor::bake::caps::CapOverrides;
+use polypostor::bake::keys::ViewBytes;
 use polypostor::bake::pipeline::{BakeOptions, KeyFrame, Prepared, refit_view, view_key_bytes};
 use polypostor::bake::segment::auto_segment;
 
@@ -23,6 +24,20 @@ fn unspent_key_budget_goes_to_the_worst_views_and_refits_reproduce_it() {
     assert!(options.keys.max_keys > 1 && base > 0.0, "keys on by default");
     let (c, bake) = common::bake_default(&ctx, &options);
     let mean = |p: &[f64]| p.iter().sum::<f64>() / p.len() as f64;
+    // The ratio rule leaves a 10-frame clip's views at the settings' budget (their packs are
+    // already under 35× below impostors), so the bounds below are the settings'.
+    for (v, view) in bake.views.iter().enumerate() {
+        let parts = view.parts.iter().filter(|p| p.fit.is_some()).count();
+        let bytes = ViewBytes::new(
+            view_key_bytes(view).0,
+            parts,
+            bake.frame_times.len(),
+            1,
+            options.resolution,
+            options.fit.final_vertices,
+        );
+        assert_eq!(options.keys.view_budget(bytes), base, "view {v}");
+    }
 
     // Never more than the per-view budgets in all.
     let (first, extra): (f64, f64) = bake
@@ -77,4 +92,63 @@ fn unspent_key_budget_goes_to_the_worst_views_and_refits_reproduce_it() {
         .min_by(|&a, &b| own_means[a].total_cmp(&own_means[b]))
         .unwrap();
     assert_eq!(granted[0], worst, "means by own budget: {own_means:?}");
+}
+
+/// The ratio rule (`KeyOptions::ratio`): a view whose pack has room below the ratio to one
+/// clip's impostors spends more than the settings' budget, never more than its own
+/// (`KeyOptions::view_budget`), and fitting it again from scratch (the inspector, a re-bake)
+/// computes the same budget and chooses the same keys.
+#[test]
+fn the_key_ratio_gives_views_with_room_more_and_refits_reproduce_it() {
+    let ctx = common::gpu();
+    // A ratio low enough that the default's 10-frame views have room (35 gives them none);
+    // no sharing, so each view spends only its own.
+    let keys = polypostor::bake::keys::KeyOptions {
+        ratio: 8.0,
+        share: 0.0,
+        ..Default::default()
+    };
+    let options = BakeOptions {
+        views: 6,
+        resolution: 64,
+        fps: 10.0,
+        key_frame: KeyFrame::Frame(0),
+        keys,
+        ..Default::default()
+    };
+    let (c, bake) = common::bake_default(&ctx, &options);
+    let seg = auto_segment(&c);
+    let prepared = Prepared::new(&ctx, &c, &seg, &CapOverrides::default(), &options).unwrap();
+    let mut raised = 0;
+    let mut past_base = 0;
+    for (v, view) in bake.views.iter().enumerate() {
+        assert_eq!(view.key_budget, None, "view {v}: nothing shared");
+        let (first, extra) = view_key_bytes(view);
+        let parts = view.parts.iter().filter(|p| p.fit.is_some()).count();
+        let bytes = ViewBytes::new(
+            first,
+            parts,
+            bake.frame_times.len(),
+            1,
+            options.resolution,
+            options.fit.final_vertices,
+        );
+        let budget = keys.view_budget(bytes);
+        assert!(budget >= keys.budget, "view {v}: {budget}");
+        raised += (budget > keys.budget) as usize;
+        assert!(
+            extra <= budget * first * (1.0 + 1e-9),
+            "view {v}: added {extra} B, allowed {} B",
+            budget * first
+        );
+        past_base += (extra > keys.budget * first) as usize;
+        let data = prepared.render(&ctx, v).unwrap();
+        let fit = refit_view(&data, bake.key_frame, &options.fit, &keys, None, None);
+        assert_eq!(fit.error.psnr, view.psnr, "view {v}: a refit differs from the bake");
+        for (a, b) in fit.parts.iter().zip(&view.parts) {
+            assert_eq!(a.key_frames(), b.key_frames(), "view {v}");
+        }
+    }
+    assert!(raised > 0, "no view had room: the test tests nothing");
+    assert!(past_base > 0, "no view spent past the settings' budget");
 }

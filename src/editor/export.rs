@@ -210,6 +210,13 @@ impl ExportDialog {
                 texture_bytes,
             )
             .with_polygon_vertices(self.polygon_vertices, self.views, frames, doc.segmentation.parts.len())
+            .with_keys(
+                &doc.project.bake.options().keys,
+                self.views,
+                frames,
+                chosen.len(),
+                self.resolution,
+            )
             .with_textures(self.textures);
             let how = match self.textures {
                 TextureEncoding::Bc7 => "textures as BC7 blocks",

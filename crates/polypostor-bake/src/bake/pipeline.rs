@@ -13,7 +13,7 @@ use rayon::prelude::*;
 
 use super::caps::{CapOverrides, find_caps};
 use super::image_cost::PartTile;
-use super::keys::{self, ExtraKey, KeyOptions};
+use super::keys::{self, ExtraKey, KeyOptions, ViewBytes};
 use super::overrides::{BakeOverrides, OverrideBasis, ViewOverride, valid_order};
 use super::part_fit::{PartFit, PartFitOptions, fit_part};
 use super::raster::{Canvas, psnr, tile_canvas};
@@ -1182,13 +1182,30 @@ pub fn share_key_budget(
     cancel: &AtomicBool,
 ) -> Result<(), BakeError> {
     let k = options.keys;
-    if k.max_keys < 2 || !(k.budget > 0.0) || !(k.share > 0.0) || views.len() < 2 {
+    if k.max_keys < 2 || !(k.budget > 0.0 || k.ratio > 0.0) || !(k.share > 0.0) || views.len() < 2 {
         return Ok(());
     }
     let bytes: Vec<(f64, f64)> = views.iter().map(view_key_bytes).collect();
+    // Each view's own budget (a fraction of its first keys' bytes), as it chose its keys.
+    let own: Vec<f64> = views
+        .iter()
+        .zip(&bytes)
+        .map(|(view, &(first, _))| {
+            let parts = view.parts.iter().filter(|p| p.fit.is_some()).count();
+            k.view_budget(ViewBytes::new(
+                first,
+                parts,
+                prepared.times.len(),
+                prepared.timeline.spans.len(),
+                options.resolution,
+                options.fit.final_vertices,
+            ))
+        })
+        .collect();
     let mut pool: f64 = bytes
         .iter()
-        .map(|(first, extra)| (k.budget * first - extra).max(0.0))
+        .zip(&own)
+        .map(|((first, extra), budget)| (budget * first - extra).max(0.0))
         .sum();
     let manual = |v: usize| {
         options
@@ -1202,12 +1219,12 @@ pub fn share_key_budget(
     let most = (views.len() as f64 * k.share.min(1.0)).ceil() as usize;
     let mut grants = Vec::new();
     for &v in worst.iter().take(most) {
-        let grant = pool.min(k.budget * bytes[v].0);
-        if grant < 0.05 * k.budget * bytes[v].0 {
+        let grant = pool.min(own[v] * bytes[v].0);
+        if grant < 0.05 * own[v] * bytes[v].0 {
             break;
         }
         pool -= grant;
-        grants.push((v, k.budget + grant / bytes[v].0));
+        grants.push((v, own[v] + grant / bytes[v].0));
     }
     // Renders on this thread (one GPU context), choices on the pool.
     let mut work = Vec::with_capacity(grants.len());

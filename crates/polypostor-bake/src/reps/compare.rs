@@ -434,6 +434,24 @@ mod tests {
             g20 < g40 && g20 * 2 > g40 * 9 / 10 && g20 * 2 < g40 * 11 / 10,
             "{g20} vs {g40}"
         );
+        // The key ratio: a 10-frame clip keeps the default budget's atlas; the same views on
+        // a long clip grow towards the ratio (at most twice the first keys), never past it.
+        let keys = crate::bake::keys::KeyOptions::default();
+        let short = estimate(137, 128, 10, 12, 5000, 0);
+        assert_eq!(short.with_keys(&keys, 137, 10, 1, 128), short);
+        let off = crate::bake::keys::KeyOptions { ratio: 0.0, ..keys };
+        assert_eq!(e.with_keys(&off, 137, 57, 1, 128), e);
+        let long = e.with_keys(&keys, 137, 57, 1, 128);
+        assert!(long.polypostor_atlas > e.polypostor_atlas);
+        assert!(long.polypostor_atlas <= (e.polypostor_atlas as f64 * 2.0 / 1.25) as u64 + 1);
+        assert!(long.impostor as f64 / long.polypostor as f64 >= keys.ratio * 0.999);
+        assert_eq!(
+            long.polypostor - long.polypostor_atlas,
+            e.polypostor - e.polypostor_atlas
+        );
+        // Four clips of the same 57 frames weigh one clip's impostor: less room.
+        let four = e.with_keys(&keys, 137, 57, 4, 128);
+        assert!(four.polypostor_atlas < long.polypostor_atlas);
         // Either order with the textures gives the same.
         let bc = crate::bake::pipeline::TextureEncoding::Bc7;
         assert_eq!(
@@ -466,7 +484,50 @@ impl Estimate {
     /// bake's `views`, `frames` and `parts`, as given to [`estimate`]).
     pub fn with_polygon_vertices(self, vertices: usize, views: usize, frames: usize, parts: usize) -> Self {
         Self {
-            polypostor: self.polypostor_atlas + polygon_geometry(views, frames, parts, vertices),
+            polypostor: self.polypostor_atlas + crate::pack::polygon_bytes_estimate(views, frames, parts, vertices),
+            ..self
+        }
+    }
+
+    /// The same bake with the key images that [`KeyOptions::ratio`] lets each view add on
+    /// long clips (`frames` in `clips` clips, `parts` parts a view): where a view has room
+    /// below `keys.ratio` times one clip's impostor, its atlas grows into it
+    /// ([`KeyOptions::view_budget`]), as the packs of CesiumMan and RobotExpressive do; a view
+    /// may stop short of it where added keys buy less than `keys.min_gain_db` (RiggedSimple's
+    /// single part spent a fifth of its room), so on long clips this is the most the pack
+    /// takes. Apply after [`Estimate::with_polygon_vertices`], before
+    /// [`Estimate::with_textures`].
+    ///
+    /// [`KeyOptions::ratio`]: crate::bake::keys::KeyOptions::ratio
+    /// [`KeyOptions::view_budget`]: crate::bake::keys::KeyOptions::view_budget
+    pub fn with_keys(
+        self,
+        keys: &crate::bake::keys::KeyOptions,
+        views: usize,
+        frames: usize,
+        clips: usize,
+        resolution: u32,
+    ) -> Self {
+        use crate::bake::keys::{ATLAS_PACKING, KeyOptions, ViewBytes};
+        let n = views.max(1) as f64;
+        let atlas = self.polypostor_atlas as f64 / n;
+        let geometry = (self.polypostor - self.polypostor_atlas) as f64 / n;
+        // The densities hold the default budget's added keys.
+        let first = atlas / ((1.0 + KeyOptions::default().budget) * ATLAS_PACKING);
+        let r = resolution as f64;
+        let view = ViewBytes {
+            first,
+            geometry,
+            impostor_clip: frames.max(1) as f64 / clips.max(1) as f64 * r * r * 8.0,
+        };
+        let budget = keys.view_budget(view);
+        let grown = (first * (1.0 + budget) * ATLAS_PACKING * n) as u64;
+        if grown <= self.polypostor_atlas {
+            return self;
+        }
+        Self {
+            polypostor: self.polypostor - self.polypostor_atlas + grown,
+            polypostor_atlas: grown,
             ..self
         }
     }
@@ -494,15 +555,6 @@ impl Estimate {
     }
 }
 
-/// Bytes of the Polypostor's polygons: per view, part and frame the polygon's positions (2
-/// bytes each: `quant`), about 10 % more for the extra keys' polygons (they hold only the
-/// frames they draw); per view and part the UVs, the position box, the triangles and the
-/// coarse level's (about half as many).
-fn polygon_geometry(views: usize, frames: usize, parts: usize, vertices: usize) -> u64 {
-    let (v, f, p, nv) = (views as u64, frames.max(1) as u64, parts as u64, vertices.max(3) as u64);
-    v * p * f * nv * 2 * 11 / 10 + v * p * ((nv - 2) * 3 * 2 * 3 / 2 + nv * 4 + 8)
-}
-
 /// See [`Estimate`]. `texture_bytes`: the character's own textures, uncompressed.
 pub fn estimate(
     views: usize,
@@ -528,7 +580,8 @@ pub fn estimate(
     let r = resolution as u64;
     let atlas = v * (r2 * 42 / 100 + 18 * r) * 5;
     let texture_bytes = texture_bytes * 4 / 3;
-    let poly_geometry = polygon_geometry(views, frames, parts, crate::bake::part_fit::DEFAULT_POLYGON_VERTICES);
+    let poly_geometry =
+        crate::pack::polygon_bytes_estimate(views, frames, parts, crate::bake::part_fit::DEFAULT_POLYGON_VERTICES);
     Estimate {
         polypostor: atlas + poly_geometry,
         polypostor_atlas: atlas,

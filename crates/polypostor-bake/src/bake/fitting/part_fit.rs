@@ -275,6 +275,11 @@ pub struct Seed {
     pub stuck: bool,
 }
 
+/// The cheapest fit cost among the seeds' neighbouring frames, where any is known.
+fn best_seed_cost(seeds: &[Seed]) -> Option<f64> {
+    seeds.iter().filter_map(|s| s.cost).reduce(f64::min)
+}
+
 /// Fits S onto one target. The fast mode starts from each seed (at least one) and keeps the
 /// best; the exhaustive mode ignores them.
 pub fn fit_frame(
@@ -462,7 +467,7 @@ pub fn fit_frame_stuck(
     // better mapping slides whole runs of vertices along the contour). Solve exactly over
     // every `restart_step`-th target vertex (global, ~1/8 of the exact DP's work at step 2),
     // then search locally from there; keep whichever is cheaper.
-    let neighbour = seeds.iter().filter_map(|s| s.cost).reduce(f64::min);
+    let neighbour = best_seed_cost(seeds);
     let mut stuck = false;
     let over = best.cost > options.restart_threshold * samples.area();
     let trusted = options.restart_trust > 0.0
@@ -994,6 +999,14 @@ pub fn fit_part_span(
     let stuck = std::cell::RefCell::new(vec![false; frames]);
     // Distance walked each way; `None` once that way has stopped.
     let (mut forward, mut backward) = (Some(0usize), Some(0usize));
+    // The windows for a frame near still (see `fit_one`).
+    let narrowed = PartFitOptions {
+        window: options.window.min(NEAR_STILL_WINDOW),
+        hint_radius: options.hint_radius.min(NEAR_STILL_HINT),
+        refine_window: options.refine_window.min(NEAR_STILL_WINDOW),
+        refine_hint: options.refine_hint.min(NEAR_STILL_HINT),
+        ..*options
+    };
     let fit_one = |f: usize,
                    fitted: &mut Vec<bool>,
                    mappings: &mut Vec<Vec<usize>>,
@@ -1062,21 +1075,10 @@ pub fn fit_part_span(
             });
         }
         // A part that barely moved since a fitted neighbour: its answer lies near the
-        // neighbour's, so narrower windows find it for a fraction of the work.
-        let narrowed = PartFitOptions {
-            window: options.window.min(NEAR_STILL_WINDOW),
-            hint_radius: options.hint_radius.min(NEAR_STILL_HINT),
-            refine_window: options.refine_window.min(NEAR_STILL_WINDOW),
-            refine_hint: options.refine_hint.min(NEAR_STILL_HINT),
-            ..*options
-        };
+        // neighbour's, so narrower windows (`narrowed`) find it for a fraction of the work.
         // Only where the neighbour's fit is good (below the restart threshold): on a poorly
         // fitted part the wide windows are what finds the way out.
-        let good = seeds
-            .iter()
-            .filter_map(|s| s.cost)
-            .reduce(f64::min)
-            .is_some_and(|c| c <= options.restart_threshold * samples.area());
+        let good = best_seed_cost(&seeds).is_some_and(|c| c <= options.restart_threshold * samples.area());
         let still = near <= options.near_still_px2 && good;
         if still {
             crate::bake::profile::tally("frames near still");

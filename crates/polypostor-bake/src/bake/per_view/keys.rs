@@ -37,6 +37,51 @@ pub struct KeyOptions {
     /// (worst first; `pipeline::share_key_budget`). 0: each view spends only its own.
     /// Default value: 0.1.
     pub share: f64,
+    /// A view may also spend on added key images whatever keeps it this many times smaller
+    /// than classic impostors of one clip of the pack (its frames over its clips), up to
+    /// [`RATIO_BUDGET_CAP`] of its first key images' bytes ([`KeyOptions::view_budget`]):
+    /// characters with long clips, whose packs are small beside impostors, get more keys;
+    /// short clips and whole-character packs keep [`KeyOptions::budget`]. 0: off.
+    /// Default value: [`DEFAULT_KEY_RATIO`].
+    pub ratio: f64,
+}
+
+/// See [`KeyOptions::ratio`]: 35× (the default character's Walk, 10 frames, stays at its
+/// budget, 23× below impostors; a 20-frame clip's view may spend up to about the room to
+/// 35×; the four-clip default pack, 14 frames a clip on average, stays at its budget).
+pub const DEFAULT_KEY_RATIO: f64 = 35.0;
+
+/// Most the ratio rule ([`KeyOptions::ratio`]) raises a view's key budget to: added key
+/// images at most as many bytes as its first ones.
+pub const RATIO_BUDGET_CAP: f64 = 1.0;
+
+/// Atlas texels per texel of the key images' crops ([`key_bytes`]): the skyline packing's gaps
+/// and the pages' whole blocks (measured on CesiumMan's 137-view packs: 1.11–1.13).
+pub const ATLAS_PACKING: f64 = 1.12;
+
+/// What a view's key budget is weighed against ([`KeyOptions::view_budget`]), in bytes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewBytes {
+    /// The view's first key images ([`key_bytes`] summed over its parts).
+    pub first: f64,
+    /// Its polygons' estimated bytes ([`crate::pack::polygon_bytes_estimate`]).
+    pub geometry: f64,
+    /// One clip's classic impostor of the view: a colour and a normal image per frame
+    /// (the pack's frames over its clips).
+    pub impostor_clip: f64,
+}
+
+impl ViewBytes {
+    /// A view of `parts` parts with `first` bytes of first key images, `frames` frames in
+    /// `clips` clips (at least one), `resolution`² images, polygons of `vertices` vertices.
+    pub fn new(first: f64, parts: usize, frames: usize, clips: usize, resolution: u32, vertices: usize) -> Self {
+        let r = resolution as f64;
+        Self {
+            first,
+            geometry: crate::pack::polygon_bytes_estimate(1, frames, parts, vertices) as f64,
+            impostor_clip: frames as f64 / clips.max(1) as f64 * r * r * 8.0,
+        }
+    }
 }
 
 impl Default for KeyOptions {
@@ -46,6 +91,7 @@ impl Default for KeyOptions {
             min_gain_db: 0.5,
             budget: 0.25,
             share: 0.1,
+            ratio: DEFAULT_KEY_RATIO,
         }
     }
 }
@@ -57,7 +103,22 @@ impl KeyOptions {
         min_gain_db: 0.5,
         budget: 0.0,
         share: 0.0,
+        ratio: 0.0,
     };
+
+    /// The bytes of added key images a view may spend, as a fraction of its first key
+    /// images': [`KeyOptions::budget`], or more where the view stays [`KeyOptions::ratio`]
+    /// times smaller than one clip's impostor of it (its key images in the atlas,
+    /// [`ATLAS_PACKING`], and its polygons: `(first + added) · packing + geometry`), up to
+    /// [`RATIO_BUDGET_CAP`].
+    pub fn view_budget(&self, view: ViewBytes) -> f64 {
+        let mut budget = self.budget.max(0.0);
+        if self.ratio > 0.0 && view.first > 0.0 {
+            let keys = (view.impostor_clip / self.ratio - view.geometry) / ATLAS_PACKING;
+            budget = budget.max((keys / view.first - 1.0).min(RATIO_BUDGET_CAP));
+        }
+        budget
+    }
 }
 
 /// A part's key image after the first, and its fit.
@@ -403,10 +464,22 @@ pub fn choose(
         return;
     }
     let max_keys = keys.max_keys.clamp(1, MAX_KEYS);
-    if max_keys < 2 || keys.budget <= 0.0 {
+    let first: f64 = parts.iter().flatten().map(|p| key_bytes(p.primary)).sum();
+    let view = {
+        let some = parts.iter().flatten();
+        let clips = some.clone().map(|p| p.clips.len()).next().unwrap_or(1);
+        let resolution = some
+            .clone()
+            .flat_map(|p| p.tiles.first())
+            .map(|t| t.size)
+            .next()
+            .unwrap_or(0);
+        ViewBytes::new(first, some.count(), frames, clips, resolution, options.final_vertices)
+    };
+    let mut budget = keys.view_budget(view) * first;
+    if max_keys < 2 || budget <= 0.0 {
         return;
     }
-    let mut budget: f64 = keys.budget * parts.iter().flatten().map(|p| key_bytes(p.primary)).sum::<f64>();
     // One proposal slot per part and clip (slot `s`: part `s / nc`, clip `s % nc`), so every
     // clip of a whole-character pack gets its worst frame tried, not only the worst clip.
     let nc = parts.iter().flatten().map(|p| p.clips.len()).next().unwrap_or(1).max(1);
@@ -805,6 +878,52 @@ mod tests {
         choose(&mut parts, &options, keys, manual, &blank);
         let extra = parts.pop().unwrap().unwrap().extra;
         (primary_sse, extra)
+    }
+
+    #[test]
+    fn the_ratio_rule_spends_the_room_below_one_clips_impostors() {
+        let k = KeyOptions::default();
+        let r = 128;
+        let total = |v: ViewBytes, b: f64| v.first * (1.0 + b) * ATLAS_PACKING + v.geometry;
+        // A 10-frame clip (the default's Walk: first keys about 0.34 r² texels of 5 bytes, 12
+        // parts): no room below 35×, the settings' budget.
+        let walk = ViewBytes::new(0.34 * 128.0 * 128.0 * 5.0, 12, 10, 1, r, 40);
+        assert!(walk.impostor_clip / total(walk, k.budget) < k.ratio);
+        assert_eq!(k.view_budget(walk), k.budget);
+        // Off, or no first keys: the settings' budget whatever the clip.
+        let long = ViewBytes::new(20_000.0, 12, 200, 1, r, 40);
+        assert_eq!(KeyOptions { ratio: 0.0, ..k }.view_budget(long), k.budget);
+        assert_eq!(k.view_budget(ViewBytes { first: 0.0, ..long }), k.budget);
+        let mut last = 0.0;
+        for frames in [10, 14, 20, 27, 34, 57, 100, 400] {
+            let v = ViewBytes::new(20_000.0, 8, frames, 1, r, 40);
+            let b = k.view_budget(v);
+            assert!(b >= k.budget && b <= RATIO_BUDGET_CAP, "{frames} frames: {b}");
+            assert!(b >= last, "longer clips never get less: {frames} frames {b} < {last}");
+            last = b;
+            // Between the settings' budget and the cap the view lands on the ratio exactly;
+            // else the largest budget under it (a grid search) is below the settings' or
+            // above the cap.
+            if b > k.budget && b < RATIO_BUDGET_CAP {
+                let ratio = v.impostor_clip / total(v, b);
+                assert!((ratio - k.ratio).abs() < 1e-9 * k.ratio, "{frames} frames: {ratio}×");
+            } else {
+                let best = (0..=4000)
+                    .map(|i| i as f64 / 1000.0)
+                    .filter(|&x| v.impostor_clip / total(v, x) >= k.ratio)
+                    .fold(-1.0, f64::max);
+                assert!(
+                    best < k.budget + 1e-3 || best > RATIO_BUDGET_CAP - 1e-3,
+                    "{frames}: {best}"
+                );
+            }
+        }
+        assert_eq!(last, RATIO_BUDGET_CAP, "a 400-frame clip reaches the cap");
+        // A whole-character pack weighs one clip's impostor: 57 frames in four clips count
+        // as one clip of 14.25 frames, not 57.
+        let four = ViewBytes::new(20_000.0, 8, 57, 4, r, 40);
+        assert_eq!(four.impostor_clip, 14.25 * 128.0 * 128.0 * 8.0);
+        assert!(k.view_budget(four) < k.view_budget(ViewBytes::new(20_000.0, 8, 57, 1, r, 40)));
     }
 
     #[test]

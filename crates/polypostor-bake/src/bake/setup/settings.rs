@@ -37,6 +37,9 @@ pub struct BakeSettings {
     pub key_budget: f64,
     /// Most views, as a share of all, that the key budget other views left unspent goes to.
     pub key_share: f64,
+    /// A view may spend on added key images whatever keeps it this many times smaller than
+    /// classic impostors of one clip (up to as many bytes as its first key images); 0: off.
+    pub key_ratio: f64,
     /// The exact dynamic programme instead of the fast mode.
     pub exhaustive: bool,
     /// Let fitted triangles fold over.
@@ -67,6 +70,7 @@ impl Default for BakeSettings {
             key_gain_db: keys.min_gain_db,
             key_budget: keys.budget,
             key_share: keys.share,
+            key_ratio: keys.ratio,
             exhaustive: false,
             allow_folds: false,
             paper_objective: false,
@@ -128,6 +132,9 @@ impl BakeSettings {
         if !(self.key_share.is_finite() && (0.0..=1.0).contains(&self.key_share)) {
             return bad("key-share", format!("{}: choose 0 to 1", self.key_share));
         }
+        if !(self.key_ratio.is_finite() && (self.key_ratio == 0.0 || (1.0..=10_000.0).contains(&self.key_ratio))) {
+            return bad("key-ratio", format!("{}: choose 0 (off) or 1 to 10000", self.key_ratio));
+        }
         if let Err(e) = polypostor_runtime::reps::RepSet::parse(&self.representations) {
             return bad("representation", format!("'{}': {e}", self.representations));
         }
@@ -180,6 +187,7 @@ impl BakeSettings {
                 min_gain_db: self.key_gain_db,
                 budget: self.key_budget,
                 share: self.key_share,
+                ratio: self.key_ratio,
             },
             textures: self.textures,
             png: self.png,
@@ -234,6 +242,14 @@ mod tests {
                 "key-budget",
             ),
             (BakeSettings { key_share: 1.5, ..d() }, "key-share"),
+            (BakeSettings { key_ratio: 0.5, ..d() }, "key-ratio"),
+            (
+                BakeSettings {
+                    key_ratio: f64::NAN,
+                    ..d()
+                },
+                "key-ratio",
+            ),
             (
                 BakeSettings {
                     polygon_vertices: 2,
