@@ -211,6 +211,8 @@ fn documented_settings_bake_or_are_refused_up_front() {
     refused(&run_in(&dir, &["bake", glb, "--resolution", "4096"]), "2048");
     refused(&run_in(&dir, &["bake", glb, "--fps", "1e-45"]), "--fps");
     refused(&run_in(&dir, &["bake", glb, "--fps", "241"]), "--fps");
+    refused(&run_in(&dir, &["bake", glb, "--key-ratio", "0.5"]), "--key-ratio");
+    refused(&run_in(&dir, &["bake", glb, "--key-ratio", "NaN"]), "--key-ratio");
     // Within the documented ranges but beyond this machine: refused before any rendering,
     // with the limit named.
     refused(&run_in(&dir, &["bake", glb, "--resolution", "2048"]), "memory");
