@@ -484,7 +484,8 @@ impl Estimate {
     /// bake's `views`, `frames` and `parts`, as given to [`estimate`]).
     pub fn with_polygon_vertices(self, vertices: usize, views: usize, frames: usize, parts: usize) -> Self {
         Self {
-            polypostor: self.polypostor_atlas + crate::pack::polygon_bytes_estimate(views, frames, parts, vertices),
+            polypostor: self.polypostor_atlas
+                + crate::bake::keys::polygon_bytes_estimate(views, frames, parts, vertices),
             ..self
         }
     }
@@ -580,8 +581,12 @@ pub fn estimate(
     let r = resolution as u64;
     let atlas = v * (r2 * 42 / 100 + 18 * r) * 5;
     let texture_bytes = texture_bytes * 4 / 3;
-    let poly_geometry =
-        crate::pack::polygon_bytes_estimate(views, frames, parts, crate::bake::part_fit::DEFAULT_POLYGON_VERTICES);
+    let poly_geometry = crate::bake::keys::polygon_bytes_estimate(
+        views,
+        frames,
+        parts,
+        crate::bake::part_fit::DEFAULT_POLYGON_VERTICES,
+    );
     Estimate {
         polypostor: atlas + poly_geometry,
         polypostor_atlas: atlas,

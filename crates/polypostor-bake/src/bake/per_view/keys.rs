@@ -55,6 +55,15 @@ pub const DEFAULT_KEY_RATIO: f64 = 35.0;
 /// images at most as many bytes as its first ones.
 pub const RATIO_BUDGET_CAP: f64 = 1.0;
 
+/// Bytes of the Polypostor's polygons, estimated before they are fitted: per view, part and
+/// frame the polygon's positions (2 bytes each), about 10 % more for the extra keys' polygons
+/// (they hold only the frames they draw); per view and part the UVs, the position box, the
+/// triangles and the coarse level's (about half as many).
+pub fn polygon_bytes_estimate(views: usize, frames: usize, parts: usize, vertices: usize) -> u64 {
+    let (v, f, p, nv) = (views as u64, frames.max(1) as u64, parts as u64, vertices.max(3) as u64);
+    v * p * f * nv * 2 * 11 / 10 + v * p * ((nv - 2) * 3 * 2 * 3 / 2 + nv * 4 + 8)
+}
+
 /// Atlas texels per texel of the key images' crops ([`key_bytes`]): the skyline packing's gaps
 /// and the pages' whole blocks (measured on CesiumMan's 137-view packs: 1.11–1.13).
 pub const ATLAS_PACKING: f64 = 1.12;
@@ -64,7 +73,7 @@ pub const ATLAS_PACKING: f64 = 1.12;
 pub struct ViewBytes {
     /// The view's first key images ([`key_bytes`] summed over its parts).
     pub first: f64,
-    /// Its polygons' estimated bytes ([`crate::pack::polygon_bytes_estimate`]).
+    /// Its polygons' estimated bytes ([`polygon_bytes_estimate`]).
     pub geometry: f64,
     /// One clip's classic impostor of the view: a colour and a normal image per frame
     /// (the pack's frames over its clips).
@@ -78,7 +87,7 @@ impl ViewBytes {
         let r = resolution as f64;
         Self {
             first,
-            geometry: crate::pack::polygon_bytes_estimate(1, frames, parts, vertices) as f64,
+            geometry: polygon_bytes_estimate(1, frames, parts, vertices) as f64,
             impostor_clip: frames as f64 / clips.max(1) as f64 * r * r * 8.0,
         }
     }
