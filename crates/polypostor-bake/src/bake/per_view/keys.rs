@@ -42,7 +42,9 @@ pub struct KeyOptions {
     /// [`RATIO_BUDGET_CAP`] of its first key images' bytes ([`KeyOptions::view_budget`]):
     /// characters with long clips, whose packs are small beside impostors, get more keys;
     /// short clips and whole-character packs keep [`KeyOptions::budget`]. 0: off.
-    /// Default value: [`DEFAULT_KEY_RATIO`].
+    /// Default value: [`DEFAULT_KEY_RATIO`]; absent from a stored record (a `report.json`
+    /// from before the rule): 0, so a re-fit chooses the keys that bake chose.
+    #[serde(default)]
     pub ratio: f64,
 }
 
@@ -887,6 +889,16 @@ mod tests {
         choose(&mut parts, &options, keys, manual, &blank);
         let extra = parts.pop().unwrap().unwrap().extra;
         (primary_sse, extra)
+    }
+
+    #[test]
+    fn a_record_from_before_the_ratio_rule_reads_as_off() {
+        let k = KeyOptions::default();
+        let json = serde_json::to_string(&k).unwrap();
+        assert_eq!(serde_json::from_str::<KeyOptions>(&json).unwrap(), k);
+        let old = r#"{"max_keys": 4, "min_gain_db": 0.5, "budget": 0.25, "share": 0.1}"#;
+        let read: KeyOptions = serde_json::from_str(old).unwrap();
+        assert_eq!(read, KeyOptions { ratio: 0.0, ..k });
     }
 
     #[test]
