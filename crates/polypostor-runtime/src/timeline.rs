@@ -548,17 +548,95 @@ pub fn ground_speed(character: &Character, clip: Option<usize>) -> f32 {
 /// a fall, a one-shot) keeps its travel, as authored. Returns the names of the clips changed
 /// with their speed.
 pub fn play_in_place(character: &mut Character) -> Vec<(String, f32)> {
+    let motions = root_motions(character);
+    apply_in_place(character, &motions)
+}
+
+/// What an import does with the clips' motion: turns a character whose locomotion faces
+/// away from +z to face +z ([`facing_turn`]; glTF's front is +z and the crowd walks its
+/// characters that way), then plays its root motion in place ([`play_in_place`]). Returns
+/// the turn in radians about +y (if any) and the clips played in place with their speed.
+pub fn face_forward_and_play_in_place(character: &mut Character) -> (Option<f32>, Vec<(String, f32)>) {
+    let mut motions = root_motions(character);
+    let turn = facing_turn(&motions);
+    if let Some(a) = turn {
+        character.turn_about_vertical(a);
+        let r = glam::Quat::from_rotation_y(a);
+        let turn2 = |v: Vec2| {
+            let w = r * Vec3::new(v.x, 0.0, v.y);
+            Vec2::new(w.x, w.z)
+        };
+        for m in &mut motions {
+            m.root = turn2(m.root);
+            m.feet = turn2(m.feet);
+        }
+    }
+    (turn, apply_in_place(character, &motions))
+}
+
+/// Every clip's root and contact motion (no legs: those need the segmentation), with the
+/// in-place velocities cleared first.
+fn root_motions(character: &mut Character) -> Vec<ClipMotion> {
+    (0..character.clips.len())
+        .map(|i| {
+            character.clips[i].in_place_velocity = Vec3::ZERO;
+            measure_with_legs(character, Some(i), &[])
+        })
+        .collect()
+}
+
+fn apply_in_place(character: &mut Character, motions: &[ClipMotion]) -> Vec<(String, f32)> {
     let mut changed = Vec::new();
-    for i in 0..character.clips.len() {
-        character.clips[i].in_place_velocity = Vec3::ZERO;
-        // Root motion only: no legs needed.
-        let m = measure_with_legs(character, Some(i), &[]);
+    for (clip, m) in character.clips.iter_mut().zip(motions) {
         if m.is_locomotion() && m.root.length() >= LOCOMOTION_MIN_SPEED * m.height && m.root.is_finite() {
-            character.clips[i].in_place_velocity = Vec3::new(m.root.x, 0.0, m.root.y);
-            changed.push((character.clips[i].name.clone(), m.root.length()));
+            clip.in_place_velocity = Vec3::new(m.root.x, 0.0, m.root.y);
+            changed.push((clip.name.clone(), m.root.length()));
         }
     }
     changed
+}
+
+/// Largest difference, in degrees, between a measured heading and a quarter turn for the
+/// turn to be snapped to that quarter turn (a character modelled along another axis).
+pub const FACING_SNAP_DEGREES: f32 = 10.0;
+
+/// The turn about +y (radians) that makes a character walk towards +z, from its locomotion
+/// clips' ground velocity (root motion minus planted feet: the way the body goes over its
+/// feet, root motion or not). Each locomotion clip votes for the quarter (+z, +x, -z, -x)
+/// its heading is nearest; the turn is made only when one quarter other than +z has more
+/// votes than every other (so a character with a walk, a walk back and side steps keeps
+/// its heading unless most of them agree, and one without locomotion is never turned). The
+/// turn is to that quarter exactly when the quarter's mean heading is within
+/// [`FACING_SNAP_DEGREES`] of it, else to the mean heading.
+pub fn facing_turn(motions: &[ClipMotion]) -> Option<f32> {
+    let mut votes = [0usize; 4];
+    let mut sums = [Vec2::ZERO; 4];
+    for m in motions.iter().filter(|m| m.is_locomotion()) {
+        let v = m.root - m.feet;
+        if !v.is_finite() || v == Vec2::ZERO {
+            continue;
+        }
+        // Heading from +z towards +x.
+        let heading = v.x.atan2(v.y);
+        let q = ((heading / std::f32::consts::FRAC_PI_2).round() as i32).rem_euclid(4) as usize;
+        votes[q] += 1;
+        sums[q] += v.normalize();
+    }
+    let best = (0..4).max_by_key(|&q| votes[q])?;
+    if best == 0 || votes[best] == 0 || (0..4).any(|q| q != best && votes[q] >= votes[best]) {
+        return None;
+    }
+    let mean = sums[best].x.atan2(sums[best].y);
+    let quarter = best as f32 * std::f32::consts::FRAC_PI_2;
+    let off = (mean - quarter + std::f32::consts::PI).rem_euclid(std::f32::consts::TAU) - std::f32::consts::PI;
+    let heading = if off.abs() <= FACING_SNAP_DEGREES.to_radians() {
+        quarter
+    } else {
+        mean
+    };
+    // Within (-π, π].
+    let turn = -heading;
+    Some(std::f32::consts::PI - (std::f32::consts::PI - turn).rem_euclid(std::f32::consts::TAU))
 }
 
 /// The horizontal velocities (x, z) behind [`ground_speed`]: the root motion's and the
@@ -1041,6 +1119,101 @@ mod tests {
         }
         let scaled = ground_speed(&big, Some(walk));
         assert!((scaled / in_place - 100.0).abs() < 1.0, "{scaled} against {in_place}");
+    }
+
+    /// Mean distance between two characters' skinned vertices at eight times of `clip`.
+    fn pose_distance(a: &Character, b: &Character, clip: usize) -> f32 {
+        let d = a.clips[clip].duration_secs;
+        (0..8)
+            .map(|k| {
+                let t = d * k as f32 / 8.0;
+                let p = skin_vertices(a, &Pose::sample(a, &a.clips[clip], t)).0;
+                let q = skin_vertices(b, &Pose::sample(b, &b.clips[clip], t)).0;
+                p.iter().zip(&q).map(|(x, y)| (*x - *y).length()).sum::<f32>() / p.len() as f32
+            })
+            .fold(0.0, f32::max)
+    }
+
+    /// A character modelled facing another way walks sideways in a crowd (which carries every
+    /// character towards its +z): the import turns it back. Independent answer: the default
+    /// character (which faces +z), turned by a known angle, comes back to its own poses.
+    #[test]
+    fn a_character_facing_another_way_is_turned_to_face_its_walk() {
+        let original = crate::default_character::generate();
+        let walk = original.find_clip("Walk").unwrap();
+        let height = measure_motion(&original, Some(walk)).height;
+        let mut same = original.clone();
+        let (turn, _) = face_forward_and_play_in_place(&mut same);
+        assert_eq!(turn, None, "the default character already faces +z");
+        assert_eq!(same, original);
+        for degrees in [90.0f32, -90.0, 180.0, 60.0, -130.0] {
+            let mut c = original.clone();
+            c.turn_about_vertical(degrees.to_radians());
+            // Turned, it is not the original (the test can fail).
+            assert!(pose_distance(&c, &original, walk) > 0.05 * height, "{degrees}°");
+            let (turn, _) = face_forward_and_play_in_place(&mut c);
+            let turn = turn.unwrap_or_else(|| panic!("{degrees}° not turned back"));
+            // Quarter turns come back exactly; other headings to within the measure's error.
+            let back = (turn.to_degrees() + degrees + 540.0).rem_euclid(360.0) - 180.0;
+            if degrees % 90.0 == 0.0 {
+                assert!(back.abs() < 1e-3, "{degrees}°: turned {}°", turn.to_degrees());
+                assert!(pose_distance(&c, &original, walk) < 1e-4 * height, "{degrees}°");
+            } else {
+                assert!(back.abs() < 3.0, "{degrees}°: turned {}°", turn.to_degrees());
+            }
+            let (root, feet) = ground_velocities(&c, Some(walk));
+            let v = root - feet;
+            assert!(v.x.atan2(v.y).to_degrees().abs() < 3.0, "{degrees}°: heads {v}");
+        }
+        // Within the +z quarter: left as modelled.
+        let mut c = original.clone();
+        c.turn_about_vertical(30f32.to_radians());
+        let before = c.clone();
+        assert_eq!(face_forward_and_play_in_place(&mut c).0, None);
+        assert_eq!(c, before);
+    }
+
+    /// The votes: no locomotion, no turn; a tie with +z, no turn; most clips one way, that way.
+    #[test]
+    fn the_facing_turn_follows_most_locomotion_clips() {
+        let clip = |x: f32, z: f32| ClipMotion {
+            root: Vec2::new(x, z),
+            contact: 1.0,
+            height: 1.0,
+            duration: 1.0,
+            ..Default::default()
+        };
+        assert!(clip(0.0, 1.0).is_locomotion());
+        let still = ClipMotion {
+            height: 1.0,
+            duration: 1.0,
+            contact: 1.0,
+            ..Default::default()
+        };
+        assert_eq!(facing_turn(&[]), None);
+        assert_eq!(facing_turn(&[still]), None);
+        assert_eq!(facing_turn(&[clip(0.0, 1.0), clip(0.0, -1.0)]), None);
+        // Walk and run towards +x, a walk back, side steps: +x has the most.
+        let t = facing_turn(&[
+            clip(1.0, 0.0),
+            clip(2.0, 0.1),
+            clip(-1.0, 0.0),
+            clip(0.0, 1.0),
+            clip(0.0, -1.0),
+        ]);
+        assert!((t.unwrap() + std::f32::consts::FRAC_PI_2).abs() < 1e-6, "{t:?}");
+        // A walk, a walk back and side steps with +z's walk: +z ties or leads, no turn.
+        assert_eq!(
+            facing_turn(&[clip(0.0, 1.0), clip(0.0, -1.0), clip(1.0, 0.0), clip(-1.0, 0.0)]),
+            None
+        );
+        // Feet sliding back under a character walking in place towards -x.
+        let in_place = ClipMotion {
+            feet: Vec2::new(1.5, 0.0),
+            ..clip(0.0, 0.0)
+        };
+        let t = facing_turn(&[in_place]).unwrap();
+        assert!((t - std::f32::consts::FRAC_PI_2).abs() < 1e-6, "{t}");
     }
 
     #[test]

@@ -293,6 +293,44 @@ impl Character {
     pub fn bind_bounds(&self) -> (Vec3, Vec3) {
         bounds(self.vertices.iter().map(|v| v.position))
     }
+
+    /// Turns the whole character, every pose of every clip, by `radians` about the vertical
+    /// (+y) axis through the origin: each world position `p` becomes `R p`. Bind-space
+    /// vertices and normals turn with it, each inverse bind matrix gets `R⁻¹` on its right
+    /// (joint-local coordinates stay), and the top-level nodes' rest transforms and animation
+    /// channels get `R` on their left (`R · T(t) · Q · S = T(R t) · (R Q) · S`, so scales,
+    /// even non-uniform, stay as they are). Clips' in-place velocities turn too.
+    pub fn turn_about_vertical(&mut self, radians: f32) {
+        let r = Quat::from_rotation_y(radians);
+        let inverse = Mat4::from_quat(r.inverse());
+        for v in &mut self.vertices {
+            v.position = r * v.position;
+            v.normal = r * v.normal;
+        }
+        for b in &mut self.bones {
+            b.inverse_bind *= inverse;
+        }
+        let roots: Vec<bool> = self.skeleton.nodes.iter().map(|n| n.parent.is_none()).collect();
+        for (node, _) in self.skeleton.nodes.iter_mut().zip(&roots).filter(|(_, r)| **r) {
+            node.rest.translation = r * node.rest.translation;
+            node.rest.rotation = r * node.rest.rotation;
+        }
+        for clip in &mut self.clips {
+            clip.in_place_velocity = r * clip.in_place_velocity;
+            for ch in clip
+                .channels
+                .iter_mut()
+                .filter(|c| roots.get(c.node).copied().unwrap_or(false))
+            {
+                // Cubic-spline tangents are linear in the value, so they turn the same way.
+                match &mut ch.values {
+                    ChannelValues::Translation(v) => v.iter_mut().for_each(|t| *t = r * *t),
+                    ChannelValues::Rotation(v) => v.iter_mut().for_each(|q| *q = r * *q),
+                    ChannelValues::Scale(_) => {}
+                }
+            }
+        }
+    }
 }
 
 /// Axis-aligned bounds of points, `(min, max)`; zero-size at the origin for no points.

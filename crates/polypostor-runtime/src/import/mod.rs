@@ -133,7 +133,14 @@ pub fn import_slice(bytes: &[u8], base_dir: Option<&Path>, name: &str) -> Result
     }
     .build(name)
     .map(|mut character| {
-        crate::timeline::play_in_place(&mut character);
+        if let (Some(turn), _) = crate::timeline::face_forward_and_play_in_place(&mut character) {
+            character.warnings.push(format!(
+                "its walking clips head {:.0}° away from +z, the front glTF specifies: turned {:.0}° \
+                 about the vertical so that it walks forward in crowds",
+                -turn.to_degrees(),
+                turn.to_degrees()
+            ));
+        }
         character
     })
 }
