@@ -242,3 +242,39 @@ fn a_mirrored_skeleton_keeps_its_triangles_facing_out() {
     let min_x = |v: &[Vec3]| v.iter().map(|p| p.x).fold(f32::MAX, f32::min);
     assert!((max_x(&a) + min_x(&b)).abs() < 1e-3, "{} vs {}", max_x(&a), min_x(&b));
 }
+
+/// An exporter's absolute times (every key of a clip at 2.5 s or later) would hold the first
+/// pose for 2.5 s of every loop: the clip starts at its first key. Independent answer: the
+/// generated character's own clips, whose keys start at 0.
+#[test]
+fn clips_whose_keys_all_start_late_play_from_their_first_key() {
+    let c = small_character();
+    let mut late = c.clone();
+    for clip in &mut late.clips {
+        for ch in &mut clip.channels {
+            ch.times.iter_mut().for_each(|t| *t += 2.5);
+        }
+        clip.duration_secs += 2.5;
+    }
+    let back = import_slice(&write_glb(&late).unwrap(), None, "x").unwrap();
+    let plain = import_slice(&write_glb(&c).unwrap(), None, "x").unwrap();
+    for (a, b) in back.clips.iter().zip(&plain.clips) {
+        assert!(
+            (a.duration_secs - b.duration_secs).abs() < 1e-4,
+            "{} {} {}",
+            a.name,
+            a.duration_secs,
+            b.duration_secs
+        );
+        for k in 0..6 {
+            let t = b.duration_secs * k as f32 / 6.0;
+            let (p, _) = skin_vertices(&back, &Pose::sample(&back, a, t));
+            let (q, _) = skin_vertices(&plain, &Pose::sample(&plain, b, t));
+            let off = p.iter().zip(&q).map(|(x, y)| (*x - *y).length()).fold(0.0f32, f32::max);
+            assert!(off < 1e-4, "{} at {t} s: {off}", a.name);
+        }
+    }
+    let said = back.warnings.iter().filter(|w| w.contains("first key")).count();
+    assert_eq!(said, c.clips.len(), "{:?}", back.warnings);
+    assert!(plain.warnings.iter().all(|w| !w.contains("first key")));
+}

@@ -270,3 +270,40 @@ fn legs_are_found_and_robot_expressive_runs() {
         }
     }
 }
+
+/// A rig whose names say nothing (every joint `n000`, `n001`, …, as some exporters and
+/// retargeting tools leave them) gets the same parts, by the same names, on the same
+/// triangles as with its names: mirror pairs found by shape take their side from where they
+/// hang (glTF's left is +x), legs and arms from what reaches the ground.
+#[test]
+fn a_rig_without_telling_names_gets_the_same_part_names() {
+    let mut characters: Vec<(String, polypostor::Character)> = vec![
+        ("default".into(), polypostor::default_character::generate()),
+        ("quadruped".into(), quadruped()),
+    ];
+    for f in common::real_characters() {
+        let stem = f.file_stem().unwrap().to_string_lossy().to_string();
+        characters.push((stem, polypostor::import_path(&f).unwrap()));
+    }
+    let label = |s: &polypostor::bake::segment::Segmentation| -> Vec<String> {
+        s.labels.iter().map(|&l| s.parts[l as usize].name.clone()).collect()
+    };
+    for (stem, c) in characters {
+        let named = auto_segment(&c);
+        let mut anonymous = c.clone();
+        for (i, n) in anonymous.skeleton.nodes.iter_mut().enumerate() {
+            n.name = format!("n{i:03}");
+        }
+        let plain = auto_segment(&anonymous);
+        let names: Vec<&str> = plain.parts.iter().map(|p| p.name.as_str()).collect();
+        eprintln!("{stem}: {names:?}");
+        // Tails are named by their joints' names alone: a renamed tail is a "Part".
+        let same = |a: &str, b: &str| a == b || (a == "Tail" && b.starts_with("Part"));
+        let (a, b) = (label(&named), label(&plain));
+        let differ = a.iter().zip(&b).filter(|(x, y)| !same(x, y)).count();
+        let mut pairs: Vec<(&String, &String)> = a.iter().zip(&b).filter(|(x, y)| !same(x, y)).collect();
+        pairs.dedup();
+        eprintln!("{stem}: {differ} differ {:?}", &pairs[..pairs.len().min(5)]);
+        assert_eq!(differ, 0, "{stem}: {names:?} against {:?}", named.parts);
+    }
+}

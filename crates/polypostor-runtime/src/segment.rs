@@ -197,16 +197,21 @@ impl JointTree {
                 return true;
             }
         }
-        // Shape: same subtree size, offsets of similar length pointing apart.
+        // Shape: same subtree size, offsets of similar length pointing apart, or mirror
+        // images of each other across the character's middle plane (x = 0: glTF's front is
+        // +z; shoulders set high above the chest point apart by less than 50°).
         let p = self.parent[a].map_or(Vec3::ZERO, |p| self.pos[p]);
         let (da, db) = (self.pos[a] - p, self.pos[b] - p);
         let (la, lb) = (da.length(), db.length());
+        let mirrored = (da - Vec3::new(-db.x, db.y, db.z)).length() <= 0.2 * la.max(lb)
+            && da.x.abs() >= 0.15 * la
+            && da.x * db.x < 0.0;
+        // (Single joints pair only as mirror images: a foot's IK joint beside each leg.)
         self.size[a] == self.size[b]
-            && self.size[a] >= 2
             && la > 0.0
             && lb > 0.0
             && (la - lb).abs() <= 0.3 * la.max(lb)
-            && da.angle_between(db) > 50f32.to_radians()
+            && ((self.size[a] >= 2 && da.angle_between(db) > 50f32.to_radians()) || mirrored)
     }
 }
 
@@ -284,6 +289,8 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
             .max_by(|&a, &b| tree.mass[a].total_cmp(&tree.mass[b]).then(b.cmp(&a)));
         let mut at = root;
         let mut limb_roots: Vec<usize> = Vec::new();
+        // partner[j]: the other limb of the mirror pair joint `j` roots.
+        let mut partner: Vec<Option<usize>> = vec![None; count];
         // The trunk's joints, root first (the head end last).
         let mut trunk: Vec<usize> = Vec::new();
         while let Some(j) = at {
@@ -295,6 +302,8 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
                     if !paired[x] && !paired[y] && tree.is_mirror_pair(kids[x], kids[y]) {
                         paired[x] = true;
                         paired[y] = true;
+                        partner[kids[x]] = Some(kids[y]);
+                        partner[kids[y]] = Some(kids[x]);
                     }
                 }
             }
@@ -332,6 +341,19 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
             out
         };
         let limbs: Vec<(usize, Vec<usize>)> = limb_roots.iter().map(|&r| (r, subtree(r))).collect();
+        // Each limb's side: from its name (Left/Right, L/R tokens), else, for a mirror pair
+        // found by shape (a rig whose names say nothing), from where it hangs: glTF's front
+        // is +z and its up +y, so a character's left is +x (import turns walkers to face +z).
+        let side: Vec<Option<char>> = limbs
+            .iter()
+            .map(|&(r, _)| {
+                side_free_name(&tree.name[r]).1.or_else(|| {
+                    let d = tree.pos[r] - tree.pos[partner[r]?];
+                    (d.x.abs() > d.z.abs()).then_some(if d.x > 0.0 { 'l' } else { 'r' })
+                })
+            })
+            .collect();
+        let paired = |i: usize| side[i].is_some() || partner[limbs[i].0].is_some();
         // Rest-pose mesh: which vertices each joint carries (by its largest weight).
         let rest = crate::animation::skin_vertices(c, &crate::animation::Pose::rest(c)).0;
         let bone_joint: Vec<Option<usize>> = c.bones.iter().map(|b| joint_of_node(c, &tree.node, b.node)).collect();
@@ -417,8 +439,7 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
                     .flat_map(|k| limbs[k].1.iter().copied())
                     .collect();
                 let lowest = points(&joints).iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
-                let paired = side_free_name(&tree.name[limbs[i].0]).1.is_some();
-                (tree.pos[limbs[i].0].y, paired && lowest < ground + 0.25 * span)
+                (tree.pos[limbs[i].0].y, paired(i) && lowest < ground + 0.25 * span)
             })
             .collect();
         // Paired limbs that reach the ground are legs, unless they hang from much higher up
@@ -432,10 +453,7 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
             .fold(f32::INFINITY, f32::min);
         let is_leg = |i: usize| {
             let (hip, grounded) = reach[i];
-            target[i] == Some(i)
-                && side_free_name(&tree.name[limbs[i].0]).1.is_some()
-                && grounded
-                && hip <= lowest_hip + 0.15 * span
+            target[i] == Some(i) && paired(i) && grounded && hip <= lowest_hip + 0.15 * span
         };
         // Several pairs of legs (a quadruped, an insect): front and hind by where they hang
         // along the trunk, the head's end being the front.
@@ -464,13 +482,13 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
             if target[i] != Some(i) {
                 continue;
             }
-            let (base, side) = side_free_name(&tree.name[*r]);
-            let side_word = match side {
+            let base = side_free_name(&tree.name[*r]).0;
+            let side_word = match side[i] {
                 Some('l') => "Left ",
                 Some('r') => "Right ",
                 _ => "",
             };
-            let kind = if side.is_none() {
+            let kind = if !paired(i) {
                 if base.to_ascii_lowercase().contains("tail") {
                     "Tail".to_string()
                 } else {

@@ -76,6 +76,12 @@ pub enum ImportError {
     NoGeometry,
 }
 
+/// A clip whose keys all start later than this (seconds) is played from its first key. One
+/// frame at the default 10 fps: a shorter hold never shows in a bake, and the one frame at
+/// 24 fps that converters leave before the first key (CesiumMan, RiggedSimple) stays as
+/// authored.
+pub const LATE_START_SECS: f32 = 0.1;
+
 /// Imports a `.glb` or `.gltf` file from disk.
 pub fn import_path(path: &Path) -> Result<Character, ImportError> {
     let bytes = read_file(path)?;
@@ -709,6 +715,24 @@ impl Builder<'_> {
                     times,
                     values,
                 });
+            }
+            // Keys that all start late (an exporter's absolute times: frames 100–150 of a
+            // timeline) would hold the first pose that long before anything moves, and a
+            // crowd would loop that hold: the clip starts at its first key instead.
+            let start = channels
+                .iter()
+                .filter_map(|c| c.times.first().copied())
+                .fold(f32::INFINITY, f32::min);
+            if start.is_finite() && start > LATE_START_SECS && start < duration {
+                for c in &mut channels {
+                    c.times.iter_mut().for_each(|t| *t -= start);
+                }
+                self.warn(format!(
+                    "animation '{name}': every key is at {start:.3} s or later; played from its first key \
+                     ({:.3} s long, not {duration:.3} s)",
+                    duration - start
+                ));
+                duration -= start;
             }
             clips.push(Clip {
                 name,
