@@ -1,16 +1,22 @@
 // Crowd meshes: every skinned or rigid character of a crowd in one instanced draw per
-// material. Skinned: the clip's joints are sampled ahead (quaternion + translation + uniform
-// scale per joint per sample) and interpolated per vertex between the two samples around the
+// material. Skinned: the clip's joints are sampled ahead (the rows of each joint's skinning
+// matrix per sample) and interpolated per vertex between the two samples around the
 // instance's time, then blended by the vertex's four weights. Rigid: the mesh pre-skinned at
 // every frame, interpolated between two frames.
 // Frame.counts: x joint samples per frame, y frames, z joints, w vertices. Shared structs and
 // functions: crowd_common.wgsl. Keep the structs in sync with `crates/polypostor-runtime/src/gpu/crowd_renderers/`.
 
 struct Joint {
-    rotation: vec4<f32>,
-    // xyz: translation, w: uniform scale.
-    translation: vec4<f32>,
+    // The first three rows of the joint's skinning matrix (any affine map: mirrors,
+    // non-uniform and zero scales included).
+    r0: vec4<f32>,
+    r1: vec4<f32>,
+    r2: vec4<f32>,
 };
+
+fn apply_joint(j: Joint, p: vec4<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(j.r0, p), dot(j.r1, p), dot(j.r2, p));
+}
 
 struct Material {
     base_color_factor: vec4<f32>,
@@ -89,15 +95,17 @@ fn vs_skinned(v: SkinnedIn) -> VertexOut {
             let b = min(v.bone_ids[k], bones - 1u);
             let j0 = joints[s0 * bones + b];
             let j1 = joints[s1 * bones + b];
-            // Shortest-arc normalised lerp of the rotations.
-            let q1 = select(j1.rotation, -j1.rotation, dot(j0.rotation, j1.rotation) < 0.0);
-            let q = normalize(mix(j0.rotation, q1, a));
-            let tr = mix(j0.translation, j1.translation, a);
-            p += w * (rotate(q, v.position * tr.w) + tr.xyz);
-            n += w * rotate(q, v.normal);
+            // Samples a quarter frame apart: blending the two matrices (as linear blend
+            // skinning blends bones) turns by a few degrees at most, where it shrinks by
+            // under 0.1 %.
+            let j = Joint(mix(j0.r0, j1.r0, a), mix(j0.r1, j1.r1, a), mix(j0.r2, j1.r2, a));
+            p += w * apply_joint(j, vec4<f32>(v.position, 1.0));
+            n += w * apply_joint(j, vec4<f32>(v.normal, 0.0));
         }
     }
-    return place(inst, p, n, v.vi, v.uv, v.color);
+    // Scaled joints (a centimetre rig, a joint scaled to nothing) scale the normal too.
+    let len = length(n);
+    return place(inst, p, select(vec3<f32>(0.0, 1.0, 0.0), n / len, len > 1e-20), v.vi, v.uv, v.color);
 }
 
 struct RigidIn {

@@ -451,3 +451,134 @@ fn every_representation_draws_close_to_the_mesh() {
     }
     std::fs::write(&manifest_path, &text).unwrap();
 }
+
+/// The skinned crowd draws what the real mesh draws for rigs that a rotation and a uniform
+/// scale per joint cannot hold (what it stored before 2026-11-27; a mirrored copy of the
+/// default character drew nothing recognisable, 6.5 dB): a root mirrored (scaled −1 in x), an
+/// arm squashed non-uniformly and the other scaled to nothing, as game rigs hide a weapon.
+#[test]
+fn the_skinned_crowd_draws_mirrored_squashed_and_hidden_joints() {
+    use polypostor::character::{Channel, ChannelValues, Interpolation};
+    let ctx = common::gpu();
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let plain = polypostor::default_character::generate();
+    let mut c = plain.clone();
+    let walk = c.find_clip("Walk").unwrap();
+    let root = c.skeleton.nodes.iter().position(|n| n.parent.is_none()).unwrap();
+    c.skeleton.nodes[root].rest.scale = Vec3::new(-1.0, 1.0, 1.0);
+    let d = c.clips[walk].duration_secs;
+    for (name, scale) in [
+        ("LeftUpperArm", Vec3::ZERO),
+        ("RightUpperArm", Vec3::new(1.0, 0.4, 1.8)),
+    ] {
+        let node = c.skeleton.find(name).unwrap();
+        assert!(
+            !c.clips[walk]
+                .channels
+                .iter()
+                .any(|ch| ch.node == node && matches!(ch.values, ChannelValues::Scale(_)))
+        );
+        c.clips[walk].channels.push(Channel {
+            node,
+            interpolation: Interpolation::Linear,
+            times: vec![0.0, d],
+            values: ChannelValues::Scale(vec![scale, scale]),
+        });
+    }
+    let frames = 10usize;
+    let timeline = polypostor::timeline::Timeline::new(&c, &[Some(walk)], 10.0).unwrap();
+    let labels: Vec<u32> = auto_segment(&c).labels.iter().map(|&l| l as u32).collect();
+    let timing = ClipTiming { frames, fps: 10.0 };
+    let inputs = polypostor::scene::crowd_inputs(None, None, timing, None);
+    let mut crowd = CrowdRenderers::new(device, queue, &c, &timeline, &labels, &inputs).unwrap();
+    assert!(crowd.has(Level::Skinned));
+    let renderer = CharacterRenderer::new(device);
+    let mut mesh = GpuCharacter::new(&renderer, device, queue, &c);
+    let mut plain_mesh = GpuCharacter::new(&renderer, device, queue, &plain);
+    let target = RenderTarget::new(device, 192, 192);
+    let style = PolypostorStyle {
+        lit: false,
+        tint: 0.0,
+        ..Default::default()
+    };
+    let unlit = DrawOptions {
+        shading: Shading::Unlit,
+        ..Default::default()
+    };
+    for eye in [Vec3::new(0.0, 1.2, 4.0), Vec3::new(4.0, 1.0, 0.5)] {
+        let camera = Camera {
+            eye,
+            target: Vec3::new(0.0, 0.9, 0.0),
+            up: Vec3::Y,
+            projection: Projection::Orthographic { half_height: 1.1 },
+            near: 0.1,
+            far: 10.0,
+        };
+        for blend in [0.0f32, 0.5] {
+            let time = (3.0 + blend) / 10.0;
+            let pose = Pose::sample_index(&c, Some(walk), time);
+            renderer.render(
+                device,
+                queue,
+                &target,
+                &mut mesh,
+                &c,
+                &pose,
+                SkinningMode::Gpu,
+                &camera,
+                &unlit,
+            );
+            let truth_color = target.read_color(device, queue).unwrap();
+            let truth = mask(&target.read_normal(device, queue).unwrap());
+            // The changes show: the plain character covers other pixels (the test can fail).
+            let plain_pose = Pose::sample_index(&plain, Some(walk), time);
+            renderer.render(
+                device,
+                queue,
+                &target,
+                &mut plain_mesh,
+                &plain,
+                &plain_pose,
+                SkinningMode::Gpu,
+                &camera,
+                &unlit,
+            );
+            let plain_mask = mask(&target.read_normal(device, queue).unwrap());
+            assert!(
+                iou(&truth, &plain_mask) < 0.95,
+                "{eye} {blend}: {}",
+                iou(&truth, &plain_mask)
+            );
+            let mut instances: [Vec<Instance>; Level::COUNT] = Default::default();
+            instances[Level::Skinned as usize].push(Instance {
+                pos: [0.0, 0.0],
+                facing: [0.0, 1.0],
+                view: 0,
+                frame: looping_pair(3, frames as u32),
+                blend,
+                variant: 7,
+            });
+            crowd.render(
+                device,
+                queue,
+                &target,
+                camera.clip_from_world(1.0),
+                &style,
+                &instances,
+                wgpu::Color::TRANSPARENT,
+            );
+            let color = target.read_color(device, queue).unwrap();
+            let drawn = mask(&target.read_normal(device, queue).unwrap());
+            let (overlap, diff) = compare(&truth_color, &truth, &color, &drawn);
+            eprintln!("{eye} blend {blend}: IoU {overlap:.4}, colour difference {diff:.2}/255");
+            let ok = overlap > 0.99 && diff < 3.0;
+            let pictures =
+                common::images::save_on_failure(ok, &format!("skinned_affine_{}_{blend}", eye.x), &truth_color, &color)
+                    .unwrap_or_default();
+            assert!(
+                ok,
+                "{eye} blend {blend}: IoU {overlap}, colour difference {diff}; {pictures}"
+            );
+        }
+    }
+}

@@ -11,10 +11,12 @@ OUT_DIR/<stem>_<variant>.glb (an existing file is never overwritten):
   mirror   a root node scaled -1 in x (a mirrored character)
   turned   a root node turned 90 degrees about y (the character faces +x)
   renamed  every node, mesh and clip renamed to meaningless names
+  vanish   in every clip, one limb's top joint scaled to nothing for the middle third (as
+           game rigs hide a weapon or a limb)
 With no VARIANT, all of them."""
 import json, math, os, random, struct, sys
 
-ALL = ['ikctrl', 'clips40', 'late', 'quant', 'mirror', 'turned', 'renamed']
+ALL = ['ikctrl', 'clips40', 'late', 'quant', 'mirror', 'turned', 'renamed', 'vanish']
 NC = {'SCALAR': 1, 'VEC2': 2, 'VEC3': 3, 'VEC4': 4, 'MAT4': 16}
 CT = {5120: 'b', 5121: 'B', 5122: 'h', 5123: 'H', 5125: 'I', 5126: 'f'}
 
@@ -191,6 +193,30 @@ def renamed(js, bin_):
     for key, stem in [('nodes', 'n'), ('meshes', 'm'), ('animations', 'a'), ('skins', 's'), ('materials', 'mat')]:
         for i, x in enumerate(js.get(key, [])):
             x['name'] = f'{stem}{i:03d}'
+
+
+def vanish(js, bin_):
+    # The first joint of the first skin with a parent among the joints and a subtree below it:
+    # a limb's top, with luck; else any joint with children.
+    joints = js['skins'][0]['joints']
+    kids = {i: js['nodes'][i].get('children', []) for i in joints}
+    pick = next((j for j in joints if any(k in joints for k in kids[j]) and
+                 any(j in js['nodes'][p].get('children', []) for p in joints) and
+                 ('arm' in js['nodes'][j].get('name', '').lower())), None)
+    if pick is None:
+        pick = next(j for j in joints if any(k in joints for k in kids[j]))
+    for an in js.get('animations', []):
+        t0 = min(js['accessors'][sm['input']].get('min', [0])[0] for sm in an['samplers'])
+        t1 = max(js['accessors'][sm['input']].get('max', [1])[0] for sm in an['samplers'])
+        d = t1 - t0
+        ts = [t0, t0 + d / 3 - 1e-3, t0 + d / 3, t0 + 2 * d / 3, t0 + 2 * d / 3 + 1e-3, t1]
+        one = js['nodes'][pick].get('scale', [1.0, 1.0, 1.0])
+        vals = [one, one, [0.0] * 3, [0.0] * 3, one, one]
+        an['channels'] = [c for c in an['channels'] if not (c['target'].get('node') == pick and c['target'].get('path') == 'scale')]
+        an['samplers'].append({'input': add_acc(js, bin_, [[t] for t in ts], 'SCALAR', minmax=True),
+                               'output': add_acc(js, bin_, vals, 'VEC3'), 'interpolation': 'LINEAR'})
+        an['channels'].append({'sampler': len(an['samplers']) - 1, 'target': {'node': pick, 'path': 'scale'}})
+    print('vanishing', js['nodes'][pick].get('name'), file=sys.stderr)
 
 
 def main():

@@ -440,12 +440,12 @@ pub fn character_static_bytes(c: &crate::Character) -> RepBytes {
 }
 
 /// The GPU-skinned mesh: static data + bind-pose positions and normals + the clip's joint
-/// transforms (quaternion + translation + scale, 32 bytes per joint per sample).
+/// transforms (three rows of a matrix, 48 bytes per joint per sample).
 pub fn skinned_bytes(c: &crate::Character, joint_samples: usize) -> RepBytes {
     let s = character_static_bytes(c);
     RepBytes::new(
         s.texture,
-        s.geometry + c.vertices.len() as u64 * 24 + (joint_samples * c.bones.len()) as u64 * 32,
+        s.geometry + c.vertices.len() as u64 * 24 + (joint_samples * c.bones.len()) as u64 * 48,
     )
 }
 

@@ -6,14 +6,20 @@ use super::*;
 /// the image-based representations, then interpolated).
 pub const JOINT_SAMPLES_PER_FRAME: usize = 4;
 
+/// One joint sample: the first three rows of its skinning matrix (`skin_from_bind`), so any
+/// affine transform is drawn as the real mesh draws it — mirrored rigs (a root scaled −1),
+/// non-uniform scales (squash and stretch) and joints scaled to nothing (a hidden weapon)
+/// included; a rotation and a uniform scale could not hold those.
+pub type JointSample = [[f32; 4]; 3];
+
 /// The joints at `per_frame` evenly spaced times in each frame of `timeline` (from the
-/// frame's time to the next frame's, within its clip): per sample, per bone, rotation (xyzw)
-/// then translation xyz + uniform scale.
+/// frame's time to the next frame's, within its clip): per sample, per bone, the rows of its
+/// skinning matrix ([`JointSample`]).
 pub fn joint_samples(
     character: &Character,
     timeline: &crate::timeline::Timeline,
     per_frame: usize,
-) -> Vec<[[f32; 4]; 2]> {
+) -> Vec<JointSample> {
     let per_frame = per_frame.max(1);
     // Per frame: its clip, its time, the step between its samples (its clip's frame spacing
     // over `per_frame`) and the latest time its samples may reach (a clip that does not loop
@@ -38,15 +44,17 @@ pub fn joint_samples(
     {
         let pose = Pose::sample_index(character, clip, t0);
         if character.bones.is_empty() {
-            out.push([[0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]]);
+            out.push(rows(glam::Mat4::IDENTITY));
         }
-        for m in &pose.skin_from_bind {
-            let (s, r, tr) = m.to_scale_rotation_translation();
-            let scale = (s.x + s.y + s.z) / 3.0;
-            out.push([r.to_array(), [tr.x, tr.y, tr.z, scale]]);
-        }
+        out.extend(pose.skin_from_bind.iter().map(|m| rows(*m)));
     }
     out
+}
+
+/// The first three rows of an affine matrix.
+fn rows(m: glam::Mat4) -> JointSample {
+    let t = m.transpose();
+    [t.x_axis.to_array(), t.y_axis.to_array(), t.z_axis.to_array()]
 }
 
 /// The body part of each character vertex from per-triangle labels (a vertex takes the
@@ -293,17 +301,20 @@ mod tests {
         let s = joint_samples(&c, &t, per);
         let bones = c.bones.len();
         let at = |frame: usize, k: usize| &s[(frame * per + k) * bones..(frame * per + k + 1) * bones];
-        let expect = |clip: usize, secs: f32| -> Vec<[f32; 4]> {
-            Pose::sample(&c, &c.clips[clip], secs)
-                .skin_from_bind
-                .iter()
-                .map(|m| m.to_scale_rotation_translation().1.to_array())
-                .collect()
-        };
-        let close = |got: &[[[f32; 4]; 2]], want: &[[f32; 4]]| {
+        let expect =
+            |clip: usize, secs: f32| -> Vec<glam::Mat4> { Pose::sample(&c, &c.clips[clip], secs).skin_from_bind };
+        // The rows read back as the matrix: its points land where the matrix puts them.
+        let close = |got: &[super::JointSample], want: &[glam::Mat4]| {
             got.iter().zip(want).all(|(g, w)| {
-                let d: f32 = (0..4).map(|i| g[0][i] * w[i]).sum();
-                d.abs() > 0.9999
+                [glam::Vec3::X, glam::Vec3::Y, glam::Vec3::Z, glam::Vec3::ONE]
+                    .iter()
+                    .all(|p| {
+                        let q = w.transform_point3(*p);
+                        (0..3).all(|r| {
+                            let row = g[r];
+                            (row[0] * p.x + row[1] * p.y + row[2] * p.z + row[3] - q[r]).abs() < 1e-5
+                        })
+                    })
             })
         };
         assert_eq!(s.len(), t.frames() * per * bones);
