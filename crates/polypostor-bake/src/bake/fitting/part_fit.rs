@@ -937,11 +937,48 @@ pub fn fit_part(
 
 /// Every frame's target polygon T ([`PartFitOptions::frame_vertices`] vertices): the same
 /// whichever key frame is fitted onto it, so a part's several keys share them.
+///
+/// A frame where the part shows nothing (a limb or a weapon scaled to nothing, as game rigs
+/// hide them) gets [`VANISHED_SIZE`]-pixel triangle at the middle of the nearest frame's
+/// outline where it shows: the fit maps the polygon onto that point, which draws no pixel,
+/// and in between the part shrinks to it as the real one does. Only a part that shows in no
+/// frame at all is an error.
 pub fn frame_targets(tiles: &[PartTile], options: &PartFitOptions) -> Result<Vec<Vec<[f32; 2]>>, PartFitError> {
-    (0..tiles.len())
+    let traced: Vec<Result<Vec<[f32; 2]>, PartFitError>> = (0..tiles.len())
         .map(|f| polygon_of(&tiles[f], options.frame_vertices, f))
+        .collect();
+    let n = traced.len();
+    let shown: Vec<usize> = (0..n).filter(|&f| traced[f].is_ok()).collect();
+    if shown.is_empty() {
+        return traced.into_iter().collect();
+    }
+    (0..n)
+        .map(|f| match &traced[f] {
+            Ok(p) => Ok(p.clone()),
+            Err(_) => {
+                // The nearest frame that shows the part, round the loop.
+                let near = *shown
+                    .iter()
+                    .min_by_key(|&&g| {
+                        let d = g.abs_diff(f);
+                        (d.min(n - d), g)
+                    })
+                    .expect("some frame shows the part");
+                let poly = traced[near].as_ref().expect("a frame that shows the part");
+                let c = poly
+                    .iter()
+                    .fold([0.0f32; 2], |a, p| [a[0] + p[0], a[1] + p[1]])
+                    .map(|x| x / poly.len() as f32);
+                let h = VANISHED_SIZE;
+                Ok(vec![[c[0] - h, c[1] - h], [c[0] + h, c[1] - h], [c[0], c[1] + h]])
+            }
+        })
         .collect()
 }
+
+/// Half the size, in pixels, of the point a part that shows nothing in a frame is mapped onto
+/// ([`frame_targets`]): too small to cover any pixel centre's neighbourhood.
+pub const VANISHED_SIZE: f32 = 0.01;
 
 /// The frames a key's fit covers: `count` frames from `start`, round the loop.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -1297,6 +1334,47 @@ mod tests {
                 .min_by(|x, y| x.1.1.total_cmp(&y.1.1).then(x.0.cmp(&y.0)));
             assert_eq!(nearest_outline(&targets, &centres, f, allowed), brute);
         }
+    }
+
+    /// A part that shows nothing in some frames (a limb scaled to nothing) is fitted in the
+    /// others and mapped onto a point where it vanishes, drawing no pixel there; a part that
+    /// shows in no frame is still an error.
+    #[test]
+    fn a_part_that_vanishes_for_some_frames_draws_nothing_there() {
+        let mut t = tiles(6);
+        for f in [2, 3] {
+            t[f].px.iter_mut().for_each(|p| *p = [0.0; 7]);
+        }
+        let options = PartFitOptions::default();
+        let targets = frame_targets(&t, &options).unwrap();
+        // Frame 2's point sits at the middle of frame 1's outline (the nearest that shows).
+        let mid = |p: &[[f32; 2]]| {
+            p.iter()
+                .fold([0.0f32; 2], |a, q| [a[0] + q[0], a[1] + q[1]])
+                .map(|x| x / p.len() as f32)
+        };
+        let (a, b) = (mid(&targets[2]), mid(&targets[1]));
+        assert!((a[0] - b[0]).abs() < 0.02 && (a[1] - b[1]).abs() < 0.02, "{a:?} {b:?}");
+        assert!(
+            targets[3]
+                .iter()
+                .all(|q| (q[0] - mid(&targets[4])[0]).abs() <= 2.0 * VANISHED_SIZE)
+        );
+        let fit = fit_part(&t, 0, &options, &[]).unwrap();
+        for f in 0..6 {
+            let drawn = crate::bake::keys::draw_part(&fit, &t[0], f, t[f].size);
+            let covered = drawn.px.iter().filter(|p| p[3] > 0.5).count();
+            if f == 2 || f == 3 {
+                assert_eq!(covered, 0, "frame {f}");
+            } else {
+                let truth = t[f].px.iter().filter(|p| p[6] > 0.5).count();
+                assert!(covered as f64 > 0.8 * truth as f64, "frame {f}: {covered} of {truth}");
+            }
+        }
+        let mut none = tiles(3);
+        none.iter_mut()
+            .for_each(|t| t.px.iter_mut().for_each(|p| *p = [0.0; 7]));
+        assert!(matches!(fit_part(&none, 0, &options, &[]), Err(PartFitError::Empty(_))));
     }
 
     /// A textured ellipse that moves and stretches over frames.
