@@ -964,11 +964,7 @@ pub fn frame_targets(tiles: &[PartTile], options: &PartFitOptions) -> Result<Vec
                         (d.min(n - d), g)
                     })
                     .expect("some frame shows the part");
-                let poly = traced[near].as_ref().expect("a frame that shows the part");
-                let c = poly
-                    .iter()
-                    .fold([0.0f32; 2], |a, p| [a[0] + p[0], a[1] + p[1]])
-                    .map(|x| x / poly.len() as f32);
+                let c = centre(traced[near].as_ref().expect("a frame that shows the part"));
                 let h = VANISHED_SIZE;
                 Ok(vec![[c[0] - h, c[1] - h], [c[0] + h, c[1] - h], [c[0], c[1] + h]])
             }
@@ -1348,11 +1344,7 @@ mod tests {
         let options = PartFitOptions::default();
         let targets = frame_targets(&t, &options).unwrap();
         // Frame 2's point sits at the middle of frame 1's outline (the nearest that shows).
-        let mid = |p: &[[f32; 2]]| {
-            p.iter()
-                .fold([0.0f32; 2], |a, q| [a[0] + q[0], a[1] + q[1]])
-                .map(|x| x / p.len() as f32)
-        };
+        let mid = centre;
         let (a, b) = (mid(&targets[2]), mid(&targets[1]));
         assert!((a[0] - b[0]).abs() < 0.02 && (a[1] - b[1]).abs() < 0.02, "{a:?} {b:?}");
         assert!(
