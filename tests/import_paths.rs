@@ -278,3 +278,283 @@ fn clips_whose_keys_all_start_late_play_from_their_first_key() {
     assert_eq!(said, c.clips.len(), "{:?}", back.warnings);
     assert!(plain.warnings.iter().all(|w| !w.contains("first key")));
 }
+
+/// A glTF written by our own writer (external buffer) whose JSON and buffer a test edits
+/// before importing it: `add` appends an accessor of f32 or u16 rows and returns its index.
+struct Editable {
+    json: serde_json::Value,
+    bin: Vec<u8>,
+}
+
+impl Editable {
+    fn of(c: &polypostor::Character) -> Self {
+        let files = write_gltf(c, &BufferStorage::External("b.bin".into())).unwrap();
+        Editable {
+            json: serde_json::from_str(&files.json).unwrap(),
+            bin: files.bin.unwrap(),
+        }
+    }
+
+    fn add(&mut self, rows: &[[f32; 4]], width: usize, as_u16: bool) -> usize {
+        while self.bin.len() % 4 != 0 {
+            self.bin.push(0);
+        }
+        let start = self.bin.len();
+        for r in rows {
+            for &x in &r[..width] {
+                if as_u16 {
+                    self.bin.extend_from_slice(&(x as u16).to_le_bytes());
+                } else {
+                    self.bin.extend_from_slice(&x.to_le_bytes());
+                }
+            }
+        }
+        let views = self.json["bufferViews"].as_array_mut().unwrap();
+        views.push(serde_json::json!({"buffer": 0, "byteOffset": start, "byteLength": self.bin.len() - start}));
+        let view = views.len() - 1;
+        let typ = ["", "SCALAR", "VEC2", "VEC3", "VEC4"][width];
+        let mut acc = serde_json::json!({
+            "bufferView": view,
+            "componentType": if as_u16 { 5123 } else { 5126 },
+            "count": rows.len(),
+            "type": typ,
+        });
+        if width == 3 && !as_u16 {
+            let lo: Vec<f32> = (0..3)
+                .map(|k| rows.iter().map(|r| r[k]).fold(f32::MAX, f32::min))
+                .collect();
+            let hi: Vec<f32> = (0..3)
+                .map(|k| rows.iter().map(|r| r[k]).fold(f32::MIN, f32::max))
+                .collect();
+            acc["min"] = serde_json::json!(lo);
+            acc["max"] = serde_json::json!(hi);
+        }
+        let accs = self.json["accessors"].as_array_mut().unwrap();
+        accs.push(acc);
+        accs.len() - 1
+    }
+
+    fn import(mut self, name: &str) -> polypostor::Character {
+        self.json["buffers"][0]["byteLength"] = serde_json::json!(self.bin.len());
+        let dir = common::temp_dir(name);
+        std::fs::write(dir.join("b.bin"), &self.bin).unwrap();
+        std::fs::write(dir.join("c.gltf"), serde_json::to_string(&self.json).unwrap()).unwrap();
+        let c = polypostor::import_path(&dir.join("c.gltf")).unwrap();
+        std::fs::remove_dir_all(dir).unwrap();
+        c
+    }
+
+    fn primitives(&mut self) -> Vec<&mut serde_json::Value> {
+        let meshes = self.json["meshes"].as_array_mut().unwrap();
+        meshes
+            .iter_mut()
+            .flat_map(|m| m["primitives"].as_array_mut().unwrap().iter_mut())
+            .collect()
+    }
+}
+
+/// Skinned positions of `c` at six times of each clip.
+fn poses_of(c: &polypostor::Character) -> Vec<Vec<Vec3>> {
+    let mut out = Vec::new();
+    for clip in &c.clips {
+        for k in 0..6 {
+            let t = clip.duration_secs * k as f32 / 6.0;
+            out.push(skin_vertices(c, &Pose::sample(c, clip, t)).0);
+        }
+    }
+    out
+}
+
+fn largest_offset(a: &[Vec<Vec3>], b: &[Vec<Vec3>]) -> f32 {
+    a.iter()
+        .zip(b)
+        .flat_map(|(p, q)| p.iter().zip(q).map(|(x, y)| (*x - *y).length()))
+        .fold(0.0, f32::max)
+}
+
+/// Eight influences per vertex (JOINTS_1/WEIGHTS_1, as exporters write for dense rigs): the
+/// importer had left the second set out, so a vertex whose strongest joint sat there lost it.
+/// Here every vertex's strongest joint is moved to the second set and its second joint is
+/// split half and half between both sets (the same joint named twice). Independent answer:
+/// the same character with its four influences in one set.
+#[test]
+fn eight_influences_per_vertex_keep_the_strongest_four() {
+    let c = small_character();
+    let plain = import_slice(&write_glb(&c).unwrap(), None, "x").unwrap();
+    let mut e = Editable::of(&c);
+    let (mut j0, mut w0, mut j1, mut w1) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut split_some = false;
+    for v in &c.vertices {
+        let order = {
+            let mut o = [0usize, 1, 2, 3];
+            o.sort_by(|&a, &b| v.weights[b].total_cmp(&v.weights[a]));
+            o
+        };
+        let (top, second) = (order[0], order[1]);
+        let j = v.bones.map(|b| b as f32);
+        let mut a = v.weights;
+        a[top] = 0.0;
+        let mut jb = [j[top], j[top], j[top], j[top]];
+        let mut wb = [v.weights[top], 0.0, 0.0, 0.0];
+        if v.weights[second] > 0.0 {
+            a[second] *= 0.5;
+            jb[1] = j[second];
+            wb[1] = v.weights[second] * 0.5;
+            split_some = true;
+        }
+        j0.push(j);
+        w0.push(a);
+        j1.push(jb);
+        w1.push(wb);
+    }
+    assert!(split_some);
+    let ids = [
+        e.add(&j0, 4, true),
+        e.add(&w0, 4, false),
+        e.add(&j1, 4, true),
+        e.add(&w1, 4, false),
+    ];
+    for p in e.primitives() {
+        let at = &mut p["attributes"];
+        for (name, id) in ["JOINTS_0", "WEIGHTS_0", "JOINTS_1", "WEIGHTS_1"].iter().zip(ids) {
+            at[*name] = serde_json::json!(id);
+        }
+    }
+    let eight = e.import("eight_influences");
+    let off = largest_offset(&poses_of(&eight), &poses_of(&plain));
+    assert!(off < 1e-4, "largest offset {off}");
+    assert!(
+        eight.warnings.iter().all(|w| !w.contains("influences")),
+        "nothing was left out, nothing to say: {:?}",
+        eight.warnings
+    );
+}
+
+/// A morph target on by default (`mesh.weights`, and a node's own weights over the mesh's)
+/// is the shape the file shows: it was ignored, so a character shaped by a body slider came
+/// in as its base mesh. Independent answer: the base positions moved by weight × delta, then
+/// skinned.
+#[test]
+fn morph_targets_shape_the_character_at_their_default_weights() {
+    let c = small_character();
+    let plain = import_slice(&write_glb(&c).unwrap(), None, "x").unwrap();
+    let n = c.vertices.len();
+    // Two targets: up by 0.1 and out along x by 0.2 (per unit weight).
+    let up: Vec<[f32; 4]> = vec![[0.0, 0.1, 0.0, 0.0]; n];
+    let out: Vec<[f32; 4]> = c
+        .vertices
+        .iter()
+        .map(|v| [0.2 * v.position.x.signum(), 0.0, 0.0, 0.0])
+        .collect();
+    for (weights_on, expect) in [("mesh", [0.5f32, 0.0]), ("node", [0.25, 1.0])] {
+        let mut e = Editable::of(&c);
+        let (a, b) = (e.add(&up, 3, false), e.add(&out, 3, false));
+        for p in e.primitives() {
+            p["targets"] = serde_json::json!([{"POSITION": a}, {"POSITION": b}]);
+        }
+        for m in e.json["meshes"].as_array_mut().unwrap() {
+            m["weights"] = serde_json::json!([0.5, 0.0]);
+        }
+        if weights_on == "node" {
+            for node in e.json["nodes"].as_array_mut().unwrap() {
+                if node.get("mesh").is_some() {
+                    node["weights"] = serde_json::json!(expect);
+                }
+            }
+        }
+        let shaped = e.import(&format!("morph_{weights_on}"));
+        let mut moved = plain.clone();
+        for (v, d) in moved.vertices.iter_mut().zip(&out) {
+            v.position += Vec3::new(0.0, 0.1 * expect[0], 0.0) + Vec3::new(d[0], 0.0, 0.0) * expect[1];
+        }
+        let off = largest_offset(&poses_of(&shaped), &poses_of(&moved));
+        assert!(off < 1e-4, "{weights_on}: largest offset {off}");
+        let base = largest_offset(&poses_of(&shaped), &poses_of(&plain));
+        assert!(base > 0.04, "{weights_on}: the targets moved nothing ({base})");
+        assert!(
+            shaped.warnings.iter().any(|w| w.contains("morph target")),
+            "{:?}",
+            shaped.warnings
+        );
+    }
+}
+
+/// KHR_texture_transform (scale, rotation, offset and its own texture coordinate set) places
+/// the base colour texture: it had been ignored, and the texture's `texCoord` too, so such a
+/// character came in wrongly textured. Here TEXCOORD_1 holds coordinates that the transform
+/// maps back onto the character's own and TEXCOORD_0 is all zero. Independent answer: the
+/// example of the extension's specification (offset [0, 1], a quarter turn, scale ½ reads
+/// the image's lower left quadrant) and the plain file's coordinates.
+#[test]
+fn a_texture_transform_places_the_base_colour_texture() {
+    let c = small_character();
+    let plain = import_slice(&write_glb(&c).unwrap(), None, "x").unwrap();
+    let (scale, rot, off) = ([2.0f32, 0.5], 0.3f32, [0.1f32, -0.2]);
+    let (s, co) = rot.sin_cos();
+    let undone: Vec<[f32; 4]> = c
+        .vertices
+        .iter()
+        .map(|v| {
+            let (x, y) = (v.uv[0] - off[0], v.uv[1] - off[1]);
+            [(co * x - s * y) / scale[0], (s * x + co * y) / scale[1], 0.0, 0.0]
+        })
+        .collect();
+    let mut e = Editable::of(&c);
+    let zero = e.add(&vec![[0.0; 4]; c.vertices.len()], 2, false);
+    let one = e.add(&undone, 2, false);
+    for p in e.primitives() {
+        p["attributes"]["TEXCOORD_0"] = serde_json::json!(zero);
+        p["attributes"]["TEXCOORD_1"] = serde_json::json!(one);
+    }
+    let mut textured = 0;
+    for m in e.json["materials"].as_array_mut().unwrap() {
+        if let Some(info) = m["pbrMetallicRoughness"].get_mut("baseColorTexture") {
+            info["extensions"] = serde_json::json!({"KHR_texture_transform":
+                {"offset": off, "rotation": rot, "scale": scale, "texCoord": 1}});
+            textured += 1;
+        }
+    }
+    assert!(textured > 0, "the default character has a base colour texture");
+    e.json["extensionsRequired"] = serde_json::json!(["KHR_texture_transform"]);
+    e.json["extensionsUsed"] = serde_json::json!(["KHR_texture_transform"]);
+    let placed = e.import("texture_transform");
+    let off_uv = placed
+        .vertices
+        .iter()
+        .zip(&plain.vertices)
+        .map(|(a, b)| (a.uv[0] - b.uv[0]).abs().max((a.uv[1] - b.uv[1]).abs()))
+        .fold(0.0f32, f32::max);
+    assert!(off_uv < 1e-5, "texture coordinates off by {off_uv}");
+    assert!(
+        placed.warnings.iter().all(|w| !w.contains("texture")),
+        "{:?}",
+        placed.warnings
+    );
+
+    // The specification's example: the unit square lands on the lower left quadrant.
+    let mut e = Editable::of(&c);
+    let corners: Vec<[f32; 4]> = (0..c.vertices.len())
+        .map(|i| [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]][i % 4])
+        .map(|[u, v]| [u, v, 0.0, 0.0])
+        .collect();
+    let uv = e.add(&corners, 2, false);
+    for p in e.primitives() {
+        p["attributes"]["TEXCOORD_0"] = serde_json::json!(uv);
+    }
+    for m in e.json["materials"].as_array_mut().unwrap() {
+        if let Some(info) = m["pbrMetallicRoughness"].get_mut("baseColorTexture") {
+            info["extensions"] = serde_json::json!({"KHR_texture_transform":
+                {"offset": [0.0, 1.0], "rotation": std::f32::consts::FRAC_PI_2, "scale": [0.5, 0.5]}});
+        }
+    }
+    let example = e.import("texture_transform_example");
+    let want = [[0.0, 1.0], [0.0, 0.5], [0.5, 0.5], [0.5, 1.0]];
+    for (i, v) in example.vertices.iter().enumerate().take(8) {
+        let w = want[i % 4];
+        assert!(
+            (v.uv[0] - w[0]).abs() < 1e-5 && (v.uv[1] - w[1]).abs() < 1e-5,
+            "corner {i}: {:?} against {w:?}",
+            v.uv
+        );
+    }
+}

@@ -13,10 +13,25 @@ OUT_DIR/<stem>_<variant>.glb (an existing file is never overwritten):
   renamed  every node, mesh and clip renamed to meaningless names
   vanish   in every clip, one limb's top joint scaled to nothing for the middle third (as
            game rigs hide a weapon or a limb)
+  infl8    eight influences per vertex (JOINTS_1/WEIGHTS_1): each vertex's strongest joint
+           moved to the second set, the first set padded with zero weights
+  morph    a morph target that widens the first skinned primitive by 15 % about its vertical
+           axis, on by default (mesh weights 1), and a weights channel in the first clip (as
+           body-shape sliders and faces come)
+  split    every skinned mesh split in two meshes on two nodes sharing the skin (as exports
+           that keep body, head and clothes apart)
+  cubic    every LINEAR sampler turned CUBICSPLINE with Catmull-Rom tangents (the same
+           motion through the keys, curved between them)
+  nonormals  no NORMAL attribute anywhere (normals left to the importer)
+  texxform the base colour texture read through KHR_texture_transform (scale, rotation,
+           offset) from TEXCOORD_1, whose coordinates undo it; TEXCOORD_0 all zero
+  gltf     a .gltf with its buffer and images as separate files, in a folder and under a
+           name with spaces (URIs percent-encoded)
 With no VARIANT, all of them."""
 import json, math, os, random, struct, sys
 
-ALL = ['ikctrl', 'clips40', 'late', 'quant', 'mirror', 'turned', 'renamed', 'vanish']
+ALL = ['ikctrl', 'clips40', 'late', 'quant', 'mirror', 'turned', 'renamed', 'vanish', 'infl8',
+       'morph', 'split', 'cubic', 'nonormals', 'texxform', 'gltf']
 NC = {'SCALAR': 1, 'VEC2': 2, 'VEC3': 3, 'VEC4': 4, 'MAT4': 16}
 CT = {5120: 'b', 5121: 'B', 5122: 'h', 5123: 'H', 5125: 'I', 5126: 'f'}
 
@@ -219,6 +234,186 @@ def vanish(js, bin_):
     print('vanishing', js['nodes'][pick].get('name'), file=sys.stderr)
 
 
+def skinned_prims(js):
+    for m in js.get('meshes', []):
+        for p in m['primitives']:
+            if 'JOINTS_0' in p['attributes'] and 'WEIGHTS_0' in p['attributes']:
+                yield m, p
+
+
+def infl8(js, bin_):
+    done = {}
+    for _, p in skinned_prims(js):
+        at = p['attributes']
+        key = (at['JOINTS_0'], at['WEIGHTS_0'])
+        if key not in done:
+            j = read_acc(js, bin_, at['JOINTS_0'])
+            w = read_acc(js, bin_, at['WEIGHTS_0'])
+            wa = js['accessors'][at['WEIGHTS_0']]
+            scale = {5121: 255.0, 5123: 65535.0}.get(wa['componentType'], 1.0)
+            w = [[x / scale for x in r] for r in w]
+            j0, w0, j1, w1 = [], [], [], []
+            for jr, wr in zip(j, w):
+                k = max(range(4), key=lambda i: wr[i])
+                pad = jr[k]
+                j0.append([jr[i] if i != k else pad for i in range(4)])
+                w0.append([wr[i] if i != k else 0.0 for i in range(4)])
+                j1.append([jr[k], pad, pad, pad])
+                w1.append([wr[k], 0.0, 0.0, 0.0])
+            done[key] = (add_acc(js, bin_, j0, 'VEC4', 5123), add_acc(js, bin_, w0, 'VEC4'),
+                         add_acc(js, bin_, j1, 'VEC4', 5123), add_acc(js, bin_, w1, 'VEC4'))
+        at['JOINTS_0'], at['WEIGHTS_0'], at['JOINTS_1'], at['WEIGHTS_1'] = done[key]
+
+
+def morph(js, bin_):
+    m, p = next(skinned_prims(js), (None, None))
+    if p is None:
+        m = js['meshes'][0]
+        p = m['primitives'][0]
+    at = p['attributes']
+    n = js['accessors'][at['POSITION']]['count']
+    # Away from the vertical axis through the primitive's middle, 15 % (a body-weight
+    # slider): every vertex at one place moves alike, so the surface stays closed.
+    pos = read_acc(js, bin_, at['POSITION'])
+    cx = sum(r[0] for r in pos) / n
+    cz = sum(r[2] for r in pos) / n
+    d = [[0.15 * (r[0] - cx), 0.0, 0.15 * (r[2] - cz)] for r in pos]
+    p['targets'] = [{'POSITION': add_acc(js, bin_, d, 'VEC3', minmax=True)}]
+    for q in m['primitives']:
+        if q is not p:
+            q['targets'] = [{'POSITION': add_acc(js, bin_, [[0.0, 0.0, 0.0]] * js['accessors'][q['attributes']['POSITION']]['count'], 'VEC3', minmax=True)}]
+    m['weights'] = [1.0]
+    mi = js['meshes'].index(m)
+    node = next(i for i, nd in enumerate(js['nodes']) if nd.get('mesh') == mi)
+    an = js.get('animations', [None])[0]
+    if an is not None:
+        t0 = min(js['accessors'][sm['input']].get('min', [0])[0] for sm in an['samplers'])
+        t1 = max(js['accessors'][sm['input']].get('max', [1])[0] for sm in an['samplers'])
+        times = add_acc(js, bin_, [[t0], [t1]], 'SCALAR', minmax=True)
+        vals = add_acc(js, bin_, [[1.0], [0.5]], 'SCALAR')
+        an['samplers'].append({'input': times, 'output': vals, 'interpolation': 'LINEAR'})
+        an['channels'].append({'sampler': len(an['samplers']) - 1, 'target': {'node': node, 'path': 'weights'}})
+
+
+def split(js, bin_):
+    for ni, nd in enumerate(list(js['nodes'])):
+        if 'mesh' not in nd or 'skin' not in nd:
+            continue
+        m = js['meshes'][nd['mesh']]
+        a_prims, b_prims = [], []
+        for p in m['primitives']:
+            if 'indices' not in p or p.get('mode', 4) != 4:
+                a_prims.append(p)
+                continue
+            idx = read_acc(js, bin_, p['indices'])
+            tris = len(idx) // 3
+            half = (tris // 2) * 3
+            if half == 0:
+                a_prims.append(p)
+                continue
+            pa, pb = json.loads(json.dumps(p)), json.loads(json.dumps(p))
+            pa['indices'] = add_acc(js, bin_, idx[:half], 'SCALAR', 5125)
+            pb['indices'] = add_acc(js, bin_, idx[half:], 'SCALAR', 5125)
+            a_prims.append(pa)
+            b_prims.append(pb)
+        if not b_prims:
+            continue
+        m['primitives'] = a_prims
+        js['meshes'].append({'name': m.get('name', 'mesh') + '_B', 'primitives': b_prims})
+        js['nodes'].append({'name': nd.get('name', 'node') + '_B', 'mesh': len(js['meshes']) - 1, 'skin': nd['skin']})
+        js['scenes'][js.get('scene', 0)]['nodes'].append(len(js['nodes']) - 1)
+
+
+def cubic(js, bin_):
+    done = {}
+    for an in js.get('animations', []):
+        for sm in an['samplers']:
+            if sm.get('interpolation', 'LINEAR') != 'LINEAR':
+                continue
+            key = (sm['input'], sm['output'])
+            if key not in done:
+                t = [r[0] for r in read_acc(js, bin_, sm['input'])]
+                v = read_acc(js, bin_, sm['output'])
+                if len(v) != len(t):  # weights: several values per key; leave linear
+                    done[key] = None
+                else:
+                    rows = []
+                    for k in range(len(t)):
+                        a, b = max(k - 1, 0), min(k + 1, len(t) - 1)
+                        dt = (t[b] - t[a]) or 1.0
+                        tan = [(y - x) / dt for x, y in zip(v[a], v[b])]
+                        rows += [tan, v[k], tan]
+                    typ = js['accessors'][sm['output']]['type']
+                    done[key] = add_acc(js, bin_, rows, typ)
+            if done[key] is not None:
+                sm['output'] = done[key]
+                sm['interpolation'] = 'CUBICSPLINE'
+
+
+def nonormals(js, bin_):
+    for m in js.get('meshes', []):
+        for p in m['primitives']:
+            p['attributes'].pop('NORMAL', None)
+            for t in p.get('targets', []):
+                t.pop('NORMAL', None)
+
+
+def texxform(js, bin_):
+    sc, rot, off = [2.0, 0.5], 0.3, [0.1, -0.2]
+    c, s = math.cos(rot), math.sin(rot)
+    done = {}
+    for m in js.get('meshes', []):
+        for p in m['primitives']:
+            at = p['attributes']
+            if 'TEXCOORD_0' not in at:
+                continue
+            k = at['TEXCOORD_0']
+            if k not in done:
+                uv = read_acc(js, bin_, k)
+                a = js['accessors'][k]
+                norm = {5121: 255.0, 5123: 65535.0}.get(a['componentType'], 1.0)
+                new = []
+                for u, v in uv:
+                    x, y = u / norm - off[0], v / norm - off[1]
+                    ru, rv = c * x - s * y, s * x + c * y
+                    new.append([ru / sc[0], rv / sc[1]])
+                done[k] = (add_acc(js, bin_, [[0.0, 0.0]] * len(uv), 'VEC2'), add_acc(js, bin_, new, 'VEC2'))
+            at['TEXCOORD_0'], at['TEXCOORD_1'] = done[k]
+    for mat in js.get('materials', []):
+        info = mat.get('pbrMetallicRoughness', {}).get('baseColorTexture')
+        if info is not None:
+            info.setdefault('extensions', {})['KHR_texture_transform'] = {
+                'offset': off, 'rotation': rot, 'scale': sc, 'texCoord': 1}
+    js.setdefault('extensionsUsed', []).append('KHR_texture_transform')
+
+
+def gltf(js, bin_):
+    pass  # written by save_gltf
+
+
+def save_gltf(js, bin_, dst_dir, stem):
+    from urllib.parse import quote
+    folder = os.path.join(dst_dir, stem + ' gltf')
+    if os.path.exists(folder):
+        sys.exit(f'{folder} exists: choose a new path (nothing is overwritten)')
+    os.makedirs(folder)
+    name = stem + ' character'
+    for i, im in enumerate(js.get('images', [])):
+        if 'bufferView' in im:
+            bv = js['bufferViews'][im.pop('bufferView')]
+            ext = '.jpg' if im.get('mimeType') == 'image/jpeg' else '.png'
+            fname = f'{name} image {i}{ext}'
+            start = bv.get('byteOffset', 0)
+            open(os.path.join(folder, fname), 'wb').write(bytes(bin_[start:start + bv['byteLength']]))
+            im['uri'] = quote(fname)
+            im.pop('mimeType', None)
+    js['buffers'] = [{'byteLength': len(bin_), 'uri': quote(name + '.bin')}]
+    open(os.path.join(folder, name + '.bin'), 'wb').write(bytes(bin_))
+    dst = os.path.join(folder, name + '.gltf')
+    open(dst, 'w').write(json.dumps(js, indent=1))
+    return dst
+
+
 def main():
     if len(sys.argv) < 3:
         sys.exit(__doc__)
@@ -231,6 +426,9 @@ def main():
             sys.exit(f'unknown variant {v}; one of {ALL}')
         js, bin_ = load(src)
         globals()[v](js, bin_)
+        if v == 'gltf':
+            print(save_gltf(js, bin_, out, stem))
+            continue
         save(js, bin_, os.path.join(out, f'{stem}_{v}.glb'))
         print(os.path.join(out, f'{stem}_{v}.glb'))
 

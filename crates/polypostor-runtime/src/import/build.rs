@@ -132,8 +132,20 @@ impl Builder<'_> {
                 (false, Some(n)) => Some(hierarchy.world(n)),
                 (false, None) => Some(Mat4::IDENTITY),
             };
+            // The shape the morph targets give at rest: the node's weights, else the mesh's
+            // (glTF's default weights); their animation is not played (said at the clips).
+            let morph_weights: &[f32] = node
+                .and_then(|n| root.nodes.get(n))
+                .and_then(|n| n.weights.as_deref())
+                .or(mesh.weights.as_deref())
+                .unwrap_or(&[]);
             for (pi, prim) in mesh.primitives.iter().enumerate() {
-                self.primitive(&mesh_name, pi, prim, node, static_world, &rig, &mut g)?;
+                let place = Placement {
+                    node,
+                    static_world,
+                    morph_weights,
+                };
+                self.primitive(&mesh_name, pi, prim, place, &rig, &mut g)?;
             }
         }
         if g.indices.is_empty() {
@@ -297,22 +309,22 @@ impl Builder<'_> {
     /// One primitive of a mesh: its attributes checked against each other, its triangles,
     /// its vertices bound to the rig (static files: placed by the node's rest transform),
     /// its material; appended to `g`. Primitives that are not triangles are skipped (said).
-    #[allow(clippy::too_many_arguments)]
     fn primitive(
         &mut self,
         mesh_name: &str,
         pi: usize,
         prim: &json::mesh::Primitive,
-        node: Option<usize>,
-        static_world: Option<Mat4>,
+        place: Placement,
         rig: &Rig,
         g: &mut Geometry,
     ) -> Result<(), ImportError> {
+        let Placement {
+            node,
+            static_world,
+            morph_weights,
+        } = place;
         let root = self.root;
         let what = format!("mesh '{mesh_name}' primitive {pi}");
-        if prim.targets.as_ref().is_some_and(|t| !t.is_empty()) {
-            self.warn(format!("{what}: morph targets are ignored"));
-        }
         let mode = match prim.mode {
             Checked::Valid(mode) => mode,
             Checked::Invalid => {
@@ -361,27 +373,46 @@ impl Builder<'_> {
                 }
                 Ok(Some(v))
             };
-        let normals = read_attr(Semantic::Normals, &[3], self)?;
-        let uvs = read_attr(Semantic::TexCoords(0), &[2], self)?;
+        let mut normals = read_attr(Semantic::Normals, &[3], self)?;
+        let mut positions = positions;
+        self.apply_morph_targets(&what, prim, morph_weights, &mut positions, &mut normals)?;
+        // The coordinates the base colour texture is sampled with: its own set (texCoord,
+        // or the transform's override) placed by KHR_texture_transform.
+        let (uv_set, uv_place) = base_color_uvs(root, prim);
+        let uvs = read_attr(Semantic::TexCoords(uv_set), &[2], self)?;
         let colors = read_attr(Semantic::Colors(0), &[3, 4], self)?;
         let weights = read_attr(Semantic::Weights(0), &[4], self)?;
-        let joints = match attr(Semantic::Joints(0)) {
-            Some(a) => {
-                let v = accessor::read_u32(root, self.buffers, a)?;
-                if v.components != 4 || v.count() != n {
-                    return Err(ImportError::Invalid(format!(
-                        "{what}: JOINTS_0 must be VEC4 with {n} elements"
-                    )));
-                }
-                Some(v)
+        let read_joints = |set: u32, this: &Self| -> Result<Option<accessor::Values<u32>>, ImportError> {
+            let Some(a) = attr(Semantic::Joints(set)) else {
+                return Ok(None);
+            };
+            let v = accessor::read_u32(root, this.buffers, a)?;
+            if v.components != 4 || v.count() != n {
+                return Err(ImportError::Invalid(format!(
+                    "{what}: JOINTS_{set} must be VEC4 with {n} elements"
+                )));
             }
-            None => None,
+            Ok(Some(v))
         };
-        if attr(Semantic::Joints(1)).is_some() {
+        let joints = read_joints(0, self)?;
+        // A second set of influences (eight per vertex): each vertex keeps its four
+        // strongest joints of the eight (weights renormalised below). A third set and
+        // beyond are said and left out.
+        let second = match (read_joints(1, self)?, read_attr(Semantic::Weights(1), &[4], self)?) {
+            (Some(j), Some(w)) => Some((j, w)),
+            (None, None) => None,
+            _ => {
+                return Err(ImportError::Invalid(format!(
+                    "{what}: JOINTS_1 and WEIGHTS_1 must come together"
+                )));
+            }
+        };
+        if attr(Semantic::Joints(2)).is_some() {
             self.warn(format!(
-                "{what}: more than 4 influences per vertex; JOINTS_1/WEIGHTS_1 ignored"
+                "{what}: more than 8 influences per vertex; JOINTS_2/WEIGHTS_2 and beyond left out"
             ));
         }
+        let mut dropped_weight = 0.0f32;
 
         // Triangle list.
         let raw: Vec<u32> = match prim.indices {
@@ -417,7 +448,7 @@ impl Builder<'_> {
             if !normal.is_finite() {
                 normal = Vec3::ZERO;
             }
-            let uv = uvs.as_ref().map_or([0.0; 2], |v| v.get::<2>(i));
+            let uv = uvs.as_ref().map_or([0.0; 2], |v| uv_place(v.get::<2>(i)));
             let uv = if uv.iter().all(|x| x.is_finite()) { uv } else { [0.0; 2] };
             let color = match &colors {
                 Some(c) if c.components == 3 => {
@@ -430,8 +461,15 @@ impl Builder<'_> {
             let (vb, vw) = match binding {
                 Some(Binding::Skin(slots)) => match (&joints, &weights) {
                     (Some(j), Some(w)) => {
-                        let js = j.get::<4>(i);
-                        let mut ws = w.get::<4>(i);
+                        let (js, mut ws) = match &second {
+                            Some((j1, w1)) => {
+                                let (js, ws, dropped) =
+                                    strongest_four(j.get::<4>(i), w.get::<4>(i), j1.get::<4>(i), w1.get::<4>(i));
+                                dropped_weight = dropped_weight.max(dropped);
+                                (js, ws)
+                            }
+                            None => (j.get::<4>(i), w.get::<4>(i)),
+                        };
                         let mut b = [0u16; 4];
                         for k in 0..4 {
                             if !ws[k].is_finite() || ws[k] < 0.0 {
@@ -485,6 +523,12 @@ impl Builder<'_> {
         if bad_weights {
             self.warn(format!("{what}: vertices with zero weights bound to their first joint"));
         }
+        if dropped_weight > 0.0 {
+            self.warn(format!(
+                "{what}: vertices with more than 4 influences keep their 4 strongest (at most {:.0} % of a vertex's weight left out)",
+                dropped_weight * 100.0
+            ));
+        }
         // Mirrored transforms flip the winding: a static node's (its vertices are placed
         // mirrored here, so before any normals are computed from the winding), or the skinning
         // transform of a triangle's main bone (vertices stay in bind space, where the file's
@@ -535,7 +579,7 @@ impl Builder<'_> {
         };
         if uvs.is_none() && g.materials[material].base_color_texture.is_some() {
             self.warn(format!(
-                "{what}: its material has a texture but the primitive has no TEXCOORD_0; drawn in the texture's first texel"
+                "{what}: its material has a texture but the primitive has no TEXCOORD_{uv_set}; drawn in the texture's first texel"
             ));
         }
         g.submeshes.push(Submesh {
@@ -545,6 +589,140 @@ impl Builder<'_> {
         });
         Ok(())
     }
+}
+
+impl Builder<'_> {
+    /// Adds a primitive's morph targets at `weights` to its positions and normals (the
+    /// shape the file shows at rest; glTF: `base + Σ wᵢ·targetᵢ`). Targets beyond the
+    /// weights given are at weight 0; a target's accessor is checked like any attribute.
+    fn apply_morph_targets(
+        &mut self,
+        what: &str,
+        prim: &json::mesh::Primitive,
+        weights: &[f32],
+        positions: &mut accessor::Values<f32>,
+        normals: &mut Option<accessor::Values<f32>>,
+    ) -> Result<(), ImportError> {
+        let Some(targets) = prim.targets.as_deref() else {
+            return Ok(());
+        };
+        if !weights.is_empty() && weights.len() != targets.len() {
+            self.warn(format!(
+                "{what}: {} morph targets but {} default weights; the missing ones are 0",
+                targets.len(),
+                weights.len()
+            ));
+        }
+        let n = positions.count();
+        let mut applied = 0;
+        for (ti, target) in targets.iter().enumerate() {
+            let w = weights.get(ti).copied().unwrap_or(0.0);
+            if w == 0.0 {
+                continue;
+            }
+            if !w.is_finite() {
+                return Err(ImportError::Invalid(format!(
+                    "{what}: morph target {ti} has a non-finite weight"
+                )));
+            }
+            let read = |a: Option<json::Index<json::Accessor>>, name: &str, this: &Self| {
+                let Some(a) = a else {
+                    return Ok(None);
+                };
+                let v = accessor::read_f32(this.root, this.buffers, a.value())?;
+                if v.components != 3 || v.count() != n || v.data.iter().any(|x| !x.is_finite()) {
+                    return Err(ImportError::Invalid(format!(
+                        "{what}: morph target {ti} {name} must be {n} finite VEC3 values"
+                    )));
+                }
+                Ok(Some(v))
+            };
+            if let Some(d) = read(target.positions, "POSITION", self)? {
+                for (p, d) in positions.data.iter_mut().zip(&d.data) {
+                    *p += w * d;
+                }
+            }
+            if let (Some(d), Some(nv)) = (read(target.normals, "NORMAL", self)?, normals.as_mut()) {
+                for (p, d) in nv.data.iter_mut().zip(&d.data) {
+                    *p += w * d;
+                }
+            }
+            applied += 1;
+        }
+        if applied > 0 {
+            self.warn(format!(
+                "{what}: {applied} morph target(s) applied at their default weights"
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The texture coordinate set a primitive's base colour texture reads and the placement
+/// KHR_texture_transform gives it (`uv' = T·R·S·uv`: scale, then rotate by `rotation`
+/// radians counter-clockwise in texture space, then offset), identity without it.
+fn base_color_uvs(root: &json::Root, prim: &json::mesh::Primitive) -> (u32, impl Fn([f32; 2]) -> [f32; 2]) {
+    let info = prim
+        .material
+        .and_then(|m| root.materials.get(m.value()))
+        .and_then(|m| m.pbr_metallic_roughness.base_color_texture.as_ref());
+    let xf = info
+        .and_then(|i| i.extensions.as_ref())
+        .and_then(|e| e.texture_transform.as_ref());
+    let set = xf.and_then(|t| t.tex_coord).or(info.map(|i| i.tex_coord)).unwrap_or(0);
+    let finite = |v: f32, or: f32| if v.is_finite() { v } else { or };
+    let (offset, rotation, scale) = xf.map_or(([0.0; 2], 0.0, [1.0; 2]), |t| {
+        (
+            t.offset.0.map(|v| finite(v, 0.0)),
+            finite(t.rotation.0, 0.0),
+            t.scale.0.map(|v| finite(v, 1.0)),
+        )
+    });
+    let (sin, cos) = rotation.sin_cos();
+    let place = move |[u, v]: [f32; 2]| {
+        let (su, sv) = (u * scale[0], v * scale[1]);
+        [cos * su + sin * sv + offset[0], -sin * su + cos * sv + offset[1]]
+    };
+    (set, place)
+}
+
+/// Where a primitive's vertices go: its node, the node's world transform for static files,
+/// the morph target weights that shape it at rest.
+#[derive(Clone, Copy)]
+struct Placement<'a> {
+    node: Option<usize>,
+    static_world: Option<Mat4>,
+    morph_weights: &'a [f32],
+}
+
+/// The four strongest of a vertex's eight influences (two sets of four; a joint named twice
+/// counts once with its weights summed) and the share of the total weight left out.
+/// Negative and non-finite weights count as zero.
+fn strongest_four(j0: [u32; 4], w0: [f32; 4], j1: [u32; 4], w1: [f32; 4]) -> ([u32; 4], [f32; 4], f32) {
+    let clean = |w: f32| if w.is_finite() && w > 0.0 { w } else { 0.0 };
+    let mut all: Vec<(u32, f32)> = Vec::with_capacity(8);
+    for (j, w) in j0.into_iter().zip(w0).chain(j1.into_iter().zip(w1)) {
+        let w = clean(w);
+        if w == 0.0 {
+            continue;
+        }
+        match all.iter_mut().find(|(k, _)| *k == j) {
+            Some((_, sum)) => *sum += w,
+            None => all.push((j, w)),
+        }
+    }
+    // Heaviest first; equal weights keep the order they came in.
+    all.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let total: f32 = all.iter().map(|x| x.1).sum();
+    let mut js = [j0[0]; 4];
+    let mut ws = [0.0; 4];
+    for (k, &(j, w)) in all.iter().take(4).enumerate() {
+        js[k] = j;
+        ws[k] = w;
+    }
+    let kept: f32 = ws.iter().sum();
+    let dropped = if total > 0.0 { 1.0 - kept / total } else { 0.0 };
+    (js, ws, dropped)
 }
 
 /// Marks `starts` and all their ancestors in `marks` (stopping at a node already marked).
@@ -657,5 +835,56 @@ mod warning_tests {
                 "clip 'y' 2"
             ]
         );
+    }
+}
+
+#[cfg(test)]
+mod influence_tests {
+    use super::strongest_four;
+
+    /// Against brute force: every way of keeping four of the merged joints, the kept weight
+    /// is the largest possible and the share left out is what the others held.
+    #[test]
+    fn the_strongest_four_of_eight_influences() {
+        let mut seed = 12345u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            seed >> 8
+        };
+        for _ in 0..2000 {
+            let j0 = [0; 4].map(|_: i32| next() % 6);
+            let j1 = [0; 4].map(|_: i32| next() % 6);
+            let w = |n: u32| if n % 5 == 0 { 0.0 } else { (n % 1000) as f32 / 1000.0 };
+            let w0 = [0; 4].map(|_: i32| w(next()));
+            let w1 = [0; 4].map(|_: i32| w(next()));
+            let mut merged = [0.0f32; 6];
+            for (j, x) in j0.iter().zip(&w0).chain(j1.iter().zip(&w1)) {
+                merged[*j as usize] += x;
+            }
+            let total: f32 = merged.iter().sum();
+            let mut sorted = merged;
+            sorted.sort_by(|a, b| b.total_cmp(a));
+            let best: f32 = sorted[..4].iter().sum();
+            let (js, ws, dropped) = strongest_four(j0, w0, j1, w1);
+            let kept: f32 = ws.iter().sum();
+            assert!((kept - best).abs() < 1e-5, "{kept} {best}");
+            for (j, x) in js.iter().zip(&ws) {
+                if *x > 0.0 {
+                    assert!((merged[*j as usize] - x).abs() < 1e-6);
+                }
+            }
+            let distinct: Vec<_> = js.iter().zip(&ws).filter(|(_, x)| **x > 0.0).map(|(j, _)| *j).collect();
+            let mut d = distinct.clone();
+            d.sort();
+            d.dedup();
+            assert_eq!(d.len(), distinct.len(), "a joint kept twice: {js:?}");
+            if total > 0.0 {
+                assert!((dropped - (1.0 - best / total)).abs() < 1e-5);
+            }
+        }
+        // Negative and non-finite weights count as nothing.
+        let (_, ws, dropped) = strongest_four([1, 2, 3, 4], [0.5, -1.0, f32::NAN, 0.5], [5, 0, 0, 0], [0.0; 4]);
+        assert_eq!(ws, [0.5, 0.5, 0.0, 0.0]);
+        assert_eq!(dropped, 0.0);
     }
 }

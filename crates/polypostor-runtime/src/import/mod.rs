@@ -192,8 +192,10 @@ fn check_asset(root: &json::Root, warnings: &mut Vec<String>) -> Result<(), Impo
         match ext.as_str() {
             // Quantized attributes are read natively.
             "KHR_mesh_quantization" => {}
+            // The base colour texture's placement is applied to its texture coordinates.
+            "KHR_texture_transform" => {}
             // Purely visual extensions: the base colour is still right without them.
-            e if e.starts_with("KHR_materials_") || e == "KHR_texture_transform" => {
+            e if e.starts_with("KHR_materials_") => {
                 warnings.push(format!("required extension {e} is ignored"));
             }
             e => {
@@ -487,12 +489,6 @@ impl Builder<'_> {
         }
         let base_color_texture = match &pbr.base_color_texture {
             Some(info) => {
-                if info.tex_coord != 0 {
-                    self.warn(format!(
-                        "material {i}: texture uses TEXCOORD_{}; TEXCOORD_0 is used instead",
-                        info.tex_coord
-                    ));
-                }
                 let t = info.index.value();
                 match texture_map.get(&t) {
                     Some(&k) => k,
@@ -743,7 +739,7 @@ impl Builder<'_> {
         }
         if !morph_clips.is_empty() {
             self.warn(format!(
-                "morph target weight channels are ignored ({} clips: {})",
+                "morph target weight channels are not played; the shapes stay at their default weights ({} clips: {})",
                 morph_clips.len(),
                 morph_clips.join(", ")
             ));
