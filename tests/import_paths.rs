@@ -558,3 +558,56 @@ fn a_texture_transform_places_the_base_colour_texture() {
         );
     }
 }
+
+/// Primitives that share one vertex buffer, each drawing a range of it (as exporters write a
+/// mesh split by material or body part), bring only the vertices they draw: every vertex
+/// had come in once per primitive, unused copies included, and they weighed in measures
+/// taken over the vertices (a quadruped's stride speed moved). Independent answer: the same
+/// triangles from one primitive.
+#[test]
+fn primitives_sharing_a_vertex_buffer_bring_only_the_vertices_they_draw() {
+    let c = small_character();
+    let plain = import_slice(&write_glb(&c).unwrap(), None, "x").unwrap();
+    let mut e = Editable::of(&c);
+    let indices: Vec<[f32; 4]> = c.indices.iter().map(|&i| [i as f32, 0.0, 0.0, 0.0]).collect();
+    let half = (indices.len() / 6) * 3;
+    let a = e.add(&indices[..half], 1, false);
+    let b = e.add(&indices[half..], 1, false);
+    // Indices as u32 (5125) rows of one f32 each were written as f32: retag as u32 values.
+    for id in [a, b] {
+        let view = e.json["accessors"][id]["bufferView"].as_u64().unwrap() as usize;
+        let start = e.json["bufferViews"][view]["byteOffset"].as_u64().unwrap() as usize;
+        let count = e.json["accessors"][id]["count"].as_u64().unwrap() as usize;
+        for k in 0..count {
+            let at = start + 4 * k;
+            let v = f32::from_le_bytes(e.bin[at..at + 4].try_into().unwrap()) as u32;
+            e.bin[at..at + 4].copy_from_slice(&v.to_le_bytes());
+        }
+        e.json["accessors"][id]["componentType"] = serde_json::json!(5125);
+    }
+    let meshes = e.json["meshes"].as_array_mut().unwrap();
+    let first = meshes[0]["primitives"][0].clone();
+    assert_eq!(meshes[0]["primitives"].as_array().unwrap().len(), 1);
+    let (mut p, mut q) = (first.clone(), first);
+    p["indices"] = serde_json::json!(a);
+    q["indices"] = serde_json::json!(b);
+    meshes[0]["primitives"] = serde_json::json!([p, q]);
+    let split = e.import("shared_vertex_buffer");
+    assert_eq!(split.indices.len(), plain.indices.len());
+    assert!(
+        split.vertices.len() < plain.vertices.len() * 11 / 10,
+        "{} vertices from {}",
+        split.vertices.len(),
+        plain.vertices.len()
+    );
+    let corners = |c: &polypostor::Character| -> Vec<Vec3> {
+        let (p, _) = skin_vertices(c, &Pose::sample(c, &c.clips[0], 0.3));
+        c.indices.iter().map(|&i| p[i as usize]).collect()
+    };
+    let off = corners(&split)
+        .iter()
+        .zip(corners(&plain))
+        .map(|(x, y)| (*x - y).length())
+        .fold(0.0f32, f32::max);
+    assert!(off < 1e-5, "triangle corners moved by {off}");
+}

@@ -430,11 +430,15 @@ impl Builder<'_> {
                 "{what}: index {bad} is out of range ({n} vertices)"
             )));
         }
-        let tris = triangulate(mode, &raw);
+        let mut tris = triangulate(mode, &raw);
         if tris.is_empty() {
             self.warn(format!("{what}: no triangles"));
             return Ok(());
         }
+        // Only the vertices its triangles use, in the file's order: primitives that share one
+        // vertex buffer (each drawing a range of it) would otherwise bring every vertex once
+        // per primitive, and unused copies weigh in every measure taken over the vertices.
+        let keep = used_vertices(&mut tris, n);
 
         let binding = match node {
             Some(n) => rig.bindings.get(&n),
@@ -442,7 +446,7 @@ impl Builder<'_> {
         };
         let base = g.vertices.len() as u32;
         let mut bad_weights = false;
-        for i in 0..n {
+        for &i in &keep {
             let mut position = Vec3::from_array(positions.get::<3>(i));
             let mut normal = normals.as_ref().map_or(Vec3::ZERO, |v| Vec3::from_array(v.get::<3>(i)));
             if !normal.is_finite() {
@@ -684,6 +688,25 @@ fn base_color_uvs(root: &json::Root, prim: &json::mesh::Primitive) -> (u32, impl
         [cos * su + sin * sv + offset[0], -sin * su + cos * sv + offset[1]]
     };
     (set, place)
+}
+
+/// The vertices (of `n`) that `tris` use, in order, with `tris` renumbered to index that list.
+fn used_vertices(tris: &mut [u32], n: usize) -> Vec<usize> {
+    let mut new_index = vec![u32::MAX; n];
+    for &t in tris.iter() {
+        new_index[t as usize] = 0;
+    }
+    let mut keep = Vec::with_capacity(n);
+    for (i, slot) in new_index.iter_mut().enumerate() {
+        if *slot == 0 {
+            *slot = keep.len() as u32;
+            keep.push(i);
+        }
+    }
+    for t in tris.iter_mut() {
+        *t = new_index[*t as usize];
+    }
+    keep
 }
 
 /// Where a primitive's vertices go: its node, the node's world transform for static files,
