@@ -295,17 +295,18 @@ impl Editable {
         }
     }
 
-    fn add(&mut self, rows: &[[f32; 4]], width: usize, as_u16: bool) -> usize {
+    /// `kind`: the glTF component type, 5126 (f32), 5123 (u16) or 5125 (u32).
+    fn add(&mut self, rows: &[[f32; 4]], width: usize, kind: u32) -> usize {
         while self.bin.len() % 4 != 0 {
             self.bin.push(0);
         }
         let start = self.bin.len();
         for r in rows {
             for &x in &r[..width] {
-                if as_u16 {
-                    self.bin.extend_from_slice(&(x as u16).to_le_bytes());
-                } else {
-                    self.bin.extend_from_slice(&x.to_le_bytes());
+                match kind {
+                    5123 => self.bin.extend_from_slice(&(x as u16).to_le_bytes()),
+                    5125 => self.bin.extend_from_slice(&(x as u32).to_le_bytes()),
+                    _ => self.bin.extend_from_slice(&x.to_le_bytes()),
                 }
             }
         }
@@ -315,11 +316,11 @@ impl Editable {
         let typ = ["", "SCALAR", "VEC2", "VEC3", "VEC4"][width];
         let mut acc = serde_json::json!({
             "bufferView": view,
-            "componentType": if as_u16 { 5123 } else { 5126 },
+            "componentType": kind,
             "count": rows.len(),
             "type": typ,
         });
-        if width == 3 && !as_u16 {
+        if width == 3 && kind == 5126 {
             let lo: Vec<f32> = (0..3)
                 .map(|k| rows.iter().map(|r| r[k]).fold(f32::MAX, f32::min))
                 .collect();
@@ -409,10 +410,10 @@ fn eight_influences_per_vertex_keep_the_strongest_four() {
     }
     assert!(split_some);
     let ids = [
-        e.add(&j0, 4, true),
-        e.add(&w0, 4, false),
-        e.add(&j1, 4, true),
-        e.add(&w1, 4, false),
+        e.add(&j0, 4, 5123),
+        e.add(&w0, 4, 5126),
+        e.add(&j1, 4, 5123),
+        e.add(&w1, 4, 5126),
     ];
     for p in e.primitives() {
         let at = &mut p["attributes"];
@@ -448,7 +449,7 @@ fn morph_targets_shape_the_character_at_their_default_weights() {
         .collect();
     for (weights_on, expect) in [("mesh", [0.5f32, 0.0]), ("node", [0.25, 1.0])] {
         let mut e = Editable::of(&c);
-        let (a, b) = (e.add(&up, 3, false), e.add(&out, 3, false));
+        let (a, b) = (e.add(&up, 3, 5126), e.add(&out, 3, 5126));
         for p in e.primitives() {
             p["targets"] = serde_json::json!([{"POSITION": a}, {"POSITION": b}]);
         }
@@ -500,8 +501,8 @@ fn a_texture_transform_places_the_base_colour_texture() {
         })
         .collect();
     let mut e = Editable::of(&c);
-    let zero = e.add(&vec![[0.0; 4]; c.vertices.len()], 2, false);
-    let one = e.add(&undone, 2, false);
+    let zero = e.add(&vec![[0.0; 4]; c.vertices.len()], 2, 5126);
+    let one = e.add(&undone, 2, 5126);
     for p in e.primitives() {
         p["attributes"]["TEXCOORD_0"] = serde_json::json!(zero);
         p["attributes"]["TEXCOORD_1"] = serde_json::json!(one);
@@ -537,7 +538,7 @@ fn a_texture_transform_places_the_base_colour_texture() {
         .map(|i| [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]][i % 4])
         .map(|[u, v]| [u, v, 0.0, 0.0])
         .collect();
-    let uv = e.add(&corners, 2, false);
+    let uv = e.add(&corners, 2, 5126);
     for p in e.primitives() {
         p["attributes"]["TEXCOORD_0"] = serde_json::json!(uv);
     }
@@ -571,20 +572,8 @@ fn primitives_sharing_a_vertex_buffer_bring_only_the_vertices_they_draw() {
     let mut e = Editable::of(&c);
     let indices: Vec<[f32; 4]> = c.indices.iter().map(|&i| [i as f32, 0.0, 0.0, 0.0]).collect();
     let half = (indices.len() / 6) * 3;
-    let a = e.add(&indices[..half], 1, false);
-    let b = e.add(&indices[half..], 1, false);
-    // Indices as u32 (5125) rows of one f32 each were written as f32: retag as u32 values.
-    for id in [a, b] {
-        let view = e.json["accessors"][id]["bufferView"].as_u64().unwrap() as usize;
-        let start = e.json["bufferViews"][view]["byteOffset"].as_u64().unwrap() as usize;
-        let count = e.json["accessors"][id]["count"].as_u64().unwrap() as usize;
-        for k in 0..count {
-            let at = start + 4 * k;
-            let v = f32::from_le_bytes(e.bin[at..at + 4].try_into().unwrap()) as u32;
-            e.bin[at..at + 4].copy_from_slice(&v.to_le_bytes());
-        }
-        e.json["accessors"][id]["componentType"] = serde_json::json!(5125);
-    }
+    let a = e.add(&indices[..half], 1, 5125);
+    let b = e.add(&indices[half..], 1, 5125);
     let meshes = e.json["meshes"].as_array_mut().unwrap();
     let first = meshes[0]["primitives"][0].clone();
     assert_eq!(meshes[0]["primitives"].as_array().unwrap().len(), 1);
