@@ -565,23 +565,63 @@ fn a_texture_transform_places_the_base_colour_texture() {
 /// had come in once per primitive, unused copies included, and they weighed in measures
 /// taken over the vertices (a quadruped's stride speed moved). Independent answer: the same
 /// triangles from one primitive.
-#[test]
-fn primitives_sharing_a_vertex_buffer_bring_only_the_vertices_they_draw() {
-    let c = small_character();
-    let plain = import_slice(&write_glb(&c).unwrap(), None, "x").unwrap();
-    let mut e = Editable::of(&c);
+/// The default character's one primitive as two drawing halves of its triangles from one
+/// shared vertex buffer; with `own_skin`, the second half is a mesh of its own on a node of
+/// its own with a copy of the skin.
+fn split_in_two(c: &polypostor::Character, own_skin: bool) -> Editable {
+    let mut e = Editable::of(c);
     let indices: Vec<[f32; 4]> = c.indices.iter().map(|&i| [i as f32, 0.0, 0.0, 0.0]).collect();
     let half = (indices.len() / 6) * 3;
     let a = e.add(&indices[..half], 1, 5125);
     let b = e.add(&indices[half..], 1, 5125);
     let meshes = e.json["meshes"].as_array_mut().unwrap();
-    let first = meshes[0]["primitives"][0].clone();
+    assert_eq!(meshes.len(), 1);
     assert_eq!(meshes[0]["primitives"].as_array().unwrap().len(), 1);
+    let first = meshes[0]["primitives"][0].clone();
     let (mut p, mut q) = (first.clone(), first);
     p["indices"] = serde_json::json!(a);
     q["indices"] = serde_json::json!(b);
-    meshes[0]["primitives"] = serde_json::json!([p, q]);
-    let split = e.import("shared_vertex_buffer");
+    if !own_skin {
+        meshes[0]["primitives"] = serde_json::json!([p, q]);
+        return e;
+    }
+    meshes[0]["primitives"] = serde_json::json!([p]);
+    meshes.push(serde_json::json!({"name": "second", "primitives": [q]}));
+    let skins = e.json["skins"].as_array_mut().unwrap();
+    skins.push(skins[0].clone());
+    let nodes = e.json["nodes"].as_array_mut().unwrap();
+    let carrier = nodes.iter().position(|n| n.get("mesh").is_some()).unwrap();
+    let mut second = nodes[carrier].clone();
+    second["mesh"] = serde_json::json!(1);
+    second["skin"] = serde_json::json!(1);
+    second["name"] = serde_json::json!("second");
+    second.as_object_mut().unwrap().remove("children");
+    nodes.push(second);
+    let id = nodes.len() - 1;
+    let scene = e.json["scene"].as_u64().unwrap_or(0) as usize;
+    e.json["scenes"][scene]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!(id));
+    e
+}
+
+/// The corners of every triangle, skinned at one time of the first clip.
+fn triangle_corners(c: &polypostor::Character) -> Vec<Vec3> {
+    let (p, _) = skin_vertices(c, &Pose::sample(c, &c.clips[0], 0.3));
+    c.indices.iter().map(|&i| p[i as usize]).collect()
+}
+
+/// Primitives that share one vertex buffer, each drawing a range of it (as exporters write a
+/// mesh split by material or body part), bring only the vertices they draw: every vertex
+/// had come in once per primitive, unused copies included, and they weighed in measures
+/// taken over the vertices (a quadruped's stride speed moved). Independent answer: the same
+/// triangles from one primitive.
+#[test]
+fn primitives_sharing_a_vertex_buffer_bring_only_the_vertices_they_draw() {
+    let c = small_character();
+    let plain = import_slice(&write_glb(&c).unwrap(), None, "x").unwrap();
+    let split = split_in_two(&c, false).import("shared_vertex_buffer");
     assert_eq!(split.indices.len(), plain.indices.len());
     assert!(
         split.vertices.len() < plain.vertices.len() * 11 / 10,
@@ -589,14 +629,49 @@ fn primitives_sharing_a_vertex_buffer_bring_only_the_vertices_they_draw() {
         split.vertices.len(),
         plain.vertices.len()
     );
-    let corners = |c: &polypostor::Character| -> Vec<Vec3> {
-        let (p, _) = skin_vertices(c, &Pose::sample(c, &c.clips[0], 0.3));
-        c.indices.iter().map(|&i| p[i as usize]).collect()
-    };
-    let off = corners(&split)
+    let off = triangle_corners(&split)
         .iter()
-        .zip(corners(&plain))
+        .zip(triangle_corners(&plain))
         .map(|(x, y)| (*x - y).length())
         .fold(0.0f32, f32::max);
     assert!(off < 1e-5, "triangle corners moved by {off}");
+}
+
+/// A mesh on a skin of its own that names the same joints with the same inverse binds (as
+/// clothing or a head exported apart comes) shares the first skin's bones: each copy had
+/// been a bone of its own, doubling the skinned crowd's joint data (and moving the bake a
+/// little). Independent answer: the same halves on one skin.
+#[test]
+fn skins_naming_the_same_joints_share_their_bones() {
+    let c = small_character();
+    let one = split_in_two(&c, false).import("one_skin");
+    let two = split_in_two(&c, true).import("two_skins");
+    assert_eq!(two.bones.len(), one.bones.len(), "bones");
+    assert_eq!(two.indices.len(), one.indices.len());
+    let off = triangle_corners(&two)
+        .iter()
+        .zip(triangle_corners(&one))
+        .map(|(x, y)| (*x - y).length())
+        .fold(0.0f32, f32::max);
+    assert!(off < 1e-5, "triangle corners moved by {off}");
+    // Joints named alike but bound differently stay apart.
+    let mut e = split_in_two(&c, true);
+    let ibm = e.json["skins"][1]["inverseBindMatrices"].as_u64().unwrap() as usize;
+    let n = e.json["accessors"][ibm]["count"].as_u64().unwrap() as usize;
+    let shifted: Vec<[f32; 4]> = (0..n * 4)
+        .map(|k| match k % 4 {
+            3 => [0.1, 0.0, 0.0, 1.0],
+            col => {
+                let mut r = [0.0; 4];
+                r[col] = 1.0;
+                r
+            }
+        })
+        .collect();
+    let id = e.add(&shifted, 4, 5126);
+    e.json["accessors"][id]["count"] = serde_json::json!(n);
+    e.json["accessors"][id]["type"] = serde_json::json!("MAT4");
+    e.json["skins"][1]["inverseBindMatrices"] = serde_json::json!(id);
+    let apart = e.import("two_skins_apart");
+    assert_eq!(apart.bones.len(), one.bones.len() * 2);
 }

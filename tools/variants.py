@@ -20,6 +20,9 @@ OUT_DIR/<stem>_<variant>.glb (an existing file is never overwritten):
            body-shape sliders and faces come)
   split    every skinned mesh split in two meshes on two nodes sharing the skin (as exports
            that keep body, head and clothes apart)
+  twoskins as split, the second mesh with a skin of its own (a copy: the same joints and
+           inverse binds), as clothing exported on its own skin comes
+  zup      a root node turned -90 degrees about x (a Z-up export left lying on its back)
   cubic    every LINEAR sampler turned CUBICSPLINE with Catmull-Rom tangents (the same
            motion through the keys, curved between them)
   nonormals  no NORMAL attribute anywhere (normals left to the importer)
@@ -31,7 +34,7 @@ With no VARIANT, all of them."""
 import json, math, os, random, struct, sys
 
 ALL = ['ikctrl', 'clips40', 'late', 'quant', 'mirror', 'turned', 'renamed', 'vanish', 'infl8',
-       'morph', 'split', 'cubic', 'nonormals', 'texxform', 'gltf']
+       'morph', 'split', 'twoskins', 'zup', 'cubic', 'nonormals', 'texxform', 'gltf']
 NC = {'SCALAR': 1, 'VEC2': 2, 'VEC3': 3, 'VEC4': 4, 'MAT4': 16}
 CT = {5120: 'b', 5121: 'B', 5122: 'h', 5123: 'H', 5125: 'I', 5126: 'f'}
 
@@ -322,6 +325,20 @@ def split(js, bin_):
         js['meshes'].append({'name': m.get('name', 'mesh') + '_B', 'primitives': b_prims})
         js['nodes'].append({'name': nd.get('name', 'node') + '_B', 'mesh': len(js['meshes']) - 1, 'skin': nd['skin']})
         js['scenes'][js.get('scene', 0)]['nodes'].append(len(js['nodes']) - 1)
+
+
+def twoskins(js, bin_):
+    n0 = len(js['nodes'])
+    split(js, bin_)
+    for nd in js['nodes'][n0:]:
+        if 'skin' in nd:
+            js['skins'].append(json.loads(json.dumps(js['skins'][nd['skin']])))
+            nd['skin'] = len(js['skins']) - 1
+
+
+def zup(js, bin_):
+    s = math.sin(-math.pi / 4)
+    wrap_root(js, name='ZUp', rotation=[s, 0.0, 0.0, math.cos(-math.pi / 4)])
 
 
 def cubic(js, bin_):

@@ -249,6 +249,7 @@ impl Builder<'_> {
                 is_joint: is_joint[i],
             });
         }
+        let mut same_bone: HashMap<(usize, [u32; 16]), usize> = HashMap::new();
         for &s in &skins {
             let skin = &root.skins[s];
             let ibms: Vec<Mat4> = match skin.inverse_bind_matrices {
@@ -269,13 +270,21 @@ impl Builder<'_> {
                 }
                 None => vec![Mat4::IDENTITY; skin.joints.len()],
             };
+            // Skins that name the same joint with the same inverse bind (clothing or a head
+            // exported on a skin of its own) share one bone: the skinned crowd samples each
+            // bone, and copies would double its joint data.
             let mut slots = Vec::with_capacity(skin.joints.len());
             for (k, j) in skin.joints.iter().enumerate() {
-                slots.push(bones.len() as u16);
-                bones.push(Bone {
+                let bone = Bone {
                     node: new_index[&j.value()],
                     inverse_bind: ibms[k],
+                };
+                let key = (bone.node, bone.inverse_bind.to_cols_array().map(f32::to_bits));
+                let slot = *same_bone.entry(key).or_insert_with(|| {
+                    bones.push(bone);
+                    bones.len() - 1
                 });
+                slots.push(slot as u16);
             }
             for &m in mesh_nodes {
                 if root.nodes[m].skin.map(|x| x.value()) == Some(s) {
