@@ -20,6 +20,8 @@ struct Bones {
 
 struct MaterialUniforms {
     base_color_factor: vec4<f32>,
+    // x: alpha cut-off (0 draws every fragment).
+    params: vec4<f32>,
 };
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
@@ -76,6 +78,9 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> FragmentOut {
         n = -n;
     }
     let albedo = textureSample(base_texture, base_sampler, in.uv) * material.base_color_factor * in.color;
+    if (albedo.a < material.params.x) {
+        discard;
+    }
     let l = normalize(frame.light_dir_view.xyz);
     let ambient = frame.params.y;
     let diffuse = max(dot(n, l), 0.0);

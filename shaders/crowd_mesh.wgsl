@@ -20,6 +20,8 @@ fn apply_joint(j: Joint, p: vec4<f32>) -> vec3<f32> {
 
 struct Material {
     base_color_factor: vec4<f32>,
+    // x: alpha cut-off (0 draws every fragment).
+    params: vec4<f32>,
 };
 
 @group(0) @binding(0) var<uniform> frame: Frame;
@@ -138,5 +140,8 @@ fn fs_main(in: VertexOut) -> FragmentOut {
         discard;
     }
     let albedo = textureSample(base_texture, base_sampler, in.uv) * material.base_color_factor * in.color;
+    if (albedo.a < material.params.x) {
+        discard;
+    }
     return shade(albedo.rgb, in.tint, normalize(in.normal), frame.light_dir.xyz, frame.params);
 }

@@ -231,3 +231,70 @@ fn character_over_a_cached_grid_backdrop_matches_a_full_draw() {
         );
     }
 }
+
+/// Alpha cut-outs (glTF `MASK`, and `BLEND` drawn as a cut-out): fragments whose base colour
+/// alpha falls below the material's cut-off are not drawn, so alpha-tested hair cards,
+/// lashes and lace show their shape instead of their whole quads. Independent answers: a
+/// texture opaque everywhere draws exactly the opaque material's pixels, one transparent
+/// everywhere draws nothing, and one transparent on its left half draws a part of them
+/// (and only pixels the opaque render has).
+#[test]
+fn alpha_cut_outs_leave_out_what_the_texture_leaves_out() {
+    let ctx = context();
+    let base = polypostor::default_character::generate();
+    let renderer = CharacterRenderer::new(&ctx.device);
+    let target = RenderTarget::new(&ctx.device, 96, 128);
+    let pose = Pose::rest(&base);
+    let (min, max) = base.bind_bounds();
+    let cam = Camera::ortho_framing(min, max, glam::Vec3::Z, 0.05);
+    let opts = DrawOptions {
+        shading: Shading::Unlit,
+        clear_color: [0.0, 0.0, 0.0, 0.0],
+        grid: false,
+    };
+    let draw = |alpha: &dyn Fn(u32) -> u8, cutoff: f32| {
+        let mut c = base.clone();
+        for t in &mut c.textures {
+            let w = t.width;
+            for (k, px) in t.rgba8.chunks_exact_mut(4).enumerate() {
+                px[3] = alpha(k as u32 % w * 2 / w);
+            }
+        }
+        for m in &mut c.materials {
+            m.alpha_cutoff = cutoff;
+        }
+        let mut gpu = GpuCharacter::new(&renderer, &ctx.device, &ctx.queue, &c);
+        renderer.render(
+            &ctx.device,
+            &ctx.queue,
+            &target,
+            &mut gpu,
+            &c,
+            &pose,
+            SkinningMode::Gpu,
+            &cam,
+            &opts,
+        );
+        target.read_color(&ctx.device, &ctx.queue).unwrap()
+    };
+    assert!(base.materials.iter().all(|m| m.base_color_texture.is_some()));
+    let opaque = draw(&|_| 0, 0.0);
+    let full = mask(&opaque);
+    let covered = full.iter().filter(|&&b| b).count();
+    assert!(covered > 1000, "{covered} pixels");
+    let solid = draw(&|_| 255, 0.5);
+    assert_eq!(solid.as_raw(), opaque.as_raw(), "an opaque texture cuts nothing");
+    let clear = draw(&|_| 0, 0.5);
+    assert_eq!(
+        mask(&clear).iter().filter(|&&b| b).count(),
+        0,
+        "a clear texture draws nothing"
+    );
+    let half = mask(&draw(&|column_half| if column_half == 0 { 0 } else { 255 }, 0.5));
+    let kept = half.iter().filter(|&&b| b).count();
+    assert!(kept > covered / 10 && kept < covered * 9 / 10, "{kept} of {covered}");
+    assert!(
+        half.iter().zip(&full).all(|(h, f)| !h || *f),
+        "drew outside the character"
+    );
+}

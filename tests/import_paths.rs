@@ -675,3 +675,39 @@ fn skins_naming_the_same_joints_share_their_bones() {
     let apart = e.import("two_skins_apart");
     assert_eq!(apart.bones.len(), one.bones.len() * 2);
 }
+
+/// glTF's alpha modes: `MASK` keeps its `alphaCutoff` (0.5 when not given), `BLEND` is drawn
+/// as a cut-out at 0.5 (said), `OPAQUE` ignores alpha; they had all been drawn opaque.
+#[test]
+fn alpha_modes_become_cut_offs() {
+    let c = small_character();
+    for (mode, cutoff, want, said) in [
+        ("MASK", Some(0.3), 0.3f32, false),
+        ("MASK", None, 0.5, false),
+        ("BLEND", None, 0.5, true),
+        ("OPAQUE", Some(0.7), 0.0, false),
+    ] {
+        let mut e = Editable::of(&c);
+        for m in e.json["materials"].as_array_mut().unwrap() {
+            m["alphaMode"] = serde_json::json!(mode);
+            if let Some(x) = cutoff {
+                m["alphaCutoff"] = serde_json::json!(x);
+            }
+        }
+        let back = e.import(&format!("alpha_{mode}"));
+        for m in &back.materials {
+            assert!((m.alpha_cutoff - want).abs() < 1e-6, "{mode}: {}", m.alpha_cutoff);
+        }
+        assert_eq!(
+            back.warnings.iter().any(|w| w.contains("cut-out")),
+            said,
+            "{mode}: {:?}",
+            back.warnings
+        );
+    }
+    // Our own writer keeps a cut-off.
+    let mut masked = c.clone();
+    masked.materials[0].alpha_cutoff = 0.25;
+    let back = import_slice(&write_glb(&masked).unwrap(), None, "x").unwrap();
+    assert!((back.materials[0].alpha_cutoff - 0.25).abs() < 1e-6);
+}

@@ -28,13 +28,16 @@ OUT_DIR/<stem>_<variant>.glb (an existing file is never overwritten):
   nonormals  no NORMAL attribute anywhere (normals left to the importer)
   texxform the base colour texture read through KHR_texture_transform (scale, rotation,
            offset) from TEXCOORD_1, whose coordinates undo it; TEXCOORD_0 all zero
+  alphamask  every material alpha-tested (MASK, double-sided) with its texture replaced by a
+           64x64 one of coloured checks pierced by round holes (as lace, hair cards and
+           foliage come)
   gltf     a .gltf with its buffer and images as separate files, in a folder and under a
            name with spaces (URIs percent-encoded)
 With no VARIANT, all of them."""
 import json, math, os, random, struct, sys
 
 ALL = ['ikctrl', 'clips40', 'late', 'quant', 'mirror', 'turned', 'renamed', 'vanish', 'infl8',
-       'morph', 'split', 'twoskins', 'zup', 'cubic', 'nonormals', 'texxform', 'gltf']
+       'morph', 'split', 'twoskins', 'zup', 'cubic', 'nonormals', 'texxform', 'alphamask', 'gltf']
 NC = {'SCALAR': 1, 'VEC2': 2, 'VEC3': 3, 'VEC4': 4, 'MAT4': 16}
 CT = {5120: 'b', 5121: 'B', 5122: 'h', 5123: 'H', 5125: 'I', 5126: 'f'}
 
@@ -402,6 +405,45 @@ def texxform(js, bin_):
             info.setdefault('extensions', {})['KHR_texture_transform'] = {
                 'offset': off, 'rotation': rot, 'scale': sc, 'texCoord': 1}
     js.setdefault('extensionsUsed', []).append('KHR_texture_transform')
+
+
+def png_rgba(w, h, pixel):
+    import zlib
+    raw = b''.join(b'\0' + b''.join(bytes(pixel(x, y)) for x in range(w)) for y in range(h))
+    def chunk(t, d):
+        return struct.pack('>I', len(d)) + t + d + struct.pack('>I', zlib.crc32(t + d) & 0xffffffff)
+    return (b'\x89PNG\r\n\x1a\n' + chunk(b'IHDR', struct.pack('>IIBBBBB', w, h, 8, 6, 0, 0, 0))
+            + chunk(b'IDAT', zlib.compress(raw)) + chunk(b'IEND', b''))
+
+
+def alphamask(js, bin_):
+    def pixel(x, y):
+        cx, cy = x % 16 - 7.5, y % 16 - 7.5
+        hole = cx * cx + cy * cy < 16
+        c = (200, 60, 40) if (x // 16 + y // 16) % 2 else (230, 210, 120)
+        return (*c, 0 if hole else 255)
+    data = png_rgba(64, 64, pixel)
+    while len(bin_) % 4:
+        bin_.append(0)
+    start = len(bin_)
+    bin_ += data
+    js['bufferViews'].append({'buffer': 0, 'byteOffset': start, 'byteLength': len(data)})
+    js.setdefault('images', []).append({'bufferView': len(js['bufferViews']) - 1, 'mimeType': 'image/png'})
+    js.setdefault('samplers', []).append({})
+    js.setdefault('textures', []).append({'source': len(js['images']) - 1, 'sampler': len(js['samplers']) - 1})
+    tex = len(js['textures']) - 1
+    for m in js.get('meshes', []):
+        for p in m['primitives']:
+            if 'TEXCOORD_0' not in p['attributes']:
+                n = js['accessors'][p['attributes']['POSITION']]['count']
+                pos = read_acc(js, bin_, p['attributes']['POSITION'])
+                p['attributes']['TEXCOORD_0'] = add_acc(js, bin_, [[r[0] * 3.0, r[1] * 3.0] for r in pos], 'VEC2')
+    for mat in js.get('materials', []):
+        pbr = mat.setdefault('pbrMetallicRoughness', {})
+        pbr['baseColorTexture'] = {'index': tex}
+        pbr.pop('baseColorFactor', None)
+        mat['alphaMode'] = 'MASK'
+        mat['doubleSided'] = True
 
 
 def gltf(js, bin_):

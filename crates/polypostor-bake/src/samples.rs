@@ -110,6 +110,7 @@ pub fn quadruped() -> Character {
             base_color_factor: [1.0; 4],
             base_color_texture: Some(0),
             double_sided: false,
+            alpha_cutoff: 0.0,
         }],
         textures: vec![fur_texture()],
         skeleton: Skeleton { nodes },

@@ -141,7 +141,12 @@ fn build(c: &Character) -> Result<(Value, Vec<u8>), String> {
             if let Some(t) = m.base_color_texture {
                 pbr["baseColorTexture"] = json!({ "index": t });
             }
-            json!({ "name": m.name, "pbrMetallicRoughness": pbr, "doubleSided": m.double_sided })
+            let mut mat = json!({ "name": m.name, "pbrMetallicRoughness": pbr, "doubleSided": m.double_sided });
+            if m.alpha_cutoff > 0.0 {
+                mat["alphaMode"] = json!("MASK");
+                mat["alphaCutoff"] = json!(m.alpha_cutoff);
+            }
+            mat
         })
         .collect();
 

@@ -223,6 +223,10 @@ pub struct Material {
     pub base_color_texture: Option<usize>,
     /// Draw back faces too instead of culling them (glTF's `doubleSided`).
     pub double_sided: bool,
+    /// Fragments whose base colour alpha (texture × factor × vertex colour) falls below this
+    /// are not drawn: glTF's `MASK` with its `alphaCutoff`, and `BLEND` drawn as a cut-out at
+    /// 0.5. `0.0` draws every fragment (`OPAQUE`, alpha ignored).
+    pub alpha_cutoff: f32,
 }
 
 impl Default for Material {
@@ -232,6 +236,7 @@ impl Default for Material {
             base_color_factor: [1.0; 4],
             base_color_texture: None,
             double_sided: false,
+            alpha_cutoff: 0.0,
         }
     }
 }

@@ -808,6 +808,7 @@ impl GpuCharacter {
                     label: Some(&m.name),
                     contents: bytemuck::bytes_of(&MaterialUniforms {
                         base_color_factor: m.base_color_factor,
+                        params: [m.alpha_cutoff, 0.0, 0.0, 0.0],
                     }),
                     usage: wgpu::BufferUsages::UNIFORM,
                 });

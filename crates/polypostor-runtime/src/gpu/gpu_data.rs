@@ -36,6 +36,9 @@ pub struct Bones {
 pub struct MaterialUniforms {
     /// Linear RGBA multiplier of the base-colour texture and the vertex colour.
     pub base_color_factor: [f32; 4],
+    /// x: alpha cut-off ([`crate::character::Material::alpha_cutoff`]; 0 draws every
+    /// fragment); y, z, w unused.
+    pub params: [f32; 4],
 }
 
 /// Vertex stream 0 (rewritten each frame when skinning on the CPU).

@@ -512,11 +512,29 @@ impl Builder<'_> {
             }
             None => None,
         };
+        use json::material::AlphaMode;
+        let alpha_cutoff = match m.alpha_mode {
+            Checked::Valid(AlphaMode::Opaque) => 0.0,
+            Checked::Valid(AlphaMode::Mask) => {
+                let c = m.alpha_cutoff.map_or(0.5, |c| c.0);
+                if c.is_finite() { c.clamp(0.0, 1.0) } else { 0.5 }
+            }
+            Checked::Valid(AlphaMode::Blend) => {
+                self.warn(format!(
+                    "material {i}: alpha blending is drawn as a cut-out at alpha 0.5"
+                ));
+                0.5
+            }
+            Checked::Invalid => {
+                return Err(ImportError::Invalid(format!("material {i}: invalid alphaMode")));
+            }
+        };
         Ok(Material {
             name: m.name.clone().unwrap_or_else(|| format!("material {i}")),
             base_color_factor: factor,
             base_color_texture,
             double_sided: m.double_sided,
+            alpha_cutoff,
         })
     }
 

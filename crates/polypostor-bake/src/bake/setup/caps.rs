@@ -239,6 +239,7 @@ pub fn part_character(
             base_color_factor: [1.0; 4],
             base_color_texture: None,
             double_sided: true,
+            alpha_cutoff: 0.0,
         });
         let first_index = out.indices.len() as u32;
         for cap in part_caps {
