@@ -139,22 +139,9 @@ fn every_representation_draws_close_to_the_mesh() {
         let camera = cam.to_camera(cam.half_size * 4.0, cam.half_size, cam.half_size * 8.0);
         for &(level, blend, min_iou, max_diff) in &cases {
             let time = (frame as f32 + blend) / 10.0;
-            renderer.render(
-                device,
-                queue,
-                &target,
-                &mut mesh,
-                &c,
-                &Pose::sample_index(&c, Some(0), time),
-                SkinningMode::Gpu,
-                &camera,
-                &DrawOptions {
-                    shading: Shading::Unlit,
-                    ..Default::default()
-                },
-            );
-            let truth_color = target.read_color(device, queue).unwrap();
-            let truth = mask(&target.read_normal(device, queue).unwrap());
+            let pose = Pose::sample_index(&c, Some(0), time);
+            let (truth_color, truth) =
+                common::unlit_truth(device, queue, &renderer, &target, &mut mesh, &c, &pose, &camera);
             let mut instances: [Vec<Instance>; Level::COUNT] = Default::default();
             instances[level as usize].push(Instance {
                 pos: [0.0, 0.0],
@@ -209,22 +196,8 @@ fn every_representation_draws_close_to_the_mesh() {
     for (v, view) in loaded.manifest.views.iter().enumerate() {
         let cam = &view.camera;
         let camera = cam.to_camera(cam.half_size * 4.0, cam.half_size, cam.half_size * 8.0);
-        renderer.render(
-            device,
-            queue,
-            &small,
-            &mut mesh,
-            &c,
-            &Pose::sample_index(&c, Some(0), frame as f32 / 10.0),
-            SkinningMode::Gpu,
-            &camera,
-            &DrawOptions {
-                shading: Shading::Unlit,
-                ..Default::default()
-            },
-        );
-        let truth_color = small.read_color(device, queue).unwrap();
-        let truth = mask(&small.read_normal(device, queue).unwrap());
+        let pose = Pose::sample_index(&c, Some(0), frame as f32 / 10.0);
+        let (truth_color, truth) = common::unlit_truth(device, queue, &renderer, &small, &mut mesh, &c, &pose, &camera);
         let mut instances: [Vec<Instance>; Level::COUNT] = Default::default();
         instances[Level::Impostor as usize].push(Instance {
             pos: [0.0, 0.0],
@@ -501,10 +474,6 @@ fn the_skinned_crowd_draws_mirrored_squashed_and_hidden_joints() {
         tint: 0.0,
         ..Default::default()
     };
-    let unlit = DrawOptions {
-        shading: Shading::Unlit,
-        ..Default::default()
-    };
     for eye in [Vec3::new(0.0, 1.2, 4.0), Vec3::new(4.0, 1.0, 0.5)] {
         let camera = Camera {
             eye,
@@ -517,33 +486,20 @@ fn the_skinned_crowd_draws_mirrored_squashed_and_hidden_joints() {
         for blend in [0.0f32, 0.5] {
             let time = (3.0 + blend) / 10.0;
             let pose = Pose::sample_index(&c, Some(walk), time);
-            renderer.render(
-                device,
-                queue,
-                &target,
-                &mut mesh,
-                &c,
-                &pose,
-                SkinningMode::Gpu,
-                &camera,
-                &unlit,
-            );
-            let truth_color = target.read_color(device, queue).unwrap();
-            let truth = mask(&target.read_normal(device, queue).unwrap());
+            let (truth_color, truth) =
+                common::unlit_truth(device, queue, &renderer, &target, &mut mesh, &c, &pose, &camera);
             // The changes show: the plain character covers other pixels (the test can fail).
             let plain_pose = Pose::sample_index(&plain, Some(walk), time);
-            renderer.render(
+            let (_, plain_mask) = common::unlit_truth(
                 device,
                 queue,
+                &renderer,
                 &target,
                 &mut plain_mesh,
                 &plain,
                 &plain_pose,
-                SkinningMode::Gpu,
                 &camera,
-                &unlit,
             );
-            let plain_mask = mask(&target.read_normal(device, queue).unwrap());
             assert!(
                 iou(&truth, &plain_mask) < 0.95,
                 "{eye} {blend}: {}",

@@ -55,22 +55,16 @@ fn a_polypostor_covers_what_the_mesh_covers_from_its_view() {
     for (v, view) in pack.manifest.views.iter().enumerate() {
         let cam = &view.camera;
         let camera = cam.to_camera(cam.half_size * 4.0, cam.half_size, cam.half_size * 8.0);
-        renderer.render(
+        let (truth_color, truth) = common::unlit_truth(
             device,
             queue,
+            &renderer,
             &target,
             &mut mesh,
             &merged,
             &poses[frame],
-            SkinningMode::Gpu,
             &camera,
-            &DrawOptions {
-                shading: Shading::Unlit,
-                ..Default::default()
-            },
         );
-        let truth_color = target.read_color(device, queue).unwrap();
-        let truth = mask(&target.read_normal(device, queue).unwrap());
         let instance = Instance {
             pos: [0.0, 0.0],
             facing: [0.0, 1.0],

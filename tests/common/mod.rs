@@ -323,3 +323,38 @@ pub fn still_prop() -> String {
         "",
     )
 }
+
+/// The real mesh `c` drawn unlit (GPU skinning) at `pose` into `target`: its colour image
+/// and its coverage (the normal target's alpha), the ground truth the crowd tests compare
+/// every representation with.
+#[allow(clippy::too_many_arguments)]
+pub fn unlit_truth(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    renderer: &polypostor::gpu::CharacterRenderer,
+    target: &polypostor::gpu::RenderTarget,
+    mesh: &mut polypostor::gpu::GpuCharacter,
+    c: &polypostor::Character,
+    pose: &polypostor::animation::Pose,
+    camera: &polypostor::gpu::Camera,
+) -> (image::RgbaImage, Vec<bool>) {
+    use polypostor::gpu::{DrawOptions, Shading, SkinningMode};
+    renderer.render(
+        device,
+        queue,
+        target,
+        mesh,
+        c,
+        pose,
+        SkinningMode::Gpu,
+        camera,
+        &DrawOptions {
+            shading: Shading::Unlit,
+            ..Default::default()
+        },
+    );
+    (
+        target.read_color(device, queue).unwrap(),
+        images::mask(&target.read_normal(device, queue).unwrap()),
+    )
+}
