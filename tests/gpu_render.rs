@@ -116,23 +116,7 @@ fn colour_normal_and_depth_are_consistent() {
     // From the front: the face (+Z normals) is towards the camera.
     let (min, max) = c.bind_bounds();
     let cam = Camera::ortho_framing(min, max, glam::Vec3::Z, 0.05);
-    let opts = DrawOptions {
-        shading: Shading::Unlit,
-        clear_color: [0.0, 0.0, 0.0, 0.0],
-        grid: false,
-    };
-    renderer.render(
-        &ctx.device,
-        &ctx.queue,
-        &target,
-        &mut gpu,
-        &c,
-        &pose,
-        SkinningMode::Gpu,
-        &cam,
-        &opts,
-    );
-    let color = target.read_color(&ctx.device, &ctx.queue).unwrap();
+    let (color, _) = common::unlit_truth(&ctx.device, &ctx.queue, &renderer, &target, &mut gpu, &c, &pose, &cam);
     let normal = target.read_normal(&ctx.device, &ctx.queue).unwrap();
     let depth = target.read_depth(&ctx.device, &ctx.queue).unwrap();
     assert_eq!((color.width(), color.height()), (128, 160));
@@ -247,11 +231,6 @@ fn alpha_cut_outs_leave_out_what_the_texture_leaves_out() {
     let pose = Pose::rest(&base);
     let (min, max) = base.bind_bounds();
     let cam = Camera::ortho_framing(min, max, glam::Vec3::Z, 0.05);
-    let opts = DrawOptions {
-        shading: Shading::Unlit,
-        clear_color: [0.0, 0.0, 0.0, 0.0],
-        grid: false,
-    };
     let draw = |alpha: &dyn Fn(u32) -> u8, cutoff: f32| {
         let mut c = base.clone();
         for t in &mut c.textures {
@@ -264,18 +243,7 @@ fn alpha_cut_outs_leave_out_what_the_texture_leaves_out() {
             m.alpha_cutoff = cutoff;
         }
         let mut gpu = GpuCharacter::new(&renderer, &ctx.device, &ctx.queue, &c);
-        renderer.render(
-            &ctx.device,
-            &ctx.queue,
-            &target,
-            &mut gpu,
-            &c,
-            &pose,
-            SkinningMode::Gpu,
-            &cam,
-            &opts,
-        );
-        target.read_color(&ctx.device, &ctx.queue).unwrap()
+        common::unlit_truth(&ctx.device, &ctx.queue, &renderer, &target, &mut gpu, &c, &pose, &cam).0
     };
     assert!(base.materials.iter().all(|m| m.base_color_texture.is_some()));
     let opaque = draw(&|_| 0, 0.0);
