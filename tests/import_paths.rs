@@ -335,12 +335,21 @@ impl Editable {
         accs.len() - 1
     }
 
-    fn import(mut self, name: &str) -> polypostor::Character {
+    fn import(self, name: &str) -> polypostor::Character {
+        self.try_import(name).unwrap()
+    }
+
+    /// The import's error as text, empty when it succeeds.
+    fn import_error(self, name: &str) -> String {
+        self.try_import(name).err().map(|e| e.to_string()).unwrap_or_default()
+    }
+
+    fn try_import(mut self, name: &str) -> Result<polypostor::Character, polypostor::import::ImportError> {
         self.json["buffers"][0]["byteLength"] = serde_json::json!(self.bin.len());
         let dir = common::temp_dir(name);
         std::fs::write(dir.join("b.bin"), &self.bin).unwrap();
         std::fs::write(dir.join("c.gltf"), serde_json::to_string(&self.json).unwrap()).unwrap();
-        let c = polypostor::import_path(&dir.join("c.gltf")).unwrap();
+        let c = polypostor::import_path(&dir.join("c.gltf"));
         std::fs::remove_dir_all(dir).unwrap();
         c
     }
@@ -710,4 +719,59 @@ fn alpha_modes_become_cut_offs() {
     masked.materials[0].alpha_cutoff = 0.25;
     let back = import_slice(&write_glb(&masked).unwrap(), None, "x").unwrap();
     assert!((back.materials[0].alpha_cutoff - 0.25).abs() < 1e-6);
+}
+
+/// Bad input on the paths above gets an error naming the problem (or, where the file can
+/// still be drawn, is read safely): a morph target with the wrong count or non-finite
+/// deltas, a non-finite default weight, JOINTS_1 without WEIGHTS_1, a texture transform
+/// with non-finite numbers.
+#[test]
+fn bad_morph_influence_and_transform_data_are_named() {
+    let c = small_character();
+    let n = c.vertices.len();
+    // A target one vertex short.
+    let mut e = Editable::of(&c);
+    let short = e.add(&vec![[0.0, 0.1, 0.0, 0.0]; n - 1], 3, 5126);
+    for p in e.primitives() {
+        p["targets"] = serde_json::json!([{"POSITION": short}]);
+    }
+    e.json["meshes"][0]["weights"] = serde_json::json!([1.0]);
+    let err = e.import_error("bad_morph_count");
+    assert!(err.contains("morph target 0 POSITION"), "{err}");
+    // Non-finite deltas.
+    let mut e = Editable::of(&c);
+    let nan = e.add(&vec![[f32::NAN, 0.0, 0.0, 0.0]; n], 3, 5126);
+    for p in e.primitives() {
+        p["targets"] = serde_json::json!([{"POSITION": nan}]);
+    }
+    e.json["meshes"][0]["weights"] = serde_json::json!([0.5]);
+    let err = e.import_error("bad_morph_nan");
+    assert!(err.contains("finite"), "{err}");
+    // A target at weight 0 is not read at all: nothing to refuse.
+    let mut e = Editable::of(&c);
+    let nan = e.add(&vec![[f32::NAN, 0.0, 0.0, 0.0]; n], 3, 5126);
+    for p in e.primitives() {
+        p["targets"] = serde_json::json!([{"POSITION": nan}]);
+    }
+    assert_eq!(e.import_error("morph_at_zero"), "");
+    // JOINTS_1 alone.
+    let mut e = Editable::of(&c);
+    let joints = e.add(&vec![[0.0; 4]; n], 4, 5123);
+    for p in e.primitives() {
+        p["attributes"]["JOINTS_1"] = serde_json::json!(joints);
+    }
+    let err = e.import_error("joints_alone");
+    assert!(err.contains("JOINTS_1 and WEIGHTS_1"), "{err}");
+    // A texture transform whose numbers are not finite reads as no transform (JSON has no
+    // NaN: an absurd number stands in for one that overflows).
+    let mut e = Editable::of(&c);
+    for m in e.json["materials"].as_array_mut().unwrap() {
+        if let Some(info) = m["pbrMetallicRoughness"].get_mut("baseColorTexture") {
+            info["extensions"] = serde_json::json!({"KHR_texture_transform":
+                {"offset": [1e39, 0.0], "rotation": 1e39, "scale": [1e39, 1.0]}});
+        }
+    }
+    let plain = import_slice(&write_glb(&c).unwrap(), None, "x").unwrap();
+    let placed = e.import("transform_overflow");
+    assert!(placed.vertices.iter().zip(&plain.vertices).all(|(a, b)| a.uv == b.uv));
 }
