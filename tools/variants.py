@@ -22,6 +22,8 @@ OUT_DIR/<stem>_<variant>.glb (an existing file is never overwritten):
            that keep body, head and clothes apart)
   twoskins as split, the second mesh with a skin of its own (a copy: the same joints and
            inverse binds), as clothing exported on its own skin comes
+  offset   a root node moving the character 3 sizes along x and -2 along z (modelled where it
+           stood in a scene)
   zup      a root node turned -90 degrees about x (a Z-up export left lying on its back)
   cubic    every LINEAR sampler turned CUBICSPLINE with Catmull-Rom tangents (the same
            motion through the keys, curved between them)
@@ -37,7 +39,7 @@ With no VARIANT, all of them."""
 import json, math, os, random, struct, sys
 
 ALL = ['ikctrl', 'clips40', 'late', 'quant', 'mirror', 'turned', 'renamed', 'vanish', 'infl8',
-       'morph', 'split', 'twoskins', 'zup', 'cubic', 'nonormals', 'texxform', 'alphamask', 'gltf']
+       'morph', 'split', 'twoskins', 'offset', 'zup', 'cubic', 'nonormals', 'texxform', 'alphamask', 'gltf']
 NC = {'SCALAR': 1, 'VEC2': 2, 'VEC3': 3, 'VEC4': 4, 'MAT4': 16}
 CT = {5120: 'b', 5121: 'B', 5122: 'h', 5123: 'H', 5125: 'I', 5126: 'f'}
 
@@ -337,6 +339,12 @@ def twoskins(js, bin_):
         if 'skin' in nd:
             js['skins'].append(json.loads(json.dumps(js['skins'][nd['skin']])))
             nd['skin'] = len(js['skins']) - 1
+
+
+def offset(js, bin_):
+    lo, hi = bounds(js, bin_)
+    size = max(h - l for h, l in zip(hi, lo))
+    wrap_root(js, name='Placed', translation=[3.0 * size, 0.0, -2.0 * size])
 
 
 def zup(js, bin_):

@@ -574,6 +574,32 @@ pub fn face_forward_and_play_in_place(character: &mut Character) -> (Option<f32>
     (turn, apply_in_place(character, &motions))
 }
 
+/// The horizontal move that brings a character standing off its own origin back over it:
+/// `Some(-c)` (c the middle of its footprint, y kept) when the origin lies outside the
+/// footprint by more than half the footprint's longer side, `None` otherwise. The footprint
+/// is the horizontal bounds of every clip's first pose (the rest pose without clips). A
+/// character modelled where it stood in a scene would otherwise be drawn that far from each
+/// crowd agent, and swing round it as the agent turns.
+pub fn off_origin(character: &Character) -> Option<Vec3> {
+    let poses: Vec<Pose> = if character.clips.is_empty() {
+        vec![Pose::rest(character)]
+    } else {
+        character
+            .clips
+            .iter()
+            .map(|c| Pose::sample(character, c, 0.0))
+            .collect()
+    };
+    let (lo, hi) = crate::character::bounds(poses.iter().flat_map(|p| skin_vertices(character, p).0));
+    if !(lo.is_finite() && hi.is_finite()) {
+        return None;
+    }
+    let (centre, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+    let gap = Vec2::new((centre.x.abs() - half.x).max(0.0), (centre.z.abs() - half.z).max(0.0)).length();
+    let side = 2.0 * half.x.max(half.z);
+    (side > 0.0 && gap > 0.5 * side).then(|| Vec3::new(-centre.x, 0.0, -centre.z))
+}
+
 /// Every clip's root and contact motion (no legs: those need the segmentation), with the
 /// in-place velocities cleared first.
 fn root_motions(character: &mut Character) -> Vec<ClipMotion> {
@@ -1171,6 +1197,63 @@ mod tests {
         let before = c.clone();
         assert_eq!(face_forward_and_play_in_place(&mut c).0, None);
         assert_eq!(c, before);
+    }
+
+    /// A character modelled where it stood in a scene (30 m east, 20 m north of its origin)
+    /// is moved back over its origin; one a little off its origin, or one whose origin lies
+    /// within its footprint, is left as modelled. Independent answer: the original, moved
+    /// rigidly; cubic-spline tangents of a moved root channel stay rates.
+    #[test]
+    fn a_character_standing_off_its_origin_is_moved_back_over_it() {
+        let original = crate::default_character::generate();
+        assert_eq!(off_origin(&original), None);
+        let height = measure_motion(&original, original.find_clip("Walk")).height;
+        let far = Vec3::new(30.0, 0.0, -20.0);
+        let mut c = original.clone();
+        c.move_rigidly(glam::Quat::IDENTITY, far);
+        let shift = off_origin(&c).expect("30 m off is moved");
+        c.move_rigidly(glam::Quat::IDENTITY, shift);
+        let left = far + shift;
+        assert!(left.length() < 0.05 * height && left.y == 0.0, "{left}");
+        for clip in 0..c.clips.len() {
+            let d = c.clips[clip].duration_secs;
+            for k in 0..6 {
+                let t = d * k as f32 / 6.0;
+                let p = skin_vertices(&c, &Pose::sample(&c, &c.clips[clip], t)).0;
+                let q = skin_vertices(&original, &Pose::sample(&original, &original.clips[clip], t)).0;
+                let off = p
+                    .iter()
+                    .zip(&q)
+                    .map(|(a, b)| (*a - *b - left).length())
+                    .fold(0.0, f32::max);
+                assert!(off < 1e-3, "clip {clip} at {t}: {off}");
+            }
+        }
+        // A third of a footprint off: left alone.
+        let mut near = original.clone();
+        near.move_rigidly(glam::Quat::IDENTITY, Vec3::new(0.3, 0.0, 0.0));
+        assert_eq!(off_origin(&near), None);
+        // Cubic-spline translation on a root: values move, tangents do not.
+        let mut cubic = original.clone();
+        let root = cubic.skeleton.nodes.iter().position(|n| n.parent.is_none()).unwrap();
+        cubic.clips[0].channels.push(crate::character::Channel {
+            node: root,
+            interpolation: crate::character::Interpolation::CubicSpline,
+            times: vec![0.0, 1.0],
+            values: crate::character::ChannelValues::Translation(vec![
+                Vec3::X,
+                Vec3::ZERO,
+                Vec3::X,
+                Vec3::X,
+                Vec3::Y,
+                Vec3::X,
+            ]),
+        });
+        cubic.move_rigidly(glam::Quat::IDENTITY, far);
+        let crate::character::ChannelValues::Translation(v) = &cubic.clips[0].channels.last().unwrap().values else {
+            unreachable!()
+        };
+        assert_eq!(v, &[Vec3::X, far, Vec3::X, Vec3::X, Vec3::Y + far, Vec3::X]);
     }
 
     /// The votes: no locomotion, no turn; a tie with +z, no turn; most clips one way, that way.

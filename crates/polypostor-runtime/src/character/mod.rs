@@ -300,16 +300,22 @@ impl Character {
     }
 
     /// Turns the whole character, every pose of every clip, by `radians` about the vertical
-    /// (+y) axis through the origin: each world position `p` becomes `R p`. Bind-space
-    /// vertices and normals turn with it, each inverse bind matrix gets `R⁻¹` on its right
-    /// (joint-local coordinates stay), and the top-level nodes' rest transforms and animation
-    /// channels get `R` on their left (`R · T(t) · Q · S = T(R t) · (R Q) · S`, so scales,
-    /// even non-uniform, stay as they are). Clips' in-place velocities turn too.
+    /// (+y) axis through the origin; see [`Character::move_rigidly`].
     pub fn turn_about_vertical(&mut self, radians: f32) {
-        let r = Quat::from_rotation_y(radians);
-        let inverse = Mat4::from_quat(r.inverse());
+        self.move_rigidly(Quat::from_rotation_y(radians), Vec3::ZERO);
+    }
+
+    /// Moves the whole character, every pose of every clip, rigidly: each world position `p`
+    /// becomes `R p + t`. Bind-space vertices and normals move with it, each inverse bind
+    /// matrix gets `M⁻¹` on its right (joint-local coordinates stay), and the top-level
+    /// nodes' rest transforms and animation channels get `M` on their left
+    /// (`M · T(a) · Q · S = T(R a + t) · (R Q) · S`, so scales, even non-uniform, stay as
+    /// they are). Clips' in-place velocities turn with `R`.
+    pub fn move_rigidly(&mut self, r: Quat, t: Vec3) {
+        // (T(t) R)⁻¹ = R⁻¹ T(−t).
+        let inverse = Mat4::from_quat(r.inverse()) * Mat4::from_translation(-t);
         for v in &mut self.vertices {
-            v.position = r * v.position;
+            v.position = r * v.position + t;
             v.normal = r * v.normal;
         }
         for b in &mut self.bones {
@@ -317,7 +323,7 @@ impl Character {
         }
         let roots: Vec<bool> = self.skeleton.nodes.iter().map(|n| n.parent.is_none()).collect();
         for (node, _) in self.skeleton.nodes.iter_mut().zip(&roots).filter(|(_, r)| **r) {
-            node.rest.translation = r * node.rest.translation;
+            node.rest.translation = r * node.rest.translation + t;
             node.rest.rotation = r * node.rest.rotation;
         }
         for clip in &mut self.clips {
@@ -327,9 +333,14 @@ impl Character {
                 .iter_mut()
                 .filter(|c| roots.get(c.node).copied().unwrap_or(false))
             {
-                // Cubic-spline tangents are linear in the value, so they turn the same way.
+                // Cubic-spline tangents (each key's first and third value) are rates: they
+                // turn but do not move.
+                let cubic = ch.interpolation == Interpolation::CubicSpline;
+                let is_value = |k: usize| !cubic || k % 3 == 1;
                 match &mut ch.values {
-                    ChannelValues::Translation(v) => v.iter_mut().for_each(|t| *t = r * *t),
+                    ChannelValues::Translation(v) => v.iter_mut().enumerate().for_each(|(k, a)| {
+                        *a = r * *a + if is_value(k) { t } else { Vec3::ZERO };
+                    }),
                     ChannelValues::Rotation(v) => v.iter_mut().for_each(|q| *q = r * *q),
                     ChannelValues::Scale(_) => {}
                 }

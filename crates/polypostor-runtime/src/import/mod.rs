@@ -139,6 +139,14 @@ pub fn import_slice(bytes: &[u8], base_dir: Option<&Path>, name: &str) -> Result
     }
     .build(name)
     .map(|mut character| {
+        if let Some(shift) = crate::timeline::off_origin(&character) {
+            character.move_rigidly(glam::Quat::IDENTITY, shift);
+            character.warnings.push(format!(
+                "it stands {:.3} units from its origin, off its own footprint: moved there (horizontally) \
+                 so that crowds place and turn it about its middle",
+                shift.length()
+            ));
+        }
         if let (Some(turn), _) = crate::timeline::face_forward_and_play_in_place(&mut character) {
             character.warnings.push(format!(
                 "its walking clips head {:.0}° away from +z, the front glTF specifies: turned {:.0}° \
