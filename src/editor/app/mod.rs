@@ -127,7 +127,9 @@ pub struct EditorApp {
     window_title: String,
     prompt: Option<PathPrompt>,
     dialog: Option<(PathPurpose, Instant, Receiver<Option<PathBuf>>)>,
-    texture_preview: Option<(u64, egui::TextureHandle)>,
+    /// The first texture's preview: the document generation it shows, its handle, and whether
+    /// any texel is not opaque (then drawn over a checkerboard).
+    texture_preview: Option<(u64, egui::TextureHandle, bool)>,
     next_generation: u64,
     show_about: bool,
     /// Close the window at the end of this frame.

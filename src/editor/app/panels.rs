@@ -442,7 +442,7 @@ impl EditorApp {
                 }
                 if let Some(tex) = c.textures.first() {
                     let generation = doc.generation;
-                    if self.texture_preview.as_ref().is_none_or(|(g, _)| *g != generation) {
+                    if self.texture_preview.as_ref().is_none_or(|(g, _, _)| *g != generation) {
                         let image = egui::ColorImage::from_rgba_unmultiplied(
                             [tex.width as usize, tex.height as usize],
                             &tex.rgba8,
@@ -450,12 +450,30 @@ impl EditorApp {
                         let handle = ui
                             .ctx()
                             .load_texture("texture preview", image, egui::TextureOptions::LINEAR);
-                        self.texture_preview = Some((generation, handle));
+                        let see_through = tex.rgba8.chunks_exact(4).any(|p| p[3] < 255);
+                        self.texture_preview = Some((generation, handle, see_through));
                     }
-                    if let Some((_, handle)) = &self.texture_preview {
+                    if let Some((_, handle, see_through)) = &self.texture_preview {
                         let w = ui.available_width().min(240.0);
                         let h = w * tex.height as f32 / tex.width.max(1) as f32;
-                        ui.image((handle.id(), egui::vec2(w, h)));
+                        let (rect, _) = ui.allocate_exact_size(egui::vec2(w, h), egui::Sense::hover());
+                        if *see_through {
+                            // Transparent texels over a checkerboard, as image editors show them.
+                            let painter = ui.painter_at(rect);
+                            let cell = 8.0;
+                            painter.rect_filled(rect, 0.0, egui::Color32::from_gray(200));
+                            for row in 0..(h / cell).ceil() as usize {
+                                for col in (row % 2..(w / cell).ceil() as usize).step_by(2) {
+                                    let min = rect.min + egui::vec2(col as f32 * cell, row as f32 * cell);
+                                    let square = egui::Rect::from_min_size(min, egui::vec2(cell, cell));
+                                    painter.rect_filled(square, 0.0, egui::Color32::from_gray(150));
+                                }
+                            }
+                        }
+                        egui::Image::new((handle.id(), egui::vec2(w, h))).paint_at(ui, rect);
+                        if *see_through {
+                            ui.label(egui::RichText::new("checks: transparent texels").small().weak());
+                        }
                     }
                 }
             });
