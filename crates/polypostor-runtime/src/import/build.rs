@@ -352,7 +352,7 @@ impl Builder<'_> {
             self.warn(format!("{what}: no POSITION attribute; skipped"));
             return Ok(());
         };
-        let positions = accessor::read_f32(root, self.buffers, pos_acc)?;
+        let mut positions = accessor::read_f32(root, self.buffers, pos_acc)?;
         if positions.components != 3 {
             return Err(ImportError::Invalid(format!("{what}: POSITION must be VEC3")));
         }
@@ -383,7 +383,6 @@ impl Builder<'_> {
                 Ok(Some(v))
             };
         let mut normals = read_attr(Semantic::Normals, &[3], self)?;
-        let mut positions = positions;
         self.apply_morph_targets(&what, prim, morph_weights, &mut positions, &mut normals)?;
         // The coordinates the base colour texture is sampled with: its own set (texCoord,
         // or the transform's override) placed by KHR_texture_transform.
