@@ -31,6 +31,10 @@ enum Command {
         /// Print one JSON object instead of text.
         #[arg(long)]
         json: bool,
+        /// Which of the file's axes points up: y (glTF's, the default), z, -z, x, -x or -y
+        /// (a file exported lying down is stood up).
+        #[arg(long, default_value = "y", value_parser = parse_up, allow_hyphen_values = true)]
+        up: polypostor::UpAxis,
     },
     /// Render a character headless to a PNG (colour, or normals with --normals).
     Render {
@@ -255,7 +259,7 @@ fn main() -> ExitCode {
         cli_process_setup();
     }
     let result = match cli.command {
-        Some(Command::Inspect { file, json }) => inspect(&file, json),
+        Some(Command::Inspect { file, json, up }) => inspect(&file, json, up),
         Some(Command::Render {
             file,
             out,
@@ -369,8 +373,13 @@ fn main() -> ExitCode {
     }
 }
 
-fn inspect(file: &Path, json: bool) -> anyhow::Result<()> {
-    match polypostor::import_path(file) {
+/// `--up`: an axis as `y`, `+z`, `-x`, ….
+fn parse_up(text: &str) -> Result<polypostor::UpAxis, String> {
+    polypostor::UpAxis::parse(text).ok_or_else(|| format!("'{text}' is not an axis: give y, z, -z, x, -x or -y"))
+}
+
+fn inspect(file: &Path, json: bool, up: polypostor::UpAxis) -> anyhow::Result<()> {
+    match polypostor::import_path_with(file, polypostor::ImportOptions { up }) {
         Ok(c) => {
             let s = polypostor::summary::Summary::of(&c);
             // How each clip moves (what a crowd does with it).
@@ -555,6 +564,10 @@ struct BakeArgs {
     /// Project whose segmentation and cap colours to use (when INPUT is a glTF).
     #[arg(long)]
     project: Option<PathBuf>,
+    /// Which of the character file's axes points up: y (glTF's), z, -z, x, -x or -y; a file
+    /// exported lying down is stood up (default: the project's, else y). Recorded in the pack.
+    #[arg(long, value_parser = parse_up, allow_hyphen_values = true)]
+    up: Option<polypostor::UpAxis>,
     /// Clip name (default: the project's clip, else Walk, else the first).
     #[arg(long, conflicts_with = "clips")]
     clip: Option<String>,
@@ -753,7 +766,10 @@ fn with_bake_progress(f: impl FnOnce(&polypostor::bench::Env) -> anyhow::Result<
 fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     use polypostor::job::{self, BakeInput, Prepared, Request};
     let started = std::time::Instant::now();
-    let input = BakeInput::resolve(&a.input, a.project.as_deref()).map_err(anyhow::Error::msg)?;
+    let mut input = BakeInput::resolve(&a.input, a.project.as_deref()).map_err(anyhow::Error::msg)?;
+    if let Some(up) = a.up {
+        input.up = up;
+    }
     // The settings first: the project's (else the defaults), each flag given overriding its
     // field; nothing is read or rendered for a bake that cannot run.
     let settings = a.settings(input.settings())?;

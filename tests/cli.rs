@@ -445,3 +445,63 @@ fn bake_settings_come_from_the_project_and_flags_override_single_fields() {
     assert!(e.contains("--views 0"), "{e}");
     assert!(!c.exists());
 }
+
+/// A character exported lying down (here the default laid with its up along -z, as a Z-up
+/// tool's export comes) is baked standing with `--up -z`: the pack and the representations
+/// record the axis, and the crowd, which reads the character file again, reads it the same
+/// way (independent answer: the original's height, from its own first pose).
+#[test]
+fn a_file_read_with_another_up_axis_is_baked_and_crowded_standing() {
+    use polypostor::animation::{Pose, skin_vertices};
+    let dir = common::temp_dir("cli-up-axis");
+    let original = polypostor::default_character::generate();
+    let height = |c: &polypostor::Character| {
+        let pose = Pose::sample_index(c, Some(0), 0.0);
+        let (lo, hi) = polypostor::character::bounds(skin_vertices(c, &pose).0);
+        hi - lo
+    };
+    let mut lying = original.clone();
+    lying.move_rigidly(
+        glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2),
+        glam::Vec3::ZERO,
+    );
+    assert!(height(&lying).y < 0.5 * height(&original).y, "the copy lies");
+    let glb = dir.join("lying.glb");
+    std::fs::write(&glb, polypostor::gltf_write::write_glb(&lying).unwrap()).unwrap();
+    let inspect = polypostor(&["inspect", glb.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&inspect.stdout);
+    assert!(text.contains("--up z"), "the import hints at the axis: {text}");
+    let bad = polypostor(&["inspect", glb.to_str().unwrap(), "--up", "sideways"]);
+    assert_eq!(bad.status.code(), Some(2), "clap refuses it");
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("'sideways' is not an axis"));
+    let out = dir.join("p.pack");
+    let bake = polypostor(&[
+        "bake",
+        glb.to_str().unwrap(),
+        "--up",
+        "-z",
+        "--views",
+        "2",
+        "--resolution",
+        "32",
+        "--max-keys",
+        "1",
+        "--representation",
+        "all",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(bake.status.success(), "{}", String::from_utf8_lossy(&bake.stderr));
+    for file in ["manifest.json", polypostor::reps::REPS_FILE] {
+        let m: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join(file)).unwrap()).unwrap();
+        assert_eq!(m["character_up"], "-z", "{file}");
+    }
+    let assets = polypostor::scene::CrowdAssets::load(&out, None, None).unwrap();
+    assert_eq!(assets.character.up_axis, polypostor::UpAxis::NegZ);
+    let (stood, was) = (height(&assets.character), height(&original));
+    assert!(
+        (stood - was).abs().max_element() < 1e-3 * was.y,
+        "{stood} against {was}"
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -344,12 +344,20 @@ impl Editable {
         self.try_import(name).err().map(|e| e.to_string()).unwrap_or_default()
     }
 
-    fn try_import(mut self, name: &str) -> Result<polypostor::Character, polypostor::import::ImportError> {
+    fn try_import(self, name: &str) -> Result<polypostor::Character, polypostor::import::ImportError> {
+        self.try_import_with(name, Default::default())
+    }
+
+    fn try_import_with(
+        mut self,
+        name: &str,
+        options: polypostor::ImportOptions,
+    ) -> Result<polypostor::Character, polypostor::import::ImportError> {
         self.json["buffers"][0]["byteLength"] = serde_json::json!(self.bin.len());
         let dir = common::temp_dir(name);
         std::fs::write(dir.join("b.bin"), &self.bin).unwrap();
         std::fs::write(dir.join("c.gltf"), serde_json::to_string(&self.json).unwrap()).unwrap();
-        let c = polypostor::import_path(&dir.join("c.gltf"));
+        let c = polypostor::import_path_with(&dir.join("c.gltf"), options);
         std::fs::remove_dir_all(dir).unwrap();
         c
     }
@@ -774,4 +782,71 @@ fn bad_morph_influence_and_transform_data_are_named() {
     let plain = import_slice(&write_glb(&c).unwrap(), None, "x").unwrap();
     let placed = e.import("transform_overflow");
     assert!(placed.vertices.iter().zip(&plain.vertices).all(|(a, b)| a.uv == b.uv));
+}
+
+/// A file exported lying down (a Z-up tool's export left unconverted, or any axis) is read
+/// standing when the artist names its up axis. Independent answer: the character laid down
+/// by an explicit quarter (or half) turn at a new root node, as such files come, then read
+/// with that axis up, skins to the original's positions at every sampled time.
+#[test]
+fn a_file_lying_along_any_axis_stands_up_when_its_up_axis_is_given() {
+    use polypostor::{ImportOptions, UpAxis};
+    let c = small_character();
+    let plain = import_slice(&write_glb(&c).unwrap(), None, "x").unwrap();
+    let original = poses_of(&plain);
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    // The turn that takes +y to the named axis, written out (x, y, z, w).
+    for (up, lay) in [
+        (UpAxis::PosZ, [h, 0.0, 0.0, h]),
+        (UpAxis::NegZ, [-h, 0.0, 0.0, h]),
+        (UpAxis::PosX, [0.0, 0.0, -h, h]),
+        (UpAxis::NegX, [0.0, 0.0, h, h]),
+        (UpAxis::NegY, [1.0, 0.0, 0.0, 0.0]),
+    ] {
+        let laid_up = Quat::from_array(lay) * Vec3::Y;
+        assert!((laid_up - up.direction()).length() < 1e-6, "{up}: the test's turn");
+        let lying = |e: &mut Editable| {
+            let scene = e.json["scene"].as_u64().unwrap_or(0) as usize;
+            let roots = e.json["scenes"][scene]["nodes"].clone();
+            let nodes = e.json["nodes"].as_array_mut().unwrap();
+            nodes.push(serde_json::json!({"name": "lying", "rotation": lay, "children": roots}));
+            let root = nodes.len() - 1;
+            e.json["scenes"][scene]["nodes"] = serde_json::json!([root]);
+        };
+        let mut as_file = Editable::of(&c);
+        lying(&mut as_file);
+        let read_plain = as_file
+            .try_import_with("lying_plain", ImportOptions::default())
+            .unwrap();
+        let off = largest_offset(&poses_of(&read_plain), &original);
+        assert!(off > 0.5, "{up}: read as glTF says, it lies ({off})");
+        assert_eq!(read_plain.up_axis, UpAxis::PosY);
+        let mut as_file = Editable::of(&c);
+        lying(&mut as_file);
+        let stood = as_file.try_import_with("lying_stood", ImportOptions { up }).unwrap();
+        let off = largest_offset(&poses_of(&stood), &original);
+        assert!(off < 1e-4, "{up}: stood up, largest offset {off}");
+        assert_eq!(stood.up_axis, up);
+        assert!(
+            stood.warnings.iter().any(|w| w.contains(&format!("{up} as up"))),
+            "{:?}",
+            stood.warnings
+        );
+        // Lying along z (a Z-up export), the import says what to do.
+        let hinted = read_plain.warnings.iter().any(|w| w.contains("--up z"));
+        assert_eq!(
+            hinted,
+            matches!(up, UpAxis::PosZ | UpAxis::NegZ),
+            "{up}: {:?}",
+            read_plain.warnings
+        );
+    }
+    // Standing, it is not hinted at; names parse both ways.
+    assert!(plain.warnings.iter().all(|w| !w.contains("--up")));
+    for a in UpAxis::ALL {
+        assert_eq!(UpAxis::parse(a.name()), Some(a));
+        assert!((a.rotation() * a.direction() - Vec3::Y).length() < 1e-6, "{a}");
+    }
+    assert_eq!(UpAxis::parse("Z"), Some(UpAxis::PosZ));
+    assert_eq!(UpAxis::parse("up"), None);
 }

@@ -38,6 +38,8 @@ pub enum Command {
     ShowCrowd(bool),
     Undo,
     Redo,
+    /// Read the character file with another of its axes as up (undoable; re-imports it).
+    SetUpAxis(polypostor::UpAxis),
     /// Bake and write the chosen representations, then preview them.
     Export(ExportRequest),
 }

@@ -969,3 +969,61 @@ fn every_ui_string_has_its_glyphs() {
     }
     assert!(missing.is_empty(), "strings with a missing glyph: {missing:#?}");
 }
+
+/// A character exported lying down is stood up from the Character panel's up-axis choice:
+/// the character is read again standing, the choice is one undo step (the character lies
+/// again after Ctrl+Z), and the saved project reopens standing.
+#[test]
+fn the_up_axis_choice_stands_a_lying_character_up_and_undoes() {
+    let dir = std::env::temp_dir().join(format!("polypostor-up-axis-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut c = polypostor::default_character::generate();
+    c.move_rigidly(
+        glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2),
+        glam::Vec3::ZERO,
+    );
+    let glb = dir.join("lying.glb");
+    std::fs::write(&glb, polypostor::gltf_write::write_glb(&c).unwrap()).unwrap();
+    let height = |h: &Harness<'static, EditorApp>| {
+        let s = &h.state().doc.as_ref().unwrap().summary;
+        s.bounds_max[1] - s.bounds_min[1]
+    };
+    let mut h = harness(Some(glb));
+    h.run_steps(3);
+    let lying = height(&h);
+    assert!(lying < 0.5, "lies: {lying} m tall");
+    h.get_by_label("Up axis").click();
+    h.run_steps(2);
+    h.get_by_label("-z").click();
+    h.run_steps(4);
+    {
+        let doc = h.state().doc.as_ref().unwrap();
+        assert_eq!(doc.project.character.up, polypostor::UpAxis::NegZ);
+        assert_eq!(doc.character.up_axis, polypostor::UpAxis::NegZ);
+        assert!(doc.dirty);
+    }
+    let standing = height(&h);
+    assert!((1.5..2.2).contains(&standing), "stands: {standing} m tall");
+    h.state_mut().send(Command::Undo);
+    h.run_steps(4);
+    assert_eq!(
+        h.state().doc.as_ref().unwrap().character.up_axis,
+        polypostor::UpAxis::PosY
+    );
+    assert!((height(&h) - lying).abs() < 1e-4, "lies again after the undo");
+    h.state_mut().send(Command::Redo);
+    h.run_steps(4);
+    assert!((height(&h) - standing).abs() < 1e-4, "stands again after the redo");
+    let project_dir = dir.join("project");
+    h.state_mut().send(Command::SaveAs(project_dir.clone()));
+    h.run_steps(3);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    let mut again = harness(Some(project_dir));
+    again.run_steps(3);
+    assert!(
+        (height(&again) - standing).abs() < 1e-4,
+        "the saved project reopens standing"
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}

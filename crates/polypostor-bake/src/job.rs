@@ -25,6 +25,9 @@ pub struct BakeInput {
     pub project: Option<Project>,
     pub project_file: Option<PathBuf>,
     pub character_path: PathBuf,
+    /// Which of the character file's axes points up: the project's
+    /// ([`crate::project::CharacterRef::up`]), or `--up`.
+    pub up: crate::import::UpAxis,
 }
 
 impl BakeInput {
@@ -43,6 +46,7 @@ impl BakeInput {
                 None => (None, None),
             };
             Ok(Self {
+                up: project.as_ref().map(|p| p.character.up).unwrap_or_default(),
                 project,
                 project_file,
                 character_path: input.to_owned(),
@@ -51,6 +55,7 @@ impl BakeInput {
             let (p, file) = Project::load(input).map_err(|e| e.to_string())?;
             let character_path = p.character_path(&file);
             Ok(Self {
+                up: p.character.up,
                 project: Some(p),
                 project_file: Some(file),
                 character_path,
@@ -513,7 +518,7 @@ impl Prepared {
         if let Some(out) = &req.out {
             check(out)?;
         }
-        let character = crate::import_path(&input.character_path)
+        let character = crate::import_path_with(&input.character_path, crate::ImportOptions { up: input.up })
             .map_err(|e| format!("{}: {e}", input.character_path.display()))?;
         let mut warnings = character.warnings.clone();
         let project_clips = input.project.as_ref().map(|p| p.clips.as_slice()).unwrap_or_default();

@@ -52,4 +52,4 @@ pub mod reps;
 pub mod samples;
 
 pub use character::Character;
-pub use import::{ImportError, import_path};
+pub use import::{ImportError, ImportOptions, UpAxis, import_path, import_path_with};

@@ -36,6 +36,10 @@ pub enum ProjectError {
 pub struct CharacterRef {
     /// Path of the .glb/.gltf, relative to the project file's folder (or absolute).
     pub path: String,
+    /// Which of the file's axes points up (absent: glTF's +y): set by the artist for a file
+    /// exported lying down; every import of the project reads it so.
+    #[serde(default, skip_serializing_if = "crate::import::UpAxis::is_default")]
+    pub up: crate::import::UpAxis,
 }
 
 /// Viewer state worth keeping with the project.
@@ -137,6 +141,7 @@ impl Project {
             name: name.to_string(),
             character: CharacterRef {
                 path: relative_path(character, project_dir),
+                up: Default::default(),
             },
             view: ViewState::default(),
             segmentation: None,
@@ -148,6 +153,11 @@ impl Project {
     }
 
     /// The character's absolute path, resolved against the project file's folder.
+    /// How to import the project's character.
+    pub fn import_options(&self) -> crate::import::ImportOptions {
+        crate::import::ImportOptions { up: self.character.up }
+    }
+
     pub fn character_path(&self, project_file: &Path) -> PathBuf {
         let p = Path::new(&self.character.path);
         if p.is_absolute() {
@@ -253,6 +263,27 @@ pub fn relative_path(target: &Path, base: &Path) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_up_axis_is_stored_only_when_it_is_not_gltfs() {
+        let dir = std::path::Path::new("/p");
+        let mut p = Project::new_for_character("t", &dir.join("a.glb"), dir);
+        let plain = serde_json::to_string(&p).unwrap();
+        assert!(!plain.contains("\"up\""), "glTF's +y is left out: {plain}");
+        p.character.up = crate::import::UpAxis::NegZ;
+        let text = serde_json::to_string(&p).unwrap();
+        assert!(text.contains("\"up\":\"-z\""), "{text}");
+        let back: Project = serde_json::from_str(&text).unwrap();
+        assert_eq!(back.character.up, crate::import::UpAxis::NegZ);
+        assert_eq!(back.import_options().up, crate::import::UpAxis::NegZ);
+        let wrong = text.replace("\"-z\"", "\"sideways\"");
+        assert!(
+            serde_json::from_str::<Project>(&wrong).is_err(),
+            "an unknown axis is refused"
+        );
+        let old: Project = serde_json::from_str(&plain).unwrap();
+        assert_eq!(old.character.up, crate::import::UpAxis::PosY);
+    }
 
     #[test]
     fn save_then_load_round_trips() {

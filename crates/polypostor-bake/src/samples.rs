@@ -121,6 +121,7 @@ pub fn quadruped() -> Character {
             clip("Idle", 2.0, &joints, idle),
         ],
         warnings: Vec::new(),
+        up_axis: Default::default(),
     }
 }
 

@@ -57,4 +57,4 @@ pub mod triangulate;
 pub mod viewpoints;
 
 pub use character::Character;
-pub use import::{ImportError, import_path};
+pub use import::{ImportError, ImportOptions, UpAxis, import_path, import_path_with};

@@ -90,7 +90,14 @@ impl CrowdAssets {
                 )
             })?;
         }
-        let c = crate::import_path(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        // Read as the bake read it (a file whose artist said another axis is up).
+        let up = reps
+            .as_ref()
+            .map(|r| r.manifest.character_up)
+            .or_else(|| pack.as_ref().map(|p| p.manifest.character_up))
+            .unwrap_or_default();
+        let c = crate::import::import_path_with(&path, crate::import::ImportOptions { up })
+            .map_err(|e| format!("{}: {e}", path.display()))?;
         let (spans, fps) = pack
             .as_ref()
             .map(|p| (p.manifest.clips.clone(), p.manifest.fps))
@@ -255,6 +262,9 @@ fn check_agreement(p: &crate::pack::Manifest, r: &crate::reps::RepsManifest) -> 
     }
     if p.clip != r.clip {
         return Err(format!("clip {:?} against {:?}", p.clip, r.clip));
+    }
+    if p.character_up != r.character_up {
+        return Err(format!("up axis {} against {}", p.character_up, r.character_up));
     }
     if p.clips.len() != r.clips.len()
         || p.clips

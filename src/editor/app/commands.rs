@@ -104,6 +104,17 @@ impl EditorApp {
                 let options = settings.options();
                 self.bake_into(req.folder, options, req.set);
             }
+            Command::SetUpAxis(up) => {
+                if let Some(doc) = self.doc.as_mut()
+                    && doc.project.character.up != up
+                {
+                    let before = doc.project.clone();
+                    doc.project.character.up = up;
+                    doc.history.record("up axis", before);
+                    doc.dirty = true;
+                    // The character is read again by the next frame's check.
+                }
+            }
             Command::Undo => {
                 if let Some(label) = self.doc.as_mut().and_then(|d| d.undo()) {
                     self.info(format!("undid {label}"));

@@ -141,6 +141,10 @@ impl EditorApp {
                 return;
             }
         };
+        if loaded.only_character {
+            self.replace_character(loaded.character);
+            return;
+        }
         let c = &loaded.character;
         self.info(format!(
             "loaded {} ({} vertices, {} triangles, {} joints, {} clips)",
@@ -205,6 +209,47 @@ impl EditorApp {
         self.frame_character();
     }
 
+    /// Puts a re-imported character (the same file, another up axis) into the open document,
+    /// keeping the project, its history and the segmentation (the triangles are the same).
+    fn replace_character(&mut self, character: Character) {
+        let Some(doc) = &mut self.doc else { return };
+        let up = character.up_axis;
+        let mut lines = vec![format!("read {} with {up} as up", doc.character_path.display())];
+        lines.extend(character.warnings.iter().cloned());
+        doc.summary = polypostor::summary::Summary::of(&character);
+        doc.segmentation = Document::decode_segmentation(&doc.project, &character).0;
+        doc.character = Arc::new(character);
+        doc.generation = self.next_generation;
+        self.next_generation += 1;
+        doc.revision += 1;
+        if !doc.project.overrides.is_empty() {
+            lines.push(
+                "the project's per-view corrections (key frames, orders, pins) were made with the character \
+                 standing another way: check them in the Views tab"
+                    .into(),
+            );
+        }
+        let (first, rest) = lines.split_first().expect("one line");
+        self.info(first.clone());
+        for w in rest {
+            self.warn(w.clone());
+        }
+        self.frame_character();
+        // Changed again while this one loaded: the next frame's check reads it again.
+    }
+
+    /// Re-imports the open character when the project asks for another up axis than it was
+    /// read with (after the Up axis choice, or an undo or redo of it). Checked every frame.
+    pub(super) fn reimport_if_needed(&mut self, ctx: &egui::Context) {
+        let Some(doc) = &self.doc else { return };
+        let up = doc.project.character.up;
+        if up == doc.character.up_axis || self.loading.is_some() {
+            return;
+        }
+        let path = doc.character_path.clone();
+        self.start_load(ctx, LoadRequest::Reimport { path, up });
+    }
+
     pub(super) fn dropped_files(&mut self, ctx: &egui::Context) {
         let dropped: Vec<PathBuf> = ctx.input(|i| {
             i.raw
@@ -231,6 +276,8 @@ pub(super) struct Loaded {
     pub(super) character_path: PathBuf,
     pub(super) character: Character,
     pub(super) from_gltf: bool,
+    /// A [`LoadRequest::Reimport`]: replaces the open document's character only.
+    pub(super) only_character: bool,
 }
 
 pub(super) struct Loading {
@@ -257,12 +304,19 @@ pub(super) fn is_gltf(path: &Path) -> bool {
 pub(super) enum LoadRequest {
     Project(PathBuf),
     Gltf(PathBuf),
+    /// The open document's character file again, read with `up` as its up axis: only the
+    /// character changes (the project, its history and the view stay).
+    Reimport {
+        path: PathBuf,
+        up: polypostor::UpAxis,
+    },
 }
 
 impl LoadRequest {
     pub(super) fn describe(&self) -> String {
         match self {
             LoadRequest::Project(p) | LoadRequest::Gltf(p) => p.display().to_string(),
+            LoadRequest::Reimport { path, up } => format!("{} with {up} up", path.display()),
         }
     }
 
@@ -284,24 +338,39 @@ impl LoadRequest {
                     character_path,
                     character,
                     from_gltf: true,
+                    only_character: false,
                 })
             }
             LoadRequest::Project(path) => {
                 let (project, file) = Project::load(&path).map_err(|e| e.to_string())?;
                 let character_path = project.character_path(&file);
                 let character_path = std::fs::canonicalize(&character_path).unwrap_or(character_path);
-                let character = polypostor::import_path(&character_path).map_err(|e| {
-                    format!(
-                        "Project {} refers to a character that cannot be imported:\n{e}",
-                        file.display()
-                    )
-                })?;
+                let character =
+                    polypostor::import_path_with(&character_path, project.import_options()).map_err(|e| {
+                        format!(
+                            "Project {} refers to a character that cannot be imported:\n{e}",
+                            file.display()
+                        )
+                    })?;
                 Ok(Loaded {
                     project,
                     project_file: Some(file),
                     character_path,
                     character,
                     from_gltf: false,
+                    only_character: false,
+                })
+            }
+            LoadRequest::Reimport { path, up } => {
+                let character = polypostor::import_path_with(&path, polypostor::ImportOptions { up })
+                    .map_err(|e| format!("Cannot import {} with {up} up:\n{e}", path.display()))?;
+                Ok(Loaded {
+                    project: Project::new_for_character("", &path, Path::new("")),
+                    project_file: None,
+                    character_path: path,
+                    character,
+                    from_gltf: false,
+                    only_character: true,
                 })
             }
         }

@@ -277,6 +277,7 @@ impl eframe::App for EditorApp {
         self.dropped_files(&ctx);
         self.shortcuts(&ctx);
         self.apply_commands(&ctx);
+        self.reimport_if_needed(&ctx);
         self.autosave(false);
         // Closing with unsaved changes asks first.
         if ctx.input(|i| i.viewport().close_requested())

@@ -396,6 +396,32 @@ impl EditorApp {
             ui.label(format!("{:.2} m", s.bounds_max[1] - s.bounds_min[1]));
             ui.end_row();
         });
+        // Which of the file's axes is up: a character exported lying down is stood up.
+        let up = doc.project.character.up;
+        let mut chosen = up;
+        let name = |a: polypostor::UpAxis| match a {
+            polypostor::UpAxis::PosY => "+y (glTF)".to_owned(),
+            a => a.name().to_owned(),
+        };
+        ui.horizontal(|ui| {
+            egui::ComboBox::from_label("Up axis")
+                .selected_text(name(up))
+                .show_ui(ui, |ui| {
+                    for a in polypostor::UpAxis::ALL {
+                        ui.selectable_value(&mut chosen, a, name(a));
+                    }
+                })
+                .response
+                .on_hover_text(
+                    "Which of the file's axes points up. glTF's is +y; a character exported from a Z-up \
+                     tool without conversion lies on its back or front: choose +z or -z to stand it up. \
+                     Saved in the project and recorded in every pack baked from it (Ctrl+Z undoes it).",
+                );
+            if doc.character.up_axis != up {
+                ui.spinner();
+            }
+        });
+        let set_up = (chosen != up).then_some(chosen);
         ui.separator();
         let mut select = None;
         egui::CollapsingHeader::new("Clips").default_open(true).show(ui, |ui| {
@@ -479,6 +505,9 @@ impl EditorApp {
             });
         if let Some(i) = select {
             self.send(Command::SelectClip(Some(i)));
+        }
+        if let Some(a) = set_up {
+            self.send(Command::SetUpAxis(a));
         }
     }
 

@@ -307,6 +307,8 @@ pub struct Bake {
     /// The file the character came from, when the caller knows it (written into the pack's
     /// manifest: [`polypostor_runtime::pack::Manifest::character_path`]).
     pub character_path: Option<String>,
+    /// Which of that file's axes was read as up ([`crate::character::Character::up_axis`]).
+    pub character_up: crate::import::UpAxis,
 }
 
 impl Bake {
@@ -1164,6 +1166,7 @@ pub fn bake_sharing(
         stage_secs,
         adapter: ctx.adapter_description(),
         character_path: None,
+        character_up: character.up_axis,
     })
 }
 
@@ -1324,7 +1327,9 @@ pub fn rebake_sharing(
     cancel: &AtomicBool,
     on_view: &mut dyn FnMut(&ViewRenders),
 ) -> Result<(Bake, Reuse), BakeError> {
+    // A character read with another axis up is seen from other sides in every view.
     let compatible = prev.segmentation == *segmentation
+        && prev.character_up == character.up_axis
         && prev.caps == *cap_overrides
         && same_but_overrides(&prev.options, options)
         && segmentation.labels.len() == character.triangle_count();
@@ -1439,6 +1444,7 @@ pub fn rebake_sharing(
             stage_secs,
             adapter: ctx.adapter_description(),
             character_path: prev.character_path.clone(),
+            character_up: prev.character_up,
         },
         reuse,
     ))

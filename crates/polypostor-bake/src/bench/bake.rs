@@ -94,7 +94,7 @@ pub fn bench_bake(
         let report: Report = serde_json::from_str(&std::fs::read_to_string(pack.join("report.json"))?)?;
         let gap = if gap_views > 0 {
             let input = crate::job::BakeInput::resolve(input, None).map_err(anyhow::Error::msg)?;
-            let c = crate::import_path(&input.character_path)
+            let c = crate::import_path_with(&input.character_path, crate::ImportOptions { up: input.up })
                 .map_err(|e| anyhow::anyhow!("{}: {e}", input.character_path.display()))?;
             let (seg, _) = input.segmentation(&c);
             let (caps, _) = input.caps_and_overrides();

@@ -255,9 +255,92 @@ pub fn dilate(img: &mut image::RgbaImage, steps: u32) {
     }
 }
 
+/// Fills every transparent texel with the colour of the nearest covered ones, ring by ring
+/// as [`dilate`] does but until nothing is left (alpha stays 0). For images projected onto
+/// geometry that may reach past their silhouette (NP3D's key images): there the surface shows
+/// the nearest edge colour instead of the background's black. Linear in the texel count.
+pub fn fill_background(img: &mut image::RgbaImage) {
+    let (w, h) = img.dimensions();
+    let (w, h) = (w as usize, h as usize);
+    let mut filled: Vec<bool> = img.pixels().map(|p| p[3] > 0).collect();
+    if !filled.iter().any(|&f| f) {
+        return;
+    }
+    let neighbours = |i: usize| {
+        let (x, y) = (i % w, i / w);
+        [
+            (x + 1 < w).then(|| i + 1),
+            (x > 0).then(|| i - 1),
+            (y + 1 < h).then(|| i + w),
+            (y > 0).then(|| i - w),
+        ]
+    };
+    let mut queued = filled.clone();
+    let mut ring: Vec<usize> = Vec::new();
+    for i in 0..w * h {
+        if !filled[i] && neighbours(i).into_iter().flatten().any(|n| filled[n]) {
+            queued[i] = true;
+            ring.push(i);
+        }
+    }
+    let mut colours: Vec<[u8; 3]> = Vec::new();
+    while !ring.is_empty() {
+        colours.clear();
+        for &i in &ring {
+            let mut sum = [0u32; 3];
+            let mut n = 0;
+            for j in neighbours(i).into_iter().flatten().filter(|&j| filled[j]) {
+                let p = img.as_raw();
+                for c in 0..3 {
+                    sum[c] += p[4 * j + c] as u32;
+                }
+                n += 1;
+            }
+            colours.push(std::array::from_fn(|c| (sum[c] / n.max(1)) as u8));
+        }
+        let raw: &mut [u8] = &mut *img;
+        for (&i, c) in ring.iter().zip(&colours) {
+            raw[4 * i..4 * i + 3].copy_from_slice(c);
+            filled[i] = true;
+        }
+        let mut next = Vec::new();
+        for &i in &ring {
+            for j in neighbours(i).into_iter().flatten() {
+                if !queued[j] {
+                    queued[j] = true;
+                    next.push(j);
+                }
+            }
+        }
+        ring = next;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn filling_the_background_matches_dilating_until_full() {
+        // An independent answer: the ring-by-ring dilation repeated until no texel is left.
+        let mut img = image::RgbaImage::new(23, 17);
+        for (x, y) in [(3u32, 4u32), (4, 4), (15, 12), (20, 2)] {
+            img.put_pixel(x, y, image::Rgba([(x * 11) as u8, (y * 13) as u8, 200, 255]));
+        }
+        let mut expected = img.clone();
+        dilate(&mut expected, 64);
+        let mut filled = img.clone();
+        fill_background(&mut filled);
+        assert_eq!(filled, expected);
+        assert!(
+            filled.pixels().filter(|p| p[3] == 0).all(|p| p[2] == 200),
+            "every texel coloured"
+        );
+        // An empty image stays empty, a full one unchanged.
+        let mut empty = image::RgbaImage::new(5, 5);
+        fill_background(&mut empty);
+        assert!(empty.pixels().all(|p| p.0 == [0; 4]));
+    }
 
     #[test]
     fn rectangles_do_not_overlap_and_keep_their_pixels() {

@@ -7,5 +7,5 @@ mod atlas;
 pub mod bc;
 mod write;
 
-pub use atlas::{Atlas, AtlasRect, dilate, pack_atlas};
+pub use atlas::{Atlas, AtlasRect, dilate, fill_background, pack_atlas};
 pub use write::{PackStats, write_folder_atomic, write_pack, write_pack_with};

@@ -271,6 +271,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
         version: FORMAT_VERSION,
         character: character.into(),
         character_path: bake.character_path.clone(),
+        character_up: bake.character_up,
         clip: clip.map(String::from),
         fps: bake.options.fps,
         frames: frames as u32,

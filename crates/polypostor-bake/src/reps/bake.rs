@@ -103,6 +103,7 @@ impl SharedRenders {
             crate::pack::dilate(&mut c, 2);
             if f == view.key_frame {
                 key_image = c.clone();
+                crate::pack::fill_background(&mut key_image);
             }
             if self.every_frame {
                 let (x, y) = ((f as u32 % columns) * r, (f as u32 / columns) * r);
@@ -321,6 +322,7 @@ pub fn bake_representations_sharing(
                 crate::pack::dilate(&mut c, 2);
                 if f == options.key_frame {
                     np3d_images[v] = c.clone();
+                    crate::pack::fill_background(&mut np3d_images[v]);
                 }
                 let (x, y) = ((f as u32 % columns) * r, (f as u32 / columns) * r);
                 image::imageops::replace(&mut color[v], &c, x as i64, y as i64);
@@ -359,6 +361,7 @@ pub fn bake_representations_sharing(
         version: REPS_VERSION,
         character: character.name.clone(),
         character_path: character_path.map(String::from),
+        character_up: character.up_axis,
         clip: clip_name.map(String::from),
         fps: options.fps,
         frames: frames as u32,

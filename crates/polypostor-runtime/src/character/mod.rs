@@ -281,6 +281,10 @@ pub struct Character {
     pub clips: Vec<Clip>,
     /// Problems the import worked around, for the user to read.
     pub warnings: Vec<String>,
+    /// Which of the file's axes was read as up ([`crate::import::ImportOptions::up`]; the
+    /// import turned the character so that it stands along +y). Packs record it so every
+    /// re-import of the file agrees.
+    pub up_axis: crate::import::UpAxis,
 }
 
 impl Character {

@@ -106,6 +106,7 @@ pub fn generate() -> Character {
         bones,
         clips: anim::clips(),
         warnings: Vec::new(),
+        up_axis: Default::default(),
     }
 }
 

@@ -164,6 +164,7 @@ impl Builder<'_> {
             bones: rig.bones,
             clips,
             warnings: collapse_warnings(self.warnings),
+            up_axis: Default::default(),
         };
         // Measured skinned in the rest pose (a skinned mesh's own node transform does not
         // apply; its joints' do).

@@ -82,14 +82,126 @@ pub enum ImportError {
 /// authored.
 pub const LATE_START_SECS: f32 = 0.1;
 
+/// Which axis of the file points up. glTF says +y, and every file that follows it needs
+/// nothing; a file exported from a Z-up tool without conversion lies on its back (or its
+/// front), and the artist says so once: the project stores it, a bake records it in the
+/// pack, and every later import of that file reads it the same way.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+pub enum UpAxis {
+    /// +y, glTF's own (the default).
+    #[default]
+    #[serde(rename = "+y")]
+    PosY,
+    /// -y: the file is upside down.
+    #[serde(rename = "-y")]
+    NegY,
+    /// +z: a Z-up export left unconverted.
+    #[serde(rename = "+z")]
+    PosZ,
+    /// -z.
+    #[serde(rename = "-z")]
+    NegZ,
+    /// +x.
+    #[serde(rename = "+x")]
+    PosX,
+    /// -x.
+    #[serde(rename = "-x")]
+    NegX,
+}
+
+impl UpAxis {
+    /// Every axis, glTF's own first.
+    pub const ALL: [UpAxis; 6] = [
+        UpAxis::PosY,
+        UpAxis::PosZ,
+        UpAxis::NegZ,
+        UpAxis::PosX,
+        UpAxis::NegX,
+        UpAxis::NegY,
+    ];
+
+    /// glTF's own, +y (for `skip_serializing_if`).
+    pub fn is_default(&self) -> bool {
+        *self == UpAxis::PosY
+    }
+
+    /// The axis as written in projects, manifests and on the command line (`+z`).
+    pub fn name(self) -> &'static str {
+        match self {
+            UpAxis::PosY => "+y",
+            UpAxis::NegY => "-y",
+            UpAxis::PosZ => "+z",
+            UpAxis::NegZ => "-z",
+            UpAxis::PosX => "+x",
+            UpAxis::NegX => "-x",
+        }
+    }
+
+    /// Reads `+z`, `z`, `-x`, … (case-insensitive).
+    pub fn parse(text: &str) -> Option<UpAxis> {
+        let t = text.trim().to_ascii_lowercase();
+        let t = t.strip_prefix('+').unwrap_or(&t);
+        Some(match t {
+            "y" => UpAxis::PosY,
+            "-y" => UpAxis::NegY,
+            "z" => UpAxis::PosZ,
+            "-z" => UpAxis::NegZ,
+            "x" => UpAxis::PosX,
+            "-x" => UpAxis::NegX,
+            _ => return None,
+        })
+    }
+
+    /// The file's up direction.
+    pub fn direction(self) -> Vec3 {
+        match self {
+            UpAxis::PosY => Vec3::Y,
+            UpAxis::NegY => Vec3::NEG_Y,
+            UpAxis::PosZ => Vec3::Z,
+            UpAxis::NegZ => Vec3::NEG_Z,
+            UpAxis::PosX => Vec3::X,
+            UpAxis::NegX => Vec3::NEG_X,
+        }
+    }
+
+    /// The turn that stands the file up: its up direction onto +y, about the horizontal
+    /// axis at right angles to both (upside down: half a turn about x). Which way the
+    /// character then faces is settled as for any file (walkers are turned to face +z).
+    pub fn rotation(self) -> Quat {
+        match self {
+            UpAxis::NegY => Quat::from_rotation_x(std::f32::consts::PI),
+            a => Quat::from_rotation_arc(a.direction(), Vec3::Y),
+        }
+    }
+}
+
+impl std::fmt::Display for UpAxis {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// How to read a file beyond what it says itself.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ImportOptions {
+    /// Which of the file's axes points up ([`UpAxis::PosY`], glTF's, unless the artist said
+    /// otherwise).
+    pub up: UpAxis,
+}
+
 /// Imports a `.glb` or `.gltf` file from disk.
 pub fn import_path(path: &Path) -> Result<Character, ImportError> {
+    import_path_with(path, ImportOptions::default())
+}
+
+/// [`import_path`] with the artist's [`ImportOptions`].
+pub fn import_path_with(path: &Path, options: ImportOptions) -> Result<Character, ImportError> {
     let bytes = read_file(path)?;
     let name = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "character".into());
-    import_slice(&bytes, path.parent(), &name)
+    import_slice_with(&bytes, path.parent(), &name, options)
 }
 
 fn read_file(path: &Path) -> Result<Vec<u8>, ImportError> {
@@ -107,6 +219,16 @@ fn read_file(path: &Path) -> Result<Vec<u8>, ImportError> {
 /// Imports from bytes. `base_dir` resolves relative URIs of external buffers and images
 /// (`None`: only embedded data is allowed).
 pub fn import_slice(bytes: &[u8], base_dir: Option<&Path>, name: &str) -> Result<Character, ImportError> {
+    import_slice_with(bytes, base_dir, name, ImportOptions::default())
+}
+
+/// [`import_slice`] with the artist's [`ImportOptions`].
+pub fn import_slice_with(
+    bytes: &[u8],
+    base_dir: Option<&Path>,
+    name: &str,
+    options: ImportOptions,
+) -> Result<Character, ImportError> {
     let mut warnings = Vec::new();
     // A binary file that is not JSON is read as GLB, so a bad header is reported as such.
     let binary = !bytes.starts_with(&[0xEF, 0xBB, 0xBF]) && bytes.iter().take(12).any(|&b| b == 0 || b >= 0x80);
@@ -139,6 +261,17 @@ pub fn import_slice(bytes: &[u8], base_dir: Option<&Path>, name: &str) -> Result
     }
     .build(name)
     .map(|mut character| {
+        // Stood up first: where its origin lies and which way it walks are read upright.
+        character.up_axis = options.up;
+        if options.up != UpAxis::PosY {
+            character.move_rigidly(options.up.rotation(), Vec3::ZERO);
+            character.warnings.push(format!(
+                "read with {} as up (the project's choice; glTF's is +y): stood up",
+                options.up
+            ));
+        } else if let Some(hint) = lying_hint(&character) {
+            character.warnings.push(hint);
+        }
         if let Some(shift) = crate::timeline::off_origin(&character) {
             character.move_rigidly(glam::Quat::IDENTITY, shift);
             character.warnings.push(format!(
@@ -156,6 +289,25 @@ pub fn import_slice(bytes: &[u8], base_dir: Option<&Path>, name: &str) -> Result
             ));
         }
         character
+    })
+}
+
+/// A hint for a character that may lie on its back: one whose rest pose is more than four
+/// times as long along z as it is tall, as a Z-up export read as glTF shows a standing
+/// figure (its height along z, its depth along y; the rest pose, since a walk's first pose
+/// spreads the legs along the depth). Only said, never acted on: snakes, carpets and swords
+/// lying flat are that shape too.
+fn lying_hint(character: &Character) -> Option<String> {
+    let pose = crate::animation::Pose::rest(character);
+    let (skinned, _) = crate::animation::skin_vertices(character, &pose);
+    let (min, max) = crate::character::bounds(skinned.iter().copied());
+    let size = max - min;
+    (size.y > 0.0 && size.z > 4.0 * size.y).then(|| {
+        format!(
+            "it is {:.1} times as long (along z) as it is tall: if it lies on its back or front \
+             (a Z-up export), read it with +z or -z as up (`--up z`, or the editor's Up axis beside the character's summary)",
+            size.z / size.y
+        )
     })
 }
 
