@@ -64,6 +64,9 @@ enum Command {
         /// Unlit base colour instead of lit shading.
         #[arg(long)]
         unlit: bool,
+        /// Which of the file's axes points up (as for `inspect`).
+        #[arg(long, default_value = "y", value_parser = parse_up, allow_hyphen_values = true)]
+        up: polypostor::UpAxis,
     },
     /// Bake a character into a Polypostor pack (with report.json).
     Bake(BakeArgs),
@@ -270,7 +273,8 @@ fn main() -> ExitCode {
             pitch,
             normals,
             unlit,
-        }) => render(&file, &out, clip.as_deref(), time, size, yaw, pitch, normals, unlit),
+            up,
+        }) => render(&file, &out, clip.as_deref(), time, size, yaw, pitch, normals, unlit, up),
         Some(Command::GenerateDefault { out, quadruped }) => generate_default(out, quadruped),
         Some(Command::Compare {
             pack_dir,
@@ -466,10 +470,12 @@ fn render(
     pitch: f32,
     normals: bool,
     unlit: bool,
+    up: polypostor::UpAxis,
 ) -> anyhow::Result<()> {
     use polypostor::animation::{Pose, clip_bounds};
     use polypostor::gpu::*;
-    let c = polypostor::import_path(file).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+    let c = polypostor::import_path_with(file, polypostor::ImportOptions { up })
+        .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
     let clip_index = match clip {
         Some(name) => Some(
             c.find_clip(name)

@@ -215,7 +215,14 @@ impl EditorApp {
         let Some(doc) = &mut self.doc else { return };
         let up = character.up_axis;
         let mut lines = vec![format!("read {} with {up} as up", doc.character_path.display())];
-        lines.extend(character.warnings.iter().cloned());
+        // The import's own note that it stood the character up says the same as the first line.
+        lines.extend(
+            character
+                .warnings
+                .iter()
+                .filter(|w| !w.starts_with("read with "))
+                .cloned(),
+        );
         doc.summary = polypostor::summary::Summary::of(&character);
         doc.segmentation = Document::decode_segmentation(&doc.project, &character).0;
         doc.character = Arc::new(character);
