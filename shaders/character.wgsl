@@ -57,7 +57,14 @@ fn vs_main(v: VertexIn) -> VertexOut {
         + bone(v.bone_ids.z) * v.weights.z
         + bone(v.bone_ids.w) * v.weights.w;
     let world = skin * vec4<f32>(v.position, 1.0);
-    let normal_world = (skin * vec4<f32>(v.normal, 0.0)).xyz;
+    // Through the inverse transpose (as the cofactor matrix, signed by the determinant): an
+    // unevenly scaled joint keeps normals at right angles to the surface
+    // (`animation::normal_transform` on the CPU).
+    let c0 = skin[0].xyz;
+    let c1 = skin[1].xyz;
+    let c2 = skin[2].xyz;
+    let cofactor = mat3x3<f32>(cross(c1, c2), cross(c2, c0), cross(c0, c1));
+    let normal_world = cofactor * v.normal * select(1.0, -1.0, dot(c0, cross(c1, c2)) < 0.0);
     var out: VertexOut;
     out.clip_position = frame.clip_from_world * world;
     out.normal_view = (frame.view_from_world * vec4<f32>(normal_world, 0.0)).xyz;

@@ -89,8 +89,10 @@ fn vs_skinned(v: SkinnedIn) -> VertexOut {
     let s0 = min(pair.x * u32(per_frame) + sub, samples - 1u);
     let s1 = select(s0 + 1u, pair.y * u32(per_frame), sub + 1u >= u32(per_frame));
     let a = clamp(t - f32(sub), 0.0, 1.0);
-    var p = vec3<f32>(0.0);
-    var n = vec3<f32>(0.0);
+    // The blended skinning matrix's rows.
+    var r0 = vec4<f32>(0.0);
+    var r1 = vec4<f32>(0.0);
+    var r2 = vec4<f32>(0.0);
     for (var k = 0u; k < 4u; k++) {
         let w = v.weights[k];
         if (w > 0.0) {
@@ -100,11 +102,20 @@ fn vs_skinned(v: SkinnedIn) -> VertexOut {
             // Samples a quarter frame apart: blending the two matrices (as linear blend
             // skinning blends bones) turns by a few degrees at most, where it shrinks by
             // under 0.1 %.
-            let j = Joint(mix(j0.r0, j1.r0, a), mix(j0.r1, j1.r1, a), mix(j0.r2, j1.r2, a));
-            p += w * apply_joint(j, vec4<f32>(v.position, 1.0));
-            n += w * apply_joint(j, vec4<f32>(v.normal, 0.0));
+            r0 += w * mix(j0.r0, j1.r0, a);
+            r1 += w * mix(j0.r1, j1.r1, a);
+            r2 += w * mix(j0.r2, j1.r2, a);
         }
     }
+    let p = apply_joint(Joint(r0, r1, r2), vec4<f32>(v.position, 1.0));
+    // The normal through the inverse transpose of the matrix's 3×3 part, whose rows a, b, c
+    // give it as rows b×c, c×a, a×b (signed by the determinant): an unevenly scaled joint keeps
+    // normals at right angles to the surface (`animation::normal_transform` on the CPU).
+    let ra = r0.xyz;
+    let rb = r1.xyz;
+    let rc = r2.xyz;
+    let sign = select(1.0, -1.0, dot(ra, cross(rb, rc)) < 0.0);
+    let n = sign * vec3<f32>(dot(cross(rb, rc), v.normal), dot(cross(rc, ra), v.normal), dot(cross(ra, rb), v.normal));
     // Scaled joints (a centimetre rig, a joint scaled to nothing) scale the normal too.
     let len = length(n);
     return place(inst, p, select(vec3<f32>(0.0, 1.0, 0.0), n / len, len > 1e-20), v.vi, v.uv, v.color);

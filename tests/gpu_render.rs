@@ -105,6 +105,74 @@ fn gpu_and_cpu_skinning_agree_on_every_character() {
     }
 }
 
+/// Normals of a character whose root is scaled unevenly (squash and stretch): the GPU's
+/// skinning carries them as the CPU's does (`animation::normal_transform`, tested against the
+/// surface's own tangents), pixel by pixel in the view-space normal image. The test can fail:
+/// the matrix itself (the old rule) turns them by up to 20° here.
+#[test]
+fn gpu_skinning_carries_normals_of_unevenly_scaled_joints_as_the_cpu_does() {
+    let ctx = context();
+    let mut c = polypostor::default_character::generate();
+    for n in c.skeleton.nodes.iter_mut().filter(|n| n.parent.is_none()) {
+        n.rest.scale = glam::Vec3::new(1.8, 1.0, 0.6);
+    }
+    let renderer = CharacterRenderer::new(&ctx.device);
+    let mut gpu = GpuCharacter::new(&renderer, &ctx.device, &ctx.queue, &c);
+    let target = RenderTarget::new(&ctx.device, 160, 160);
+    let clip = c.find_clip("Walk");
+    let pose = Pose::sample_index(&c, clip, 0.3);
+    let opts = DrawOptions {
+        shading: Shading::Unlit,
+        ..Default::default()
+    };
+    let mut draw = |mode| {
+        renderer.render(
+            &ctx.device,
+            &ctx.queue,
+            &target,
+            &mut gpu,
+            &c,
+            &pose,
+            mode,
+            &camera_for(&c, clip, 0.8),
+            &opts,
+        );
+        target.read_normal(&ctx.device, &ctx.queue).unwrap()
+    };
+    let (on_gpu, on_cpu) = (draw(SkinningMode::Gpu), draw(SkinningMode::Cpu));
+    let decode = |p: &image::Rgba<u8>| glam::Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 127.5 - glam::Vec3::ONE;
+    let (mut both, mut far) = (0, 0);
+    for (a, b) in on_gpu.pixels().zip(on_cpu.pixels()) {
+        if a[3] > 127 && b[3] > 127 {
+            both += 1;
+            if decode(a).normalize().dot(decode(b).normalize()) < 0.996 {
+                far += 1;
+            }
+        }
+    }
+    assert!(both > 2000, "{both} pixels");
+    // Silhouette edges may differ by a pixel's rasterisation; the surface must not.
+    assert!(
+        far * 50 < both,
+        "{far} of {both} pixels' normals differ by more than 5°"
+    );
+    // The old rule (the matrix itself) is far from the CPU's on this pose: the test can tell.
+    let turned = c
+        .vertices
+        .iter()
+        .filter(|v| {
+            let m = polypostor::animation::vertex_matrix(&pose.skin_from_bind, v.bones, v.weights);
+            let old = m.transform_vector3(v.normal).normalize();
+            old.angle_between(polypostor::animation::normal_transform(&m, v.normal).normalize()) > 0.1
+        })
+        .count();
+    assert!(
+        turned * 5 > c.vertices.len(),
+        "{turned} of {} normals turned by more than 5.7°",
+        c.vertices.len()
+    );
+}
+
 #[test]
 fn colour_normal_and_depth_are_consistent() {
     let ctx = context();

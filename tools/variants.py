@@ -33,13 +33,14 @@ OUT_DIR/<stem>_<variant>.glb (an existing file is never overwritten):
   alphamask  every material alpha-tested (MASK, double-sided) with its texture replaced by a
            64x64 one of coloured checks pierced by round holes (as lace, hair cards and
            foliage come)
+  twotex   as split, the second half on a material and a texture of its own (stripes)
   gltf     a .gltf with its buffer and images as separate files, in a folder and under a
            name with spaces (URIs percent-encoded)
 With no VARIANT, all of them."""
 import json, math, os, random, struct, sys
 
 ALL = ['ikctrl', 'clips40', 'late', 'quant', 'mirror', 'turned', 'renamed', 'vanish', 'infl8',
-       'morph', 'split', 'twoskins', 'offset', 'zup', 'cubic', 'nonormals', 'texxform', 'alphamask', 'gltf']
+       'morph', 'split', 'twoskins', 'offset', 'zup', 'cubic', 'nonormals', 'texxform', 'alphamask', 'twotex', 'gltf']
 NC = {'SCALAR': 1, 'VEC2': 2, 'VEC3': 3, 'VEC4': 4, 'MAT4': 16}
 CT = {5120: 'b', 5121: 'B', 5122: 'h', 5123: 'H', 5125: 'I', 5126: 'f'}
 
@@ -424,13 +425,8 @@ def png_rgba(w, h, pixel):
             + chunk(b'IDAT', zlib.compress(raw)) + chunk(b'IEND', b''))
 
 
-def alphamask(js, bin_):
-    def pixel(x, y):
-        cx, cy = x % 16 - 7.5, y % 16 - 7.5
-        hole = cx * cx + cy * cy < 16
-        c = (200, 60, 40) if (x // 16 + y // 16) % 2 else (230, 210, 120)
-        return (*c, 0 if hole else 255)
-    data = png_rgba(64, 64, pixel)
+def add_png_texture(js, bin_, w, h, pixel):
+    data = png_rgba(w, h, pixel)
     while len(bin_) % 4:
         bin_.append(0)
     start = len(bin_)
@@ -439,19 +435,45 @@ def alphamask(js, bin_):
     js.setdefault('images', []).append({'bufferView': len(js['bufferViews']) - 1, 'mimeType': 'image/png'})
     js.setdefault('samplers', []).append({})
     js.setdefault('textures', []).append({'source': len(js['images']) - 1, 'sampler': len(js['samplers']) - 1})
-    tex = len(js['textures']) - 1
-    for m in js.get('meshes', []):
-        for p in m['primitives']:
-            if 'TEXCOORD_0' not in p['attributes']:
-                n = js['accessors'][p['attributes']['POSITION']]['count']
-                pos = read_acc(js, bin_, p['attributes']['POSITION'])
-                p['attributes']['TEXCOORD_0'] = add_acc(js, bin_, [[r[0] * 3.0, r[1] * 3.0] for r in pos], 'VEC2')
+    return len(js['textures']) - 1
+
+
+def ensure_uvs(js, bin_, prims):
+    for p in prims:
+        if 'TEXCOORD_0' not in p['attributes']:
+            pos = read_acc(js, bin_, p['attributes']['POSITION'])
+            p['attributes']['TEXCOORD_0'] = add_acc(js, bin_, [[r[0] * 3.0, r[1] * 3.0] for r in pos], 'VEC2')
+
+
+def alphamask(js, bin_):
+    def pixel(x, y):
+        cx, cy = x % 16 - 7.5, y % 16 - 7.5
+        hole = cx * cx + cy * cy < 16
+        c = (200, 60, 40) if (x // 16 + y // 16) % 2 else (230, 210, 120)
+        return (*c, 0 if hole else 255)
+    tex = add_png_texture(js, bin_, 64, 64, pixel)
+    ensure_uvs(js, bin_, [p for m in js.get('meshes', []) for p in m['primitives']])
     for mat in js.get('materials', []):
         pbr = mat.setdefault('pbrMetallicRoughness', {})
         pbr['baseColorTexture'] = {'index': tex}
         pbr.pop('baseColorFactor', None)
         mat['alphaMode'] = 'MASK'
         mat['doubleSided'] = True
+
+
+def twotex(js, bin_):
+    """As `split`, the second half of each skinned mesh on a material of its own with a
+    texture of its own (teal and orange stripes), as characters with a body and a clothing
+    texture come."""
+    m0 = len(js['meshes'])
+    split(js, bin_)
+    tex = add_png_texture(js, bin_, 32, 32, lambda x, y: (30, 160, 150, 255) if (x // 4) % 2 else (240, 140, 40, 255))
+    js.setdefault('materials', []).append({'name': 'second', 'pbrMetallicRoughness': {'baseColorTexture': {'index': tex}}})
+    mat = len(js['materials']) - 1
+    prims = [p for m in js['meshes'][m0:] for p in m['primitives']]
+    ensure_uvs(js, bin_, prims)
+    for p in prims:
+        p['material'] = mat
 
 
 def gltf(js, bin_):

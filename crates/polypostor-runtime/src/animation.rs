@@ -103,9 +103,22 @@ pub fn skin_vertices(character: &Character, pose: &Pose) -> (Vec<Vec3>, Vec<Vec3
     for v in &character.vertices {
         let m = vertex_matrix(&pose.skin_from_bind, v.bones, v.weights);
         positions.push(m.transform_point3(v.position));
-        normals.push(m.transform_vector3(v.normal).normalize_or_zero());
+        normals.push(normal_transform(&m, v.normal).normalize_or_zero());
     }
     (positions, normals)
+}
+
+/// A normal carried by the blended skinning matrix `m`: through the inverse transpose of its
+/// 3×3 part, so that a joint scaled unevenly (a squash-and-stretch rig, a limb flattened)
+/// leaves normals at right angles to the surface it bends; as the cofactor matrix times the
+/// sign of the determinant (the same direction, and defined where a joint is scaled to
+/// nothing along one axis). Rotations and even scales carry normals as the matrix itself does;
+/// `shaders/character.wgsl` and `shaders/crowd_mesh.wgsl` do the same.
+pub fn normal_transform(m: &Mat4, n: Vec3) -> Vec3 {
+    let (c0, c1, c2) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
+    let det = c0.dot(c1.cross(c2));
+    let v = c1.cross(c2) * n.x + c2.cross(c0) * n.y + c0.cross(c1) * n.z;
+    if det < 0.0 { -v } else { v }
 }
 
 /// Bounds of the skinned mesh over a whole clip, sampled `samples` times (at least 2).
@@ -231,6 +244,48 @@ fn interp_quat(mode: Interpolation, v: &[Quat], i0: usize, i1: usize, u: f32, dt
 mod tests {
     use super::*;
     use crate::character::{Bone, Node, Skeleton, Vertex};
+
+    /// Normals under an unevenly scaled joint stay at right angles to the surface. Independent
+    /// answer: the plane through the vertex spanned by two tangents, carried by the matrix as
+    /// points are; its normal is their cross product.
+    #[test]
+    fn normals_stay_at_right_angles_to_an_unevenly_scaled_surface() {
+        let cases = [
+            Mat4::from_scale(Vec3::new(2.0, 1.0, 1.0)),
+            Mat4::from_scale_rotation_translation(
+                Vec3::new(0.3, 1.7, 0.9),
+                Quat::from_rotation_y(0.7) * Quat::from_rotation_x(-0.4),
+                Vec3::new(1.0, -2.0, 0.5),
+            ),
+            // Mirrored and squashed.
+            Mat4::from_scale(Vec3::new(-1.0, 0.5, 1.5)),
+            // Sheared (two joints blended).
+            Mat4::from_cols_array(&[
+                1.0, 0.0, 0.0, 0.0, 0.8, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+            ]),
+        ];
+        for m in cases {
+            for n in [Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.2, -0.5, 0.8), Vec3::Z] {
+                let n = n.normalize();
+                let t1 = n.any_orthonormal_vector();
+                let t2 = n.cross(t1);
+                let (a, b) = (m.transform_vector3(t1), m.transform_vector3(t2));
+                let expected = a.cross(b).normalize();
+                // Facing the same side of the surface as before: det < 0 flips the tangent frame.
+                let expected = if m.determinant() < 0.0 { -expected } else { expected };
+                let got = normal_transform(&m, n).normalize();
+                assert!((got - expected).length() < 1e-5, "{m:?} {n}: {got} against {expected}");
+                assert!(got.dot(a).abs() < 1e-5 && got.dot(b).abs() < 1e-5);
+            }
+        }
+        // Even scales and rotations carry normals as the matrix does.
+        let r = Mat4::from_scale_rotation_translation(Vec3::splat(0.01), Quat::from_rotation_z(1.1), Vec3::X);
+        let n = Vec3::new(0.3, 0.4, 0.5).normalize();
+        assert!((normal_transform(&r, n).normalize() - r.transform_vector3(n).normalize()).length() < 1e-5);
+        // Flattened to nothing along x: the normal is the flattened surface's, not zero.
+        let flat = Mat4::from_scale(Vec3::new(0.0, 1.0, 1.0));
+        assert!((normal_transform(&flat, Vec3::new(1.0, 1.0, 0.0)).normalize() - Vec3::X).length() < 1e-6);
+    }
 
     fn two_bone_character(channel: Channel) -> Character {
         Character {
