@@ -33,6 +33,7 @@ OUT_DIR/<stem>_<variant>.glb (an existing file is never overwritten):
   alphamask  every material alpha-tested (MASK, double-sided) with its texture replaced by a
            64x64 one of coloured checks pierced by round holes (as lace, hair cards and
            foliage come)
+  hidden   as vanish, the limb scaled to nothing for the whole of every clip
   twotex   as split, the second half on a material and a texture of its own (stripes)
   gltf     a .gltf with its buffer and images as separate files, in a folder and under a
            name with spaces (URIs percent-encoded)
@@ -40,7 +41,7 @@ With no VARIANT, all of them."""
 import json, math, os, random, struct, sys
 
 ALL = ['ikctrl', 'clips40', 'late', 'quant', 'mirror', 'turned', 'renamed', 'vanish', 'infl8',
-       'morph', 'split', 'twoskins', 'offset', 'zup', 'cubic', 'nonormals', 'texxform', 'alphamask', 'twotex', 'gltf']
+       'morph', 'split', 'twoskins', 'offset', 'zup', 'cubic', 'nonormals', 'texxform', 'alphamask', 'twotex', 'hidden', 'gltf']
 NC = {'SCALAR': 1, 'VEC2': 2, 'VEC3': 3, 'VEC4': 4, 'MAT4': 16}
 CT = {5120: 'b', 5121: 'B', 5122: 'h', 5123: 'H', 5125: 'I', 5126: 'f'}
 
@@ -241,6 +242,17 @@ def vanish(js, bin_):
                                'output': add_acc(js, bin_, vals, 'VEC3'), 'interpolation': 'LINEAR'})
         an['channels'].append({'sampler': len(an['samplers']) - 1, 'target': {'node': pick, 'path': 'scale'}})
     print('vanishing', js['nodes'][pick].get('name'), file=sys.stderr)
+
+
+def hidden(js, bin_):
+    """As `vanish`, the limb scaled to nothing for the whole of every clip (a weapon kept
+    hidden, an accessory switched off by scale)."""
+    vanish(js, bin_)
+    for an in js.get('animations', []):
+        ch = an['channels'][-1]
+        sm = an['samplers'][ch['sampler']]
+        n = js['accessors'][sm['output']]['count']
+        sm['output'] = add_acc(js, bin_, [[0.0] * 3] * n, 'VEC3')
 
 
 def skinned_prims(js):
