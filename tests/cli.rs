@@ -315,16 +315,13 @@ fn bench_sim_runs_a_crowd_of_two_characters() {
     assert!(v["cpu_ms"]["mean"].as_f64().unwrap() > 0.0);
 }
 
-/// A Polypostor pack baked from a glTF file names that file, so `bench crowd` (and `--with`,
-/// which has no flag for a character) and `compare` find the character without being told.
-#[test]
-fn a_pack_names_the_file_it_was_baked_from() {
-    let dir = common::temp_dir("cli-character-path");
-    let glb = common::repo_path(polypostor::default_character::DEFAULT_CHARACTER_PATH);
-    let out = dir.join("p.pack");
-    let bake = polypostor(&[
+/// A 2-view, 32² bake of `glb` into `out` with one key image per part (and `more` flags);
+/// it must succeed.
+fn small_bake(glb: &std::path::Path, out: &std::path::Path, more: &[&str]) {
+    let (glb, out) = (glb.to_str().unwrap(), out.to_str().unwrap());
+    let mut args = vec![
         "bake",
-        glb.to_str().unwrap(),
+        glb,
         "--views",
         "2",
         "--resolution",
@@ -332,9 +329,21 @@ fn a_pack_names_the_file_it_was_baked_from() {
         "--max-keys",
         "1",
         "--out",
-        out.to_str().unwrap(),
-    ]);
+        out,
+    ];
+    args.extend_from_slice(more);
+    let bake = polypostor(&args);
     assert!(bake.status.success(), "{}", String::from_utf8_lossy(&bake.stderr));
+}
+
+/// A Polypostor pack baked from a glTF file names that file, so `bench crowd` (and `--with`,
+/// which has no flag for a character) and `compare` find the character without being told.
+#[test]
+fn a_pack_names_the_file_it_was_baked_from() {
+    let dir = common::temp_dir("cli-character-path");
+    let glb = common::repo_path(polypostor::default_character::DEFAULT_CHARACTER_PATH);
+    let out = dir.join("p.pack");
+    small_bake(&glb, &out, &[]);
     let manifest: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
     let named = std::path::PathBuf::from(manifest["character_path"].as_str().expect("character_path"));
@@ -475,23 +484,7 @@ fn a_file_read_with_another_up_axis_is_baked_and_crowded_standing() {
     assert_eq!(bad.status.code(), Some(2), "clap refuses it");
     assert!(String::from_utf8_lossy(&bad.stderr).contains("'sideways' is not an axis"));
     let out = dir.join("p.pack");
-    let bake = polypostor(&[
-        "bake",
-        glb.to_str().unwrap(),
-        "--up",
-        "-z",
-        "--views",
-        "2",
-        "--resolution",
-        "32",
-        "--max-keys",
-        "1",
-        "--representation",
-        "all",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(bake.status.success(), "{}", String::from_utf8_lossy(&bake.stderr));
+    small_bake(&glb, &out, &["--up", "-z", "--representation", "all"]);
     for file in ["manifest.json", polypostor::reps::REPS_FILE] {
         let m: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join(file)).unwrap()).unwrap();
         assert_eq!(m["character_up"], "-z", "{file}");
