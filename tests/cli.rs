@@ -480,6 +480,11 @@ fn a_file_read_with_another_up_axis_is_baked_and_crowded_standing() {
     let inspect = polypostor(&["inspect", glb.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&inspect.stdout);
     assert!(text.contains("--up z"), "the import hints at the axis: {text}");
+    let stood = polypostor(&["inspect", glb.to_str().unwrap(), "--up", "-z", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&stood.stdout).unwrap();
+    assert_eq!(v["up_axis"], "-z");
+    let tall = v["bounds_max"][1].as_f64().unwrap() - v["bounds_min"][1].as_f64().unwrap();
+    assert!((1.5..2.2).contains(&tall), "stands {tall} tall");
     let bad = polypostor(&["inspect", glb.to_str().unwrap(), "--up", "sideways"]);
     assert_eq!(bad.status.code(), Some(2), "clap refuses it");
     assert!(String::from_utf8_lossy(&bad.stderr).contains("'sideways' is not an axis"));

@@ -53,6 +53,8 @@ pub struct Summary {
     pub bounds_max: [f32; 3],
     /// Problems the import worked around ([`Character::warnings`]).
     pub warnings: Vec<String>,
+    /// Which of the file's axes was read as up ([`Character::up_axis`]; `+y` is glTF's).
+    pub up_axis: crate::import::UpAxis,
 }
 
 impl Summary {
@@ -97,6 +99,7 @@ impl Summary {
             bounds_min: min.to_array(),
             bounds_max: max.to_array(),
             warnings: c.warnings.clone(),
+            up_axis: c.up_axis,
         }
     }
 
@@ -109,6 +112,9 @@ impl Summary {
         let _ = writeln!(s, "triangles   {}", self.triangles);
         let _ = writeln!(s, "joints      {} ({} skeleton nodes)", self.joints, self.nodes);
         let _ = writeln!(s, "materials   {}", self.materials);
+        if !self.up_axis.is_default() {
+            let _ = writeln!(s, "up axis     {} (stood up)", self.up_axis);
+        }
         let _ = writeln!(
             s,
             "bounds      [{:.3}, {:.3}, {:.3}] .. [{:.3}, {:.3}, {:.3}]",
