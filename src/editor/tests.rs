@@ -1005,6 +1005,29 @@ fn the_up_axis_choice_stands_a_lying_character_up_and_undoes() {
     }
     let standing = height(&h);
     assert!((1.5..2.2).contains(&standing), "stands: {standing} m tall");
+    // A bake made with glTF's axis (as before the choice) is marked in the Views tab.
+    let (bake_dir, out) = bake_small(
+        "up-axis",
+        "plain.pack",
+        "polypostor",
+        polypostor::bake::pipeline::BakeOptions {
+            views: 2,
+            resolution: 32,
+            fps: 5.0,
+            ..Default::default()
+        },
+    );
+    h.state_mut().views.set_source(Some(&out));
+    h.get_by_label("Views").click();
+    h.run_steps(2);
+    assert!(
+        h.query_by_label_contains("This bake read the character with +y as up")
+            .is_some(),
+        "the stale bake is marked"
+    );
+    h.get_by_label("Character").click();
+    h.run_steps(2);
+    std::fs::remove_dir_all(bake_dir).unwrap();
     h.state_mut().send(Command::Undo);
     h.run_steps(4);
     assert_eq!(

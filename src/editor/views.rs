@@ -25,6 +25,8 @@ pub struct ViewsPanel {
     pub plot_ssim: bool,
     /// The quality sheet of one view (the real mesh beside every representation).
     pub sheet: QualitySheet,
+    /// The up axis the shown bake read the character with (its manifest's `character_up`).
+    pub baked_up: polypostor::UpAxis,
 }
 
 /// The quality sheet of the chosen view at a frame and half-way to the next, made in the
@@ -171,6 +173,12 @@ impl ViewsPanel {
                 self.selected = self.selected.filter(|&s| s < r.views.len());
                 self.report = Some((file, modified, r));
                 self.error = None;
+                // A pack records the axis only when it is not glTF's.
+                self.baked_up = std::fs::read(dir.join("manifest.json"))
+                    .ok()
+                    .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+                    .and_then(|m| serde_json::from_value(m["character_up"].clone()).ok())
+                    .unwrap_or_default();
             }
             Err(e) => {
                 self.report = None;
@@ -215,6 +223,18 @@ impl ViewsPanel {
         }
         if let Some(e) = &self.error {
             ui.label(egui::RichText::new(e).color(ui.visuals().warn_fg_color));
+        }
+        if let Some(d) = doc.as_deref()
+            && self.report.is_some()
+            && d.character.up_axis != self.baked_up
+        {
+            ui.label(
+                egui::RichText::new(format!(
+                    "⚠ This bake read the character with {} as up; it is now read with {} as up: bake again (Ctrl+B)",
+                    self.baked_up, d.character.up_axis
+                ))
+                .color(ui.visuals().warn_fg_color),
+            );
         }
         let Some((_, _, report)) = &self.report else { return };
         let (lo, hi) = report.views.iter().fold((f64::MAX, f64::MIN), |(a, b), v| {
