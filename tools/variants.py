@@ -34,6 +34,7 @@ OUT_DIR/<stem>_<variant>.glb (an existing file is never overwritten):
            64x64 one of coloured checks pierced by round holes (as lace, hair cards and
            foliage come)
   hidden   as vanish, the limb scaled to nothing for the whole of every clip
+  facerig  twelve face joints under the head, each taking the head's vertices in one sector
   twotex   as split, the second half on a material and a texture of its own (stripes)
   gltf     a .gltf with its buffer and images as separate files, in a folder and under a
            name with spaces (URIs percent-encoded)
@@ -41,7 +42,7 @@ With no VARIANT, all of them."""
 import json, math, os, random, struct, sys
 
 ALL = ['ikctrl', 'clips40', 'late', 'quant', 'mirror', 'turned', 'renamed', 'vanish', 'infl8',
-       'morph', 'split', 'twoskins', 'offset', 'zup', 'cubic', 'nonormals', 'texxform', 'alphamask', 'twotex', 'hidden', 'gltf']
+       'morph', 'split', 'twoskins', 'offset', 'zup', 'cubic', 'nonormals', 'texxform', 'alphamask', 'twotex', 'hidden', 'facerig', 'gltf']
 NC = {'SCALAR': 1, 'VEC2': 2, 'VEC3': 3, 'VEC4': 4, 'MAT4': 16}
 CT = {5120: 'b', 5121: 'B', 5122: 'h', 5123: 'H', 5125: 'I', 5126: 'f'}
 
@@ -242,6 +243,60 @@ def vanish(js, bin_):
                                'output': add_acc(js, bin_, vals, 'VEC3'), 'interpolation': 'LINEAR'})
         an['channels'].append({'sampler': len(an['samplers']) - 1, 'target': {'node': pick, 'path': 'scale'}})
     print('vanishing', js['nodes'][pick].get('name'), file=sys.stderr)
+
+
+def inv3(m):
+    a, b, c, d, e, f, g, h, i = m
+    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    return [(e * i - f * h) / det, (c * h - b * i) / det, (b * f - c * e) / det,
+            (f * g - d * i) / det, (a * i - c * g) / det, (c * d - a * f) / det,
+            (d * h - e * g) / det, (b * g - a * h) / det, (a * e - b * d) / det]
+
+
+def facerig(js, bin_):
+    """Twelve face joints under the head (as game rigs bring for expressions), each taking
+    the head's vertices in one sector around it; they follow the head, so the character moves
+    as before."""
+    skin = js['skins'][0]
+    joints = skin['joints']
+    ibm = read_acc(js, bin_, skin['inverseBindMatrices'])
+    def bind_pos(k):
+        m = ibm[k]  # column-major 4x4
+        r = [m[0], m[4], m[8], m[1], m[5], m[9], m[2], m[6], m[10]]  # rows of the 3x3
+        t = [m[12], m[13], m[14]]
+        ri = inv3(r)
+        return [-(ri[3 * i] * t[0] + ri[3 * i + 1] * t[1] + ri[3 * i + 2] * t[2]) for i in range(3)]
+    named = [k for k, j in enumerate(joints) if 'head' in js['nodes'][j].get('name', '').lower()]
+    h = named[0] if named else max(range(len(joints)), key=lambda k: bind_pos(k)[1])
+    hp = bind_pos(h)
+    head = joints[h]
+    first = len(joints)
+    for s in range(12):
+        js['nodes'].append({'name': f'face_{s:02d}'})
+        js['nodes'][head].setdefault('children', []).append(len(js['nodes']) - 1)
+        joints.append(len(js['nodes']) - 1)
+        ibm.append(list(ibm[h]))
+    skin['inverseBindMatrices'] = add_acc(js, bin_, ibm, 'MAT4')
+    import math
+    moved = 0
+    for m in js['meshes']:
+        for p in m['primitives']:
+            at = p['attributes']
+            if 'JOINTS_0' not in at or 'WEIGHTS_0' not in at:
+                continue
+            jn = read_acc(js, bin_, at['JOINTS_0'])
+            wt = read_acc(js, bin_, at['WEIGHTS_0'])
+            pos = read_acc(js, bin_, at['POSITION'])
+            for v in range(len(jn)):
+                best = max(range(4), key=lambda k: wt[v][k])
+                if jn[v][best] != h or wt[v][best] <= 0:
+                    continue
+                d = [pos[v][i] - hp[i] for i in range(3)]
+                sector = int((math.atan2(d[0], d[2]) + math.pi) / (2 * math.pi) * 6) % 6 + (6 if d[1] > 0 else 0)
+                jn[v] = [first + sector if (x == h and wt[v][k] > 0) else x for k, x in enumerate(jn[v])]
+                moved += 1
+            at['JOINTS_0'] = add_acc(js, bin_, jn, 'VEC4', 5123)
+    print('face joints under', js['nodes'][head].get('name'), 'took', moved, 'vertices', file=sys.stderr)
 
 
 def hidden(js, bin_):
