@@ -651,7 +651,7 @@ fn head_turn(c: &Character, base: usize, top: usize) -> f32 {
     most
 }
 
-/// Most parts [`moving_pieces`] makes (the largest pieces keep their own; the rest join the
+/// Most parts `moving_pieces` makes (the largest pieces keep their own; the rest join the
 /// piece they hang from, or the body).
 pub const MAX_PIECES: usize = 16;
 

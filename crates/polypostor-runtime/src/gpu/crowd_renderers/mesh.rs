@@ -14,7 +14,7 @@ pub type JointSample = [[f32; 4]; 3];
 
 /// The joints at `per_frame` evenly spaced times in each frame of `timeline` (from the
 /// frame's time to the next frame's, within its clip): per sample, per bone, the rows of its
-/// skinning matrix ([`JointSample`]).
+/// skinning matrix (`JointSample`).
 pub fn joint_samples(
     character: &Character,
     timeline: &crate::timeline::Timeline,
