@@ -54,7 +54,7 @@ pub struct Summary {
     /// Problems the import worked around ([`Character::warnings`]).
     pub warnings: Vec<String>,
     /// Which of the file's axes was read as up ([`Character::up_axis`]; `+y` is glTF's).
-    pub up_axis: crate::import::UpAxis,
+    pub up_axis: crate::character::UpAxis,
 }
 
 impl Summary {

@@ -281,10 +281,10 @@ pub struct Character {
     pub clips: Vec<Clip>,
     /// Problems the import worked around, for the user to read.
     pub warnings: Vec<String>,
-    /// Which of the file's axes was read as up ([`crate::import::ImportOptions::up`]; the
+    /// Which of the file's axes was read as up (the import's `ImportOptions::up`; the
     /// import turned the character so that it stands along +y). Packs record it so every
     /// re-import of the file agrees.
-    pub up_axis: crate::import::UpAxis,
+    pub up_axis: UpAxis,
 }
 
 impl Character {
@@ -365,5 +365,104 @@ pub fn bounds(points: impl IntoIterator<Item = Vec3>) -> (Vec3, Vec3) {
         (Vec3::ZERO, Vec3::ZERO)
     } else {
         (min, max)
+    }
+}
+
+/// Which axis of the file points up. glTF says +y, and every file that follows it needs
+/// nothing; a file exported from a Z-up tool without conversion lies on its back (or its
+/// front), and the artist says so once: the project stores it, a bake records it in the
+/// pack, and every later import of that file reads it the same way.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+pub enum UpAxis {
+    /// +y, glTF's own (the default).
+    #[default]
+    #[serde(rename = "+y")]
+    PosY,
+    /// -y: the file is upside down.
+    #[serde(rename = "-y")]
+    NegY,
+    /// +z: a Z-up export left unconverted.
+    #[serde(rename = "+z")]
+    PosZ,
+    /// -z.
+    #[serde(rename = "-z")]
+    NegZ,
+    /// +x.
+    #[serde(rename = "+x")]
+    PosX,
+    /// -x.
+    #[serde(rename = "-x")]
+    NegX,
+}
+
+impl UpAxis {
+    /// Every axis, glTF's own first.
+    pub const ALL: [UpAxis; 6] = [
+        UpAxis::PosY,
+        UpAxis::PosZ,
+        UpAxis::NegZ,
+        UpAxis::PosX,
+        UpAxis::NegX,
+        UpAxis::NegY,
+    ];
+
+    /// glTF's own, +y (for `skip_serializing_if`).
+    pub fn is_default(&self) -> bool {
+        *self == UpAxis::PosY
+    }
+
+    /// The axis as written in projects, manifests and on the command line (`+z`).
+    pub fn name(self) -> &'static str {
+        match self {
+            UpAxis::PosY => "+y",
+            UpAxis::NegY => "-y",
+            UpAxis::PosZ => "+z",
+            UpAxis::NegZ => "-z",
+            UpAxis::PosX => "+x",
+            UpAxis::NegX => "-x",
+        }
+    }
+
+    /// Reads `+z`, `z`, `-x`, … (case-insensitive).
+    pub fn parse(text: &str) -> Option<UpAxis> {
+        let t = text.trim().to_ascii_lowercase();
+        let t = t.strip_prefix('+').unwrap_or(&t);
+        Some(match t {
+            "y" => UpAxis::PosY,
+            "-y" => UpAxis::NegY,
+            "z" => UpAxis::PosZ,
+            "-z" => UpAxis::NegZ,
+            "x" => UpAxis::PosX,
+            "-x" => UpAxis::NegX,
+            _ => return None,
+        })
+    }
+
+    /// The file's up direction.
+    pub fn direction(self) -> Vec3 {
+        match self {
+            UpAxis::PosY => Vec3::Y,
+            UpAxis::NegY => Vec3::NEG_Y,
+            UpAxis::PosZ => Vec3::Z,
+            UpAxis::NegZ => Vec3::NEG_Z,
+            UpAxis::PosX => Vec3::X,
+            UpAxis::NegX => Vec3::NEG_X,
+        }
+    }
+
+    /// The turn that stands the file up: its up direction onto +y, about the horizontal
+    /// axis at right angles to both (upside down: half a turn about x). Which way the
+    /// character then faces is settled as for any file (walkers are turned to face +z).
+    pub fn rotation(self) -> Quat {
+        match self {
+            UpAxis::NegY => Quat::from_rotation_x(std::f32::consts::PI),
+            a => Quat::from_rotation_arc(a.direction(), Vec3::Y),
+        }
+    }
+}
+
+impl std::fmt::Display for UpAxis {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
     }
 }

@@ -216,8 +216,8 @@ pub struct Manifest {
     pub character_path: Option<String>,
     /// Which of that file's axes the bake read as up (absent: glTF's +y); loaders import the
     /// file the same way ([`crate::import::ImportOptions::up`]).
-    #[serde(default, skip_serializing_if = "crate::import::UpAxis::is_default")]
-    pub character_up: crate::import::UpAxis,
+    #[serde(default, skip_serializing_if = "crate::character::UpAxis::is_default")]
+    pub character_up: crate::character::UpAxis,
     /// The first clip's name (`None`: the rest pose).
     pub clip: Option<String>,
     /// Frames per second every clip was sampled at ([`crate::limits::MIN_FPS`] to

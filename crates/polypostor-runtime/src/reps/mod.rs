@@ -171,8 +171,8 @@ pub struct RepsManifest {
     /// The glTF the representations were baked from (meshes draw from it).
     pub character_path: Option<String>,
     /// Which of that file's axes the bake read as up (absent: glTF's +y).
-    #[serde(default, skip_serializing_if = "crate::import::UpAxis::is_default")]
-    pub character_up: crate::import::UpAxis,
+    #[serde(default, skip_serializing_if = "crate::character::UpAxis::is_default")]
+    pub character_up: crate::character::UpAxis,
     /// The first clip's name (`None`: the rest pose).
     pub clip: Option<String>,
     /// Frames per second every clip was sampled at, as in the pack.
