@@ -497,6 +497,92 @@ fn morph_targets_shape_the_character_at_their_default_weights() {
     }
 }
 
+/// A morph weights channel that holds the default weights throughout (as RobotExpressive's
+/// face does in all 14 clips) plays exactly as the still shape: nothing to say. One that
+/// moves them (or has a cubic tangent that bends the curve) is said to be not played, naming
+/// its clip.
+#[test]
+fn only_morph_weight_channels_that_move_the_shape_are_reported() {
+    let c = small_character();
+    assert!(!c.clips.is_empty());
+    let n = c.vertices.len();
+    let up: Vec<[f32; 4]> = vec![[0.0, 0.1, 0.0, 0.0]; n];
+    let cases: [(&str, &str, Vec<[f32; 4]>, bool); 4] = [
+        (
+            "still",
+            "LINEAR",
+            vec![[0.5, 0.0, 0.0, 0.0], [0.5, 0.0, 0.0, 0.0]],
+            false,
+        ),
+        (
+            "moving",
+            "LINEAR",
+            vec![[0.5, 0.0, 0.0, 0.0], [0.8, 0.0, 0.0, 0.0]],
+            true,
+        ),
+        // Cubic: in-tangent, value, out-tangent per key.
+        (
+            "cubic_flat",
+            "CUBICSPLINE",
+            vec![
+                [0.0; 4],
+                [0.5, 0.0, 0.0, 0.0],
+                [0.0; 4],
+                [0.0; 4],
+                [0.5, 0.0, 0.0, 0.0],
+                [0.0; 4],
+            ],
+            false,
+        ),
+        (
+            "cubic_bent",
+            "CUBICSPLINE",
+            vec![
+                [0.0; 4],
+                [0.5, 0.0, 0.0, 0.0],
+                [0.3, 0.0, 0.0, 0.0],
+                [0.0; 4],
+                [0.5, 0.0, 0.0, 0.0],
+                [0.0; 4],
+            ],
+            true,
+        ),
+    ];
+    for (what, interpolation, values, moves) in cases {
+        let mut e = Editable::of(&c);
+        let a = e.add(&up, 3, 5126);
+        for p in e.primitives() {
+            p["targets"] = serde_json::json!([{"POSITION": a}]);
+        }
+        for m in e.json["meshes"].as_array_mut().unwrap() {
+            m["weights"] = serde_json::json!([0.5]);
+        }
+        let node = e.json["nodes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .position(|nd| nd.get("mesh").is_some())
+            .unwrap();
+        let times = e.add(&[[0.0; 4], [0.5, 0.0, 0.0, 0.0]], 1, 5126);
+        let out = e.add(&values, 1, 5126);
+        let anim = &mut e.json["animations"][0];
+        let samplers = anim["samplers"].as_array_mut().unwrap();
+        samplers.push(serde_json::json!({"input": times, "output": out, "interpolation": interpolation}));
+        let sampler = samplers.len() - 1;
+        anim["channels"]
+            .as_array_mut()
+            .unwrap()
+            .push(serde_json::json!({"sampler": sampler, "target": {"node": node, "path": "weights"}}));
+        let clip = anim["name"].as_str().unwrap_or_default().to_string();
+        let imported = e.import(&format!("weights_{what}"));
+        let said = imported
+            .warnings
+            .iter()
+            .any(|w| w.contains("weight channels are not played") && w.contains(&clip));
+        assert_eq!(said, moves, "{what}: {:?}", imported.warnings);
+    }
+}
+
 /// KHR_texture_transform (scale, rotation, offset and its own texture coordinate set) places
 /// the base colour texture: it had been ignored, and the texture's `texCoord` too, so such a
 /// character came in wrongly textured. Here TEXCOORD_1 holds coordinates that the transform

@@ -36,13 +36,16 @@ OUT_DIR/<stem>_<variant>.glb (an existing file is never overwritten):
   hidden   as vanish, the limb scaled to nothing for the whole of every clip
   facerig  twelve face joints under the head, each taking the head's vertices in one sector
   twotex   as split, the second half on a material and a texture of its own (stripes)
+  knight   a sword (a grey box as long as a third of the height) in one hand and a shield
+           (a flat red box) on the other forearm: meshes without a skin, children of the
+           hand and forearm joints, as game characters carry props
   gltf     a .gltf with its buffer and images as separate files, in a folder and under a
            name with spaces (URIs percent-encoded)
 With no VARIANT, all of them."""
 import json, math, os, random, struct, sys
 
 ALL = ['ikctrl', 'clips40', 'late', 'quant', 'mirror', 'turned', 'renamed', 'vanish', 'infl8',
-       'morph', 'split', 'twoskins', 'offset', 'zup', 'cubic', 'nonormals', 'texxform', 'alphamask', 'twotex', 'hidden', 'facerig', 'gltf']
+       'morph', 'split', 'twoskins', 'offset', 'zup', 'cubic', 'nonormals', 'texxform', 'alphamask', 'twotex', 'hidden', 'facerig', 'knight', 'gltf']
 NC = {'SCALAR': 1, 'VEC2': 2, 'VEC3': 3, 'VEC4': 4, 'MAT4': 16}
 CT = {5120: 'b', 5121: 'B', 5122: 'h', 5123: 'H', 5125: 'I', 5126: 'f'}
 
@@ -297,6 +300,85 @@ def facerig(js, bin_):
                 moved += 1
             at['JOINTS_0'] = add_acc(js, bin_, jn, 'VEC4', 5123)
     print('face joints under', js['nodes'][head].get('name'), 'took', moved, 'vertices', file=sys.stderr)
+
+
+def mat_mul(a, b):
+    """Column-major 4x4 product a·b."""
+    return [sum(a[k * 4 + r] * b[c * 4 + k] for k in range(4)) for c in range(4) for r in range(4)]
+
+
+def box_mesh(js, bin_, half, color, name):
+    """A box mesh of 24 vertices (flat normals) with half extents `half`, centred on the
+    origin, on a material of its own; returns the mesh index."""
+    pos, nrm, idx = [], [], []
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            u, v = [(axis + 1) % 3, (axis + 2) % 3]
+            base = len(pos)
+            for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+                p = [0.0] * 3
+                p[axis] = sign * half[axis]
+                p[u] = a * half[u]
+                p[v] = b * half[v]
+                pos.append(p)
+                n = [0.0] * 3
+                n[axis] = sign
+                nrm.append(n)
+            quad = [base, base + 1, base + 2, base, base + 2, base + 3]
+            if sign < 0:
+                quad = [base, base + 2, base + 1, base, base + 3, base + 2]
+            idx += [[i] for i in quad]
+    js.setdefault('materials', []).append({'name': name, 'pbrMetallicRoughness': {'baseColorFactor': color}})
+    js['meshes'].append({'name': name, 'primitives': [{
+        'attributes': {'POSITION': add_acc(js, bin_, pos, 'VEC3', minmax=True),
+                       'NORMAL': add_acc(js, bin_, nrm, 'VEC3')},
+        'indices': add_acc(js, bin_, idx, 'SCALAR', 5123),
+        'material': len(js['materials']) - 1}]})
+    return len(js['meshes']) - 1
+
+
+def knight(js, bin_):
+    """A sword in one hand and a shield on the other forearm: unskinned meshes, children of
+    joints (placed through the joints' inverse binds, so they sit where the hand is at rest
+    in the mesh's own units)."""
+    skin = js['skins'][0]
+    joints = skin['joints']
+    ibm = read_acc(js, bin_, skin['inverseBindMatrices'])
+    def bind_pos(k):
+        m = ibm[k]
+        r = [m[0], m[4], m[8], m[1], m[5], m[9], m[2], m[6], m[10]]
+        t = [m[12], m[13], m[14]]
+        ri = inv3(r)
+        return [-(ri[3 * i] * t[0] + ri[3 * i + 1] * t[1] + ri[3 * i + 2] * t[2]) for i in range(3)]
+    lo, hi = bounds(js, bin_)
+    # The mesh's own up: its longest extent (Z-up meshes under a turned node exist).
+    up = max(range(3), key=lambda i: hi[i] - lo[i])
+    height = hi[up] - lo[up]
+    cx = (lo[0] + hi[0]) / 2
+    pos = [bind_pos(k) for k in range(len(joints))]
+    # The outermost joint on each side (the hands in a T or A pose), and its parent joint.
+    right = max(range(len(joints)), key=lambda k: pos[k][0] - cx)
+    left = min(range(len(joints)), key=lambda k: pos[k][0] - cx)
+    parent = {c: i for i, nd in enumerate(js['nodes']) for c in nd.get('children', [])}
+    def up_one(k):
+        p = parent.get(joints[k])
+        return joints.index(p) if p in joints else k
+    def along_up(long, across, thick):
+        h = [thick * height] * 3
+        h[0] = across * height
+        h[up] = long * height
+        return h
+    sword = box_mesh(js, bin_, along_up(0.17, 0.02, 0.008), [0.75, 0.76, 0.8, 1.0], 'Sword')
+    shield = box_mesh(js, bin_, along_up(0.13, 0.012, 0.1), [0.7, 0.12, 0.1, 1.0], 'Shield')
+    down = [0.0] * 3
+    down[up] = -0.17 * height
+    for k, mesh, off in ((right, sword, down),
+                         (up_one(left), shield, [-0.04 * height, 0.0, 0.0])):
+        at = [pos[k][i] + off[i] for i in range(3)]
+        t = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, at[0], at[1], at[2], 1]
+        js['nodes'].append({'name': js['meshes'][mesh]['name'], 'mesh': mesh, 'matrix': mat_mul(ibm[k], t)})
+        js['nodes'][joints[k]].setdefault('children', []).append(len(js['nodes']) - 1)
+        print(js['meshes'][mesh]['name'], 'on', js['nodes'][joints[k]].get('name'), file=sys.stderr)
 
 
 def hidden(js, bin_):

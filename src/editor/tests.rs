@@ -1050,3 +1050,49 @@ fn the_up_axis_choice_stands_a_lying_character_up_and_undoes() {
     );
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// A re-import for an up-axis change that fails (the file was deleted after it was opened)
+/// is reported once, not tried again every frame; choosing the axis back and forth tries it
+/// again, and the document keeps the character it had.
+#[test]
+fn a_failed_up_axis_reimport_is_reported_once() {
+    let dir = std::env::temp_dir().join(format!("polypostor-up-axis-gone-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let glb = dir.join("gone.glb");
+    let c = polypostor::default_character::generate();
+    std::fs::write(&glb, polypostor::gltf_write::write_glb(&c).unwrap()).unwrap();
+    let mut h = harness(Some(glb.clone()));
+    h.run_steps(3);
+    std::fs::remove_file(&glb).unwrap();
+    let failures = |h: &Harness<'static, EditorApp>| {
+        h.state()
+            .log
+            .iter()
+            .filter(|e| e.text.contains("Cannot import") && e.text.contains("gone.glb"))
+            .count()
+    };
+    h.state_mut().send(Command::SetUpAxis(polypostor::UpAxis::NegZ));
+    h.run_steps(12);
+    assert_eq!(failures(&h), 1, "one report: {:?}", h.state().log);
+    let doc = h.state().doc.as_ref().unwrap();
+    assert_eq!(
+        doc.character.up_axis,
+        polypostor::UpAxis::PosY,
+        "the character it had stays"
+    );
+    assert_eq!(doc.project.character.up, polypostor::UpAxis::NegZ);
+    h.state_mut().error = None;
+    // Undo (back to the axis the character was read with), then redo: tried once more.
+    h.state_mut().send(Command::Undo);
+    h.run_steps(3);
+    h.state_mut().send(Command::Redo);
+    h.run_steps(12);
+    assert_eq!(
+        failures(&h),
+        2,
+        "tried again after the axis came back: {:?}",
+        h.state().log
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}

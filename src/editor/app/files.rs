@@ -250,10 +250,19 @@ impl EditorApp {
     pub(super) fn reimport_if_needed(&mut self, ctx: &egui::Context) {
         let Some(doc) = &self.doc else { return };
         let up = doc.project.character.up;
-        if up == doc.character.up_axis || self.loading.is_some() {
+        if up == doc.character.up_axis {
+            self.reimport_tried = None;
             return;
         }
-        let path = doc.character_path.clone();
+        if self.loading.is_some() {
+            return;
+        }
+        let attempt = (doc.character_path.clone(), up);
+        if self.reimport_tried.as_ref() == Some(&attempt) {
+            return;
+        }
+        self.reimport_tried = Some(attempt.clone());
+        let (path, up) = attempt;
         self.start_load(ctx, LoadRequest::Reimport { path, up });
     }
 

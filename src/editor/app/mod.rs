@@ -116,6 +116,10 @@ pub struct EditorApp {
     pub grid: bool,
     commands: Vec<Command>,
     loading: Option<Loading>,
+    /// The last re-import started for an up-axis change (file and axis): not started again
+    /// while the project asks for the same one, so a failed re-import (the file gone or
+    /// broken since it was opened) is reported once, not every frame.
+    reimport_tried: Option<(PathBuf, polypostor::UpAxis)>,
     /// The message of the error dialog, when one is open.
     pub error: Option<String>,
     pub log: Vec<LogEntry>,
@@ -179,6 +183,7 @@ impl EditorApp {
             grid: true,
             commands: Vec::new(),
             loading: None,
+            reimport_tried: None,
             error: None,
             log: Vec::new(),
             show_log: true,

@@ -669,6 +669,46 @@ impl Builder<'_> {
         })
     }
 
+    /// Whether a morph weights channel's values ever leave the node's default weights (the
+    /// node's, else its mesh's, else 0): an unreadable channel counts as moving.
+    fn weights_move(&self, sampler: &json::animation::Sampler, node: usize, keys: usize) -> bool {
+        let root = self.root;
+        let Ok(out) = accessor::read_f32(root, self.buffers, sampler.output.value()) else {
+            return true;
+        };
+        let cubic = matches!(
+            sampler.interpolation,
+            Checked::Valid(json::animation::Interpolation::CubicSpline)
+        );
+        let per_key = if cubic { 3 } else { 1 };
+        if keys == 0 || out.data.len() % (keys * per_key) != 0 {
+            return true;
+        }
+        let targets = out.data.len() / (keys * per_key);
+        let defaults: &[f32] = root
+            .nodes
+            .get(node)
+            .and_then(|n| {
+                n.weights
+                    .as_deref()
+                    .or_else(|| root.meshes.get(n.mesh?.value())?.weights.as_deref())
+            })
+            .unwrap_or(&[]);
+        out.data.chunks_exact(targets).enumerate().any(|(k, w)| {
+            // A cubic spline's in and out tangents: only the values count (zero tangents
+            // between equal values keep the curve flat).
+            let tangent = cubic && k % 3 != 1;
+            w.iter().enumerate().any(|(i, &x)| {
+                let rest = if tangent {
+                    0.0
+                } else {
+                    defaults.get(i).copied().unwrap_or(0.0)
+                };
+                !((x - rest).abs() <= 1e-6)
+            })
+        })
+    }
+
     fn clips(&mut self, node_map: &HashMap<usize, usize>, rigged: bool) -> Result<Vec<Clip>, ImportError> {
         let root = self.root;
         let mut clips = Vec::new();
@@ -717,7 +757,10 @@ impl Builder<'_> {
                 };
                 use json::animation::Property;
                 if path == Property::MorphTargetWeights {
-                    if !morph_clips.contains(&name) {
+                    // Said only where the weights move the shape: exporters write channels
+                    // that hold the default weights throughout (RobotExpressive's face in
+                    // all 14 clips), which play exactly as the still shape.
+                    if !morph_clips.contains(&name) && self.weights_move(sampler, ch.target.node.value(), times.len()) {
                         morph_clips.push(name.clone());
                     }
                     continue;
