@@ -25,7 +25,7 @@ fn unspent_key_budget_goes_to_the_worst_views_and_refits_reproduce_it() {
     let (c, bake) = common::bake_default(&ctx, &options);
     let mean = |p: &[f64]| p.iter().sum::<f64>() / p.len() as f64;
     // The ratio rule leaves a 10-frame clip's views at the settings' budget (their packs are
-    // already under 35× below impostors), so the bounds below are the settings'.
+    // already under 45× below impostors), so the bounds below are the settings'.
     for (v, view) in bake.views.iter().enumerate() {
         let parts = view.parts.iter().filter(|p| p.fit.is_some()).count();
         let bytes = ViewBytes::new(
@@ -101,7 +101,7 @@ fn unspent_key_budget_goes_to_the_worst_views_and_refits_reproduce_it() {
 #[test]
 fn the_key_ratio_gives_views_with_room_more_and_refits_reproduce_it() {
     let ctx = common::gpu();
-    // A ratio low enough that the default's 10-frame views have room (35 gives them none);
+    // A ratio low enough that the default's 10-frame views have room (45 gives them none);
     // no sharing, so each view spends only its own.
     let keys = polypostor::bake::keys::KeyOptions {
         ratio: 8.0,
