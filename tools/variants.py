@@ -256,6 +256,14 @@ def inv3(m):
             (d * h - e * g) / det, (b * g - a * h) / det, (a * e - b * d) / det]
 
 
+def joint_bind_pos(m):
+    """A joint's position at bind from its inverse bind matrix (column-major 4x4)."""
+    r = [m[0], m[4], m[8], m[1], m[5], m[9], m[2], m[6], m[10]]  # rows of the 3x3
+    t = [m[12], m[13], m[14]]
+    ri = inv3(r)
+    return [-(ri[3 * i] * t[0] + ri[3 * i + 1] * t[1] + ri[3 * i + 2] * t[2]) for i in range(3)]
+
+
 def facerig(js, bin_):
     """Twelve face joints under the head (as game rigs bring for expressions), each taking
     the head's vertices in one sector around it; they follow the head, so the character moves
@@ -263,12 +271,7 @@ def facerig(js, bin_):
     skin = js['skins'][0]
     joints = skin['joints']
     ibm = read_acc(js, bin_, skin['inverseBindMatrices'])
-    def bind_pos(k):
-        m = ibm[k]  # column-major 4x4
-        r = [m[0], m[4], m[8], m[1], m[5], m[9], m[2], m[6], m[10]]  # rows of the 3x3
-        t = [m[12], m[13], m[14]]
-        ri = inv3(r)
-        return [-(ri[3 * i] * t[0] + ri[3 * i + 1] * t[1] + ri[3 * i + 2] * t[2]) for i in range(3)]
+    bind_pos = lambda k: joint_bind_pos(ibm[k])
     named = [k for k, j in enumerate(joints) if 'head' in js['nodes'][j].get('name', '').lower()]
     h = named[0] if named else max(range(len(joints)), key=lambda k: bind_pos(k)[1])
     hp = bind_pos(h)
@@ -344,12 +347,7 @@ def knight(js, bin_):
     skin = js['skins'][0]
     joints = skin['joints']
     ibm = read_acc(js, bin_, skin['inverseBindMatrices'])
-    def bind_pos(k):
-        m = ibm[k]
-        r = [m[0], m[4], m[8], m[1], m[5], m[9], m[2], m[6], m[10]]
-        t = [m[12], m[13], m[14]]
-        ri = inv3(r)
-        return [-(ri[3 * i] * t[0] + ri[3 * i + 1] * t[1] + ri[3 * i + 2] * t[2]) for i in range(3)]
+    bind_pos = lambda k: joint_bind_pos(ibm[k])
     lo, hi = bounds(js, bin_)
     # The mesh's own up: its longest extent (Z-up meshes under a turned node exist).
     up = max(range(3), key=lambda i: hi[i] - lo[i])
