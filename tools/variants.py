@@ -39,13 +39,16 @@ OUT_DIR/<stem>_<variant>.glb (an existing file is never overwritten):
   knight   a sword (a grey box as long as a third of the height) in one hand and a shield
            (a flat red box) on the other forearm: meshes without a skin, children of the
            hand and forearm joints, as game characters carry props
+  dense    every skinned triangle cut into 16 (midpoints twice; attributes and morph
+           targets interpolated, a midpoint's joints the two ends' strongest four): a
+           character of ten to a hundred thousand triangles, as film-quality exports come
   gltf     a .gltf with its buffer and images as separate files, in a folder and under a
            name with spaces (URIs percent-encoded)
 With no VARIANT, all of them."""
 import json, math, os, random, struct, sys
 
 ALL = ['ikctrl', 'clips40', 'late', 'quant', 'mirror', 'turned', 'renamed', 'vanish', 'infl8',
-       'morph', 'split', 'twoskins', 'offset', 'zup', 'cubic', 'nonormals', 'texxform', 'alphamask', 'twotex', 'hidden', 'facerig', 'knight', 'gltf']
+       'morph', 'split', 'twoskins', 'offset', 'zup', 'cubic', 'nonormals', 'texxform', 'alphamask', 'twotex', 'hidden', 'facerig', 'knight', 'dense', 'gltf']
 NC = {'SCALAR': 1, 'VEC2': 2, 'VEC3': 3, 'VEC4': 4, 'MAT4': 16}
 CT = {5120: 'b', 5121: 'B', 5122: 'h', 5123: 'H', 5125: 'I', 5126: 'f'}
 
@@ -648,6 +651,88 @@ def save_gltf(js, bin_, dst_dir, stem):
     dst = os.path.join(folder, name + '.gltf')
     open(dst, 'w').write(json.dumps(js, indent=1))
     return dst
+
+
+def dense(js, bin_):
+    done = {}
+    for _, p in skinned_prims(js):
+        if 'indices' not in p or p.get('mode', 4) != 4:
+            continue
+        at = p['attributes']
+        key = (json.dumps(at, sort_keys=True), p['indices'], json.dumps(p.get('targets', [])))
+        if key in done:
+            at2, ind, tg = done[key]
+            p['attributes'], p['indices'] = dict(at2), ind
+            if tg is not None:
+                p['targets'] = tg
+            continue
+        cols = {}
+        for name, ai in at.items():
+            a = js['accessors'][ai]
+            rows = read_acc(js, bin_, ai)
+            if name.startswith('WEIGHTS_'):
+                scale = {5121: 255.0, 5123: 65535.0}.get(a['componentType'], 1.0)
+                rows = [[x / scale for x in r] for r in rows]
+            cols[name] = (rows, a)
+        targets = [{k: read_acc(js, bin_, v) for k, v in t.items()} for t in p.get('targets', [])]
+        tris = [r[0] for r in read_acc(js, bin_, p['indices'])]
+        tris = [tris[i:i + 3] for i in range(0, len(tris) - len(tris) % 3, 3)]
+        sets = sorted({n[len('JOINTS_'):] for n in cols if n.startswith('JOINTS_')})
+
+        def mid(i, j):
+            for name, (rows, a) in cols.items():
+                if name.startswith('JOINTS_') or name.startswith('WEIGHTS_'):
+                    continue
+                r = [(x + y) / 2 for x, y in zip(rows[i], rows[j])]
+                if a['componentType'] != 5126:
+                    r = [int(round(x)) for x in r]
+                rows.append(r)
+            for t in targets:
+                for rows in t.values():
+                    rows.append([(x + y) / 2 for x, y in zip(rows[i], rows[j])])
+            inf = {}
+            for s_ in sets:
+                js_, ws_ = cols['JOINTS_' + s_][0], cols['WEIGHTS_' + s_][0]
+                for v in (i, j):
+                    for jj, ww in zip(js_[v], ws_[v]):
+                        if ww > 0:
+                            inf[jj] = inf.get(jj, 0.0) + ww / 2
+            best = sorted(inf.items(), key=lambda kv: -kv[1])[:4 * len(sets)]
+            tot = sum(w for _, w in best) or 1.0
+            best += [(0, 0.0)] * (4 * len(sets) - len(best))
+            for k, s_ in enumerate(sets):
+                chunk = best[4 * k:4 * k + 4]
+                cols['JOINTS_' + s_][0].append([jj for jj, _ in chunk])
+                cols['WEIGHTS_' + s_][0].append([w / tot for _, w in chunk])
+            return len(cols['POSITION'][0]) - 1
+
+        for _ in range(2):
+            edges, out = {}, []
+            for a_, b_, c_ in tris:
+                m_ = []
+                for i, j in ((a_, b_), (b_, c_), (c_, a_)):
+                    e = (min(i, j), max(i, j))
+                    if e not in edges:
+                        edges[e] = mid(i, j)
+                    m_.append(edges[e])
+                ab, bc, ca = m_
+                out += [[a_, ab, ca], [ab, b_, bc], [ca, bc, c_], [ab, bc, ca]]
+            tris = out
+        new = {}
+        for name, (rows, a) in cols.items():
+            if name.startswith('JOINTS_'):
+                new[name] = add_acc(js, bin_, rows, 'VEC4', 5123)
+            elif name.startswith('WEIGHTS_'):
+                new[name] = add_acc(js, bin_, rows, 'VEC4')
+            else:
+                new[name] = add_acc(js, bin_, rows, a['type'], a['componentType'], a.get('normalized', False), minmax=(name == 'POSITION'))
+        p['attributes'] = new
+        p['indices'] = add_acc(js, bin_, [[i] for t in tris for i in t], 'SCALAR', 5125)
+        tg = None
+        if targets:
+            tg = [{k: add_acc(js, bin_, rows, 'VEC3', minmax=(k == 'POSITION')) for k, rows in t.items()} for t in targets]
+            p['targets'] = tg
+        done[key] = (dict(new), p['indices'], tg)
 
 
 def main():
