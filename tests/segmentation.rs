@@ -307,3 +307,82 @@ fn a_rig_without_telling_names_gets_the_same_part_names() {
         assert_eq!(differ, 0, "{stem}: {names:?} against {:?}", named.parts);
     }
 }
+
+/// `c` with every triangle cut into four at its edges' midpoints (attributes averaged; a
+/// midpoint's influences the two ends' strongest four), as a film-quality export of the same
+/// character is denser.
+fn subdivided(c: &polypostor::Character) -> polypostor::Character {
+    use std::collections::HashMap;
+    let mut out = c.clone();
+    let mut mids: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut mid = |out: &mut polypostor::Character, a: u32, b: u32| -> u32 {
+        *mids.entry((a.min(b), a.max(b))).or_insert_with(|| {
+            let (p, q) = (c.vertices[a as usize], c.vertices[b as usize]);
+            let mut inf: Vec<(u16, f32)> = Vec::new();
+            for v in [p, q] {
+                for k in 0..4 {
+                    match inf.iter_mut().find(|e| e.0 == v.bones[k]) {
+                        Some(e) => e.1 += v.weights[k] / 2.0,
+                        None => inf.push((v.bones[k], v.weights[k] / 2.0)),
+                    }
+                }
+            }
+            inf.sort_by(|x, y| y.1.total_cmp(&x.1));
+            inf.resize(4, (0, 0.0));
+            let sum: f32 = inf.iter().map(|e| e.1).sum::<f32>().max(1e-9);
+            let avg4 = |x: [f32; 4], y: [f32; 4]| std::array::from_fn(|i| (x[i] + y[i]) / 2.0);
+            out.vertices.push(polypostor::character::Vertex {
+                position: (p.position + q.position) / 2.0,
+                normal: (p.normal + q.normal).normalize_or_zero(),
+                uv: [(p.uv[0] + q.uv[0]) / 2.0, (p.uv[1] + q.uv[1]) / 2.0],
+                color: avg4(p.color, q.color),
+                bones: std::array::from_fn(|i| inf[i].0),
+                weights: std::array::from_fn(|i| inf[i].1 / sum),
+            });
+            (out.vertices.len() - 1) as u32
+        })
+    };
+    let mut indices = Vec::with_capacity(c.indices.len() * 4);
+    for t in c.indices.chunks_exact(3) {
+        let (a, b, d) = (t[0], t[1], t[2]);
+        let (ab, bd, da) = (mid(&mut out, a, b), mid(&mut out, b, d), mid(&mut out, d, a));
+        indices.extend([a, ab, da, ab, b, bd, da, bd, d, ab, bd, da]);
+    }
+    out.indices = indices;
+    for s in &mut out.submeshes {
+        s.first_index *= 4;
+        s.index_count *= 4;
+    }
+    out
+}
+
+/// The automatic parts of a character cut twice as finely have the same seams: as many cuts
+/// (caps) per part as the character itself. Labelling each triangle by its skin weights
+/// leaves single triangles of one part inside another where weights cross evenly, each a cut
+/// of its own (CesiumMan cut into 16 had 10 cuts instead of 8) until small islands joined the
+/// part around them (`segment::tidy_islands`).
+#[test]
+fn a_denser_mesh_is_cut_at_the_same_seams() {
+    let mut characters = vec![("default".to_string(), polypostor::default_character::generate())];
+    for f in common::real_characters() {
+        characters.push((f.display().to_string(), polypostor::import_path(&f).unwrap()));
+    }
+    for (name, c) in characters {
+        let cuts = |c: &polypostor::Character| {
+            let seg = auto_segment(c);
+            let mut per_part = vec![0usize; seg.parts.len()];
+            for cap in polypostor::bake::caps::find_caps(c, &seg) {
+                per_part[cap.part] += 1;
+            }
+            (seg.parts.iter().map(|p| p.name.clone()).collect::<Vec<_>>(), per_part)
+        };
+        let once = subdivided(&c);
+        let twice = subdivided(&once);
+        let (names, base) = cuts(&c);
+        for (level, dense) in [(1, &once), (2, &twice)] {
+            let (dense_names, got) = cuts(dense);
+            assert_eq!(dense_names, names, "{name} cut {level}×");
+            assert_eq!(got, base, "{name} cut {level}×: cuts per part {names:?}");
+        }
+    }
+}

@@ -597,7 +597,7 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
             w
         })
         .collect();
-    let labels = c
+    let mut labels: Vec<u16> = c
         .indices
         .chunks_exact(3)
         .map(|t| {
@@ -612,8 +612,108 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
                 .unwrap_or(0) as u16
         })
         .collect();
+    // Neighbours in the rest pose: pieces modelled in one place and moved apart by their joints
+    // (a robot's two hands) are not joined.
+    let rest = crate::animation::skin_vertices(c, &crate::animation::Pose::rest(c)).0;
+    let welded = crate::character::weld_points(rest.iter().copied());
+    tidy_islands(&crate::character::triangle_neighbours(&c.indices, &welded), &mut labels);
     let legs = (0..np).map(|p| leg_parts.contains(&p)).collect();
     (Segmentation { parts, labels }, legs, vertex_weights)
+}
+
+/// Most triangles a piece of a part may have, as a share of the part's, and still be given
+/// to the part around it ([`tidy_islands`]).
+pub const ISLAND_SHARE: f64 = 0.005;
+
+/// Gives each small island of a part — a piece joined by edges only to other parts' triangles,
+/// on no open edge of the mesh, and holding at most [`ISLAND_SHARE`] of its part's — to the
+/// part it shares most edges with; a part's largest piece, pieces that touch no other part
+/// (a separate mesh: an eye, a glove) and pieces at the mesh's own edge (the open end of a
+/// limb's tube) stay. Labelling triangles by skin weight leaves such islands where weights
+/// cross evenly (dense meshes with smooth weights: single triangles of the torso inside an
+/// arm), and each is a cut with a cap of its own and a stray piece in its part's images.
+/// `neighbours`: [`crate::character::triangle_neighbours`]. Returns how many triangles moved.
+pub fn tidy_islands(neighbours: &[[u32; 3]], labels: &mut [u16]) -> usize {
+    let tris = labels.len().min(neighbours.len());
+    let mut moved = 0;
+    // Giving an island away can leave another (an island inside an island): a few rounds.
+    for _ in 0..4 {
+        let parts = labels[..tris].iter().map(|&l| l as usize + 1).max().unwrap_or(0);
+        let mut totals = vec![0usize; parts];
+        for &l in &labels[..tris] {
+            totals[l as usize] += 1;
+        }
+        // Pieces: connected by edges within one part.
+        let mut piece = vec![u32::MAX; tris];
+        let mut pieces: Vec<(u16, Vec<u32>)> = Vec::new();
+        for start in 0..tris {
+            if piece[start] != u32::MAX {
+                continue;
+            }
+            let id = pieces.len() as u32;
+            let label = labels[start];
+            let mut members = vec![start as u32];
+            piece[start] = id;
+            let mut k = 0;
+            while k < members.len() {
+                let t = members[k] as usize;
+                k += 1;
+                for &n in &neighbours[t] {
+                    let n = n as usize;
+                    if n < tris && piece[n] == u32::MAX && labels[n] == label {
+                        piece[n] = id;
+                        members.push(n as u32);
+                    }
+                }
+            }
+            pieces.push((label, members));
+        }
+        let mut largest = vec![None::<usize>; parts];
+        for (i, (l, m)) in pieces.iter().enumerate() {
+            let best = &mut largest[*l as usize];
+            if best.is_none_or(|b| pieces[b].1.len() < m.len()) {
+                *best = Some(i);
+            }
+        }
+        let mut changed = false;
+        for (i, (l, members)) in pieces.iter().enumerate() {
+            if largest[*l as usize] == Some(i) || members.len() as f64 > ISLAND_SHARE * totals[*l as usize] as f64 {
+                continue;
+            }
+            let mut edges = vec![0usize; parts];
+            let mut open = false;
+            for &t in members {
+                for &n in &neighbours[t as usize] {
+                    let n = n as usize;
+                    if n >= tris {
+                        open = true;
+                    } else if labels[n] != *l {
+                        edges[labels[n] as usize] += 1;
+                    }
+                }
+            }
+            // On the mesh's own edge (the open end of a limb's tube under a separate body):
+            // not inside anything.
+            if open {
+                continue;
+            }
+            let Some(to) = (0..parts)
+                .filter(|&p| edges[p] > 0)
+                .max_by(|&a, &b| edges[a].cmp(&edges[b]).then(b.cmp(&a)))
+            else {
+                continue;
+            };
+            for &t in members {
+                labels[t as usize] = to as u16;
+            }
+            moved += members.len();
+            changed = true;
+        }
+        if !changed {
+            break;
+        }
+    }
+    moved
 }
 
 /// A head turning (or nodding, tilting) by more than this against the chest in any clip is a
@@ -807,6 +907,125 @@ pub fn compact(seg: &mut Segmentation) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A flat grid of `n`×`n` unit quads (two triangles each, quad `(x, y)` holding triangles
+    /// `2 (y n + x)` and `+ 1`); `seam`: the vertices on column `n / 4` split as a UV seam
+    /// splits them (the quads right of it use copies at the same positions).
+    fn grid(n: usize, seam: bool) -> Character {
+        let vertex = |x: usize, y: usize| crate::character::Vertex {
+            position: Vec3::new(x as f32, y as f32, 0.0),
+            normal: Vec3::Z,
+            uv: [0.0; 2],
+            color: [1.0; 4],
+            bones: [0; 4],
+            weights: [1.0, 0.0, 0.0, 0.0],
+        };
+        let side = n + 1;
+        let mut vertices: Vec<_> = (0..side * side).map(|i| vertex(i % side, i / side)).collect();
+        let copy: Vec<u32> = (0..side)
+            .map(|y| {
+                vertices.push(vertex(n / 4, y));
+                (vertices.len() - 1) as u32
+            })
+            .collect();
+        let id = |x: usize, y: usize, right: bool| -> u32 {
+            if seam && right && x == n / 4 {
+                copy[y]
+            } else {
+                (y * side + x) as u32
+            }
+        };
+        let mut indices = Vec::new();
+        for y in 0..n {
+            for x in 0..n {
+                let right = x >= n / 4;
+                let (a, b, c, d) = (
+                    id(x, y, right),
+                    id(x + 1, y, right),
+                    id(x + 1, y + 1, right),
+                    id(x, y + 1, right),
+                );
+                indices.extend([a, b, c, a, c, d]);
+            }
+        }
+        Character {
+            vertices,
+            indices,
+            ..Default::default()
+        }
+    }
+
+    /// Small pieces of one part inside another go to the part around them; large ones, the
+    /// largest piece of each part, pieces touching no other part and pieces on the mesh's
+    /// open edge stay (labels built by hand; with and without a UV seam through an island).
+    #[test]
+    fn small_islands_join_the_part_around_them() {
+        let n = 48;
+        for seam in [false, true] {
+            let mut c = grid(n, seam);
+            // A quad of its own, far away, touching nothing: part 1.
+            let base = c.vertices.len() as u32;
+            for (x, y) in [(100, 0), (101, 0), (101, 1), (100, 1)] {
+                let mut v = c.vertices[0].clone();
+                v.position = Vec3::new(x as f32, y as f32, 0.0);
+                c.vertices.push(v);
+            }
+            c.indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+            let quad = |x: usize, y: usize| [2 * (y * n + x), 2 * (y * n + x) + 1];
+            // Left half 0, right half 1.
+            let mut labels: Vec<u16> = (0..2 * n * n).map(|t| u16::from((t / 2) % n >= n / 2)).collect();
+            labels.extend([1, 1]);
+            let mut want = labels.clone();
+            // One triangle of part 1 inside the left half.
+            labels[quad(5, 5)[0]] = 1;
+            // A 2 × 2 block of part 1 across column n / 4 (the seam): 8 triangles.
+            for y in 10..12 {
+                for x in n / 4 - 1..n / 4 + 1 {
+                    for t in quad(x, y) {
+                        labels[t] = 1;
+                    }
+                }
+            }
+            // One triangle of part 1 on the grid's outer edge (an open edge of the mesh): stays.
+            labels[quad(0, 30)[1]] = 1;
+            want[quad(0, 30)[1]] = 1;
+            // A 5 × 4 block of part 0 inside the right half: 40 triangles, over 0.5 % of part 0.
+            for y in 20..24 {
+                for x in 30..35 {
+                    for t in quad(x, y) {
+                        labels[t] = 0;
+                        want[t] = 0;
+                    }
+                }
+            }
+            let neighbours = crate::character::triangle_neighbours(&c.indices, &crate::character::weld(&c));
+            // Across the seam the quads are still neighbours (welded).
+            assert_eq!(
+                neighbours[quad(n / 4 - 1, 11)[0]][1] as usize,
+                quad(n / 4, 11)[1],
+                "seam {seam}"
+            );
+            let moved = tidy_islands(&neighbours, &mut labels);
+            assert_eq!(labels, want, "seam {seam}");
+            assert_eq!(moved, 1 + 8, "seam {seam}");
+        }
+    }
+
+    /// On the default character, no piece of a part touching another part is left that
+    /// the rule would give away.
+    #[test]
+    fn automatic_parts_leave_no_small_islands() {
+        for c in [crate::default_character::generate()] {
+            let seg = auto_segment(&c);
+            let mut labels = seg.labels.clone();
+            let rest = crate::animation::skin_vertices(&c, &crate::animation::Pose::rest(&c)).0;
+            let welded = crate::character::weld_points(rest.iter().copied());
+            assert_eq!(
+                tidy_islands(&crate::character::triangle_neighbours(&c.indices, &welded), &mut labels),
+                0
+            );
+        }
+    }
 
     #[test]
     fn side_tokens_are_found_in_common_naming_schemes() {

@@ -14,7 +14,7 @@ use crate::bake::segment::{Part, Segmentation};
 use crate::character::Character;
 
 /// No neighbour / no mirror.
-pub const NONE: u32 = u32::MAX;
+pub const NONE: u32 = crate::character::NO_NEIGHBOUR;
 
 /// Per-character data the tools need, computed once per character.
 #[derive(Clone, Debug)]
@@ -34,36 +34,7 @@ pub struct Topology {
 impl Topology {
     pub fn new(c: &Character) -> Self {
         let tris = c.indices.len() / 3;
-        let welded = crate::bake::caps::weld(c);
-        let w = |i: u32| welded.get(i as usize).copied().unwrap_or(i);
-        // Edges (welded, ordered) -> the triangles on them.
-        let mut edges: HashMap<(u32, u32), [u32; 2]> = HashMap::with_capacity(tris * 3 / 2);
-        for t in 0..tris {
-            for k in 0..3 {
-                let (a, b) = (w(c.indices[3 * t + k]), w(c.indices[3 * t + (k + 1) % 3]));
-                if a == b {
-                    continue;
-                }
-                let e = edges.entry((a.min(b), a.max(b))).or_insert([NONE, NONE]);
-                if e[0] == NONE {
-                    e[0] = t as u32;
-                } else if e[1] == NONE && e[0] != t as u32 {
-                    e[1] = t as u32;
-                }
-            }
-        }
-        let mut neighbours = vec![[NONE; 3]; tris];
-        for t in 0..tris {
-            for k in 0..3 {
-                let (a, b) = (w(c.indices[3 * t + k]), w(c.indices[3 * t + (k + 1) % 3]));
-                if let Some(e) = edges.get(&(a.min(b), a.max(b))) {
-                    let other = if e[0] == t as u32 { e[1] } else { e[0] };
-                    if other != t as u32 {
-                        neighbours[t][k] = other;
-                    }
-                }
-            }
-        }
+        let neighbours = crate::character::triangle_neighbours(&c.indices, &crate::character::weld(c));
 
         let mut dominant_bone = Vec::with_capacity(tris);
         let mut bone_triangles = vec![0usize; c.bones.len().max(1)];

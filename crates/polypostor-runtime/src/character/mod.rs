@@ -466,3 +466,67 @@ impl std::fmt::Display for UpAxis {
         f.write_str(self.name())
     }
 }
+
+/// Welded vertex ids: vertices at the same bind-space position (split only by their
+/// attributes, as at UV seams) share one id.
+pub fn weld(c: &Character) -> Vec<u32> {
+    weld_points(c.vertices.iter().map(|v| v.position))
+}
+
+/// Welded ids of `points`: points at the same place (to a 100,000th of their extent) share one.
+pub fn weld_points(points: impl Iterator<Item = Vec3> + Clone) -> Vec<u32> {
+    let (min, max) = bounds(points.clone());
+    let scale = 1e5 / (max - min).max_element().max(1e-6);
+    let mut ids: std::collections::HashMap<(i64, i64, i64), u32> = std::collections::HashMap::new();
+    points
+        .map(|p| {
+            let q = ((p - min) * scale).round();
+            let key = (q.x as i64, q.y as i64, q.z as i64);
+            let next = ids.len() as u32;
+            *ids.entry(key).or_insert(next)
+        })
+        .collect()
+}
+
+/// No triangle across an edge ([`triangle_neighbours`]).
+pub const NO_NEIGHBOUR: u32 = u32::MAX;
+
+/// For each triangle of `indices`, the triangles sharing its edges `k → k + 1`, vertices
+/// compared by their `welded` ids ([`weld`]: UV seams joined): [`NO_NEIGHBOUR`] where an edge
+/// is open; a non-manifold edge links its first two.
+pub fn triangle_neighbours(indices: &[u32], welded: &[u32]) -> Vec<[u32; 3]> {
+    let tris = indices.len() / 3;
+    let w = |i: u32| welded.get(i as usize).copied().unwrap_or(i);
+    // Edges (welded, ordered) -> the triangles on them.
+    let mut edges: std::collections::HashMap<(u32, u32), [u32; 2]> =
+        std::collections::HashMap::with_capacity(tris * 3 / 2);
+    for t in 0..tris {
+        for k in 0..3 {
+            let (a, b) = (w(indices[3 * t + k]), w(indices[3 * t + (k + 1) % 3]));
+            if a == b {
+                continue;
+            }
+            let e = edges
+                .entry((a.min(b), a.max(b)))
+                .or_insert([NO_NEIGHBOUR, NO_NEIGHBOUR]);
+            if e[0] == NO_NEIGHBOUR {
+                e[0] = t as u32;
+            } else if e[1] == NO_NEIGHBOUR && e[0] != t as u32 {
+                e[1] = t as u32;
+            }
+        }
+    }
+    let mut neighbours = vec![[NO_NEIGHBOUR; 3]; tris];
+    for (t, n) in neighbours.iter_mut().enumerate() {
+        for (k, slot) in n.iter_mut().enumerate() {
+            let (a, b) = (w(indices[3 * t + k]), w(indices[3 * t + (k + 1) % 3]));
+            if let Some(e) = edges.get(&(a.min(b), a.max(b))) {
+                let other = if e[0] == t as u32 { e[1] } else { e[0] };
+                if other != t as u32 {
+                    *slot = other;
+                }
+            }
+        }
+    }
+    neighbours
+}

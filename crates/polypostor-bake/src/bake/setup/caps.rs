@@ -29,21 +29,7 @@ pub struct CapOverrides {
     pub colors: BTreeMap<String, [u8; 3]>,
 }
 
-/// Welded vertex ids: vertices at the same position (UV seams) share one id.
-pub fn weld(c: &Character) -> Vec<u32> {
-    let (min, max) = c.bind_bounds();
-    let scale = 1e5 / (max - min).max_element().max(1e-6);
-    let mut ids: HashMap<(i64, i64, i64), u32> = HashMap::new();
-    c.vertices
-        .iter()
-        .map(|v| {
-            let q = ((v.position - min) * scale).round();
-            let key = (q.x as i64, q.y as i64, q.z as i64);
-            let next = ids.len() as u32;
-            *ids.entry(key).or_insert(next)
-        })
-        .collect()
-}
+pub use crate::character::weld;
 
 fn srgb_to_linear(x: f32) -> f32 {
     if x <= 0.04045 {
