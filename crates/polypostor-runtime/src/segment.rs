@@ -232,6 +232,7 @@ pub fn auto_segment(c: &Character) -> Segmentation {
         return seg;
     }
     let mut seg = skeleton_parts(c).0;
+    tidy_islands(&rest_neighbours(c), &mut seg.labels);
     // Drop parts that received no triangle (keeps labels dense).
     compact(&mut seg);
     seg
@@ -597,7 +598,7 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
             w
         })
         .collect();
-    let mut labels: Vec<u16> = c
+    let labels: Vec<u16> = c
         .indices
         .chunks_exact(3)
         .map(|t| {
@@ -612,13 +613,16 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
                 .unwrap_or(0) as u16
         })
         .collect();
-    // Neighbours in the rest pose: pieces modelled in one place and moved apart by their joints
-    // (a robot's two hands) are not joined.
-    let rest = crate::animation::skin_vertices(c, &crate::animation::Pose::rest(c)).0;
-    let welded = crate::character::weld_points(rest.iter().copied());
-    tidy_islands(&crate::character::triangle_neighbours(&c.indices, &welded), &mut labels);
     let legs = (0..np).map(|p| leg_parts.contains(&p)).collect();
     (Segmentation { parts, labels }, legs, vertex_weights)
+}
+
+/// Each triangle's neighbours across its edges in the rest pose (UV seams welded): pieces
+/// modelled in one place and moved apart by their joints (a robot's two hands) are not joined.
+fn rest_neighbours(c: &Character) -> Vec<[u32; 3]> {
+    let rest = crate::animation::skin_vertices(c, &crate::animation::Pose::rest(c)).0;
+    let welded = crate::character::weld_points(rest.iter().copied());
+    crate::character::triangle_neighbours(&c.indices, &welded)
 }
 
 /// Most triangles a piece of a part may have, as a share of the part's, and still be given
@@ -1018,12 +1022,7 @@ mod tests {
         for c in [crate::default_character::generate()] {
             let seg = auto_segment(&c);
             let mut labels = seg.labels.clone();
-            let rest = crate::animation::skin_vertices(&c, &crate::animation::Pose::rest(&c)).0;
-            let welded = crate::character::weld_points(rest.iter().copied());
-            assert_eq!(
-                tidy_islands(&crate::character::triangle_neighbours(&c.indices, &welded), &mut labels),
-                0
-            );
+            assert_eq!(tidy_islands(&rest_neighbours(&c), &mut labels), 0);
         }
     }
 
