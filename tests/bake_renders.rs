@@ -159,3 +159,99 @@ fn batched_part_renders_equal_one_pass() {
         assert!(covered > 1000, "the character is drawn ({covered} pixels)");
     }
 }
+
+/// A character whose clip animates a morph target renders each frame's parts in that
+/// frame's shape (the bake's part renders were of the rest shape: morph weights were not
+/// played). Independent answer: per frame, a copy of the character without morph targets
+/// whose vertices hold that frame's shape (base + weight × offsets), cut into the same parts
+/// and caps and rendered alone. The morph lifts every vertex of the left half (x > 0)
+/// upwards and outwards, its weight going 0 → 1 → 0 over the clip.
+#[test]
+fn morph_weights_shape_every_frame_of_the_part_renders() {
+    use polypostor::animation::morphed_bind;
+    use polypostor::character::{Interpolation, MorphChannel, MorphTarget};
+    let ctx = common::gpu();
+    let mut c = polypostor::default_character::generate();
+    let (size_lo, size_hi) = polypostor::character::bounds(c.vertices.iter().map(|v| v.position));
+    let height = (size_hi - size_lo).y;
+    let moved: Vec<u32> = (0..c.vertices.len() as u32)
+        .filter(|&i| c.vertices[i as usize].position.x > 0.0)
+        .collect();
+    c.morphs = vec![MorphTarget {
+        name: "lift".into(),
+        rest_weight: 0.0,
+        positions: moved
+            .iter()
+            .map(|_| glam::Vec3::new(0.05 * height, 0.08 * height, 0.0))
+            .collect(),
+        normals: vec![glam::Vec3::ZERO; moved.len()],
+        vertices: moved,
+    }];
+    let duration = c.clips[0].duration_secs;
+    c.clips[0].morph_channels = vec![MorphChannel {
+        targets: vec![0],
+        interpolation: Interpolation::Linear,
+        times: vec![0.0, duration * 0.5, duration],
+        values: vec![0.0, 1.0, 0.0],
+    }];
+    let seg = auto_segment(&c);
+    let caps = find_caps(&c, &seg);
+    let (merged, ranges) = merge_parts(&c, &seg, &caps, &CapOverrides::default());
+    assert!(!merged.morphs.is_empty() && !merged.morphs[0].vertices.is_empty());
+    let times = frame_times(duration, 10.0);
+    let (poses, points) = sample_frames(&merged, Some(0), &times);
+    let cameras = view_cameras(&points, &directions(3, Coverage::UpperHemisphere));
+    let renderer = CharacterRenderer::new(&ctx.device);
+    let r = 64;
+    let parts = PartRenderer::new(&renderer, &ctx.device, &ctx.queue, &merged, ranges.clone(), &poses, r);
+    let mid = times.len() / 2;
+    for (v, cam) in cameras.iter().enumerate() {
+        let img = parts.render_view(&renderer, &ctx.device, &ctx.queue, cam).unwrap();
+        let mut changed = 0usize;
+        for f in [0, mid / 2, mid] {
+            // The frame's shape held in the vertices, no morphs.
+            let pose = Pose::sample(&c, &c.clips[0], times[f]);
+            let mut shaped = c.clone();
+            if let Some((p, n)) = morphed_bind(&c, &pose) {
+                for ((vx, p), n) in shaped.vertices.iter_mut().zip(p).zip(n) {
+                    vx.position = p;
+                    vx.normal = n;
+                }
+            }
+            shaped.morphs.clear();
+            let (m2, r2) = merge_parts(&shaped, &seg, &caps, &CapOverrides::default());
+            let one = PartRenderer::new(&renderer, &ctx.device, &ctx.queue, &m2, r2, &[poses[f].clone()], r);
+            let want = one.render_view(&renderer, &ctx.device, &ctx.queue, cam).unwrap();
+            let mut differ = 0usize;
+            for p in 0..img.parts {
+                for y in 0..r {
+                    for x in 0..r {
+                        let a = img.covered(p, f, x, y);
+                        differ += usize::from(a != want.covered(p, 0, x, y));
+                        let (ox, oy) = img.tile_origin(p, f);
+                        let (wx, wy) = want.tile_origin(p, 0);
+                        let ca = img.color.get_pixel(ox + x, oy + y).0;
+                        let cb = want.color.get_pixel(wx + x, wy + y).0;
+                        differ += usize::from(ca.iter().zip(cb).any(|(a, b)| a.abs_diff(b) > 8));
+                        if f == mid {
+                            let c0 = img
+                                .color
+                                .get_pixel(img.tile_origin(p, 0).0 + x, img.tile_origin(p, 0).1 + y)
+                                .0;
+                            let c_mid = img.color.get_pixel(ox + x, oy + y).0;
+                            changed += usize::from(c0 != c_mid);
+                        }
+                    }
+                }
+            }
+            assert!(
+                differ <= 4,
+                "view {v} frame {f}: {differ} pixels differ from the shaped copy"
+            );
+        }
+        assert!(
+            changed > 100,
+            "view {v}: the morph changed only {changed} pixels between frames 0 and {mid}"
+        );
+    }
+}

@@ -122,6 +122,7 @@ pub fn quadruped() -> Character {
         ],
         warnings: Vec::new(),
         up_axis: Default::default(),
+        morphs: Vec::new(),
     }
 }
 
@@ -404,6 +405,7 @@ fn clip(name: &str, duration: f32, joints: &Joints, f: fn(&Joints, f32) -> Pose)
         duration_secs: times[keys],
         channels,
         in_place_velocity: Vec3::ZERO,
+        morph_channels: Vec::new(),
     }
 }
 

@@ -20,6 +20,9 @@ pub struct Pose {
     pub world_from_node: Vec<Mat4>,
     /// `world_from_node[bone.node] * bone.inverse_bind`, one per bone.
     pub skin_from_bind: Vec<Mat4>,
+    /// Weight of every morph target, indexed like [`Character::morphs`] (their rest weights
+    /// where the clip does not move them; empty for a character without animated morphs).
+    pub morph_weights: Vec<f32>,
 }
 
 impl Pose {
@@ -39,6 +42,9 @@ impl Pose {
             }
         }
         let mut pose = Self::from_locals(character, locals);
+        for ch in &clip.morph_channels {
+            apply_morph_channel(ch, t, &mut pose.morph_weights);
+        }
         let shift = -clip.in_place_velocity * t;
         if shift != Vec3::ZERO && shift.is_finite() {
             // Root motion taken out: the whole character goes back by what it travelled.
@@ -69,6 +75,76 @@ impl Pose {
             locals,
             world_from_node,
             skin_from_bind,
+            morph_weights: character.morphs.iter().map(|m| m.rest_weight).collect(),
+        }
+    }
+
+    /// Whether some morph target is away from its rest weight (the bind-space vertices
+    /// differ from [`Character::vertices`]).
+    pub fn morphs_move(&self, character: &Character) -> bool {
+        self.morph_weights
+            .iter()
+            .zip(&character.morphs)
+            .any(|(w, m)| *w != m.rest_weight && !m.vertices.is_empty())
+    }
+}
+
+/// Bind-space positions and normals (normalised) of every vertex with the pose's morph
+/// weights applied; `None` where every target is at its rest weight (the vertices as they
+/// are).
+pub fn morphed_bind(character: &Character, pose: &Pose) -> Option<(Vec<Vec3>, Vec<Vec3>)> {
+    if !pose.morphs_move(character) {
+        return None;
+    }
+    let mut positions: Vec<Vec3> = character.vertices.iter().map(|v| v.position).collect();
+    let mut normals: Vec<Vec3> = character.vertices.iter().map(|v| v.normal).collect();
+    for (m, &w) in character.morphs.iter().zip(&pose.morph_weights) {
+        let k = w - m.rest_weight;
+        if k == 0.0 {
+            continue;
+        }
+        for ((&v, dp), dn) in m.vertices.iter().zip(&m.positions).zip(&m.normals) {
+            if let (Some(p), Some(n)) = (positions.get_mut(v as usize), normals.get_mut(v as usize)) {
+                *p += *dp * k;
+                *n += *dn * k;
+            }
+        }
+    }
+    normals.iter_mut().for_each(|n| *n = n.normalize_or_zero());
+    Some((positions, normals))
+}
+
+/// Samples a morph weights channel at `t` into `weights` (indexed like
+/// [`Character::morphs`]).
+fn apply_morph_channel(ch: &crate::character::MorphChannel, t: f32, weights: &mut [f32]) {
+    let n = ch.targets.len();
+    let per_key = if ch.interpolation == Interpolation::CubicSpline {
+        3
+    } else {
+        1
+    };
+    if ch.times.is_empty() || n == 0 || ch.values.len() != ch.times.len() * per_key * n {
+        return;
+    }
+    let (i0, i1, u, dt) = locate(&ch.times, t);
+    let row = |k: usize, j: usize| ch.values[k * n + j];
+    for (j, &target) in ch.targets.iter().enumerate() {
+        let w = match ch.interpolation {
+            Interpolation::Step => row(i0, j),
+            Interpolation::Linear => row(i0, j) + (row(i1, j) - row(i0, j)) * u,
+            Interpolation::CubicSpline => {
+                let p0 = row(i0 * 3 + 1, j);
+                if i0 == i1 {
+                    p0
+                } else {
+                    hermite(p0, row(i0 * 3 + 2, j) * dt, row(i1 * 3 + 1, j), row(i1 * 3, j) * dt, u)
+                }
+            }
+        };
+        if let Some(slot) = weights.get_mut(target)
+            && w.is_finite()
+        {
+            *slot = w;
         }
     }
 }
@@ -98,12 +174,17 @@ pub fn vertex_matrix(skin_from_bind: &[Mat4], bones: [u16; 4], weights: [f32; 4]
 
 /// Skinned positions and normals of every vertex for `pose` (linear blend skinning).
 pub fn skin_vertices(character: &Character, pose: &Pose) -> (Vec<Vec3>, Vec<Vec3>) {
+    let morphed = morphed_bind(character, pose);
     let mut positions = Vec::with_capacity(character.vertices.len());
     let mut normals = Vec::with_capacity(character.vertices.len());
-    for v in &character.vertices {
+    for (i, v) in character.vertices.iter().enumerate() {
+        let (p, n) = match &morphed {
+            Some((p, n)) => (p[i], n[i]),
+            None => (v.position, v.normal),
+        };
         let m = vertex_matrix(&pose.skin_from_bind, v.bones, v.weights);
-        positions.push(m.transform_point3(v.position));
-        normals.push(normal_transform(&m, v.normal).normalize_or_zero());
+        positions.push(m.transform_point3(p));
+        normals.push(normal_transform(&m, n).normalize_or_zero());
     }
     (positions, normals)
 }
@@ -287,6 +368,80 @@ mod tests {
         assert!((normal_transform(&flat, Vec3::new(1.0, 1.0, 0.0)).normalize() - Vec3::X).length() < 1e-6);
     }
 
+    /// A morph target moves its vertices by (weight − rest weight) × offsets, before the
+    /// skinning; at the rest weight nothing changes (and no bind-space copy is made); the
+    /// channel's two targets take their weights from their own columns; a remap onto copies
+    /// and means of vertices carries the offsets along. Independent answer: the offsets added
+    /// by hand.
+    #[test]
+    fn morph_targets_move_their_vertices_by_their_weights() {
+        use crate::character::{MorphChannel, MorphTarget};
+        let mut c = two_bone_character(Channel {
+            node: 1,
+            interpolation: Interpolation::Linear,
+            times: vec![0.0, 1.0],
+            values: ChannelValues::Translation(vec![Vec3::Y, Vec3::Y]),
+        });
+        let v0 = c.vertices[0];
+        c.vertices = (0..4)
+            .map(|i| Vertex {
+                position: v0.position + Vec3::X * i as f32,
+                ..v0
+            })
+            .collect();
+        c.morphs = vec![
+            MorphTarget {
+                name: "a".into(),
+                rest_weight: 0.25,
+                vertices: vec![0],
+                positions: vec![Vec3::X],
+                normals: vec![Vec3::ZERO],
+            },
+            MorphTarget {
+                name: "b".into(),
+                rest_weight: 0.0,
+                vertices: vec![0, 1],
+                positions: vec![Vec3::Z, Vec3::Z * 2.0],
+                normals: vec![Vec3::ZERO; 2],
+            },
+        ];
+        c.clips[0].morph_channels = vec![MorphChannel {
+            targets: vec![0, 1],
+            interpolation: Interpolation::Linear,
+            // Rows: (a, b) at 0 s and at 1 s.
+            times: vec![0.0, 1.0],
+            values: vec![0.25, 0.0, 1.25, 1.0],
+        }];
+        let rest = Pose::rest(&c);
+        assert_eq!(rest.morph_weights, vec![0.25, 0.0]);
+        assert!(morphed_bind(&c, &rest).is_none());
+        let at0 = Pose::sample(&c, &c.clips[0], 0.0);
+        assert!(morphed_bind(&c, &at0).is_none(), "the weights start at rest");
+        let half = Pose::sample(&c, &c.clips[0], 0.5);
+        assert!((half.morph_weights[0] - 0.75).abs() < 1e-6 && (half.morph_weights[1] - 0.5).abs() < 1e-6);
+        let (p, _) = morphed_bind(&c, &half).expect("moved");
+        let v = &c.vertices;
+        assert!((p[0] - (v[0].position + Vec3::X * 0.5 + Vec3::Z * 0.5)).length() < 1e-6);
+        assert!((p[1] - (v[1].position + Vec3::Z)).length() < 1e-6);
+        for i in 2..v.len() {
+            assert_eq!(p[i], v[i].position);
+        }
+        // Skinned: the morphed bind positions through the same matrices.
+        let (skinned, _) = skin_vertices(&c, &half);
+        for (i, vx) in v.iter().enumerate() {
+            let m = vertex_matrix(&half.skin_from_bind, vx.bones, vx.weights);
+            assert!((skinned[i] - m.transform_point3(p[i])).length() < 1e-5);
+        }
+        // Vertex 1 copied twice and the mean of vertices 0 and 1.
+        let origins = vec![vec![(1, 1.0)], vec![(3, 1.0)], vec![(0, 0.5), (1, 0.5)], vec![(1, 1.0)]];
+        let r = c.morphs_remapped(&origins);
+        assert_eq!(r[0].vertices, vec![2]);
+        assert!((r[0].positions[0] - Vec3::X * 0.5).length() < 1e-6);
+        assert_eq!(r[1].vertices, vec![0, 2, 3]);
+        assert!((r[1].positions[1] - Vec3::Z * 1.5).length() < 1e-6);
+        assert_eq!(r[1].positions[0], Vec3::Z * 2.0);
+    }
+
     fn two_bone_character(channel: Channel) -> Character {
         Character {
             skeleton: Skeleton {
@@ -331,6 +486,7 @@ mod tests {
                 duration_secs: 1.0,
                 channels: vec![channel],
                 in_place_velocity: Vec3::ZERO,
+                morph_channels: Vec::new(),
             }],
             ..Default::default()
         }

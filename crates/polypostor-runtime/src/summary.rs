@@ -13,6 +13,8 @@ pub struct ClipSummary {
     pub duration_secs: f32,
     /// Number of animated node properties the import kept.
     pub channels: usize,
+    /// Number of morph weight channels the import kept (each moves one mesh's targets).
+    pub morph_channels: usize,
 }
 
 /// One texture as the summary lists it.
@@ -85,6 +87,7 @@ impl Summary {
                     name: k.name.clone(),
                     duration_secs: k.duration_secs,
                     channels: k.channels.len(),
+                    morph_channels: k.morph_channels.len(),
                 })
                 .collect(),
             textures: c
@@ -127,9 +130,14 @@ impl Summary {
         );
         let _ = writeln!(s, "clips       {}", self.clips.len());
         for c in &self.clips {
+            let morphs = match c.morph_channels {
+                0 => String::new(),
+                1 => ", 1 morph weights channel".to_string(),
+                n => format!(", {n} morph weights channels"),
+            };
             let _ = writeln!(
                 s,
-                "  {:<24} {:>8.3} s  {} channels",
+                "  {:<24} {:>8.3} s  {} channels{morphs}",
                 c.name, c.duration_secs, c.channels
             );
         }

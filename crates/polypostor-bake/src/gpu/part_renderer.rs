@@ -72,6 +72,8 @@ pub struct PartRenderer {
     part_ranges: Vec<Vec<Submesh>>,
     camera_buffer: wgpu::Buffer,
     frame_groups: Vec<wgpu::BindGroup>,
+    /// Per frame, the morphed bind-space vertices where a clip moves morph targets.
+    frame_streams: Vec<Option<wgpu::Buffer>>,
     resolution: u32,
     target: RenderTarget,
     /// Tiles per row and rows of the target; `None`: the images' own layout (part column,
@@ -158,6 +160,10 @@ impl PartRenderer {
                 renderer.frame_group(device, &camera_buffer, &bones)
             })
             .collect();
+        let frame_streams = poses
+            .iter()
+            .map(|pose| GpuCharacter::morphed_stream(device, merged, pose))
+            .collect();
         let parts = part_ranges.len().max(1) as u32;
         let frames = poses.len().max(1) as u32;
         let grid = tile_grid(parts, frames, resolution, max_side);
@@ -168,6 +174,7 @@ impl PartRenderer {
             part_ranges,
             camera_buffer,
             frame_groups,
+            frame_streams,
             resolution,
             target,
             grid,
@@ -268,6 +275,7 @@ impl PartRenderer {
             for &(p, f) in tiles {
                 if bound != Some(f) {
                     pass.set_bind_group(0, &self.frame_groups[f], &[]);
+                    self.gpu.bind_stream0(&mut pass, self.frame_streams[f].as_ref());
                     bound = Some(f);
                 }
                 let (col, row) = slot(p, f);

@@ -183,6 +183,76 @@ pub struct Clip {
     /// [`crate::timeline::play_in_place`] (the crowd moves the character; its ground speed is
     /// kept). Zero for a clip played as authored.
     pub in_place_velocity: Vec3,
+    /// The morph target weights the clip moves ([`Character::morphs`]); a target without a
+    /// channel keeps its rest weight.
+    pub morph_channels: Vec<MorphChannel>,
+}
+
+/// The weights of some of a character's morph targets over time (a glTF `weights` channel:
+/// every target of one mesh node).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MorphChannel {
+    /// Indices into [`Character::morphs`] of the weights this channel holds, in order.
+    pub targets: Vec<usize>,
+    /// How values are interpolated between `times`.
+    pub interpolation: Interpolation,
+    /// Key times in seconds, strictly increasing.
+    pub times: Vec<f32>,
+    /// Per key (three per key for [`Interpolation::CubicSpline`]: in-tangent, value,
+    /// out-tangent) one weight per target, `targets.len()` values a row.
+    pub values: Vec<f32>,
+}
+
+/// A morph target (blend shape) some clip animates: how far each of some vertices moves
+/// per unit of weight, in bind space. The vertices hold the shape at `rest_weight`; a pose
+/// at weight `w` adds `(w - rest_weight)` times these offsets.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MorphTarget {
+    /// Where it comes from (mesh and target index), for messages.
+    pub name: String,
+    /// The weight already in [`Character::vertices`] (the file's default weight).
+    pub rest_weight: f32,
+    /// The vertices it moves, increasing.
+    pub vertices: Vec<u32>,
+    /// Position offset of each of `vertices` per unit of weight.
+    pub positions: Vec<Vec3>,
+    /// Normal offset of each of `vertices` per unit of weight (added, then normalised).
+    pub normals: Vec<Vec3>,
+}
+
+impl MorphTarget {
+    /// The same target on another vertex list: new vertex `i` is the weighted sum
+    /// `origins[i]` of old vertices (a copy: one old vertex at weight 1; a cap's centre:
+    /// the mean of its ring). `None` where no new vertex moves.
+    pub fn remapped(&self, origins: &[Vec<(u32, f32)>]) -> Option<Self> {
+        let offset = |v: u32| {
+            self.vertices
+                .binary_search(&v)
+                .ok()
+                .map(|k| (self.positions[k], self.normals[k]))
+        };
+        let mut out = Self {
+            name: self.name.clone(),
+            rest_weight: self.rest_weight,
+            ..Default::default()
+        };
+        for (i, list) in origins.iter().enumerate() {
+            let (mut p, mut n, mut any) = (Vec3::ZERO, Vec3::ZERO, false);
+            for &(v, w) in list {
+                if let Some((dp, dn)) = offset(v) {
+                    p += dp * w;
+                    n += dn * w;
+                    any = true;
+                }
+            }
+            if any {
+                out.vertices.push(i as u32);
+                out.positions.push(p);
+                out.normals.push(n);
+            }
+        }
+        (!out.vertices.is_empty()).then_some(out)
+    }
 }
 
 /// An RGBA8 texture, stored as sRGB-encoded bytes (as in the file).
@@ -285,6 +355,9 @@ pub struct Character {
     /// import turned the character so that it stands along +y). Packs record it so every
     /// re-import of the file agrees.
     pub up_axis: UpAxis,
+    /// Morph targets that some clip's [`Clip::morph_channels`] animate (targets no clip moves
+    /// are only applied at their default weights, into the vertices, at import).
+    pub morphs: Vec<MorphTarget>,
 }
 
 impl Character {
@@ -296,6 +369,22 @@ impl Character {
     /// Index of the clip with this name.
     pub fn find_clip(&self, name: &str) -> Option<usize> {
         self.clips.iter().position(|c| c.name == name)
+    }
+
+    /// This character's morph targets on another vertex list (see [`MorphTarget::remapped`]),
+    /// keeping target indices (a target no new vertex uses stays, empty), so clips' morph
+    /// channels still point at the right ones. Empty when this character has none.
+    pub fn morphs_remapped(&self, origins: &[Vec<(u32, f32)>]) -> Vec<MorphTarget> {
+        self.morphs
+            .iter()
+            .map(|m| {
+                m.remapped(origins).unwrap_or_else(|| MorphTarget {
+                    name: m.name.clone(),
+                    rest_weight: m.rest_weight,
+                    ..Default::default()
+                })
+            })
+            .collect()
     }
 
     /// Axis-aligned bounds of the bind-space vertices, `(min, max)`.
@@ -321,6 +410,12 @@ impl Character {
         for v in &mut self.vertices {
             v.position = r * v.position + t;
             v.normal = r * v.normal;
+        }
+        for m in &mut self.morphs {
+            m.positions
+                .iter_mut()
+                .chain(m.normals.iter_mut())
+                .for_each(|d| *d = r * *d);
         }
         for b in &mut self.bones {
             b.inverse_bind *= inverse;

@@ -176,6 +176,7 @@ fn sample(name: &str, duration: f32, f: fn(f32) -> Pose) -> Clip {
         duration_secs: times[keys],
         channels,
         in_place_velocity: Vec3::ZERO,
+        morph_channels: Vec::new(),
     }
 }
 

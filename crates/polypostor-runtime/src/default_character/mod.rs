@@ -107,6 +107,7 @@ pub fn generate() -> Character {
         clips: anim::clips(),
         warnings: Vec::new(),
         up_axis: Default::default(),
+        morphs: Vec::new(),
     }
 }
 

@@ -599,7 +599,7 @@ pub struct GpuCharacter {
     materials: Vec<(wgpu::Buffer, wgpu::BindGroup)>,
     submeshes: Vec<crate::character::Submesh>,
     bind_pose: Vec<PositionNormal>,
-    /// True when stream 0 holds CPU-skinned vertices rather than the bind pose.
+    /// True when stream 0 holds CPU-skinned or morphed vertices rather than the bind pose.
     stream0_skinned: bool,
     bone_count: usize,
 }
@@ -666,6 +666,17 @@ fn upload_texture(device: &wgpu::Device, queue: &wgpu::Queue, t: &Texture) -> wg
         );
     }
     texture
+}
+
+/// Positions and normals in the vertex layout of stream 0.
+fn position_normals(p: &[Vec3], n: &[Vec3]) -> Vec<PositionNormal> {
+    p.iter()
+        .zip(n)
+        .map(|(p, n)| PositionNormal {
+            position: p.to_array(),
+            normal: n.to_array(),
+        })
+        .collect()
 }
 
 /// Uniforms of a camera for one draw.
@@ -850,6 +861,24 @@ impl GpuCharacter {
         }
     }
 
+    /// A stream-0 vertex buffer of `character`'s bind-space vertices with `pose`'s morph
+    /// weights applied, for drawing that pose with GPU skinning ([`Self::bind_stream0`]);
+    /// `None` where the pose's morphs are at rest (the buffer [`Self::new`] made serves).
+    pub fn morphed_stream(device: &wgpu::Device, character: &Character, pose: &Pose) -> Option<wgpu::Buffer> {
+        let (p, n) = crate::animation::morphed_bind(character, pose)?;
+        Some(device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("morphed positions+normals"),
+            contents: bytemuck::cast_slice(&position_normals(&p, &n)),
+            usage: wgpu::BufferUsages::VERTEX,
+        }))
+    }
+
+    /// Binds `stream0` (from [`Self::morphed_stream`]), or this character's own positions
+    /// and normals with `None`, at slot 0 (after [`Self::bind_geometry`]).
+    pub fn bind_stream0<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, stream0: Option<&'a wgpu::Buffer>) {
+        pass.set_vertex_buffer(0, stream0.unwrap_or(&self.stream0).slice(..));
+    }
+
     /// True when this character has more bones than one GPU draw can skin.
     pub fn needs_cpu_skinning(&self) -> bool {
         self.bone_count > MAX_BONES
@@ -870,22 +899,22 @@ impl GpuCharacter {
                 for (dst, m) in bones.m.iter_mut().zip(&pose.skin_from_bind) {
                     *dst = m.to_cols_array_2d();
                 }
-                if self.stream0_skinned {
-                    queue.write_buffer(&self.stream0, 0, bytemuck::cast_slice(&self.bind_pose));
-                    self.stream0_skinned = false;
+                // Morph targets a clip moves change the bind-space vertices the shader skins.
+                match crate::animation::morphed_bind(character, pose) {
+                    Some((p, n)) => {
+                        queue.write_buffer(&self.stream0, 0, bytemuck::cast_slice(&position_normals(&p, &n)));
+                        self.stream0_skinned = true;
+                    }
+                    None if self.stream0_skinned => {
+                        queue.write_buffer(&self.stream0, 0, bytemuck::cast_slice(&self.bind_pose));
+                        self.stream0_skinned = false;
+                    }
+                    None => {}
                 }
             }
             SkinningMode::Cpu => {
                 let (p, n) = skin_vertices(character, pose);
-                let data: Vec<PositionNormal> = p
-                    .iter()
-                    .zip(&n)
-                    .map(|(p, n)| PositionNormal {
-                        position: p.to_array(),
-                        normal: n.to_array(),
-                    })
-                    .collect();
-                queue.write_buffer(&self.stream0, 0, bytemuck::cast_slice(&data));
+                queue.write_buffer(&self.stream0, 0, bytemuck::cast_slice(&position_normals(&p, &n)));
                 self.stream0_skinned = true;
             }
         }

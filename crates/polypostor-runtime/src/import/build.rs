@@ -36,6 +36,10 @@ struct Geometry {
     material_map: HashMap<Option<usize>, usize>,
     textures: Vec<Texture>,
     texture_map: HashMap<usize, Option<usize>>,
+    /// Morph targets some clip animates, and per file node whose weights a clip moves, the
+    /// indices of its mesh's targets among them.
+    morphs: Vec<crate::character::MorphTarget>,
+    morph_nodes: HashMap<usize, Vec<usize>>,
 }
 
 /// The scene's node hierarchy: each node's parent and rest-pose local transform.
@@ -119,6 +123,7 @@ impl Builder<'_> {
             })
             .collect();
         let mut g = Geometry::default();
+        let animated_weights = self.animated_weight_nodes();
         for &(node, mesh_index) in &instances {
             let mesh = root.meshes.get(mesh_index).ok_or_else(|| {
                 ImportError::Invalid(format!(
@@ -139,11 +144,33 @@ impl Builder<'_> {
                 .and_then(|n| n.weights.as_deref())
                 .or(mesh.weights.as_deref())
                 .unwrap_or(&[]);
+            // Targets a clip animates keep their offsets (the clip moves them from the rest
+            // weights baked in here); one set per node the clips name.
+            let morph_slots: Vec<usize> = match node {
+                Some(n) if animated_weights.contains(&n) && !g.morph_nodes.contains_key(&n) => {
+                    let count = mesh
+                        .primitives
+                        .iter()
+                        .map(|p| p.targets.as_ref().map_or(0, |t| t.len()))
+                        .max()
+                        .unwrap_or(0);
+                    let slots: Vec<usize> = (0..count).map(|ti| g.morphs.len() + ti).collect();
+                    g.morphs.extend((0..count).map(|ti| crate::character::MorphTarget {
+                        name: format!("mesh '{mesh_name}' target {ti}"),
+                        rest_weight: morph_weights.get(ti).copied().filter(|w| w.is_finite()).unwrap_or(0.0),
+                        ..Default::default()
+                    }));
+                    g.morph_nodes.insert(n, slots.clone());
+                    slots
+                }
+                _ => Vec::new(),
+            };
             for (pi, prim) in mesh.primitives.iter().enumerate() {
                 let place = Placement {
                     node,
                     static_world,
                     morph_weights,
+                    morph_slots: &morph_slots,
                 };
                 self.primitive(&mesh_name, pi, prim, place, &rig, &mut g)?;
             }
@@ -151,7 +178,7 @@ impl Builder<'_> {
         if g.indices.is_empty() {
             return Err(ImportError::NoGeometry);
         }
-        let clips = self.clips(&rig.node_map, rigged)?;
+        let clips = self.clips(&rig.node_map, rigged, &g.morph_nodes)?;
         let name = scene_name(root).unwrap_or_else(|| name.to_string());
         let mut character = Character {
             name,
@@ -165,6 +192,7 @@ impl Builder<'_> {
             clips,
             warnings: collapse_warnings(self.warnings),
             up_axis: Default::default(),
+            morphs: g.morphs,
         };
         // Measured skinned in the rest pose (a skinned mesh's own node transform does not
         // apply; its joints' do).
@@ -332,6 +360,7 @@ impl Builder<'_> {
             node,
             static_world,
             morph_weights,
+            morph_slots,
         } = place;
         let root = self.root;
         let what = format!("mesh '{mesh_name}' primitive {pi}");
@@ -533,6 +562,9 @@ impl Builder<'_> {
                 weights: vw,
             });
         }
+        if !morph_slots.is_empty() {
+            self.keep_morph_offsets(&what, prim, &keep, base, static_world, morph_slots, g)?;
+        }
         if bad_weights {
             self.warn(format!("{what}: vertices with zero weights bound to their first joint"));
         }
@@ -605,6 +637,59 @@ impl Builder<'_> {
 }
 
 impl Builder<'_> {
+    /// A primitive's morph target offsets for the targets a clip animates (`slots[ti]`:
+    /// where target `ti` goes in `g.morphs`): the kept vertices `keep` (now `base..`), placed
+    /// like the vertices (a static node's transform), zero offsets left out.
+    #[allow(clippy::too_many_arguments)]
+    fn keep_morph_offsets(
+        &mut self,
+        what: &str,
+        prim: &json::mesh::Primitive,
+        keep: &[usize],
+        base: u32,
+        static_world: Option<Mat4>,
+        slots: &[usize],
+        g: &mut Geometry,
+    ) -> Result<(), ImportError> {
+        let Some(targets) = prim.targets.as_deref() else {
+            return Ok(());
+        };
+        let n = keep.iter().max().map_or(0, |&m| m + 1);
+        for (ti, target) in targets.iter().enumerate() {
+            let Some(&slot) = slots.get(ti) else { continue };
+            let read = |a: Option<json::Index<json::Accessor>>, name: &str, this: &Self| {
+                let Some(a) = a else {
+                    return Ok(None);
+                };
+                let v = accessor::read_f32(this.root, this.buffers, a.value())?;
+                if v.components != 3 || v.count() < n || v.data.iter().any(|x| !x.is_finite()) {
+                    return Err(ImportError::Invalid(format!(
+                        "{what}: morph target {ti} {name} must be finite VEC3 values, one per vertex"
+                    )));
+                }
+                Ok(Some(v))
+            };
+            let dp = read(target.positions, "POSITION", self)?;
+            let dn = read(target.normals, "NORMAL", self)?;
+            let m = &mut g.morphs[slot];
+            for (k, &i) in keep.iter().enumerate() {
+                let mut p = dp.as_ref().map_or(Vec3::ZERO, |d| Vec3::from_array(d.get::<3>(i)));
+                let mut q = dn.as_ref().map_or(Vec3::ZERO, |d| Vec3::from_array(d.get::<3>(i)));
+                if p == Vec3::ZERO && q == Vec3::ZERO {
+                    continue;
+                }
+                if let Some(w) = static_world {
+                    p = w.transform_vector3(p);
+                    q = normal_matrix(w) * q;
+                }
+                m.vertices.push(base + k as u32);
+                m.positions.push(p);
+                m.normals.push(q);
+            }
+        }
+        Ok(())
+    }
+
     /// Adds a primitive's morph targets at `weights` to its positions and normals (the
     /// shape the file shows at rest; glTF: `base + Σ wᵢ·targetᵢ`). Targets beyond the
     /// weights given are at weight 0; a target's accessor is checked like any attribute.
@@ -725,6 +810,8 @@ struct Placement<'a> {
     node: Option<usize>,
     static_world: Option<Mat4>,
     morph_weights: &'a [f32],
+    /// Where each morph target a clip animates goes in the character's morphs (empty: none).
+    morph_slots: &'a [usize],
 }
 
 /// The four strongest of a vertex's eight influences (two sets of four; a joint named twice

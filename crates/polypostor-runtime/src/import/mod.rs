@@ -669,6 +669,46 @@ impl Builder<'_> {
         })
     }
 
+    /// A morph weights channel for `targets` (the animated node's morph targets in the
+    /// character), or `None` (said by the caller) when its output does not hold one finite
+    /// weight per target and key.
+    fn morph_channel(
+        &mut self,
+        what: &str,
+        sampler: &json::animation::Sampler,
+        times: Vec<f32>,
+        targets: &[usize],
+    ) -> Option<crate::character::MorphChannel> {
+        let interpolation = match sampler.interpolation {
+            Checked::Valid(json::animation::Interpolation::Linear) => Interpolation::Linear,
+            Checked::Valid(json::animation::Interpolation::Step) => Interpolation::Step,
+            Checked::Valid(json::animation::Interpolation::CubicSpline) => Interpolation::CubicSpline,
+            Checked::Invalid => return None,
+        };
+        let per_key = if interpolation == Interpolation::CubicSpline {
+            3
+        } else {
+            1
+        };
+        let out = accessor::read_f32(self.root, self.buffers, sampler.output.value()).ok()?;
+        let expected = times.len() * per_key * targets.len();
+        if out.components != 1 || out.data.len() != expected || out.data.iter().any(|x| !x.is_finite()) {
+            self.warn(format!(
+                "{what}: morph weights output has {} values, expected {expected} ({} keys × {} targets); skipped",
+                out.data.len(),
+                times.len(),
+                targets.len()
+            ));
+            return None;
+        }
+        Some(crate::character::MorphChannel {
+            targets: targets.to_vec(),
+            interpolation,
+            times,
+            values: out.data,
+        })
+    }
+
     /// Whether a morph weights channel's values ever leave the node's default weights (the
     /// node's, else its mesh's, else 0): an unreadable channel counts as moving.
     fn weights_move(&self, sampler: &json::animation::Sampler, node: usize, keys: usize) -> bool {
@@ -709,7 +749,34 @@ impl Builder<'_> {
         })
     }
 
-    fn clips(&mut self, node_map: &HashMap<usize, usize>, rigged: bool) -> Result<Vec<Clip>, ImportError> {
+    /// The file nodes whose morph weights some clip moves away from their defaults.
+    fn animated_weight_nodes(&self) -> std::collections::HashSet<usize> {
+        let mut out = std::collections::HashSet::new();
+        for anim in &self.root.animations {
+            for ch in &anim.channels {
+                if ch.target.path != Checked::Valid(json::animation::Property::MorphTargetWeights) {
+                    continue;
+                }
+                let node = ch.target.node.value();
+                let Some(sampler) = anim.samplers.get(ch.sampler.value()) else {
+                    continue;
+                };
+                let keys =
+                    accessor::read_f32(self.root, self.buffers, sampler.input.value()).map_or(0, |t| t.data.len());
+                if !out.contains(&node) && keys > 0 && self.weights_move(sampler, node, keys) {
+                    out.insert(node);
+                }
+            }
+        }
+        out
+    }
+
+    fn clips(
+        &mut self,
+        node_map: &HashMap<usize, usize>,
+        rigged: bool,
+        morph_nodes: &HashMap<usize, Vec<usize>>,
+    ) -> Result<Vec<Clip>, ImportError> {
         let root = self.root;
         let mut clips = Vec::new();
         let mut skipped_skinless = 0usize;
@@ -721,6 +788,7 @@ impl Builder<'_> {
                 .filter(|n| !n.trim().is_empty())
                 .unwrap_or_else(|| format!("Animation {ai}"));
             let mut channels = Vec::new();
+            let mut morph_channels: Vec<crate::character::MorphChannel> = Vec::new();
             let mut duration = 0.0f32;
             for (ci, ch) in anim.channels.iter().enumerate() {
                 let what = format!("animation '{name}' channel {ci}");
@@ -757,11 +825,20 @@ impl Builder<'_> {
                 };
                 use json::animation::Property;
                 if path == Property::MorphTargetWeights {
-                    // Said only where the weights move the shape: exporters write channels
-                    // that hold the default weights throughout (RobotExpressive's face in
-                    // all 14 clips), which play exactly as the still shape.
-                    if !morph_clips.contains(&name) && self.weights_move(sampler, ch.target.node.value(), times.len()) {
-                        morph_clips.push(name.clone());
+                    // Kept where the weights move the shape of a mesh the character has:
+                    // exporters write channels that hold the default weights throughout
+                    // (RobotExpressive's face in all 14 clips), which play exactly as the
+                    // still shape.
+                    let Some(targets) = morph_nodes.get(&ch.target.node.value()) else {
+                        continue;
+                    };
+                    match self.morph_channel(&what, sampler, times, targets) {
+                        Some(c) => morph_channels.push(c),
+                        None => {
+                            if !morph_clips.contains(&name) {
+                                morph_clips.push(name.clone());
+                            }
+                        }
                     }
                     continue;
                 }
@@ -843,8 +920,15 @@ impl Builder<'_> {
                 .iter()
                 .filter_map(|c| c.times.first().copied())
                 .fold(f32::INFINITY, f32::min);
+            let start = morph_channels
+                .iter()
+                .filter_map(|c| c.times.first().copied())
+                .fold(start, f32::min);
             if start.is_finite() && start > LATE_START_SECS && start < duration {
                 for c in &mut channels {
+                    c.times.iter_mut().for_each(|t| *t -= start);
+                }
+                for c in &mut morph_channels {
                     c.times.iter_mut().for_each(|t| *t -= start);
                 }
                 self.warn(format!(
@@ -859,11 +943,12 @@ impl Builder<'_> {
                 duration_secs: duration,
                 channels,
                 in_place_velocity: glam::Vec3::ZERO,
+                morph_channels,
             });
         }
         if !morph_clips.is_empty() {
             self.warn(format!(
-                "morph target weight channels are not played; the shapes stay at their default weights ({} clips: {})",
+                "morph target weight channels that could not be read are not played; those shapes stay at their default weights ({} clips: {})",
                 morph_clips.len(),
                 morph_clips.join(", ")
             ));
@@ -1047,6 +1132,7 @@ mod clip_name_tests {
                 duration_secs: 1.0,
                 channels: Vec::new(),
                 in_place_velocity: glam::Vec3::ZERO,
+                morph_channels: Vec::new(),
             })
             .collect()
     }

@@ -7,7 +7,7 @@ use glam::Vec3;
 use crate::animation::{Pose, skin_vertices};
 use crate::bake::caps::{Cap, CapOverrides, part_character};
 use crate::bake::segment::Segmentation;
-use crate::character::{Character, Submesh};
+use crate::character::{Character, MorphTarget, Submesh};
 use crate::gpu::{Camera, Projection};
 
 /// The clip is sampled at this rate by default (the paper's 10 Hz).
@@ -39,6 +39,22 @@ pub fn merge_parts(
         let p = part_character(c, seg, part, caps, overrides);
         let vbase = merged.vertices.len() as u32;
         let mbase = merged.materials.len();
+        if merged.morphs.len() < p.morphs.len() {
+            merged.morphs = p
+                .morphs
+                .iter()
+                .map(|m| MorphTarget {
+                    name: m.name.clone(),
+                    rest_weight: m.rest_weight,
+                    ..Default::default()
+                })
+                .collect();
+        }
+        for (to, from) in merged.morphs.iter_mut().zip(&p.morphs) {
+            to.vertices.extend(from.vertices.iter().map(|v| v + vbase));
+            to.positions.extend_from_slice(&from.positions);
+            to.normals.extend_from_slice(&from.normals);
+        }
         merged.vertices.extend(p.vertices.iter().copied());
         merged.materials.extend(p.materials.iter().cloned());
         let mut list = Vec::new();

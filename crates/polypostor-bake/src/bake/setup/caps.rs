@@ -196,6 +196,8 @@ pub fn part_character(
     };
     let mut remap: HashMap<u32, u32> = HashMap::new();
     let mut by_material: BTreeMap<usize, Vec<u32>> = BTreeMap::new();
+    // Which of `c`'s vertices each new one is made of (for animated morph targets).
+    let mut origins: Vec<Vec<(u32, f32)>> = Vec::new();
     for (t, tri) in c.indices.chunks_exact(3).enumerate() {
         if seg.labels.get(t).copied().unwrap_or(0) as usize != part {
             continue;
@@ -204,11 +206,13 @@ pub fn part_character(
         for &v in tri {
             let n = *remap.entry(v).or_insert_with(|| {
                 out.vertices.push(c.vertices[v as usize]);
+                origins.push(vec![(v, 1.0)]);
                 out.vertices.len() as u32 - 1
             });
             list.push(n);
         }
     }
+    let first_cap_vertex = out.vertices.len() as u32;
     for (material, list) in by_material {
         out.submeshes.push(Submesh {
             first_index: out.indices.len() as u32,
@@ -272,11 +276,14 @@ pub fn part_character(
                 weights: wts,
             };
             out.vertices.push(mk(centre));
+            let share = 1.0 / cap.loop_vertices.len().max(1) as f32;
+            origins.push(cap.loop_vertices.iter().map(|&v| (v, share)).collect());
             for (i, v) in ring.iter().enumerate() {
                 let mut x = mk(v.position);
                 x.bones = v.bones;
                 x.weights = v.weights;
                 out.vertices.push(x);
+                origins.push(vec![(cap.loop_vertices[i], 1.0)]);
                 let (a, b) = (base + 1 + i as u32, base + 1 + ((i + 1) % ring.len()) as u32);
                 out.indices.extend_from_slice(&[base, a, b]);
             }
@@ -286,6 +293,17 @@ pub fn part_character(
             index_count: out.indices.len() as u32 - first_index,
             material: cap_material,
         });
+    }
+    if !c.morphs.is_empty() {
+        // Caps move with their loop's morphs; their flat normal stays.
+        out.morphs = c.morphs_remapped(&origins);
+        for m in &mut out.morphs {
+            for (v, n) in m.vertices.iter().zip(m.normals.iter_mut()) {
+                if *v >= first_cap_vertex {
+                    *n = Vec3::ZERO;
+                }
+            }
+        }
     }
     out
 }

@@ -234,6 +234,10 @@ pub fn check(
     if set.np3d {
         bytes = bytes.saturating_add(views.saturating_mul(px).saturating_mul(8));
     }
+    if !character.morphs.is_empty() {
+        // Each frame's morphed vertices (positions and normals) for the part renders.
+        bytes = bytes.saturating_add((character.vertices.len() as u64).saturating_mul(f).saturating_mul(24));
+    }
     if set.rigid || set.np3d {
         bytes = bytes.saturating_add(
             (character.vertices.len() as u64)
