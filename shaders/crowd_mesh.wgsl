@@ -28,7 +28,9 @@ struct Material {
 @group(0) @binding(1) var<storage, read> joints: array<Joint>;
 @group(0) @binding(2) var<storage, read> instances: array<Instance>;
 // Rigid: per frame, per vertex: position xyz (f32 bits) and the normal packed as snorm8x4
-// in w.
+// in w. Skinned, where clips animate morph targets (the skinned level's bind group holds
+// them here): per joint sample, per vertex, the bind-space position offset (f32 bits) and half
+// the normal's change (snorm8x4 in w); shorter than samples × vertices (a placeholder) otherwise.
 @group(0) @binding(3) var<storage, read> rigid: array<vec4<u32>>;
 // Body part of each vertex (for the per-part tint).
 @group(0) @binding(4) var<storage, read> vertex_parts: array<u32>;
@@ -107,7 +109,17 @@ fn vs_skinned(v: SkinnedIn) -> VertexOut {
             r2 += w * mix(j0.r2, j1.r2, a);
         }
     }
-    let p = apply_joint(Joint(r0, r1, r2), vec4<f32>(v.position, 1.0));
+    // Morph targets move the bind-space vertex first, sampled as the joints are.
+    var position = v.position;
+    var normal = v.normal;
+    let count = u32(frame.counts.w);
+    if (count > 0u && arrayLength(&rigid) >= samples * count) {
+        let m0 = rigid[s0 * count + v.vi];
+        let m1 = rigid[s1 * count + v.vi];
+        position += mix(bitcast<vec3<f32>>(m0.xyz), bitcast<vec3<f32>>(m1.xyz), a);
+        normal += 2.0 * mix(unpack4x8snorm(m0.w).xyz, unpack4x8snorm(m1.w).xyz, a);
+    }
+    let p = apply_joint(Joint(r0, r1, r2), vec4<f32>(position, 1.0));
     // The normal through the inverse transpose of the matrix's 3×3 part, whose rows a, b, c
     // give it as rows b×c, c×a, a×b (signed by the determinant): an unevenly scaled joint keeps
     // normals at right angles to the surface (`animation::normal_transform` on the CPU).
@@ -115,7 +127,7 @@ fn vs_skinned(v: SkinnedIn) -> VertexOut {
     let rb = r1.xyz;
     let rc = r2.xyz;
     let sign = select(1.0, -1.0, dot(ra, cross(rb, rc)) < 0.0);
-    let n = sign * vec3<f32>(dot(cross(rb, rc), v.normal), dot(cross(rc, ra), v.normal), dot(cross(ra, rb), v.normal));
+    let n = sign * vec3<f32>(dot(cross(rb, rc), normal), dot(cross(rc, ra), normal), dot(cross(ra, rb), normal));
     // Scaled joints (a centimetre rig, a joint scaled to nothing) scale the normal too.
     let len = length(n);
     return place(inst, p, select(vec3<f32>(0.0, 1.0, 0.0), n / len, len > 1e-20), v.vi, v.uv, v.color);

@@ -432,8 +432,6 @@ fn every_representation_draws_close_to_the_mesh() {
 #[test]
 fn the_skinned_crowd_draws_mirrored_squashed_and_hidden_joints() {
     use polypostor::character::{Channel, ChannelValues, Interpolation};
-    let ctx = common::gpu();
-    let (device, queue) = (&ctx.device, &ctx.queue);
     let plain = polypostor::default_character::generate();
     let mut c = plain.clone();
     let walk = c.find_clip("Walk").unwrap();
@@ -458,16 +456,54 @@ fn the_skinned_crowd_draws_mirrored_squashed_and_hidden_joints() {
             values: ChannelValues::Scale(vec![scale, scale]),
         });
     }
+    skinned_crowd_draws_the_mesh(&c, &plain, walk, "skinned_affine");
+}
+
+/// A clip that animates a morph target (here lifting and widening the left half of the body,
+/// its weight 0 → 1 → 0 over the Walk): the skinned crowd draws each frame's shape, as the
+/// real mesh does (it drew the rest shape).
+#[test]
+fn the_skinned_crowd_plays_morph_weights() {
+    use polypostor::character::{Interpolation, MorphChannel, MorphTarget};
+    let plain = polypostor::default_character::generate();
+    let mut c = plain.clone();
+    let walk = c.find_clip("Walk").unwrap();
+    let moved: Vec<u32> = (0..c.vertices.len() as u32)
+        .filter(|&i| c.vertices[i as usize].position.x > 0.05)
+        .collect();
+    c.morphs = vec![MorphTarget {
+        name: "lift".into(),
+        rest_weight: 0.0,
+        positions: moved.iter().map(|_| Vec3::new(0.12, 0.15, 0.0)).collect(),
+        normals: vec![Vec3::ZERO; moved.len()],
+        vertices: moved,
+    }];
+    let d = c.clips[walk].duration_secs;
+    c.clips[walk].morph_channels = vec![MorphChannel {
+        targets: vec![0],
+        interpolation: Interpolation::Linear,
+        times: vec![0.0, d * 0.35, d],
+        values: vec![0.0, 1.0, 0.0],
+    }];
+    skinned_crowd_draws_the_mesh(&c, &plain, walk, "skinned_morph");
+}
+
+/// Draws one skinned crowd agent of `c` at frames 3 and 3.5 of clip `clip` from two sides
+/// and compares it with the real mesh in the same pose; `plain` (the character without the
+/// change under test) must cover other pixels, so the comparison can fail.
+fn skinned_crowd_draws_the_mesh(c: &polypostor::Character, plain: &polypostor::Character, walk: usize, what: &str) {
+    let ctx = common::gpu();
+    let (device, queue) = (&ctx.device, &ctx.queue);
     let frames = 10usize;
-    let timeline = polypostor::timeline::Timeline::new(&c, &[Some(walk)], 10.0).unwrap();
-    let labels: Vec<u32> = auto_segment(&c).labels.iter().map(|&l| l as u32).collect();
+    let timeline = polypostor::timeline::Timeline::new(c, &[Some(walk)], 10.0).unwrap();
+    let labels: Vec<u32> = auto_segment(c).labels.iter().map(|&l| l as u32).collect();
     let timing = ClipTiming { frames, fps: 10.0 };
     let inputs = polypostor::scene::crowd_inputs(None, None, timing, None);
-    let mut crowd = CrowdRenderers::new(device, queue, &c, &timeline, &labels, &inputs).unwrap();
+    let mut crowd = CrowdRenderers::new(device, queue, c, &timeline, &labels, &inputs).unwrap();
     assert!(crowd.has(Level::Skinned));
     let renderer = CharacterRenderer::new(device);
-    let mut mesh = GpuCharacter::new(&renderer, device, queue, &c);
-    let mut plain_mesh = GpuCharacter::new(&renderer, device, queue, &plain);
+    let mut mesh = GpuCharacter::new(&renderer, device, queue, c);
+    let mut plain_mesh = GpuCharacter::new(&renderer, device, queue, plain);
     let target = RenderTarget::new(device, 192, 192);
     let style = PolypostorStyle {
         lit: false,
@@ -485,18 +521,18 @@ fn the_skinned_crowd_draws_mirrored_squashed_and_hidden_joints() {
         };
         for blend in [0.0f32, 0.5] {
             let time = (3.0 + blend) / 10.0;
-            let pose = Pose::sample_index(&c, Some(walk), time);
+            let pose = Pose::sample_index(c, Some(walk), time);
             let (truth_color, truth) =
-                common::unlit_truth(device, queue, &renderer, &target, &mut mesh, &c, &pose, &camera);
+                common::unlit_truth(device, queue, &renderer, &target, &mut mesh, c, &pose, &camera);
             // The changes show: the plain character covers other pixels (the test can fail).
-            let plain_pose = Pose::sample_index(&plain, Some(walk), time);
+            let plain_pose = Pose::sample_index(plain, Some(walk), time);
             let (_, plain_mask) = common::unlit_truth(
                 device,
                 queue,
                 &renderer,
                 &target,
                 &mut plain_mesh,
-                &plain,
+                plain,
                 &plain_pose,
                 &camera,
             );
@@ -529,7 +565,7 @@ fn the_skinned_crowd_draws_mirrored_squashed_and_hidden_joints() {
             eprintln!("{eye} blend {blend}: IoU {overlap:.4}, colour difference {diff:.2}/255");
             let ok = overlap > 0.99 && diff < 3.0;
             let pictures =
-                common::images::save_on_failure(ok, &format!("skinned_affine_{}_{blend}", eye.x), &truth_color, &color)
+                common::images::save_on_failure(ok, &format!("{what}_{}_{blend}", eye.x), &truth_color, &color)
                     .unwrap_or_default();
             assert!(
                 ok,

@@ -20,6 +20,21 @@ pub fn joint_samples(
     timeline: &crate::timeline::Timeline,
     per_frame: usize,
 ) -> Vec<JointSample> {
+    let times = sample_times(timeline, per_frame);
+    let mut out = Vec::with_capacity(times.len() * character.bones.len().max(1));
+    for (clip, t0) in times {
+        let pose = Pose::sample_index(character, clip, t0);
+        if character.bones.is_empty() {
+            out.push(rows(glam::Mat4::IDENTITY));
+        }
+        out.extend(pose.skin_from_bind.iter().map(|m| rows(*m)));
+    }
+    out
+}
+
+/// The clip and time of each of `per_frame` evenly spaced samples in each frame of
+/// `timeline` (from the frame's time to the next frame's, within its clip).
+fn sample_times(timeline: &crate::timeline::Timeline, per_frame: usize) -> Vec<(Option<usize>, f32)> {
     let per_frame = per_frame.max(1);
     // Per frame: its clip, its time, the step between its samples (its clip's frame spacing
     // over `per_frame`) and the latest time its samples may reach (a clip that does not loop
@@ -37,16 +52,33 @@ pub fn joint_samples(
     if frames.is_empty() {
         frames.push((None, 0.0, 0.0, 0.0));
     }
-    let mut out = Vec::with_capacity(frames.len() * per_frame * character.bones.len().max(1));
-    for (clip, t0) in frames
+    frames
         .iter()
         .flat_map(|&(c, t, step, last)| (0..per_frame).map(move |k| (c, (t + k as f32 * step).min(last))))
-    {
-        let pose = Pose::sample_index(character, clip, t0);
-        if character.bones.is_empty() {
-            out.push(rows(glam::Mat4::IDENTITY));
+        .collect()
+}
+
+/// At every joint sample of `timeline` ([`JOINT_SAMPLES_PER_FRAME`] a frame, as
+/// [`joint_samples`]), per vertex, how far the clips' animated morph targets move the vertex
+/// in bind space: the position offset (f32 bits) and half the normal's change (snorm8, in
+/// `w`), as `vec4<u32>` (read by `vs_skinned` in `crowd_mesh.wgsl`). Empty for a character
+/// without animated morphs (the shader then skins the vertices as they are).
+pub fn morph_frames(character: &Character, timeline: &crate::timeline::Timeline) -> Vec<[u32; 4]> {
+    if character.morphs.is_empty() {
+        return Vec::new();
+    }
+    let times = sample_times(timeline, JOINT_SAMPLES_PER_FRAME);
+    let mut out = Vec::with_capacity(times.len() * character.vertices.len());
+    for (clip, t) in times {
+        let pose = Pose::sample_index(character, clip, t);
+        match crate::animation::morphed_bind(character, &pose) {
+            Some((p, n)) => out.extend(character.vertices.iter().zip(p.iter().zip(&n)).map(|(v, (p, n))| {
+                let d = *p - v.position;
+                let dn = ((*n - v.normal) * 0.5).to_array();
+                [d.x.to_bits(), d.y.to_bits(), d.z.to_bits(), pack_normal(dn)]
+            })),
+            None => out.extend(std::iter::repeat_n([0u32; 4], character.vertices.len())),
         }
-        out.extend(pose.skin_from_bind.iter().map(|m| rows(*m)));
     }
     out
 }
@@ -80,7 +112,11 @@ pub(super) fn mesh_groups(
     instances: [&wgpu::Buffer; 2],
     rigid: &wgpu::Buffer,
     parts: &wgpu::Buffer,
+    morph: &wgpu::Buffer,
 ) -> [wgpu::BindGroup; 2] {
+    // Binding 3: the skinned level's morph frames, the rigid level's pre-skinned frames
+    // (four storage buffers a stage is all some GPUs allow).
+    let per_level = [morph, rigid];
     [0, 1].map(|k| {
         bind(
             device,
@@ -90,7 +126,7 @@ pub(super) fn mesh_groups(
                 Resource::Buffer(frames[k]),
                 Resource::Buffer(joints),
                 Resource::Buffer(instances[k]),
-                Resource::Buffer(rigid),
+                Resource::Buffer(per_level[k]),
                 Resource::Buffer(parts),
             ],
         )
@@ -108,6 +144,8 @@ pub struct GpuMeshCrowd {
     pub(super) joints: wgpu::Buffer,
     pub(super) rigid_frames: wgpu::Buffer,
     pub(super) parts: wgpu::Buffer,
+    /// [`morph_frames`] (a 16-byte placeholder without animated morphs).
+    pub(super) morph: wgpu::Buffer,
     pub(super) instances: [InstanceBuffer; 2],
     pub(super) groups: [wgpu::BindGroup; 2],
     pub(super) counts: [f32; 4],
@@ -190,6 +228,20 @@ impl GpuMeshCrowd {
         let joints = storage(device, "crowd joints", bytemuck::cast_slice(&samples));
         let rigid_data = rigid.map(packed_frames).unwrap_or_default();
         let rigid_frames = storage(device, "crowd rigid frames", bytemuck::cast_slice(&rigid_data));
+        let mut morph_data = morph_frames(character, timeline);
+        if std::mem::size_of_val(morph_data.as_slice()) as u64
+            > u64::from(device.limits().max_storage_buffer_binding_size)
+        {
+            // More than one binding holds: the skinned crowd shows the rest shape (the bake
+            // and the reference renders still play the morphs).
+            log::warn!(
+                "the animated morph targets' {} frames × {} vertices exceed the GPU's storage binding limit; the skinned crowd draws the rest shape",
+                timeline.frames(),
+                character.vertices.len()
+            );
+            morph_data.clear();
+        }
+        let morph = storage(device, "crowd morph frames", bytemuck::cast_slice(&morph_data));
         let parts_data = vertex_parts(character, triangle_labels);
         let parts = storage(device, "crowd vertex parts", bytemuck::cast_slice(&parts_data));
         let frame_skinned = uniform_buffer(device, "crowd skinned frame");
@@ -197,8 +249,10 @@ impl GpuMeshCrowd {
         let instances = [InstanceBuffer::new(device, 1024), InstanceBuffer::new(device, 1024)];
         let (texture, geometry) = crate::gpu::gpu_data::mesh_static_bytes(character);
         let static_bytes = texture + geometry + parts_data.len() as u64 * 4;
-        let skinned_bytes =
-            static_bytes + character.vertices.len() as u64 * 24 + std::mem::size_of_val(samples.as_slice()) as u64;
+        let skinned_bytes = static_bytes
+            + character.vertices.len() as u64 * 24
+            + std::mem::size_of_val(samples.as_slice()) as u64
+            + std::mem::size_of_val(morph_data.as_slice()) as u64;
         let rigid_bytes = static_bytes + rigid_data.len() as u64 * 16;
         let groups = mesh_groups(
             device,
@@ -208,6 +262,7 @@ impl GpuMeshCrowd {
             [&instances[0].buffer, &instances[1].buffer],
             &rigid_frames,
             &parts,
+            &morph,
         );
         Ok(Self {
             character: gpu,
@@ -220,6 +275,7 @@ impl GpuMeshCrowd {
             joints,
             rigid_frames,
             parts,
+            morph,
             instances,
             counts: [
                 JOINT_SAMPLES_PER_FRAME as f32,
@@ -258,6 +314,7 @@ impl GpuMeshCrowd {
                 [&self.instances[0].buffer, &self.instances[1].buffer],
                 &self.rigid_frames,
                 &self.parts,
+                &self.morph,
             );
         }
         let u = crowd_uniform(clip_from_world, style, self.counts, [0; 4]);
