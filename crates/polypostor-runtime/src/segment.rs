@@ -228,7 +228,7 @@ fn joint_of_node(c: &Character, joints: &[usize], mut n: usize) -> Option<usize>
 
 /// The automatic segmentation.
 pub fn auto_segment(c: &Character) -> Segmentation {
-    if let Some(seg) = moving_pieces(c) {
+    if let Some(seg) = moving_pieces(c).or_else(|| morphing_pieces(c)) {
         return seg;
     }
     let mut seg = skeleton_parts(c).0;
@@ -862,6 +862,95 @@ fn moving_pieces(c: &Character) -> Option<Segmentation> {
     Some(seg)
 }
 
+/// Smallest share of the triangles a separate piece of a morphing prop needs for a part of
+/// its own ([`morphing_pieces`]).
+pub const PIECE_SHARE: f64 = 0.02;
+
+/// A prop without joints whose clips animate morph targets (bars that grow, a blob that
+/// breathes, a flag; a static file's one bone) and that is made of separate pieces: a part per piece (connected in the
+/// rest pose, UV seams welded) holding at least [`PIECE_SHARE`] of the triangles, the
+/// largest [`MAX_PIECES`] first ("Body", then "Piece 2", …); smaller pieces join the kept
+/// piece whose bounds' centre is nearest. One polygon per view cannot follow pieces that
+/// change shape on their own. `None` for characters with more than one bone, without
+/// animated morphs, or of one piece.
+fn morphing_pieces(c: &Character) -> Option<Segmentation> {
+    if c.morphs.is_empty() || c.bones.len() > 1 || c.indices.len() < 6 {
+        return None;
+    }
+    let neighbours = rest_neighbours(c);
+    let tris = neighbours.len();
+    let mut piece = vec![usize::MAX; tris];
+    let mut sizes: Vec<usize> = Vec::new();
+    for start in 0..tris {
+        if piece[start] != usize::MAX {
+            continue;
+        }
+        let id = sizes.len();
+        let mut stack = vec![start];
+        piece[start] = id;
+        let mut n = 0;
+        while let Some(t) = stack.pop() {
+            n += 1;
+            for &u in &neighbours[t] {
+                let u = u as usize;
+                if u < tris && piece[u] == usize::MAX {
+                    piece[u] = id;
+                    stack.push(u);
+                }
+            }
+        }
+        sizes.push(n);
+    }
+    let mut order: Vec<usize> = (0..sizes.len()).collect();
+    order.sort_by(|&a, &b| sizes[b].cmp(&sizes[a]).then(a.cmp(&b)));
+    let kept: Vec<usize> = order
+        .iter()
+        .copied()
+        .filter(|&k| sizes[k] as f64 >= PIECE_SHARE * tris as f64)
+        .take(MAX_PIECES)
+        .collect();
+    if kept.len() < 2 {
+        return None;
+    }
+    // Each piece's bounds centre (rest pose).
+    let rest = crate::animation::skin_vertices(c, &crate::animation::Pose::rest(c)).0;
+    let mut lo = vec![glam::Vec3::splat(f32::INFINITY); sizes.len()];
+    let mut hi = vec![glam::Vec3::splat(f32::NEG_INFINITY); sizes.len()];
+    for (t, tri) in c.indices.chunks_exact(3).enumerate() {
+        for &v in tri {
+            let p = rest[v as usize];
+            lo[piece[t]] = lo[piece[t]].min(p);
+            hi[piece[t]] = hi[piece[t]].max(p);
+        }
+    }
+    let centre = |k: usize| (lo[k] + hi[k]) * 0.5;
+    let part_of: Vec<u16> = (0..sizes.len())
+        .map(|k| {
+            let nearest = (0..kept.len())
+                .min_by(|&a, &b| {
+                    let (da, db) = (centre(kept[a]).distance(centre(k)), centre(kept[b]).distance(centre(k)));
+                    da.total_cmp(&db).then(a.cmp(&b))
+                })
+                .unwrap_or(0);
+            kept.iter().position(|&x| x == k).unwrap_or(nearest) as u16
+        })
+        .collect();
+    let parts = (0..kept.len())
+        .map(|i| Part {
+            name: if i == 0 {
+                "Body".into()
+            } else {
+                format!("Piece {}", i + 1)
+            },
+            color: PALETTE[i % PALETTE.len()],
+        })
+        .collect();
+    let labels = piece.iter().map(|&k| part_of[k]).collect();
+    let mut seg = Segmentation { parts, labels };
+    compact(&mut seg);
+    Some(seg)
+}
+
 /// The bone carrying most of a vertex's weight.
 fn main_bone(v: &crate::character::Vertex) -> usize {
     let k = (0..4)
@@ -911,6 +1000,85 @@ pub fn compact(seg: &mut Segmentation) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A prop whose clips animate morph targets and that is made of separate pieces (three
+    /// grids far apart, and a single stray triangle beside the second) gets a part per piece,
+    /// the stray triangle with the piece nearest it; without animated morphs it stays one part
+    /// (a static prop draws its key image whole). Independent answer: the pieces as built.
+    #[test]
+    fn a_morphing_prop_gets_a_part_per_piece() {
+        use crate::character::{Bone, MorphTarget, Node, Skeleton, Transform};
+        let piece = grid(5, false);
+        let mut c = Character {
+            skeleton: Skeleton {
+                nodes: vec![Node {
+                    name: "root".into(),
+                    parent: None,
+                    rest: Transform::IDENTITY,
+                    is_joint: true,
+                }],
+            },
+            bones: vec![Bone {
+                node: 0,
+                inverse_bind: glam::Mat4::IDENTITY,
+            }],
+            ..Default::default()
+        };
+        for dx in [0.0, 20.0, 40.0] {
+            let base = c.vertices.len() as u32;
+            c.vertices
+                .extend(piece.vertices.iter().map(|v| crate::character::Vertex {
+                    position: v.position + Vec3::X * dx,
+                    ..*v
+                }));
+            c.indices.extend(piece.indices.iter().map(|i| i + base));
+        }
+        let per_piece = piece.indices.len() / 3;
+        let base = c.vertices.len() as u32;
+        for p in [
+            Vec3::new(26.0, 2.0, 0.0),
+            Vec3::new(26.5, 2.0, 0.0),
+            Vec3::new(26.0, 2.5, 0.0),
+        ] {
+            c.vertices.push(crate::character::Vertex {
+                position: p,
+                ..piece.vertices[0]
+            });
+        }
+        c.indices.extend([base, base + 1, base + 2]);
+        assert_eq!(auto_segment(&c).parts.len(), 1, "static: one part");
+        c.morphs = vec![MorphTarget {
+            name: "grow".into(),
+            vertices: vec![0],
+            positions: vec![Vec3::Z],
+            normals: vec![Vec3::ZERO],
+            ..Default::default()
+        }];
+        let seg = auto_segment(&c);
+        assert_eq!(seg.parts.len(), 3, "{:?}", seg.parts);
+        let label = |t: usize| seg.labels[t];
+        for k in 0..3 {
+            let first = label(k * per_piece);
+            assert!(
+                (k * per_piece..(k + 1) * per_piece).all(|t| label(t) == first),
+                "piece {k} is one part"
+            );
+        }
+        assert!(
+            label(0) != label(per_piece)
+                && label(per_piece) != label(2 * per_piece)
+                && label(0) != label(2 * per_piece)
+        );
+        assert_eq!(
+            label(3 * per_piece),
+            label(per_piece),
+            "the stray triangle joins the piece beside it"
+        );
+        // One bone more (a rig): the joint chains decide, not the pieces.
+        let mut rigged = c.clone();
+        rigged.bones.push(rigged.bones[0]);
+        assert!(morphing_pieces(&rigged).is_none());
+    }
 
     /// A flat grid of `n`×`n` unit quads (two triangles each, quad `(x, y)` holding triangles
     /// `2 (y n + x)` and `+ 1`); `seam`: the vertices on column `n / 4` split as a UV seam
