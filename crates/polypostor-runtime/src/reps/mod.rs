@@ -446,9 +446,17 @@ pub fn character_static_bytes(c: &crate::Character) -> RepBytes {
 /// transforms (three rows of a matrix, 48 bytes per joint per sample).
 pub fn skinned_bytes(c: &crate::Character, joint_samples: usize) -> RepBytes {
     let s = character_static_bytes(c);
+    // Animated morph targets: each vertex's offsets at every joint sample (16 bytes).
+    let morphs = if c.morphs.is_empty() {
+        0
+    } else {
+        (joint_samples as u64)
+            .saturating_mul(c.vertices.len() as u64)
+            .saturating_mul(16)
+    };
     RepBytes::new(
         s.texture,
-        s.geometry + c.vertices.len() as u64 * 24 + (joint_samples * c.bones.len()) as u64 * 48,
+        s.geometry + c.vertices.len() as u64 * 24 + (joint_samples * c.bones.len()) as u64 * 48 + morphs,
     )
 }
 
