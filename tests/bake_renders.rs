@@ -169,31 +169,12 @@ fn batched_part_renders_equal_one_pass() {
 #[test]
 fn morph_weights_shape_every_frame_of_the_part_renders() {
     use polypostor::animation::morphed_bind;
-    use polypostor::character::{Interpolation, MorphChannel, MorphTarget};
     let ctx = common::gpu();
     let mut c = polypostor::default_character::generate();
     let (size_lo, size_hi) = polypostor::character::bounds(c.vertices.iter().map(|v| v.position));
     let height = (size_hi - size_lo).y;
-    let moved: Vec<u32> = (0..c.vertices.len() as u32)
-        .filter(|&i| c.vertices[i as usize].position.x > 0.0)
-        .collect();
-    c.morphs = vec![MorphTarget {
-        name: "lift".into(),
-        rest_weight: 0.0,
-        positions: moved
-            .iter()
-            .map(|_| glam::Vec3::new(0.05 * height, 0.08 * height, 0.0))
-            .collect(),
-        normals: vec![glam::Vec3::ZERO; moved.len()],
-        vertices: moved,
-    }];
+    common::add_lifting_morph(&mut c, 0, 0.0, glam::Vec3::new(0.05 * height, 0.08 * height, 0.0), 0.5);
     let duration = c.clips[0].duration_secs;
-    c.clips[0].morph_channels = vec![MorphChannel {
-        targets: vec![0],
-        interpolation: Interpolation::Linear,
-        times: vec![0.0, duration * 0.5, duration],
-        values: vec![0.0, 1.0, 0.0],
-    }];
     let seg = auto_segment(&c);
     let caps = find_caps(&c, &seg);
     let (merged, ranges) = merge_parts(&c, &seg, &caps, &CapOverrides::default());

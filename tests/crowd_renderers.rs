@@ -464,27 +464,10 @@ fn the_skinned_crowd_draws_mirrored_squashed_and_hidden_joints() {
 /// real mesh does (it drew the rest shape).
 #[test]
 fn the_skinned_crowd_plays_morph_weights() {
-    use polypostor::character::{Interpolation, MorphChannel, MorphTarget};
     let plain = polypostor::default_character::generate();
     let mut c = plain.clone();
     let walk = c.find_clip("Walk").unwrap();
-    let moved: Vec<u32> = (0..c.vertices.len() as u32)
-        .filter(|&i| c.vertices[i as usize].position.x > 0.05)
-        .collect();
-    c.morphs = vec![MorphTarget {
-        name: "lift".into(),
-        rest_weight: 0.0,
-        positions: moved.iter().map(|_| Vec3::new(0.12, 0.15, 0.0)).collect(),
-        normals: vec![Vec3::ZERO; moved.len()],
-        vertices: moved,
-    }];
-    let d = c.clips[walk].duration_secs;
-    c.clips[walk].morph_channels = vec![MorphChannel {
-        targets: vec![0],
-        interpolation: Interpolation::Linear,
-        times: vec![0.0, d * 0.35, d],
-        values: vec![0.0, 1.0, 0.0],
-    }];
+    common::add_lifting_morph(&mut c, walk, 0.05, Vec3::new(0.12, 0.15, 0.0), 0.35);
     skinned_crowd_draws_the_mesh(&c, &plain, walk, "skinned_morph");
 }
 

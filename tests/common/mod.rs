@@ -358,3 +358,28 @@ pub fn unlit_truth(
         images::mask(&target.read_normal(device, queue).unwrap()),
     )
 }
+
+/// Adds to `c` a morph target that moves every vertex right of `x > above_x` by `offset` per
+/// unit of weight, and a channel on clip `clip` taking its weight 0 → 1 → 0, the peak at
+/// `peak` of the clip's duration (tests of animated morph weights).
+#[allow(dead_code)]
+pub fn add_lifting_morph(c: &mut polypostor::Character, clip: usize, above_x: f32, offset: glam::Vec3, peak: f32) {
+    use polypostor::character::{Interpolation, MorphChannel, MorphTarget};
+    let moved: Vec<u32> = (0..c.vertices.len() as u32)
+        .filter(|&i| c.vertices[i as usize].position.x > above_x)
+        .collect();
+    c.morphs = vec![MorphTarget {
+        name: "lift".into(),
+        rest_weight: 0.0,
+        positions: vec![offset; moved.len()],
+        normals: vec![glam::Vec3::ZERO; moved.len()],
+        vertices: moved,
+    }];
+    let d = c.clips[clip].duration_secs;
+    c.clips[clip].morph_channels = vec![MorphChannel {
+        targets: vec![0],
+        interpolation: Interpolation::Linear,
+        times: vec![0.0, d * peak, d],
+        values: vec![0.0, 1.0, 0.0],
+    }];
+}
