@@ -228,19 +228,25 @@ impl GpuMeshCrowd {
         let joints = storage(device, "crowd joints", bytemuck::cast_slice(&samples));
         let rigid_data = rigid.map(packed_frames).unwrap_or_default();
         let rigid_frames = storage(device, "crowd rigid frames", bytemuck::cast_slice(&rigid_data));
-        let mut morph_data = morph_frames(character, timeline);
-        if std::mem::size_of_val(morph_data.as_slice()) as u64
-            > u64::from(device.limits().max_storage_buffer_binding_size)
-        {
-            // More than one binding holds: the skinned crowd shows the rest shape (the bake
-            // and the reference renders still play the morphs).
+        // Sized before anything is made: more than one binding holds (a long timeline of a
+        // dense mesh) leaves the skinned crowd in the rest shape (the bake and the reference
+        // renders still play the morphs).
+        let morph_bytes = (timeline.frames().max(1) as u64)
+            .saturating_mul(JOINT_SAMPLES_PER_FRAME as u64)
+            .saturating_mul(character.vertices.len() as u64)
+            .saturating_mul(16);
+        let morph_data = if character.morphs.is_empty() {
+            Vec::new()
+        } else if morph_bytes > u64::from(device.limits().max_storage_buffer_binding_size) {
             log::warn!(
                 "the animated morph targets' {} frames × {} vertices exceed the GPU's storage binding limit; the skinned crowd draws the rest shape",
                 timeline.frames(),
                 character.vertices.len()
             );
-            morph_data.clear();
-        }
+            Vec::new()
+        } else {
+            morph_frames(character, timeline)
+        };
         let morph = storage(device, "crowd morph frames", bytemuck::cast_slice(&morph_data));
         let parts_data = vertex_parts(character, triangle_labels);
         let parts = storage(device, "crowd vertex parts", bytemuck::cast_slice(&parts_data));
