@@ -883,6 +883,34 @@ fn bad_morph_influence_and_transform_data_are_named() {
     e.json["meshes"][0]["weights"] = serde_json::json!([1.0]);
     let err = e.import_error("bad_morph_count");
     assert!(err.contains("morph target 0 POSITION"), "{err}");
+    // A target one vertex long at default weight 0 that a clip animates: read when the
+    // clip's offsets are kept, and refused there too.
+    let mut e = Editable::of(&c);
+    let long = e.add(&vec![[0.0, 0.1, 0.0, 0.0]; n + 1], 3, 5126);
+    for p in e.primitives() {
+        p["targets"] = serde_json::json!([{"POSITION": long}]);
+    }
+    let node = e.json["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .position(|nd| nd.get("mesh").is_some())
+        .unwrap();
+    let times = e.add(&[[0.0; 4], [0.5, 0.0, 0.0, 0.0]], 1, 5126);
+    let out = e.add(&[[0.0; 4], [1.0, 0.0, 0.0, 0.0]], 1, 5126);
+    let anim = &mut e.json["animations"][0];
+    let samplers = anim["samplers"].as_array_mut().unwrap();
+    samplers.push(serde_json::json!({"input": times, "output": out}));
+    let sampler = samplers.len() - 1;
+    anim["channels"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!({"sampler": sampler, "target": {"node": node, "path": "weights"}}));
+    let err = e.import_error("bad_animated_morph_count");
+    assert!(
+        err.contains("morph target 0 POSITION") && err.contains("one per vertex"),
+        "{err}"
+    );
     // Non-finite deltas.
     let mut e = Editable::of(&c);
     let nan = e.add(&vec![[f32::NAN, 0.0, 0.0, 0.0]; n], 3, 5126);

@@ -654,23 +654,16 @@ impl Builder<'_> {
         let Some(targets) = prim.targets.as_deref() else {
             return Ok(());
         };
-        let n = keep.iter().max().map_or(0, |&m| m + 1);
+        // The primitive's vertex count (its POSITION accessor was read and checked already).
+        let n = prim
+            .attributes
+            .get(&Checked::Valid(json::mesh::Semantic::Positions))
+            .and_then(|a| self.root.accessors.get(a.value()))
+            .map_or(0, |a| a.count.0 as usize);
         for (ti, target) in targets.iter().enumerate() {
             let Some(&slot) = slots.get(ti) else { continue };
-            let read = |a: Option<json::Index<json::Accessor>>, name: &str, this: &Self| {
-                let Some(a) = a else {
-                    return Ok(None);
-                };
-                let v = accessor::read_f32(this.root, this.buffers, a.value())?;
-                if v.components != 3 || v.count() < n || v.data.iter().any(|x| !x.is_finite()) {
-                    return Err(ImportError::Invalid(format!(
-                        "{what}: morph target {ti} {name} must be finite VEC3 values, one per vertex"
-                    )));
-                }
-                Ok(Some(v))
-            };
-            let dp = read(target.positions, "POSITION", self)?;
-            let dn = read(target.normals, "NORMAL", self)?;
+            let dp = self.morph_offsets(what, ti, "POSITION", target.positions, n)?;
+            let dn = self.morph_offsets(what, ti, "NORMAL", target.normals, n)?;
             let m = &mut g.morphs[slot];
             for (k, &i) in keep.iter().enumerate() {
                 let mut p = dp.as_ref().map_or(Vec3::ZERO, |d| Vec3::from_array(d.get::<3>(i)));
@@ -688,6 +681,28 @@ impl Builder<'_> {
             }
         }
         Ok(())
+    }
+
+    /// Morph target `ti`'s `name` offsets (`None` where the target has none), checked to be
+    /// `n` finite VEC3 values: one per vertex of the primitive.
+    fn morph_offsets(
+        &self,
+        what: &str,
+        ti: usize,
+        name: &str,
+        a: Option<json::Index<json::Accessor>>,
+        n: usize,
+    ) -> Result<Option<accessor::Values<f32>>, ImportError> {
+        let Some(a) = a else {
+            return Ok(None);
+        };
+        let v = accessor::read_f32(self.root, self.buffers, a.value())?;
+        if v.components != 3 || v.count() != n || v.data.iter().any(|x| !x.is_finite()) {
+            return Err(ImportError::Invalid(format!(
+                "{what}: morph target {ti} {name} must be {n} finite VEC3 values, one per vertex"
+            )));
+        }
+        Ok(Some(v))
     }
 
     /// Adds a primitive's morph targets at `weights` to its positions and normals (the
@@ -723,24 +738,15 @@ impl Builder<'_> {
                     "{what}: morph target {ti} has a non-finite weight"
                 )));
             }
-            let read = |a: Option<json::Index<json::Accessor>>, name: &str, this: &Self| {
-                let Some(a) = a else {
-                    return Ok(None);
-                };
-                let v = accessor::read_f32(this.root, this.buffers, a.value())?;
-                if v.components != 3 || v.count() != n || v.data.iter().any(|x| !x.is_finite()) {
-                    return Err(ImportError::Invalid(format!(
-                        "{what}: morph target {ti} {name} must be {n} finite VEC3 values"
-                    )));
-                }
-                Ok(Some(v))
-            };
-            if let Some(d) = read(target.positions, "POSITION", self)? {
+            if let Some(d) = self.morph_offsets(what, ti, "POSITION", target.positions, n)? {
                 for (p, d) in positions.data.iter_mut().zip(&d.data) {
                     *p += w * d;
                 }
             }
-            if let (Some(d), Some(nv)) = (read(target.normals, "NORMAL", self)?, normals.as_mut()) {
+            if let (Some(d), Some(nv)) = (
+                self.morph_offsets(what, ti, "NORMAL", target.normals, n)?,
+                normals.as_mut(),
+            ) {
                 for (p, d) in nv.data.iter_mut().zip(&d.data) {
                     *p += w * d;
                 }
