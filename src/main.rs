@@ -507,7 +507,7 @@ fn render(
     let mut gpu = GpuCharacter::new(&renderer, &ctx.device, &ctx.queue, &c);
     let (min, max) = clip_bounds(&c, clip_index, 16);
     let center = (min + max) * 0.5;
-    let radius = ((max - min) * 0.5).length().max(1e-3);
+    let radius = ((max - min) * 0.5).length().max(f32::MIN_POSITIVE);
     let fov = 35f32.to_radians();
     let camera = Camera::orbit(
         center,

@@ -159,6 +159,7 @@ impl Default for CrowdPanel {
                 pitch_rad: 0.35,
                 distance: 40.0,
                 fov_y_rad: 50f32.to_radians(),
+                scale: 1.0,
             },
             stats: Default::default(),
             assets: None,
@@ -392,6 +393,7 @@ impl CrowdPanel {
                     .is_some_and(|(_, a)| (a.size.scale() / s - 1.0).abs() > 0.01);
                 if first || rescaled {
                     self.camera.distance = 40.0 * s;
+                    self.camera.scale = s;
                     self.camera.target = Vec3::new(0.0, assets.size.ground_y, 0.0);
                 }
                 self.assets = Some((self.next_generation, Arc::new(assets)));

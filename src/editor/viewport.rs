@@ -41,6 +41,10 @@ pub struct OrbitCamera {
     pub pitch_rad: f32,
     pub distance: f32,
     pub fov_y_rad: f32,
+    /// The size of what is looked at (world units; 1 for a person): zoom stays within
+    /// 0.001–100,000 of it, so a character a hundredth of a millimetre or kilometres across
+    /// zooms as a person does.
+    pub scale: f32,
 }
 
 impl Default for OrbitCamera {
@@ -51,6 +55,7 @@ impl Default for OrbitCamera {
             pitch_rad: 0.15,
             distance: 3.5,
             fov_y_rad: 40f32.to_radians(),
+            scale: 1.0,
         }
     }
 }
@@ -59,8 +64,9 @@ impl OrbitCamera {
     /// Frames a bounding box, keeping the current direction.
     pub fn frame(&mut self, min: Vec3, max: Vec3) {
         self.target = (min + max) * 0.5;
-        let radius = ((max - min) * 0.5).length().max(0.01);
+        let radius = ((max - min) * 0.5).length().max(f32::MIN_POSITIVE);
         self.distance = radius / (self.fov_y_rad * 0.5).sin() * 1.1;
+        self.scale = radius;
     }
 
     pub fn camera(&self) -> Camera {
@@ -82,7 +88,12 @@ impl OrbitCamera {
     }
 
     pub fn zoom(&mut self, wheel: f32) {
-        self.distance = (self.distance * (-wheel * 0.0015).exp()).clamp(1e-3, 1e5);
+        let s = if self.scale.is_finite() && self.scale > 0.0 {
+            self.scale
+        } else {
+            1.0
+        };
+        self.distance = (self.distance * (-wheel * 0.0015).exp()).clamp(1e-3 * s, 1e5 * s);
     }
 
     /// Applies the pointer input of the viewport's response; `primary_orbits` false leaves
@@ -383,5 +394,42 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
         }
         let normals = self.mode == ViewMode::Normals;
         res.blit(pass, if normals { normal } else { color }, !normals);
+    }
+}
+
+#[cfg(test)]
+mod zoom_tests {
+    use super::*;
+
+    /// Zooming reaches as close and as far relative to a framed character of any size: a
+    /// character 0.02 mm across can be looked at from its own scale, one of 100 km from far
+    /// enough to see it whole (the zoom had absolute limits of 1 mm and 100 km).
+    #[test]
+    fn zoom_limits_follow_the_framed_size() {
+        let mut seen = Vec::new();
+        for k in [1e-5f32, 1.0, 1e5] {
+            let mut cam = OrbitCamera::default();
+            cam.frame(Vec3::splat(-0.9 * k), Vec3::splat(0.9 * k));
+            let framed = cam.distance;
+            for _ in 0..200 {
+                cam.zoom(500.0);
+            }
+            let nearest = cam.distance / framed;
+            for _ in 0..400 {
+                cam.zoom(-500.0);
+            }
+            let farthest = cam.distance / framed;
+            assert!(
+                nearest < 0.01 && farthest > 1000.0,
+                "scale {k}: {nearest} .. {farthest}"
+            );
+            seen.push((nearest, farthest));
+        }
+        for w in seen.windows(2) {
+            assert!(
+                (w[0].0 / w[1].0 - 1.0).abs() < 1e-3 && (w[0].1 / w[1].1 - 1.0).abs() < 1e-3,
+                "{seen:?}"
+            );
+        }
     }
 }

@@ -376,7 +376,17 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
                 ys.fold(f32::NEG_INFINITY, f32::max),
             )
         };
-        let span = (top - ground).max(1e-3);
+        // A floor relative to the rig's own size (an absolute one took a character a tenth of a
+        // millimetre tall for one lying flat, and named its arms as legs).
+        let extent = tree
+            .pos
+            .iter()
+            .chain(&rest)
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(*p), hi.max(*p))
+            });
+        let extent = (extent.1 - extent.0).max_element();
+        let span = (top - ground).max(1e-3 * extent).max(f32::MIN_POSITIVE);
         // Points of a set of joints: their mesh where they carry any, else the joints.
         let points = |joints: &[usize]| -> Vec<Vec3> {
             let mesh: Vec<Vec3> = joints.iter().flat_map(|&j| carried[j].iter().copied()).collect();
@@ -1300,5 +1310,26 @@ mod tests {
         let mut moved = c.clone();
         moved.skeleton.nodes[0].rest.translation += Vec3::new(3.0, 0.0, -2.0);
         assert_eq!(auto_segment(&c), auto_segment(&moved));
+    }
+
+    /// Units do not enter the segmentation: the rig scaled by a hundred-thousandth (a
+    /// character 0.02 mm tall; an absolute floor on its height once took it for one lying
+    /// flat and named its arms as legs) or a hundred thousand gets the same parts.
+    #[test]
+    fn segmentation_is_invariant_to_the_rig_s_scale() {
+        let c = crate::default_character::generate();
+        let plain = auto_segment(&c);
+        for k in [1e-5f32, 1e-3, 1e3, 1e5] {
+            let mut scaled = c.clone();
+            scaled.skeleton.nodes[0].rest.scale *= k;
+            let extent = crate::character::bounds(
+                crate::animation::skin_vertices(&scaled, &crate::animation::Pose::rest(&scaled)).0,
+            );
+            assert!(
+                ((extent.1 - extent.0).max_element() / k - 1.6).abs() < 0.5,
+                "scale {k}: {extent:?}"
+            );
+            assert_eq!(auto_segment(&scaled), plain, "scale {k}");
+        }
     }
 }

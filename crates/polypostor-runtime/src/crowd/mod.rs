@@ -1176,7 +1176,7 @@ impl SelectContext<'_> {
                 continue;
             }
             let to_eye = self.camera.eye - centre;
-            let distance = to_eye.length().max(1e-3);
+            let distance = to_eye.length().max(f32::MIN_POSITIVE);
             let pixels = h * self.camera.focal_px / distance * self.texel_scale[k];
             let previous = st.level[j];
             let level = self.policy.choose(pixels, previous);

@@ -47,13 +47,15 @@ impl Camera {
             pitch_rad.sin(),
             pitch_rad.cos() * yaw_rad.cos(),
         );
-        let distance = distance.max(1e-3);
+        // No absolute floor: a character a hundredth of a millimetre across is seen as one
+        // of two metres is (relative near plane, far plane past a crowd's ground).
+        let distance = distance.max(f32::MIN_POSITIVE);
         Self {
             eye: target + dir * distance,
             target,
             up: Vec3::Y,
             projection: Projection::Perspective { fov_y_rad },
-            near: (distance * 0.01).max(1e-3),
+            near: distance * 0.01,
             far: distance * 100.0 + 100.0,
         }
     }
@@ -62,7 +64,7 @@ impl Camera {
     /// box `(min, max)` with a relative `margin`.
     pub fn ortho_framing(min: Vec3, max: Vec3, view_dir: Vec3, margin: f32) -> Self {
         let center = (min + max) * 0.5;
-        let radius = ((max - min) * 0.5).length().max(1e-3);
+        let radius = ((max - min) * 0.5).length().max(f32::MIN_POSITIVE);
         let dir = view_dir.normalize_or(Vec3::Z);
         let up = if dir.cross(Vec3::Y).length_squared() < 1e-6 {
             Vec3::Z

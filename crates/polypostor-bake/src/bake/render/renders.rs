@@ -81,7 +81,9 @@ pub fn view_cameras(frames: &[Vec<Vec3>], views: &[Vec3]) -> Vec<Camera> {
     let all: Vec<Vec3> = frames.iter().flatten().copied().collect();
     let (min, max) = crate::character::bounds(all.iter().copied());
     let centre = (min + max) * 0.5;
-    let radius = ((max - min) * 0.5).length().max(1e-4);
+    // Floors relative to the character (or none): a character a hundredth of a millimetre
+    // across is framed as one of two metres is (an absolute floor framed it 10× too wide).
+    let radius = ((max - min) * 0.5).length().max(f32::MIN_POSITIVE);
     views
         .iter()
         .map(|&d| {
@@ -105,12 +107,12 @@ pub fn view_cameras(frames: &[Vec<Vec3>], views: &[Vec3]) -> Vec<Camera> {
             let inv = view.inverse();
             let mid_view = Vec3::new((lo.x + hi.x) * 0.5, (lo.y + hi.y) * 0.5, 0.0);
             let shift = inv.transform_vector3(mid_view);
-            let half = ((hi.x - lo.x).max(hi.y - lo.y) * 0.5).max(1e-4) * (1.0 + FRAMING_MARGIN);
+            let half = ((hi.x - lo.x).max(hi.y - lo.y) * 0.5).max(radius * 1e-4) * (1.0 + FRAMING_MARGIN);
             cam.eye += shift;
             cam.target += shift;
             cam.projection = Projection::Orthographic { half_height: half };
             // View-space z is negative in front of the camera.
-            cam.near = (-hi.z - radius * 0.05).max(1e-4);
+            cam.near = (-hi.z - radius * 0.05).max(radius * 1e-3);
             cam.far = -lo.z + radius * 0.05;
             cam
         })
@@ -138,6 +140,38 @@ pub fn sample_timeline(c: &Character, samples: &[(Option<usize>, f32)]) -> (Vec<
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The framing scales with the character, whatever its size: points scaled by k give
+    /// cameras whose extent, near and far planes are k times the originals' (an absolute
+    /// floor framed a character 0.02 mm across in an image ten times too wide).
+    #[test]
+    fn view_cameras_scale_with_the_character() {
+        let points: Vec<Vec3> = (0..50)
+            .map(|i| {
+                let t = i as f32 * 0.37;
+                Vec3::new(0.3 * t.sin(), 0.9 + 0.9 * (t * 0.7).cos(), 0.2 * (t * 1.3).sin())
+            })
+            .collect();
+        let views = [Vec3::Z, Vec3::new(1.0, 0.5, 0.0), Vec3::Y, Vec3::new(-0.3, -0.2, 0.9)];
+        let plain = view_cameras(&[points.clone()], &views);
+        for k in [1e-5f32, 1e-3, 1e3, 1e5] {
+            let scaled: Vec<Vec3> = points.iter().map(|p| *p * k).collect();
+            for (a, b) in plain.iter().zip(view_cameras(&[scaled], &views)) {
+                let (Projection::Orthographic { half_height: ha }, Projection::Orthographic { half_height: hb }) =
+                    (a.projection, b.projection)
+                else {
+                    panic!("orthographic cameras");
+                };
+                let close = |x: f32, y: f32| (y / (x * k) - 1.0).abs() < 1e-3;
+                assert!(close(ha, hb), "scale {k}: half height {hb} against {ha}");
+                assert!(
+                    close(a.near, b.near) && close(a.far, b.far),
+                    "scale {k}: {b:?} against {a:?}"
+                );
+                assert!((b.eye - a.eye * k).length() < 1e-3 * k * a.eye.length());
+            }
+        }
+    }
 
     #[test]
     fn frame_times_cover_the_loop_once() {
