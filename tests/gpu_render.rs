@@ -334,3 +334,59 @@ fn alpha_cut_outs_leave_out_what_the_texture_leaves_out() {
         "drew outside the character"
     );
 }
+
+/// A character of any size, looked at from as far in its own units, draws the same picture
+/// on a grid of its own scale: its root scaled by 10⁻⁵ (0.02 mm tall) or 10⁵, the orbit
+/// camera's distance and the grid cell ([`polypostor::gpu::grid_cell`]) scaled alike, give
+/// the person-sized image. (The orbit camera's near plane had an absolute floor of 1 mm that
+/// cut the tiny one away, and the grid was 1 m lines over 50 m whatever the character.)
+#[test]
+fn characters_of_any_size_draw_alike_on_a_grid_of_their_scale() {
+    let ctx = context();
+    let base = polypostor::default_character::generate();
+    let renderer = CharacterRenderer::new(&ctx.device);
+    let (w, h) = (160, 120);
+    let draw = |k: f32| {
+        let mut c = base.clone();
+        // The root joint scaled about the origin (its offset too), as a scaled root node above it would.
+        assert!(c.skeleton.nodes[0].parent.is_none());
+        c.skeleton.nodes[0].rest.scale *= k;
+        c.skeleton.nodes[0].rest.translation *= k;
+        let mut gpu = GpuCharacter::new(&renderer, &ctx.device, &ctx.queue, &c);
+        let target = RenderTarget::new(&ctx.device, w, h);
+        let cam = Camera::orbit(glam::Vec3::new(0.0, 0.9 * k, 0.0), 0.6, 0.35, 4.0 * k, 0.8);
+        let pose = Pose::rest(&c);
+        gpu.set_pose(&ctx.queue, &c, &pose, SkinningMode::Gpu);
+        let cell = polypostor::gpu::grid_cell(k);
+        assert!((cell / k - 1.0).abs() < 1e-3, "{k}: cell {cell}");
+        gpu.set_camera_with_grid(&ctx.queue, &cam, w as f32 / h as f32, Shading::Lit, cell);
+        let opts = DrawOptions {
+            shading: Shading::Lit,
+            clear_color: [0.045, 0.05, 0.06, 1.0],
+            grid: true,
+        };
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        renderer.encode(&mut encoder, &target, &gpu, &opts);
+        ctx.queue.submit([encoder.finish()]);
+        target.read_color(&ctx.device, &ctx.queue).unwrap()
+    };
+    let person = draw(1.0);
+    let lit = person
+        .pixels()
+        .filter(|p| p[0] as i32 + p[1] as i32 + p[2] as i32 > 250)
+        .count();
+    assert!(lit > 300, "the character shows ({lit} px)");
+    for k in [1e-5f32, 1e-3, 1e5] {
+        let img = draw(k);
+        let differ = person
+            .pixels()
+            .zip(img.pixels())
+            .filter(|(p, q)| (0..3).any(|i| (p[i] as i32 - q[i] as i32).abs() > 24))
+            .count();
+        assert!(
+            differ * 100 < (w * h) as usize,
+            "scale {k}: {differ} of {} pixels differ from the person-sized picture",
+            w * h
+        );
+    }
+}

@@ -1053,9 +1053,11 @@ impl CrowdCallback {
 }
 
 /// A length for people to read: mm, cm, m or km as its size asks.
-fn metres(x: f32) -> String {
+pub(crate) fn metres(x: f32) -> String {
     let a = x.abs();
-    if a < 0.01 {
+    if a < 1e-4 {
+        format!("{:.1} µm", x * 1e6)
+    } else if a < 0.01 {
         format!("{:.1} mm", x * 1000.0)
     } else if a < 1.0 {
         format!("{:.1} cm", x * 100.0)

@@ -303,6 +303,8 @@ pub struct ViewportCallback {
     pub size_px: [u32; 2],
     pub mode: ViewMode,
     pub grid: bool,
+    /// The grid's cell in world units ([`polypostor::gpu::grid_cell`]).
+    pub grid_cell: f32,
 }
 
 impl egui_wgpu::CallbackTrait for ViewportCallback {
@@ -358,7 +360,7 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
             Shading::Lit
         };
         gpu.set_pose(queue, &self.character, &self.pose, SkinningMode::Gpu);
-        gpu.set_camera(queue, &self.camera, w as f32 / h as f32, shading);
+        gpu.set_camera_with_grid(queue, &self.camera, w as f32 / h as f32, shading, self.grid_cell);
         let options = DrawOptions {
             shading,
             clear_color: [0.045, 0.05, 0.06, 1.0],

@@ -393,7 +393,7 @@ impl EditorApp {
                 ui.end_row();
             }
             ui.label("Height");
-            ui.label(format!("{:.2} m", s.bounds_max[1] - s.bounds_min[1]));
+            ui.label(crate::editor::crowd::metres(s.bounds_max[1] - s.bounds_min[1]));
             ui.end_row();
         });
         // Which of the file's axes is up: a character exported lying down is stood up.
@@ -591,6 +591,7 @@ impl EditorApp {
                 ],
                 mode,
                 grid: self.grid,
+                grid_cell: polypostor::gpu::grid_cell(self.camera.scale),
             };
             ui.painter()
                 .add(egui_wgpu::Callback::new_paint_callback(rect, callback));
@@ -613,7 +614,10 @@ impl EditorApp {
                     ui.selectable_value(&mut self.view_mode, mode, mode.label());
                 }
             });
-        child.checkbox(&mut self.grid, "Grid");
+        child.checkbox(&mut self.grid, "Grid").on_hover_text(format!(
+            "Ground grid: lines every {} and every tenth of that (a power of ten that suits the character's size)",
+            crate::editor::crowd::metres(polypostor::gpu::grid_cell(self.camera.scale))
+        ));
         if child.button("Frame (F)").clicked() {
             self.send(Command::FrameCharacter);
         }

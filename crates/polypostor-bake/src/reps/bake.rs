@@ -482,12 +482,34 @@ fn frame_vertices(character: &Character, poses: &[Pose], only: Option<&[u32]>) -
 pub fn simplify(character: &Character, positions: &[Vec3], triangles: usize) -> Vec<u32> {
     let n = positions.len().min(character.vertices.len());
     let (lo, hi) = crate::character::bounds(positions.iter().copied());
-    let cell = ((hi - lo).max_element() * 1e-6).max(f32::MIN_POSITIVE);
-    let mut first: rustc_hash::FxHashMap<[i64; 3], u32> = Default::default();
+    // Welding: a vertex joins the first one within `cell` of it, looked for in its grid cell
+    // and the 26 around it — rounding to a grid alone split a pair a rounding error apart
+    // whenever the two straddled a cell boundary, so the same character placed elsewhere
+    // (a different rounding of its skinned positions) welded and simplified differently.
+    let cell = ((hi - lo).max_element() * 1e-5).max(f32::MIN_POSITIVE);
+    let mut grid: rustc_hash::FxHashMap<[i64; 3], Vec<u32>> = Default::default();
     let weld: Vec<u32> = (0..n)
         .map(|i| {
-            let q = ((positions[i] - lo) / cell).round().as_i64vec3().to_array();
-            *first.entry(q).or_insert(i as u32)
+            let p = positions[i];
+            let q = ((p - lo) / cell).floor().as_i64vec3();
+            let mut found = None;
+            'near: for dz in -1..=1 {
+                for dy in -1..=1 {
+                    for dx in -1..=1 {
+                        let key = (q + glam::I64Vec3::new(dx, dy, dz)).to_array();
+                        if let Some(list) = grid.get(&key) {
+                            if let Some(&j) = list.iter().find(|&&j| positions[j as usize].distance(p) <= cell) {
+                                found = Some(j);
+                                break 'near;
+                            }
+                        }
+                    }
+                }
+            }
+            found.unwrap_or_else(|| {
+                grid.entry(q.to_array()).or_default().push(i as u32);
+                i as u32
+            })
         })
         .collect();
     let welded: Vec<u32> = character
@@ -498,7 +520,9 @@ pub fn simplify(character: &Character, positions: &[Vec3], triangles: usize) -> 
         .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
         .flatten()
         .collect();
-    let pos: Vec<[f32; 3]> = positions[..n].iter().map(|p| p.to_array()).collect();
+    // Centred, so the simplifier sees the same numbers wherever the character stands.
+    let centre = (lo + hi) * 0.5;
+    let pos: Vec<[f32; 3]> = positions[..n].iter().map(|p| (*p - centre).to_array()).collect();
     let target = (triangles * 3).min(welded.len());
     if welded.len() <= target {
         return welded;

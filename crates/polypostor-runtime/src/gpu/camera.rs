@@ -87,13 +87,18 @@ impl Camera {
     /// When `up` is parallel to the view direction, +Z stands in for it; an eye on the target
     /// (or a non-finite one) looks down -Z rather than giving NaN.
     pub fn view_from_world(&self) -> Mat4 {
-        let target = if (self.eye - self.target).length_squared() > 1e-12 && (self.eye - self.target).is_finite() {
+        // Tolerances relative to the scene's own numbers (a camera a hundredth of a
+        // millimetre from its target is as good as one metres away).
+        let d = self.eye - self.target;
+        let magnitude = self.eye.length_squared().max(self.target.length_squared());
+        let target = if d.length_squared() > magnitude * 1e-12 && d.length_squared() > 0.0 && d.is_finite() {
             self.target
         } else {
             self.eye - Vec3::Z
         };
-        let up = if (self.eye - target).cross(self.up).length_squared() < 1e-10 {
-            if (self.eye - target).cross(Vec3::Z).length_squared() < 1e-10 {
+        let d2 = (self.eye - target).length_squared();
+        let up = if (self.eye - target).cross(self.up).length_squared() < 1e-10 * d2 {
+            if (self.eye - target).cross(Vec3::Z).length_squared() < 1e-10 * d2 {
                 Vec3::Y
             } else {
                 Vec3::Z

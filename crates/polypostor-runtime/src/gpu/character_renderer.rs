@@ -679,6 +679,15 @@ fn position_normals(p: &[Vec3], n: &[Vec3]) -> Vec<PositionNormal> {
         .collect()
 }
 
+/// The ground grid's cell for something `size` world units across: the power of ten nearest
+/// it (1 m for a person, 100 m for a character 100× too big, 10 µm for one 0.02 mm tall).
+pub fn grid_cell(size: f32) -> f32 {
+    if !(size.is_finite() && size > 0.0) {
+        return 1.0;
+    }
+    10f32.powf(size.log10().round().clamp(-30.0, 30.0))
+}
+
 /// Uniforms of a camera for one draw.
 pub fn frame_uniforms(camera: &Camera, aspect: f32, shading: Shading) -> FrameUniforms {
     let light = Vec3::new(-0.45, 0.65, 0.6).normalize();
@@ -921,9 +930,27 @@ impl GpuCharacter {
         queue.write_buffer(&self.bones_buffer, 0, bytemuck::bytes_of(&bones));
     }
 
-    /// Uploads the camera and shading for the next draw.
+    /// Uploads the camera and shading for the next draw (the ground grid in metres).
     pub fn set_camera(&self, queue: &wgpu::Queue, camera: &Camera, aspect: f32, shading: Shading) {
-        let frame = frame_uniforms(camera, aspect, shading);
+        self.set_camera_with_grid(queue, camera, aspect, shading, 1.0);
+    }
+
+    /// [`Self::set_camera`] with the ground grid's cell `grid_cell` world units wide (lines
+    /// every cell and every tenth of one; see [`grid_cell`]).
+    pub fn set_camera_with_grid(
+        &self,
+        queue: &wgpu::Queue,
+        camera: &Camera,
+        aspect: f32,
+        shading: Shading,
+        grid_cell: f32,
+    ) {
+        let mut frame = frame_uniforms(camera, aspect, shading);
+        frame.params[3] = if grid_cell.is_finite() && grid_cell > 0.0 {
+            grid_cell
+        } else {
+            1.0
+        };
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
     }
 }

@@ -22,7 +22,7 @@ mod upload;
 pub use camera::{Camera, Projection};
 pub use character_renderer::{
     COLOR_FORMAT, CharacterRenderer, DEPTH_FORMAT, DrawOptions, GpuCharacter, NORMAL_FORMAT, RenderTarget, Shading,
-    SkinningMode, fullscreen_pipeline, view_formats_supported,
+    SkinningMode, fullscreen_pipeline, grid_cell, view_formats_supported,
 };
 pub use context::{AdapterPreference, GpuContext, GpuError, OPTIONAL_FEATURES, optional_features, rank_adapter};
 pub use crowd_renderers::{
