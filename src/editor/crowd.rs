@@ -615,10 +615,10 @@ impl CrowdPanel {
                     ui,
                     "character",
                     format!(
-                        "{} tall, {} long (×{:.2} a 1.8 m person)",
+                        "{} tall, {} long (×{} a 1.8 m person)",
                         metres(assets.size.height),
                         metres(assets.size.length),
-                        p.scale()
+                        ratio(p.scale())
                     ),
                 );
                 for g in &self.guests {
@@ -1052,6 +1052,16 @@ impl CrowdCallback {
     }
 }
 
+/// A size ratio for people to read: two decimals near 1, three significant figures with a
+/// power of ten far from it (a character 0.02 mm tall is ×8.6e-6 a person, not ×0.00).
+pub(crate) fn ratio(x: f32) -> String {
+    if x == 0.0 || (0.01..10_000.0).contains(&x.abs()) {
+        format!("{x:.2}")
+    } else {
+        format!("{x:.2e}")
+    }
+}
+
 /// A length for people to read: mm, cm, m or km as its size asks.
 pub(crate) fn metres(x: f32) -> String {
     let a = x.abs();
@@ -1091,6 +1101,21 @@ mod orbit_tests {
     /// Whatever the orbit's pitch, distance, target and the character's size and ground, the
     /// eye (from the camera the renderer gets) ends at least a fifth of the character's height
     /// above the ground; an orbit already above it is left as it was.
+    /// Sizes read in the unit they ask for, from micrometres to kilometres, and ratios to a
+    /// person keep their figures far from 1.
+    #[test]
+    fn lengths_and_ratios_read_at_any_size() {
+        assert_eq!(metres(15.4e-6), "15.4 µm");
+        assert_eq!(metres(0.0052), "5.2 mm");
+        assert_eq!(metres(0.5), "50.0 cm");
+        assert_eq!(metres(1.8), "1.80 m");
+        assert_eq!(metres(150_700.0), "150.70 km");
+        assert_eq!(ratio(1.0), "1.00");
+        assert_eq!(ratio(0.05), "0.05");
+        assert_eq!(ratio(8.6e-6), "8.60e-6");
+        assert_eq!(ratio(83_000.0), "8.30e4");
+    }
+
     #[test]
     fn the_crowd_orbit_never_goes_under_the_ground() {
         let mut moved = 0;
