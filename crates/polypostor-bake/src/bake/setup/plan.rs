@@ -164,7 +164,7 @@ pub fn check(
             let pose = crate::animation::Pose::sample_index(character, c, duration * s as f32 / 16.0);
             let (lo, hi) = crate::character::bounds(crate::animation::skin_vertices(character, &pose).0);
             // Rounding in the skinning leaves a point-sized character a few ulps wide.
-            let far = lo.abs().max(hi.abs()).max_element().max(1e-6);
+            let far = lo.abs().max(hi.abs()).max_element().max(f32::MIN_POSITIVE);
             (hi - lo).max_element() > 1e-5 * far
         })
     });
