@@ -926,7 +926,7 @@ fn characters_of_implausible_size_are_reported_and_measured_as_the_file_says() {
     assert!(person.warnings.is_empty(), "{:?}", person.warnings);
     let size = |c: &polypostor::character::Character| polypostor::crowd::CharacterSize::measure(c, c.find_clip("Walk"));
     let base = size(&person);
-    for (k, unit) in [(100.0f32, " m across"), (0.001, " mm across")] {
+    for (k, unit) in [(100.0f32, " m across"), (0.001, " mm across"), (1e-8, "e-8 m across")] {
         let c = polypostor::import::import_slice(&scaled_default(k), None, "scaled").unwrap();
         assert!(
             c.warnings.iter().any(|w| w.contains(unit) && w.contains("metres")),

@@ -84,9 +84,11 @@ impl CharacterSize {
     }
 
     /// The character's size against the reference person: its height or body length,
-    /// whichever is larger, over 1.8 m (never below 1e-6).
+    /// whichever is larger, over 1.8 m (positive: a character without size counts as the
+    /// smallest positive number, not as zero).
     pub fn scale(&self) -> f32 {
-        (self.height.max(self.length) / Self::REFERENCE_METRES).max(1e-6)
+        let s = self.height.max(self.length) / Self::REFERENCE_METRES;
+        if s.is_finite() { s.max(f32::MIN_POSITIVE) } else { 1.0 }
     }
 }
 

@@ -1039,9 +1039,14 @@ fn size_warning((min, max): (glam::Vec3, glam::Vec3)) -> Option<String> {
             "the character is {extent:.0} m across: glTF lengths are metres and the crowd shows it at that size; if it was made in centimetres, export it with a 0.01 scale on its root node"
         ))
     } else if extent > 0.0 && extent < TINY_METRES {
+        // Millimetres while they read (0.02 mm), a power of ten below that (1.5e-7 m).
+        let size = if extent >= 1e-5 {
+            format!("{:.2} mm", extent * 1000.0)
+        } else {
+            format!("{extent:.2e} m")
+        };
         Some(format!(
-            "the character is {:.2} mm across: glTF lengths are metres and the crowd shows it at that size; check the exporter's unit scale",
-            extent * 1000.0
+            "the character is {size} across: glTF lengths are metres and the crowd shows it at that size; check the exporter's unit scale"
         ))
     } else {
         None

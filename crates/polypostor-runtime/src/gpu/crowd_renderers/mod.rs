@@ -251,8 +251,8 @@ impl CrowdRenderers {
             [
                 self.ground_half_extent,
                 self.ground_y,
-                self.ground_scale.max(1e-6),
-                10f32.powf(self.ground_scale.max(1e-6).log10().round()),
+                self.ground_scale.max(f32::MIN_POSITIVE),
+                crate::gpu::grid_cell(self.ground_scale),
             ],
             [0; 4],
         );
