@@ -497,6 +497,27 @@ fn morph_targets_shape_the_character_at_their_default_weights() {
     }
 }
 
+/// Adds to the first clip a weights channel on the first mesh node: keys at 0 and 0.5 s
+/// (`values`: one row per key, or three per key for CUBICSPLINE).
+fn animate_weights(e: &mut Editable, values: &[[f32; 4]], interpolation: &str) {
+    let node = e.json["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .position(|nd| nd.get("mesh").is_some())
+        .unwrap();
+    let times = e.add(&[[0.0; 4], [0.5, 0.0, 0.0, 0.0]], 1, 5126);
+    let out = e.add(values, 1, 5126);
+    let anim = &mut e.json["animations"][0];
+    let samplers = anim["samplers"].as_array_mut().unwrap();
+    samplers.push(serde_json::json!({"input": times, "output": out, "interpolation": interpolation}));
+    let sampler = samplers.len() - 1;
+    anim["channels"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!({"sampler": sampler, "target": {"node": node, "path": "weights"}}));
+}
+
 /// Morph weight channels are played: the shape at every time is the file's base mesh moved
 /// by the sampled weight × the target's offsets, then skinned. A channel that holds the
 /// default weights throughout (as RobotExpressive's face does in all 14 clips) keeps no
@@ -583,22 +604,7 @@ fn morph_weight_channels_are_played() {
         for m in e.json["meshes"].as_array_mut().unwrap() {
             m["weights"] = serde_json::json!([0.5]);
         }
-        let node = e.json["nodes"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .position(|nd| nd.get("mesh").is_some())
-            .unwrap();
-        let times = e.add(&[[0.0; 4], [0.5, 0.0, 0.0, 0.0]], 1, 5126);
-        let out = e.add(&values, 1, 5126);
-        let anim = &mut e.json["animations"][0];
-        let samplers = anim["samplers"].as_array_mut().unwrap();
-        samplers.push(serde_json::json!({"input": times, "output": out, "interpolation": interpolation}));
-        let sampler = samplers.len() - 1;
-        anim["channels"]
-            .as_array_mut()
-            .unwrap()
-            .push(serde_json::json!({"sampler": sampler, "target": {"node": node, "path": "weights"}}));
+        animate_weights(&mut e, &values, interpolation);
         let imported = e.import(&format!("weights_{what}"));
         assert!(
             imported.warnings.iter().all(|w| !w.contains("not played")),
@@ -890,22 +896,7 @@ fn bad_morph_influence_and_transform_data_are_named() {
     for p in e.primitives() {
         p["targets"] = serde_json::json!([{"POSITION": long}]);
     }
-    let node = e.json["nodes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .position(|nd| nd.get("mesh").is_some())
-        .unwrap();
-    let times = e.add(&[[0.0; 4], [0.5, 0.0, 0.0, 0.0]], 1, 5126);
-    let out = e.add(&[[0.0; 4], [1.0, 0.0, 0.0, 0.0]], 1, 5126);
-    let anim = &mut e.json["animations"][0];
-    let samplers = anim["samplers"].as_array_mut().unwrap();
-    samplers.push(serde_json::json!({"input": times, "output": out}));
-    let sampler = samplers.len() - 1;
-    anim["channels"]
-        .as_array_mut()
-        .unwrap()
-        .push(serde_json::json!({"sampler": sampler, "target": {"node": node, "path": "weights"}}));
+    animate_weights(&mut e, &[[0.0; 4], [1.0, 0.0, 0.0, 0.0]], "LINEAR");
     let err = e.import_error("bad_animated_morph_count");
     assert!(
         err.contains("morph target 0 POSITION") && err.contains("one per vertex"),
