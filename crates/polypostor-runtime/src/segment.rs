@@ -378,14 +378,8 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
         };
         // A floor relative to the rig's own size (an absolute one took a character a tenth of a
         // millimetre tall for one lying flat, and named its arms as legs).
-        let extent = tree
-            .pos
-            .iter()
-            .chain(&rest)
-            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
-                (lo.min(*p), hi.max(*p))
-            });
-        let extent = (extent.1 - extent.0).max_element();
+        let (lo, hi) = crate::character::bounds(tree.pos.iter().chain(&rest).copied());
+        let extent = (hi - lo).max_element();
         let span = (top - ground).max(1e-3 * extent).max(f32::MIN_POSITIVE);
         // Points of a set of joints: their mesh where they carry any, else the joints.
         let points = |joints: &[usize]| -> Vec<Vec3> {

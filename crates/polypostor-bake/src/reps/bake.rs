@@ -492,20 +492,12 @@ pub fn simplify(character: &Character, positions: &[Vec3], triangles: usize) -> 
         .map(|i| {
             let p = positions[i];
             let q = ((p - lo) / cell).floor().as_i64vec3();
-            let mut found = None;
-            'near: for dz in -1..=1 {
-                for dy in -1..=1 {
-                    for dx in -1..=1 {
-                        let key = (q + glam::I64Vec3::new(dx, dy, dz)).to_array();
-                        if let Some(list) = grid.get(&key) {
-                            if let Some(&j) = list.iter().find(|&&j| positions[j as usize].distance(p) <= cell) {
-                                found = Some(j);
-                                break 'near;
-                            }
-                        }
-                    }
-                }
-            }
+            let near = (0..27).map(|k| q + glam::I64Vec3::new(k % 3 - 1, k / 3 % 3 - 1, k / 9 - 1));
+            let found = near.filter_map(|key| grid.get(&key.to_array())).find_map(|list| {
+                list.iter()
+                    .copied()
+                    .find(|&j| positions[j as usize].distance(p) <= cell)
+            });
             found.unwrap_or_else(|| {
                 grid.entry(q.to_array()).or_default().push(i as u32);
                 i as u32
