@@ -1006,3 +1006,49 @@ fn a_file_lying_along_any_axis_stands_up_when_its_up_axis_is_given() {
     assert_eq!(UpAxis::parse("Z"), Some(UpAxis::PosZ));
     assert_eq!(UpAxis::parse("up"), None);
 }
+
+/// Required extensions: lights and metadata leave the character as it is (imported, with a
+/// warning naming them); compression and image formats the importer cannot read are refused
+/// by name before any work (a file of Bevy's examples requires KHR_lights_punctual for one
+/// point light).
+#[test]
+fn required_extensions_are_ignored_only_where_they_change_nothing() {
+    let c = small_character();
+    let plain = import_slice(&write_glb(&c).unwrap(), None, "x").unwrap();
+    for ext in ["KHR_lights_punctual", "EXT_lights_image_based", "KHR_xmp_json_ld"] {
+        let mut e = Editable::of(&c);
+        e.json["extensionsRequired"] = serde_json::json!([ext]);
+        e.json["extensionsUsed"] = serde_json::json!([ext]);
+        if ext == "KHR_lights_punctual" {
+            e.json["extensions"] = serde_json::json!({ext: {"lights": [{"type": "point", "intensity": 80.0}]}});
+            e.json["nodes"][0]["extensions"] = serde_json::json!({ext: {"light": 0}});
+        }
+        let lit = e.import("required_light");
+        assert_eq!(lit.vertices.len(), plain.vertices.len(), "{ext}");
+        assert!(
+            lit.vertices
+                .iter()
+                .zip(&plain.vertices)
+                .all(|(a, b)| a.position == b.position),
+            "{ext} moved the mesh"
+        );
+        assert_eq!(lit.clips.len(), plain.clips.len(), "{ext}");
+        assert!(
+            lit.warnings.iter().any(|w| w.contains(ext)),
+            "{ext}: {:?}",
+            lit.warnings
+        );
+    }
+    for ext in [
+        "KHR_draco_mesh_compression",
+        "EXT_meshopt_compression",
+        "KHR_texture_basisu",
+        "EXT_texture_webp",
+    ] {
+        let mut e = Editable::of(&c);
+        e.json["extensionsRequired"] = serde_json::json!([ext]);
+        e.json["extensionsUsed"] = serde_json::json!([ext]);
+        let err = e.import_error("required_unreadable");
+        assert!(err.contains(ext), "{ext}: {err:?}");
+    }
+}

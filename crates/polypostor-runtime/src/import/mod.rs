@@ -261,6 +261,13 @@ fn check_asset(root: &json::Root, warnings: &mut Vec<String>) -> Result<(), Impo
             e if e.starts_with("KHR_materials_") => {
                 warnings.push(format!("required extension {e} is ignored"));
             }
+            // Lights and metadata: the bake lights every view its own way, and neither changes
+            // the character's shape, colours or motion.
+            e @ ("KHR_lights_punctual" | "EXT_lights_image_based" | "KHR_xmp_json_ld" | "KHR_xmp") => {
+                warnings.push(format!(
+                    "required extension {e} is ignored (it does not change the character)"
+                ));
+            }
             e => {
                 return Err(ImportError::Unsupported(format!("the file requires extension {e}")));
             }

@@ -1020,7 +1020,7 @@ pub fn fit_part_span(
     losing: Option<&dyn Fn(usize, f64) -> bool>,
 ) -> Result<(PartFit, Span), PartFitError> {
     let frames = tiles.len();
-    let key_polygon = targets_key_polygon(tiles, key, options)?;
+    let key_polygon = targets_key_polygon(tiles, key, options, pins)?;
     let key_triangles = triangulate(&key_polygon)?;
     let plan = Plan::new(key_polygon.len(), &key_triangles)?;
     let samples = SourceSamples::new(&tiles[key], &key_polygon, &key_triangles, options.fold_free);
@@ -1260,12 +1260,27 @@ fn subpixel_frames(
 }
 
 /// S: the key frame's outline simplified to [`PartFitOptions::key_vertices`].
+///
+/// A part whose every frame shows the key image itself (a prop at rest, a clip of one frame;
+/// no pins) draws that image in every frame, through the identity: its polygon need not
+/// follow the outline, only hold it, and the alpha test draws the outline exactly
+/// ([`crate::bake::contour::covering_polygon`]). Any other part keeps the traced outline,
+/// which the other frames' fits need (a covering key polygon took them 2–5 dB down).
 fn targets_key_polygon(
     tiles: &[PartTile],
     key: usize,
     options: &PartFitOptions,
+    pins: &[Vec<(usize, usize)>],
 ) -> Result<Vec<[f32; 2]>, PartFitError> {
-    polygon_of(&tiles[key], options.key_vertices, key)
+    let traced = polygon_of(&tiles[key], options.key_vertices, key)?;
+    let still = tiles.iter().all(|t| t.px == tiles[key].px) && pins.iter().all(|p| p.is_empty());
+    if still {
+        let most = options.key_vertices.min(options.final_vertices);
+        if let Some(cover) = crate::bake::contour::covering_polygon(&tiles[key].mask(), most) {
+            return Ok(cover);
+        }
+    }
+    Ok(traced)
 }
 
 #[cfg(test)]

@@ -276,6 +276,115 @@ pub fn signed_area2(poly: &[[f32; 2]]) -> f64 {
         .sum()
 }
 
+/// A convex polygon of at most `max_vertices` vertices (at least 3) that holds every covered
+/// pixel of `mask` whole, inside the mask's rectangle, clockwise on screen like the traced
+/// contours; `None` when nothing is covered or no such polygon was found.
+///
+/// For a part whose every frame shows the key image itself (a prop at rest, a clip of one
+/// frame), the alpha test, not the polygon, has to draw the outline: a polygon simplified
+/// from the traced contour cuts the corners of the pixel staircase (one or two pixels missing
+/// or added along every edge, the whole error of such a part), while this one leaves every
+/// covered texel in and the alpha test trims the rest exactly.
+///
+/// The convex hull of the covered pixels' corners, then greedily (least added area first) two
+/// neighbouring vertices replaced by the meeting point of the edges either side, which only
+/// ever grows the polygon.
+pub fn covering_polygon(mask: &Mask, max_vertices: usize) -> Option<Vec<[f32; 2]>> {
+    let (w, h) = (mask.width, mask.height);
+    let mut points: Vec<[f64; 2]> = Vec::new();
+    for y in 0..h {
+        let row = &mask.data[y * w..(y + 1) * w];
+        let (Some(x0), Some(x1)) = (row.iter().position(|&b| b), row.iter().rposition(|&b| b)) else {
+            continue;
+        };
+        for (x, yy) in [(x0, y), (x0, y + 1), (x1 + 1, y), (x1 + 1, y + 1)] {
+            points.push([x as f64, yy as f64]);
+        }
+    }
+    let mut hull = convex_hull(points);
+    if hull.len() < 3 {
+        return None;
+    }
+    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+    let (wf, hf) = (w as f64, h as f64);
+    let max_vertices = max_vertices.max(3);
+    while hull.len() > max_vertices {
+        let n = hull.len();
+        if n < 4 {
+            return None;
+        }
+        // Replacing vertices i and i + 1 by X, where the edges (i - 1, i) and (i + 1, i + 2)
+        // carried on meet: the polygon gains the triangle (i, X, i + 1).
+        let mut best: Option<(f64, usize, [f64; 2])> = None;
+        for i in 0..n {
+            let (p, a, b, q) = (hull[(i + n - 1) % n], hull[i], hull[(i + 1) % n], hull[(i + 2) % n]);
+            let (d1, d2) = ([a[0] - p[0], a[1] - p[1]], [b[0] - q[0], b[1] - q[1]]);
+            let den = d1[0] * d2[1] - d1[1] * d2[0];
+            if den.abs() < 1e-12 {
+                continue;
+            }
+            // a + t d1 = b + u d2
+            let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
+            let t = (ex * d2[1] - ey * d2[0]) / den;
+            let u = (ex * d1[1] - ey * d1[0]) / den;
+            if t < 0.0 || u < 0.0 {
+                continue;
+            }
+            let x = [a[0] + t * d1[0], a[1] + t * d1[1]];
+            if !(-1e-9..=wf + 1e-9).contains(&x[0]) || !(-1e-9..=hf + 1e-9).contains(&x[1]) {
+                continue;
+            }
+            let added = 0.5 * cross(a, x, b).abs();
+            if best.is_none_or(|(c, _, _)| added < c) {
+                best = Some((added, i, x));
+            }
+        }
+        let (_, i, x) = best?;
+        let x = [x[0].clamp(0.0, wf), x[1].clamp(0.0, hf)];
+        if i + 1 < n {
+            hull[i] = x;
+            hull.remove(i + 1);
+        } else {
+            // The pair wraps round: vertices n - 1 and 0.
+            hull[0] = x;
+            hull.pop();
+        }
+    }
+    let mut out: Vec<[f32; 2]> = hull.iter().map(|p| [p[0] as f32, p[1] as f32]).collect();
+    if signed_area2(&out) < 0.0 {
+        out.reverse();
+    }
+    Some(out)
+}
+
+/// Convex hull of `points` (Andrew's monotone chain), collinear points left out; in the
+/// order of increasing angle for y up (counter-clockwise), clockwise on screen.
+fn convex_hull(mut points: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
+    points.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    points.dedup();
+    if points.len() < 3 {
+        return points;
+    }
+    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+    let mut hull: Vec<[f64; 2]> = Vec::with_capacity(2 * points.len());
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &[f64; 2]>> = if pass == 0 {
+            Box::new(points.iter())
+        } else {
+            Box::new(points.iter().rev())
+        };
+        for &p in iter {
+            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0 {
+                hull.pop();
+            }
+            hull.push(p);
+        }
+        hull.pop();
+    }
+    hull
+}
+
 /// `poly` (a simple polygon, either orientation) grown outwards by `d`: every vertex moves
 /// along the bisector of its two edges' outward normals so that both edges move by `d`
 /// (mitred, the move limited to `2 d` at sharp spikes).
@@ -322,6 +431,84 @@ pub fn offset_outward(poly: &[[f32; 2]], d: f32) -> Vec<[f32; 2]> {
 mod tests {
     use super::*;
     use std::collections::HashSet;
+
+    /// The covering polygon holds every corner of every covered pixel (brute force over
+    /// random blobs, several islands, and one-pixel masks at the tile's edges), stays convex,
+    /// inside the tile, clockwise on screen and within its vertex budget, and adds little:
+    /// a square's is the square itself.
+    #[test]
+    fn the_covering_polygon_holds_every_covered_pixel() {
+        let inside = |poly: &[[f32; 2]], p: [f32; 2]| {
+            let n = poly.len();
+            (0..n).all(|i| {
+                let (a, b) = (poly[i], poly[(i + 1) % n]);
+                // Clockwise on screen: every point inside is on the right of each edge.
+                let c = (b[0] - a[0]) as f64 * (p[1] - a[1]) as f64 - (b[1] - a[1]) as f64 * (p[0] - a[0]) as f64;
+                c >= -1e-3
+            })
+        };
+        let mut seed = 7u64;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 33) as f32 / (1u64 << 31) as f32
+        };
+        for case in 0..200 {
+            let (w, h) = (8 + (rnd() * 60.0) as usize, 8 + (rnd() * 60.0) as usize);
+            let blobs: Vec<[f32; 3]> = (0..1 + case % 4)
+                .map(|_| [rnd() * w as f32, rnd() * h as f32, 1.0 + rnd() * 12.0])
+                .collect();
+            let m = Mask::from_fn(w, h, |x, y| {
+                blobs.iter().any(|b| {
+                    let (dx, dy) = (x as f32 + 0.5 - b[0], (y as f32 + 0.5 - b[1]) * 1.7);
+                    dx * dx + dy * dy <= b[2] * b[2]
+                })
+            });
+            let most = [4, 6, 12, 40][case % 4];
+            let Some(poly) = covering_polygon(&m, most) else {
+                assert!(m.data.iter().all(|&b| !b), "case {case}: no polygon for a covered mask");
+                continue;
+            };
+            assert!(
+                poly.len() >= 3 && poly.len() <= most,
+                "case {case}: {} vertices",
+                poly.len()
+            );
+            assert!(signed_area2(&poly) > 0.0, "case {case}: clockwise on screen");
+            for i in 0..poly.len() {
+                let (a, b, c) = (poly[i], poly[(i + 1) % poly.len()], poly[(i + 2) % poly.len()]);
+                let turn = (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0]);
+                assert!(turn >= -1e-3, "case {case}: not convex at {i}");
+                assert!(
+                    (0.0..=w as f32).contains(&a[0]) && (0.0..=h as f32).contains(&a[1]),
+                    "case {case}: {a:?} outside"
+                );
+            }
+            for y in 0..h {
+                for x in 0..w {
+                    if m.data[y * w + x] {
+                        for c in [[x, y], [x + 1, y], [x, y + 1], [x + 1, y + 1]] {
+                            assert!(
+                                inside(&poly, [c[0] as f32, c[1] as f32]),
+                                "case {case}: pixel ({x}, {y}) left out"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        let square = Mask::from_fn(20, 20, |x, y| (3..9).contains(&x) && (5..15).contains(&y));
+        let poly = covering_polygon(&square, 40).unwrap();
+        assert_eq!(poly.len(), 4);
+        assert!((signed_area2(&poly) / 2.0 - 60.0).abs() < 1e-9);
+        for corner in [
+            Mask::from_fn(5, 5, |x, y| x == 0 && y == 0),
+            Mask::from_fn(5, 5, |x, y| x == 4 && y == 4),
+        ] {
+            let poly = covering_polygon(&corner, 4).unwrap();
+            assert!(poly.len() <= 4 && signed_area2(&poly) > 0.0);
+        }
+        assert!(covering_polygon(&Mask::from_fn(5, 5, |_, _| false), 40).is_none());
+    }
 
     #[test]
     fn offsetting_pixel_centres_by_half_a_pixel_reaches_the_pixel_edges() {
