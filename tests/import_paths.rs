@@ -1052,3 +1052,31 @@ fn required_extensions_are_ignored_only_where_they_change_nothing() {
         assert!(err.contains(ext), "{ext}: {err:?}");
     }
 }
+
+/// A repository cloned without Git LFS holds a few lines of text in place of each model,
+/// buffer and texture (met in a game's repository of Bevy assets): the import says so, and how
+/// to get the real file, instead of "invalid JSON" or a short buffer.
+#[test]
+fn git_lfs_pointers_are_named_for_what_they_are() {
+    let pointer = b"version https://git-lfs.github.com/spec/v1\noid sha256:c696d4ead56e104d1393b7f6860a6cee68cdd744a8d5db46d63c1b0715068bd1\nsize 120240\n";
+    let dir = common::temp_dir("lfs_pointer");
+    let glb = dir.join("area.glb");
+    std::fs::write(&glb, pointer).unwrap();
+    let err = polypostor::import_path_with(&glb, Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("Git LFS pointer") && err.contains("120240") && err.contains("git lfs pull"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+
+    // The model itself is there, its external buffer is a pointer.
+    let mut e = Editable::of(&small_character());
+    e.bin = pointer.to_vec();
+    let err = e.import_error("lfs_buffer");
+    assert!(err.contains("Git LFS pointer") && err.contains("b.bin"), "{err}");
+    // Anything else of that length still reads as what it is.
+    assert!(polypostor::import::lfs_pointer(b"version 2\nsize 12\n").is_none());
+    assert!(polypostor::import::lfs_pointer(&[b' '; 2000]).is_none());
+}

@@ -132,6 +132,12 @@ pub fn import_slice_with(
     name: &str,
     options: ImportOptions,
 ) -> Result<Character, ImportError> {
+    if let Some(why) = lfs_pointer(bytes) {
+        return Err(ImportError::Io {
+            path: PathBuf::from(name),
+            message: why,
+        });
+    }
     let mut warnings = Vec::new();
     // A binary file that is not JSON is read as GLB, so a bad header is reported as such.
     let binary = !bytes.starts_with(&[0xEF, 0xBB, 0xBF]) && bytes.iter().take(12).any(|&b| b == 0 || b >= 0x80);
@@ -374,7 +380,34 @@ fn load_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>, String> {
         return r;
     }
     let path = resolve_uri(uri, base_dir)?;
-    read_file(&path).map_err(|e| e.to_string())
+    let bytes = read_file(&path).map_err(|e| e.to_string())?;
+    match lfs_pointer(&bytes) {
+        Some(why) => Err(format!("'{uri}': {why}")),
+        None => Ok(bytes),
+    }
+}
+
+/// What to say when `bytes` are a Git LFS pointer: the few lines of text a repository cloned
+/// without Git LFS holds in place of each large file (models, buffers, textures); `None` for
+/// anything else. Read as glTF it would fail as "invalid JSON" or a short buffer, which sends
+/// the user looking for damage that is not there.
+pub fn lfs_pointer(bytes: &[u8]) -> Option<String> {
+    const HEADER: &[u8] = b"version https://git-lfs.github.com/spec/";
+    if bytes.len() > 1024 || !bytes.starts_with(HEADER) {
+        return None;
+    }
+    let text = String::from_utf8_lossy(bytes);
+    let size = text
+        .lines()
+        .find_map(|l| l.strip_prefix("size "))
+        .and_then(|s| s.trim().parse::<u64>().ok());
+    let standing = match size {
+        Some(n) => format!("{} bytes of text standing for a file of {n} bytes", bytes.len()),
+        None => format!("{} bytes of text", bytes.len()),
+    };
+    Some(format!(
+        "it is a Git LFS pointer ({standing}), not the file itself: fetch the real file (`git lfs pull` in the repository it came from)"
+    ))
 }
 
 /// Loads every buffer. A buffer that cannot be loaded is kept as its error, reported only
