@@ -307,8 +307,11 @@ pub fn covering_polygon(mask: &Mask, max_vertices: usize) -> Option<Vec<[f32; 2]
     }
     let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
     let (wf, hf) = (w as f64, h as f64);
-    let max_vertices = max_vertices.max(3);
-    while hull.len() > max_vertices {
+    // Room for the four vertices that clipping to the tile can add (a part touching the
+    // tile's edges grows past them on the way).
+    let most = max_vertices.max(3);
+    let budget = most.saturating_sub(4).max(3);
+    while hull.len() > budget {
         let n = hull.len();
         if n < 4 {
             return None;
@@ -331,16 +334,12 @@ pub fn covering_polygon(mask: &Mask, max_vertices: usize) -> Option<Vec<[f32; 2]
                 continue;
             }
             let x = [a[0] + t * d1[0], a[1] + t * d1[1]];
-            if !(-1e-9..=wf + 1e-9).contains(&x[0]) || !(-1e-9..=hf + 1e-9).contains(&x[1]) {
-                continue;
-            }
             let added = 0.5 * cross(a, x, b).abs();
             if best.is_none_or(|(c, _, _)| added < c) {
                 best = Some((added, i, x));
             }
         }
         let (_, i, x) = best?;
-        let x = [x[0].clamp(0.0, wf), x[1].clamp(0.0, hf)];
         if i + 1 < n {
             hull[i] = x;
             hull.remove(i + 1);
@@ -350,11 +349,55 @@ pub fn covering_polygon(mask: &Mask, max_vertices: usize) -> Option<Vec<[f32; 2]
             hull.pop();
         }
     }
+    let hull = clip_to_rect(&hull, wf, hf);
+    if hull.len() < 3 || hull.len() > most {
+        return None;
+    }
     let mut out: Vec<[f32; 2]> = hull.iter().map(|p| [p[0] as f32, p[1] as f32]).collect();
     if signed_area2(&out) < 0.0 {
         out.reverse();
     }
     Some(out)
+}
+
+/// Convex polygon `poly` cut to the rectangle `[0, w] × [0, h]` (Sutherland–Hodgman), with
+/// repeated points left out.
+fn clip_to_rect(poly: &[[f64; 2]], w: f64, h: f64) -> Vec<[f64; 2]> {
+    let mut out = poly.to_vec();
+    // Each side as (axis, limit, keep below the limit?).
+    for (axis, limit, below) in [(0, 0.0, false), (0, w, true), (1, 0.0, false), (1, h, true)] {
+        let inside = |p: &[f64; 2]| if below { p[axis] <= limit } else { p[axis] >= limit };
+        let input = std::mem::take(&mut out);
+        let n = input.len();
+        for i in 0..n {
+            let (a, b) = (input[i], input[(i + 1) % n]);
+            if inside(&a) {
+                out.push(a);
+            }
+            if inside(&a) != inside(&b) {
+                let t = (limit - a[axis]) / (b[axis] - a[axis]);
+                let mut x = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+                x[axis] = limit;
+                out.push(x);
+            }
+        }
+    }
+    let mut clean: Vec<[f64; 2]> = Vec::with_capacity(out.len());
+    for p in out {
+        if clean
+            .last()
+            .is_none_or(|q| (q[0] - p[0]).abs() + (q[1] - p[1]).abs() > 1e-9)
+        {
+            clean.push(p);
+        }
+    }
+    while clean.len() > 1 && {
+        let (a, b) = (clean[0], clean[clean.len() - 1]);
+        (a[0] - b[0]).abs() + (a[1] - b[1]).abs() <= 1e-9
+    } {
+        clean.pop();
+    }
+    clean
 }
 
 /// Convex hull of `points` (Andrew's monotone chain), collinear points left out; in the
@@ -463,7 +506,7 @@ mod tests {
                     dx * dx + dy * dy <= b[2] * b[2]
                 })
             });
-            let most = [4, 6, 12, 40][case % 4];
+            let most = [8, 10, 16, 40][case % 4];
             let Some(poly) = covering_polygon(&m, most) else {
                 assert!(m.data.iter().all(|&b| !b), "case {case}: no polygon for a covered mask");
                 continue;
@@ -504,10 +547,20 @@ mod tests {
             Mask::from_fn(5, 5, |x, y| x == 0 && y == 0),
             Mask::from_fn(5, 5, |x, y| x == 4 && y == 4),
         ] {
-            let poly = covering_polygon(&corner, 4).unwrap();
+            let poly = covering_polygon(&corner, 8).unwrap();
             assert!(poly.len() <= 4 && signed_area2(&poly) > 0.0);
         }
         assert!(covering_polygon(&Mask::from_fn(5, 5, |_, _| false), 40).is_none());
+        // A part filling its tile to the edges (the grown polygon is cut back to the tile).
+        let full = covering_polygon(&Mask::from_fn(12, 9, |_, _| true), 40).unwrap();
+        assert_eq!(full.len(), 4);
+        assert!((signed_area2(&full) / 2.0 - 108.0).abs() < 1e-9);
+        let disc = Mask::from_fn(30, 30, |x, y| {
+            let (dx, dy) = (x as f32 - 14.5, y as f32 - 14.5);
+            dx * dx + dy * dy <= 20.0 * 20.0
+        });
+        let poly = covering_polygon(&disc, 40).expect("a disc cut by every side of its tile");
+        assert!(poly.len() <= 40);
     }
 
     #[test]
