@@ -103,6 +103,19 @@ struct WrittenKey {
     bytes: u64,
 }
 
+/// A key block's positions (pixels of `r`² tiles, frame by frame) as (x + 1) / 2, (y + 1) / 2
+/// of view-plane coordinates, one byte each inside the block's box (format 7).
+fn quantised_block(positions: &[Vec<[f32; 2]>], r: f32) -> (PositionBox, Vec<u8>) {
+    let values: Vec<f32> = positions
+        .iter()
+        .flatten()
+        .flat_map(|q| [q[0] / r, 1.0 - q[1] / r])
+        .collect();
+    let bx = PositionBox::around(&values);
+    let bytes = bx.quantise_all(&values);
+    (bx, bytes)
+}
+
 /// The texture coordinates of a key block (pixels of the key tile), moved with the positions'
 /// rounding where every frame of the block draws the key image itself (a still part: its
 /// positions are the texture coordinates): stored as bytes of the block's box, those
@@ -198,13 +211,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
             // Positions as (x + 1) / 2, (y + 1) / 2 of view-plane coordinates, one byte each
             // inside the block's box (format 7), x and y of a vertex in one u16 slot.
             let positions: Vec<Vec<[f32; 2]>> = (0..count).map(|s| fit.positions((start + s) % frames)).collect();
-            let values: Vec<f32> = positions
-                .iter()
-                .flatten()
-                .flat_map(|q| [q[0] / r, 1.0 - q[1] / r])
-                .collect();
-            let bx = PositionBox::around(&values);
-            let bytes = bx.quantise_all(&values);
+            let (bx, bytes) = quantised_block(&positions, r);
             for q in key_aligned_uvs(fit, &positions, &bx, &bytes, r) {
                 let t = rect.to_atlas(q);
                 vertices.push(unorm(t[0] / aw));
@@ -362,13 +369,7 @@ mod tests {
         for (moved, frames) in [(false, 1), (false, 5), (true, 5)] {
             let f = fit(frames, moved);
             let positions: Vec<Vec<[f32; 2]>> = (0..frames).map(|s| f.positions(s)).collect();
-            let values: Vec<f32> = positions
-                .iter()
-                .flatten()
-                .flat_map(|q| [q[0] / r, 1.0 - q[1] / r])
-                .collect();
-            let bx = PositionBox::around(&values);
-            let bytes = bx.quantise_all(&values);
+            let (bx, bytes) = quantised_block(&positions, r);
             let uvs = key_aligned_uvs(&f, &positions, &bx, &bytes, r);
             let decoded: Vec<f32> = bx.values(&bytes[..8]).collect();
             let drawn: Vec<[f32; 2]> = decoded
