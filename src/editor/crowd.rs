@@ -662,7 +662,11 @@ impl CrowdPanel {
                             others.join(", ")
                         ),
                     );
-                } else if assets.timeline.spans.iter().any(|c| c.ground_speed > 0.0) {
+                } else if gaits.walk.is_none() && gaits.run.is_none()
+                    || assets.timeline.spans.iter().any(|c| c.ground_speed > 0.0)
+                {
+                    // Nobody walks (a prop, a pack of standing clips), or the clips say how
+                    // fast: no speed of the crowd's own to show.
                     row(ui, "spacing", format!("{} apart", metres(p.min_distance)));
                 } else {
                     row(
