@@ -208,8 +208,6 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
          -> WrittenKey {
             let vertex_offset = vertices.len() as u64;
             let index_start = indices.len();
-            // Positions as (x + 1) / 2, (y + 1) / 2 of view-plane coordinates, one byte each
-            // inside the block's box (format 7), x and y of a vertex in one u16 slot.
             let positions: Vec<Vec<[f32; 2]>> = (0..count).map(|s| fit.positions((start + s) % frames)).collect();
             let (bx, bytes) = quantised_block(&positions, r);
             for q in key_aligned_uvs(fit, &positions, &bx, &bytes, r) {
@@ -218,6 +216,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                 vertices.push(unorm(t[1] / ah));
             }
             vertices.extend(bx.to_words());
+            // x and y of a vertex in one u16 slot.
             vertices.extend(bytes.chunks_exact(2).map(|xy| u16::from_le_bytes([xy[0], xy[1]])));
             let index_offset = indices.len() as u64;
             for t in &fit.triangles {

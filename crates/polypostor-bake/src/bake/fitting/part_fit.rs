@@ -1272,7 +1272,6 @@ fn targets_key_polygon(
     options: &PartFitOptions,
     pins: &[Vec<(usize, usize)>],
 ) -> Result<Vec<[f32; 2]>, PartFitError> {
-    let traced = polygon_of(&tiles[key], options.key_vertices, key)?;
     let still = tiles.iter().all(|t| t.px == tiles[key].px) && pins.iter().all(|p| p.is_empty());
     if still {
         let most = options.key_vertices.min(options.final_vertices);
@@ -1280,7 +1279,7 @@ fn targets_key_polygon(
             return Ok(cover);
         }
     }
-    Ok(traced)
+    polygon_of(&tiles[key], options.key_vertices, key)
 }
 
 #[cfg(test)]

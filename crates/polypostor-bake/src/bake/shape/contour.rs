@@ -305,7 +305,7 @@ pub fn covering_polygon(mask: &Mask, max_vertices: usize) -> Option<Vec<[f32; 2]
     if hull.len() < 3 {
         return None;
     }
-    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+    use crate::bake::simplify::orient as cross;
     let (wf, hf) = (w as f64, h as f64);
     // Room for the four vertices that clipping to the tile can add (a part touching the
     // tile's edges grows past them on the way).
@@ -408,7 +408,7 @@ fn convex_hull(mut points: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
     if points.len() < 3 {
         return points;
     }
-    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+    use crate::bake::simplify::orient as cross;
     let mut hull: Vec<[f64; 2]> = Vec::with_capacity(2 * points.len());
     for pass in 0..2 {
         let start = hull.len();
