@@ -228,7 +228,10 @@ fn joint_of_node(c: &Character, joints: &[usize], mut n: usize) -> Option<usize>
 
 /// The automatic segmentation.
 pub fn auto_segment(c: &Character) -> Segmentation {
-    if let Some(seg) = moving_pieces(c).or_else(|| morphing_pieces(c)) {
+    if let Some(seg) = moving_pieces(c)
+        .or_else(|| morphing_pieces(c))
+        .or_else(|| morphing_motion_parts(c))
+    {
         return seg;
     }
     let mut seg = skeleton_parts(c).0;
@@ -651,38 +654,8 @@ pub fn tidy_islands(neighbours: &[[u32; 3]], labels: &mut [u16]) -> usize {
         for &l in &labels[..tris] {
             totals[l as usize] += 1;
         }
-        // Pieces: connected by edges within one part.
-        let mut piece = vec![u32::MAX; tris];
-        let mut pieces: Vec<(u16, Vec<u32>)> = Vec::new();
-        for start in 0..tris {
-            if piece[start] != u32::MAX {
-                continue;
-            }
-            let id = pieces.len() as u32;
-            let label = labels[start];
-            let mut members = vec![start as u32];
-            piece[start] = id;
-            let mut k = 0;
-            while k < members.len() {
-                let t = members[k] as usize;
-                k += 1;
-                for &n in &neighbours[t] {
-                    let n = n as usize;
-                    if n < tris && piece[n] == u32::MAX && labels[n] == label {
-                        piece[n] = id;
-                        members.push(n as u32);
-                    }
-                }
-            }
-            pieces.push((label, members));
-        }
-        let mut largest = vec![None::<usize>; parts];
-        for (i, (l, m)) in pieces.iter().enumerate() {
-            let best = &mut largest[*l as usize];
-            if best.is_none_or(|b| pieces[b].1.len() < m.len()) {
-                *best = Some(i);
-            }
-        }
+        let pieces = label_pieces(neighbours, &labels[..tris]);
+        let largest = largest_pieces(&pieces, parts);
         let mut changed = false;
         for (i, (l, members)) in pieces.iter().enumerate() {
             if largest[*l as usize] == Some(i) || members.len() as f64 > ISLAND_SHARE * totals[*l as usize] as f64 {
@@ -722,6 +695,50 @@ pub fn tidy_islands(neighbours: &[[u32; 3]], labels: &mut [u16]) -> usize {
         }
     }
     moved
+}
+
+/// The pieces of every part: triangles connected by edges within one label, each with its
+/// label and members (`neighbours`: [`crate::character::triangle_neighbours`]).
+fn label_pieces(neighbours: &[[u32; 3]], labels: &[u16]) -> Vec<(u16, Vec<u32>)> {
+    let tris = labels.len().min(neighbours.len());
+    let mut piece = vec![u32::MAX; tris];
+    let mut pieces: Vec<(u16, Vec<u32>)> = Vec::new();
+    for start in 0..tris {
+        if piece[start] != u32::MAX {
+            continue;
+        }
+        let id = pieces.len() as u32;
+        let label = labels[start];
+        let mut members = vec![start as u32];
+        piece[start] = id;
+        let mut k = 0;
+        while k < members.len() {
+            let t = members[k] as usize;
+            k += 1;
+            for &n in &neighbours[t] {
+                let n = n as usize;
+                if n < tris && piece[n] == u32::MAX && labels[n] == label {
+                    piece[n] = id;
+                    members.push(n as u32);
+                }
+            }
+        }
+        pieces.push((label, members));
+    }
+    pieces
+}
+
+/// Each of `parts` labels' largest piece (an index into `pieces`), `None` for a label without one.
+fn largest_pieces(pieces: &[(u16, Vec<u32>)], parts: usize) -> Vec<Option<usize>> {
+    let mut largest = vec![None::<usize>; parts];
+    for (i, (l, m)) in pieces.iter().enumerate() {
+        if let Some(best) = largest.get_mut(*l as usize)
+            && best.is_none_or(|b| pieces[b].1.len() < m.len())
+        {
+            *best = Some(i);
+        }
+    }
+    largest
 }
 
 /// A head turning (or nodding, tilting) by more than this against the chest in any clip is a
@@ -955,6 +972,216 @@ fn morphing_pieces(c: &Character) -> Option<Segmentation> {
     Some(seg)
 }
 
+/// Most parts [`morphing_motion_parts`] cuts a one-piece morphing prop into.
+pub const MOTION_PARTS_MAX: usize = 6;
+
+/// How far apart (mean squared Frobenius distance per sampled pose) a triangle's rotations may
+/// be from its part's for [`morphing_motion_parts`] to stop cutting: `8 sin²(θ/2)` for two
+/// rotations θ apart, so 0.09 is about 12°.
+pub const MOTION_RESIDUAL: f64 = 0.09;
+
+/// Poses [`morphing_motion_parts`] samples, over all clips together.
+const MOTION_SAMPLES: usize = 32;
+
+/// At most this many rotation entries are held for [`morphing_motion_parts`] (fewer poses on a
+/// dense mesh): 96 MB of `f32`.
+const MOTION_FEATURES_MAX: usize = 24_000_000;
+
+/// A prop without joints, in one piece, whose clips move it by morph targets (a bird flapping
+/// its wings, a galloping horse: animations exported as blend shapes): parts that each turn as
+/// one. A Polypostor part is one warped image; a wing sweeping over the body cannot be one
+/// image with it. Each triangle's rotation from the rest pose (its edge and normal frame) at
+/// poses sampled over every clip is one feature vector; a weighted k-means (by rest area;
+/// the next centre at the triangle its part fits worst) adds parts until the triangles turn
+/// within about 12° of their part's rotations on average ([`MOTION_RESIDUAL`]) or there are
+/// [`MOTION_PARTS_MAX`]. Parts under [`PIECE_SHARE`] of the area join their nearest centre;
+/// every part keeps its largest connected piece (the others join the part they share most
+/// edges with). The largest part is "Body". `None` where that leaves one part (a blob that
+/// breathes, a cube that grows), for characters with joints and for props without animated
+/// morphs.
+fn morphing_motion_parts(c: &Character) -> Option<Segmentation> {
+    use glam::Mat3;
+    if c.morphs.is_empty() || c.bones.len() > 1 || c.indices.len() < 6 {
+        return None;
+    }
+    let clips: Vec<&crate::character::Clip> = c
+        .clips
+        .iter()
+        .filter(|k| !k.morph_channels.is_empty() && k.duration_secs.is_finite() && k.duration_secs > 0.0)
+        .collect();
+    if clips.is_empty() {
+        return None;
+    }
+    let tris = c.indices.len() / 3;
+    let per_clip = MOTION_SAMPLES.div_ceil(clips.len()).max(2);
+    let mut times: Vec<(usize, f32)> = clips
+        .iter()
+        .enumerate()
+        .flat_map(|(k, clip)| (0..per_clip).map(move |i| (k, clip.duration_secs * i as f32 / per_clip as f32)))
+        .collect();
+    let most = (MOTION_FEATURES_MAX / (9 * tris)).clamp(2, MOTION_SAMPLES);
+    if times.len() > most {
+        let n = times.len();
+        times = (0..most).map(|i| times[i * n / most]).collect();
+    }
+    let samples = times.len();
+    let dim = 9 * samples;
+    let frame = |p: &[Vec3], tri: &[u32]| -> Option<(Mat3, f32)> {
+        let at = |i: u32| p.get(i as usize).copied();
+        let (a, b, d) = (at(tri[0])?, at(tri[1])?, at(tri[2])?);
+        let e1 = b - a;
+        let n = e1.cross(d - a);
+        let area = 0.5 * n.length();
+        if !(area > 0.0 && area.is_finite() && e1.length_squared() > 0.0) {
+            return None;
+        }
+        let (u, w) = (e1.normalize(), n.normalize());
+        Some((Mat3::from_cols(u, w.cross(u), w), area))
+    };
+    let rest = crate::animation::skin_vertices(c, &crate::animation::Pose::rest(c)).0;
+    let rest_frames: Vec<Option<(Mat3, f32)>> = c.indices.chunks_exact(3).map(|t| frame(&rest, t)).collect();
+    let weight: Vec<f64> = rest_frames.iter().map(|f| f.map_or(0.0, |f| f.1 as f64)).collect();
+    let total: f64 = weight.iter().sum();
+    if !(total > 0.0 && total.is_finite()) {
+        return None;
+    }
+    let mut features = vec![0.0f32; tris * dim];
+    for (s, &(k, time)) in times.iter().enumerate() {
+        let pose = crate::animation::Pose::sample(c, clips[k], time);
+        let p = crate::animation::skin_vertices(c, &pose).0;
+        for (t, tri) in c.indices.chunks_exact(3).enumerate() {
+            let r = match (rest_frames[t], frame(&p, tri)) {
+                (Some((r0, _)), Some((r1, _))) => r1 * r0.transpose(),
+                _ => Mat3::IDENTITY,
+            };
+            features[t * dim + 9 * s..t * dim + 9 * s + 9].copy_from_slice(&r.to_cols_array());
+        }
+    }
+    let feature = |t: usize| &features[t * dim..(t + 1) * dim];
+    let distance = |a: &[f32], b: &[f32]| a.iter().zip(b).map(|(x, y)| ((x - y) as f64).powi(2)).sum::<f64>();
+    let mut centres: Vec<Vec<f32>> = Vec::new();
+    let mut labels = vec![0u16; tris];
+    let mut dist = vec![0.0f64; tris];
+    // Weighted means of the triangles of each label (a centre without triangles stays).
+    let update = |centres: &mut Vec<Vec<f32>>, labels: &[u16]| {
+        let mut sums = vec![vec![0.0f64; dim]; centres.len()];
+        let mut weights = vec![0.0f64; centres.len()];
+        for t in 0..tris {
+            let l = labels[t] as usize;
+            weights[l] += weight[t];
+            for (s, x) in sums[l].iter_mut().zip(feature(t)) {
+                *s += weight[t] * *x as f64;
+            }
+        }
+        for (l, centre) in centres.iter_mut().enumerate() {
+            if weights[l] > 0.0 {
+                *centre = sums[l].iter().map(|s| (s / weights[l]) as f32).collect();
+            }
+        }
+    };
+    let assign = |centres: &[Vec<f32>], labels: &mut [u16], dist: &mut [f64], allowed: &dyn Fn(usize) -> bool| {
+        for t in 0..tris {
+            let f = feature(t);
+            let (best, d) = (0..centres.len())
+                .filter(|&l| allowed(l))
+                .map(|l| (l, distance(f, &centres[l])))
+                .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+                .unwrap_or((0, 0.0));
+            labels[t] = best as u16;
+            dist[t] = d;
+        }
+    };
+    centres.push(vec![0.0; dim]);
+    update(&mut centres, &labels);
+    assign(&centres, &mut labels, &mut dist, &|_| true);
+    let residual = |dist: &[f64]| (0..tris).map(|t| weight[t] * dist[t]).sum::<f64>() / total / samples as f64;
+    while residual(&dist) > MOTION_RESIDUAL && centres.len() < MOTION_PARTS_MAX {
+        // The next centre: the triangle its part fits worst (by weight).
+        let worst = (0..tris)
+            .max_by(|&a, &b| (weight[a] * dist[a]).total_cmp(&(weight[b] * dist[b])).then(b.cmp(&a)))
+            .unwrap_or(0);
+        centres.push(feature(worst).to_vec());
+        for _ in 0..12 {
+            let before = labels.clone();
+            assign(&centres, &mut labels, &mut dist, &|_| true);
+            update(&mut centres, &labels);
+            if labels == before {
+                break;
+            }
+        }
+    }
+    if centres.len() < 2 {
+        return None;
+    }
+    // Parts too small for a part of their own join their nearest centre.
+    let mut area = vec![0.0f64; centres.len()];
+    for t in 0..tris {
+        area[labels[t] as usize] += weight[t];
+    }
+    let kept: Vec<bool> = area.iter().map(|&a| a >= PIECE_SHARE * total).collect();
+    assign(&centres, &mut labels, &mut dist, &|l| kept[l]);
+    // Each part keeps its largest connected piece.
+    let neighbours = rest_neighbours(c);
+    for _ in 0..8 {
+        let pieces = label_pieces(&neighbours, &labels);
+        let largest = largest_pieces(&pieces, centres.len());
+        let mut changed = false;
+        for (i, (l, members)) in pieces.iter().enumerate() {
+            if largest[*l as usize] == Some(i) {
+                continue;
+            }
+            let mut edges = vec![0usize; centres.len()];
+            for &t in members {
+                for &n in &neighbours[t as usize] {
+                    if let Some(&m) = labels.get(n as usize)
+                        && m != *l
+                    {
+                        edges[m as usize] += 1;
+                    }
+                }
+            }
+            if let Some(to) = (0..edges.len())
+                .filter(|&p| edges[p] > 0)
+                .max_by(|&a, &b| edges[a].cmp(&edges[b]).then(b.cmp(&a)))
+            {
+                for &t in members {
+                    labels[t as usize] = to as u16;
+                }
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    // Parts by area, largest first.
+    let mut area = vec![0.0f64; centres.len()];
+    for t in 0..tris {
+        area[labels[t] as usize] += weight[t];
+    }
+    let mut order: Vec<usize> = (0..centres.len()).filter(|&l| labels.contains(&(l as u16))).collect();
+    order.sort_by(|&a, &b| area[b].total_cmp(&area[a]).then(a.cmp(&b)));
+    if order.len() < 2 {
+        return None;
+    }
+    let mut rank = vec![0u16; centres.len()];
+    for (i, &l) in order.iter().enumerate() {
+        rank[l] = i as u16;
+    }
+    let parts = (0..order.len())
+        .map(|i| Part {
+            name: if i == 0 {
+                "Body".into()
+            } else {
+                format!("Part {}", i + 1)
+            },
+            color: PALETTE[i % PALETTE.len()],
+        })
+        .collect();
+    let labels = labels.iter().map(|&l| rank[l as usize]).collect();
+    Some(Segmentation { parts, labels })
+}
+
 /// The bone carrying most of a vertex's weight.
 fn main_bone(v: &crate::character::Vertex) -> usize {
     let k = (0..4)
@@ -1082,6 +1309,111 @@ mod tests {
         let mut rigged = c.clone();
         rigged.bones.push(rigged.bones[0]);
         assert!(morphing_pieces(&rigged).is_none());
+    }
+
+    /// A prop in one piece whose clip moves it by morph targets — a flap hinged on a plate,
+    /// swinging up and down (each target the flap turned by another angle) — gets two parts
+    /// split at the hinge, the same whatever the prop's size, place and orientation; a prop
+    /// whose targets only grow it (no triangle turns) stays one part. Independent answer: the
+    /// flap's triangles as built (quads right of the hinge column).
+    #[test]
+    fn a_morphing_prop_in_one_piece_gets_a_part_per_turning_region() {
+        use crate::character::{Bone, Clip, Interpolation, MorphChannel, MorphTarget, Node, Skeleton, Transform};
+        let n = 10;
+        let hinge = 6.0;
+        let build = |scale: f32, turn: glam::Quat, shift: Vec3, flap: bool| {
+            let mut c = grid(n, false);
+            c.skeleton = Skeleton {
+                nodes: vec![Node {
+                    name: "root".into(),
+                    parent: None,
+                    rest: Transform::IDENTITY,
+                    is_joint: true,
+                }],
+            };
+            c.bones = vec![Bone {
+                node: 0,
+                inverse_bind: glam::Mat4::IDENTITY,
+            }];
+            let place = |p: Vec3| turn * (p * scale) + shift;
+            let rest: Vec<Vec3> = c.vertices.iter().map(|v| v.position).collect();
+            for v in &mut c.vertices {
+                v.position = place(v.position);
+            }
+            let angles = [-50.0f32, 0.0, 50.0];
+            c.morphs = angles
+                .iter()
+                .map(|&deg| {
+                    let swing = glam::Quat::from_rotation_y(deg.to_radians());
+                    let vertices: Vec<u32> = (0..rest.len() as u32).collect();
+                    let positions = rest
+                        .iter()
+                        .map(|&p| {
+                            let moved = if !flap {
+                                p * (1.0 + deg.abs() / 100.0)
+                            } else if p.x > hinge {
+                                Vec3::new(hinge, 0.0, 0.0) + swing * (p - Vec3::new(hinge, 0.0, 0.0))
+                            } else {
+                                p
+                            };
+                            place(moved) - place(p)
+                        })
+                        .collect();
+                    MorphTarget {
+                        name: format!("swing {deg}"),
+                        rest_weight: 0.0,
+                        normals: vec![Vec3::ZERO; rest.len()],
+                        vertices,
+                        positions,
+                    }
+                })
+                .collect();
+            c.clips = vec![Clip {
+                name: "flap".into(),
+                duration_secs: 1.0,
+                channels: Vec::new(),
+                in_place_velocity: Vec3::ZERO,
+                morph_channels: vec![MorphChannel {
+                    targets: vec![0, 1, 2],
+                    interpolation: Interpolation::Linear,
+                    times: vec![0.0, 0.25, 0.5, 0.75, 1.0],
+                    values: vec![
+                        1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0,
+                    ],
+                }],
+            }];
+            c
+        };
+        // Quad (x, y) holds triangles 2 (y n + x) and + 1: the flap is the quads right of the hinge.
+        let on_flap = |t: usize| (t / 2) % n >= hinge as usize;
+        let poses = [
+            (1.0, glam::Quat::IDENTITY, Vec3::ZERO),
+            (
+                100.0,
+                glam::Quat::from_rotation_x(1.1) * glam::Quat::from_rotation_z(0.4),
+                Vec3::new(3.0, -40.0, 7.0),
+            ),
+            (0.001, glam::Quat::from_rotation_y(2.0), Vec3::new(0.0, 0.002, 0.0)),
+        ];
+        for (scale, turn, shift) in poses {
+            let c = build(scale, turn, shift, true);
+            let seg = auto_segment(&c);
+            assert_eq!(seg.parts.len(), 2, "scale {scale}: {:?}", seg.parts);
+            assert_eq!(seg.parts[0].name, "Body");
+            let tris = c.indices.len() / 3;
+            let flap_label = seg.labels[2 * (n - 1)];
+            for t in 0..tris {
+                assert_eq!(seg.labels[t] == flap_label, on_flap(t), "scale {scale}: triangle {t}");
+            }
+            // The plate (6 of 10 columns) is the larger part.
+            assert_ne!(flap_label, 0, "scale {scale}");
+        }
+        let grows = build(1.0, glam::Quat::IDENTITY, Vec3::ZERO, false);
+        assert_eq!(
+            auto_segment(&grows).parts.len(),
+            1,
+            "growing turns no triangle: one part"
+        );
     }
 
     /// A flat grid of `n`×`n` unit quads (two triangles each, quad `(x, y)` holding triangles

@@ -418,6 +418,18 @@ pub fn part_id_character(c: &Character, labels: &[u32]) -> Character {
         }
     }
     out.indices = (0..out.vertices.len() as u32).collect();
+    // Every corner is a vertex of its own now: the morph targets move the corners of the
+    // vertices they moved (with the old numbering they moved other triangles' corners: a
+    // morphing character drew as scattered shards).
+    if !c.morphs.is_empty() {
+        let origins: Vec<Vec<(u32, f32)>> = c
+            .indices
+            .chunks_exact(3)
+            .flatten()
+            .map(|&i| vec![(if (i as usize) < c.vertices.len() { i } else { 0 }, 1.0)])
+            .collect();
+        out.morphs = c.morphs_remapped(&origins);
+    }
     out.textures.clear();
     out.materials = vec![crate::character::Material {
         name: "part id".into(),
@@ -577,6 +589,39 @@ mod tests {
         let id = part_id_character(&c, &labels);
         assert_eq!(id.vertices.len(), c.indices.len());
         assert_eq!(id.triangle_count(), c.triangle_count());
+    }
+
+    /// A morphing character's part-id copy (one vertex per corner) puts every corner where the
+    /// character itself puts it at a pose with the targets weighed in: the targets follow the
+    /// corners (with the old vertex numbers they moved other triangles' corners, and the
+    /// segmentation view of a morphing bird drew scattered shards).
+    #[test]
+    fn part_id_character_morphs_like_the_character() {
+        let mut c = crate::default_character::generate();
+        let moved: Vec<u32> = (0..c.vertices.len() as u32).filter(|v| v % 3 == 0).collect();
+        c.morphs = vec![crate::character::MorphTarget {
+            name: "bulge".into(),
+            rest_weight: 0.0,
+            positions: moved
+                .iter()
+                .map(|&v| Vec3::new(0.01 * (v % 7) as f32, 0.02, -0.03))
+                .collect(),
+            normals: vec![Vec3::ZERO; moved.len()],
+            vertices: moved,
+        }];
+        let id = part_id_character(&c, &[]);
+        let mut pose = Pose::rest(&c);
+        pose.morph_weights = vec![0.8];
+        let mut id_pose = Pose::rest(&id);
+        id_pose.morph_weights = vec![0.8];
+        let (posed, _) = crate::animation::skin_vertices(&c, &pose);
+        let (id_posed, _) = crate::animation::skin_vertices(&id, &id_pose);
+        let mut moved_corners = 0;
+        for (corner, &v) in c.indices.iter().enumerate() {
+            assert!(id_posed[corner].distance(posed[v as usize]) < 1e-5, "corner {corner}");
+            moved_corners += usize::from(v % 3 == 0);
+        }
+        assert!(moved_corners > 0);
     }
 
     #[test]
