@@ -4,6 +4,10 @@ use std::path::{Path, PathBuf};
 
 use super::*;
 
+/// Below this mean brightest channel of the real mesh's covered pixels, `compare` says that
+/// PSNR and SSIM see little of the character's shape errors.
+pub const DARK_CHARACTER: f64 = 0.1;
+
 /// `compare`: memory and error of every representation in a baked folder against the real
 /// mesh; writes the plots, the quality sheet and `compare.json` into `out`.
 pub fn compare(
@@ -172,6 +176,24 @@ pub fn compare(
             e.mean_ssim_between_frames,
             e.worst_view,
             e.worst_view_psnr
+        );
+    }
+    say_part!(
+        t,
+        "silhouette agreement (IoU of the covered pixels, all display times):"
+    );
+    for e in &errors {
+        say_part!(t, " {} {:.3}", e.representation, e.mean_silhouette_iou);
+    }
+    say!(t, "");
+    if let Some(e) = errors.first()
+        && e.truth_brightness < DARK_CHARACTER
+    {
+        say!(
+            t,
+            "note: the character is nearly black (its brightest channel averages {:.2}): PSNR and SSIM compare \
+             colour against a black background and see little of its shape errors; read the silhouette agreement",
+            e.truth_brightness
         );
     }
     // A whole-character pack: each clip's error per representation.

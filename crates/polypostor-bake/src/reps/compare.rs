@@ -50,6 +50,14 @@ pub struct ErrorRow {
     pub mean_ssim: f64,
     pub mean_ssim_on_frames: f64,
     pub mean_ssim_between_frames: f64,
+    /// Mean silhouette agreement over every display time and view: the pixels both images
+    /// cover over the pixels either covers ([`silhouette_iou`]), whatever their colours. PSNR
+    /// and SSIM weigh a pixel one image covers and the other does not by its colour against
+    /// the black background, so they cannot see a dark character's shape errors; this can.
+    pub mean_silhouette_iou: f64,
+    /// How dark the real mesh's images are: the mean over their covered pixels of the
+    /// brightest channel (0..1). Under about 0.1 PSNR and SSIM see little of the shape.
+    pub truth_brightness: f64,
     /// The compared view with the lowest mean PSNR, and that PSNR.
     pub worst_view: usize,
     pub worst_view_psnr: f64,
@@ -276,6 +284,9 @@ pub fn errors(
     // sums[level][time]: RMSE and SSIM summed over views.
     let mut sums = vec![vec![(0.0f64, 0.0f64); times.len()]; levels.len()];
     let mut per_view: Vec<Vec<ViewError>> = vec![Vec::new(); levels.len()];
+    // Silhouette IoU summed over every view and time, with the count; the truth's brightness.
+    let mut iou = vec![(0.0f64, 0usize); levels.len()];
+    let mut brightness = (0.0f64, 0usize);
     let mut counted = 0usize;
     for (n, &v) in views.iter().enumerate() {
         progress(n, views.len());
@@ -286,12 +297,18 @@ pub fn errors(
         let mut here = vec![(0.0f64, 0.0f64, 0u32, -1.0f64); levels.len()];
         for (k, &t) in times.iter().enumerate() {
             let Some(truth) = renders.truth(v, t)? else { continue };
+            for p in truth.pixels().filter(|p| p[3] > 127) {
+                brightness.0 += p[0].max(p[1]).max(p[2]) as f64 / 255.0;
+                brightness.1 += 1;
+            }
             for (li, &level) in levels.iter().enumerate() {
                 let Some(img) = renders.level(level, v, t)? else {
                     continue;
                 };
                 let rmse = masked_rmse(&truth, &img);
                 let ssim = crate::metrics::ssim_rgba8(&truth, &img).unwrap_or(0.0);
+                iou[li].0 += silhouette_iou(&truth, &img);
+                iou[li].1 += 1;
                 sums[li][k].0 += rmse;
                 sums[li][k].1 += ssim;
                 let h = &mut here[li];
@@ -316,11 +333,13 @@ pub fn errors(
     }
     progress(views.len(), views.len());
     let n = counted.max(1) as f64;
+    let truth_brightness = brightness.0 / brightness.1.max(1) as f64;
     Ok(levels
         .iter()
         .zip(&sums)
         .zip(per_view)
-        .map(|((level, s), per_view)| {
+        .zip(&iou)
+        .map(|(((level, s), per_view), iou)| {
             let samples: Vec<ErrorSample> = times
                 .iter()
                 .zip(s)
@@ -367,6 +386,8 @@ pub fn errors(
                 mean_ssim: all.1,
                 mean_ssim_on_frames: on.1,
                 mean_ssim_between_frames: between.1,
+                mean_silhouette_iou: if iou.1 == 0 { 1.0 } else { iou.0 / iou.1 as f64 },
+                truth_brightness,
                 worst_view: worst.map_or(0, |w| w.view),
                 worst_view_psnr: worst.map_or(0.0, |w| w.psnr),
                 samples,
@@ -375,6 +396,18 @@ pub fn errors(
             }
         })
         .collect())
+}
+
+/// The pixels both images cover (alpha over half) over the pixels either covers; 1 when
+/// neither covers any.
+pub fn silhouette_iou(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
+    let (mut both, mut either) = (0usize, 0usize);
+    for (p, q) in a.pixels().zip(b.pixels()) {
+        let (ca, cb) = (p[3] > 127, q[3] > 127);
+        both += usize::from(ca && cb);
+        either += usize::from(ca || cb);
+    }
+    if either == 0 { 1.0 } else { both as f64 / either as f64 }
 }
 
 /// RMSE (0..1) of colour × coverage over the pixels either image covers.
@@ -412,6 +445,13 @@ mod tests {
         assert_eq!(masked_rmse(&a, &b), 0.0);
         b.put_pixel(1, 0, image::Rgba([0, 0, 0, 255]));
         assert_eq!(masked_rmse(&a, &b), 0.0, "black on black background");
+        // The silhouette sees that black pixel: 1 of the 2 covered pixels is covered by both.
+        assert_eq!(silhouette_iou(&a, &b), 0.5);
+        assert_eq!(silhouette_iou(&b, &b), 1.0);
+        assert_eq!(
+            silhouette_iou(&image::RgbaImage::new(4, 4), &image::RgbaImage::new(4, 4)),
+            1.0
+        );
         assert_eq!(chosen_views(10, 0).len(), 10);
         assert_eq!(chosen_views(137, 24).len(), 24);
         assert_eq!(chosen_views(5, 24), vec![0, 1, 2, 3, 4]);

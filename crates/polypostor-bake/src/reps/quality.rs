@@ -194,6 +194,8 @@ mod tests {
             mean_ssim: 0.0,
             mean_ssim_on_frames: 0.0,
             mean_ssim_between_frames: 0.0,
+            mean_silhouette_iou: 1.0,
+            truth_brightness: 0.5,
             worst_view: 0,
             worst_view_psnr: 0.0,
             samples: Vec::new(),
