@@ -544,4 +544,17 @@ fn a_still_prop_is_drawn_nearly_as_well_as_by_impostors() {
     let (poly, imp) = (psnr("polypostor"), psnr("impostor"));
     eprintln!("Polypostor {poly:.2} dB, impostors {imp:.2} dB");
     assert!(poly >= imp - 4.0, "Polypostor {poly:.1} dB, impostors {imp:.1} dB");
+    // The silhouette agreement of each row, and the real mesh's brightness: the skinned mesh
+    // is the real one (agreement 1), the others cover nearly what it covers, the default
+    // character is not dark.
+    for r in v["error"].as_array().unwrap() {
+        let iou = r["mean_silhouette_iou"].as_f64().expect("silhouette agreement");
+        let name = r["representation"].as_str().unwrap();
+        if name == "skinned" {
+            assert!(iou > 0.999, "skinned: {iou}");
+        }
+        assert!((0.8..=1.0).contains(&iou), "{name}: silhouette agreement {iou}");
+        let bright = r["truth_brightness"].as_f64().expect("brightness");
+        assert!(bright > 0.1 && bright <= 1.0, "{name}: brightness {bright}");
+    }
 }
