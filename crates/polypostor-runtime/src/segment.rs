@@ -956,16 +956,7 @@ fn morphing_pieces(c: &Character) -> Option<Segmentation> {
             kept.iter().position(|&x| x == k).unwrap_or(nearest) as u16
         })
         .collect();
-    let parts = (0..kept.len())
-        .map(|i| Part {
-            name: if i == 0 {
-                "Body".into()
-            } else {
-                format!("Piece {}", i + 1)
-            },
-            color: PALETTE[i % PALETTE.len()],
-        })
-        .collect();
+    let parts = numbered_parts(kept.len(), "Piece");
     let labels = piece.iter().map(|&k| part_of[k]).collect();
     let mut seg = Segmentation { parts, labels };
     compact(&mut seg);
@@ -1168,18 +1159,23 @@ fn morphing_motion_parts(c: &Character) -> Option<Segmentation> {
     for (i, &l) in order.iter().enumerate() {
         rank[l] = i as u16;
     }
-    let parts = (0..order.len())
+    let parts = numbered_parts(order.len(), "Part");
+    let labels = labels.iter().map(|&l| rank[l as usize]).collect();
+    Some(Segmentation { parts, labels })
+}
+
+/// `count` parts in palette order: "Body", then `"{word} 2"`, `"{word} 3"`, …
+fn numbered_parts(count: usize, word: &str) -> Vec<Part> {
+    (0..count)
         .map(|i| Part {
             name: if i == 0 {
                 "Body".into()
             } else {
-                format!("Part {}", i + 1)
+                format!("{word} {}", i + 1)
             },
             color: PALETTE[i % PALETTE.len()],
         })
-        .collect();
-    let labels = labels.iter().map(|&l| rank[l as usize]).collect();
-    Some(Segmentation { parts, labels })
+        .collect()
 }
 
 /// The bone carrying most of a vertex's weight.
