@@ -531,14 +531,272 @@ pub fn simplify(character: &Character, positions: &[Vec3], triangles: usize) -> 
     if welded.len() <= target {
         return welded;
     }
-    let mut out = meshopt::simplify_decoder(&welded, &pos, target, 1.0, meshopt::SimplifyOptions::None, None);
-    if out.len() > target + target / 10 || out.is_empty() {
-        out = meshopt::simplify_sloppy_decoder(&welded, &pos, target, 1.0, None);
+    let limit = target + target / 10;
+    let within = |c: &Vec<u32>| !c.is_empty() && c.len() <= limit;
+    // Candidates, the one whose outline is truest from every side kept:
+    // - the quadric simplifier on the welded mesh as it stands (the welded-away duplicates
+    //   stay in the vertex list, unused; the simplifier takes them for attribute seams and
+    //   holds their vertices still, which keeps some features and leaves many-piece
+    //   characters far above the target);
+    // - the same on the used vertices only, free to move every vertex;
+    // - the budget shared out over the connected pieces by area, each simplified alone (thin
+    //   props and limbs modelled apart keep their share instead of collapsing);
+    // - the clustering simplifier over the whole mesh.
+    let mut candidates: Vec<Vec<u32>> = Vec::new();
+    let as_is = meshopt::simplify_decoder(&welded, &pos, target, 1.0, meshopt::SimplifyOptions::None, None);
+    let compacted: Vec<u32> = {
+        let (kept, local) = compact_u32(&welded);
+        let local_pos: Vec<[f32; 3]> = kept.iter().map(|&v| pos[v as usize]).collect();
+        meshopt::simplify_decoder(&local, &local_pos, target, 1.0, meshopt::SimplifyOptions::None, None)
+            .iter()
+            .map(|&l| kept[l as usize])
+            .collect()
+    };
+    let by_pieces = simplify_by_pieces(&welded, &pos, target);
+    log::debug!(
+        "NP3D mesh candidates: {} / {} / {} triangles ({} asked)",
+        as_is.len() / 3,
+        compacted.len() / 3,
+        by_pieces.len() / 3,
+        triangles
+    );
+    let sloppy = meshopt::simplify_sloppy_decoder(&welded, &pos, target, 1.0, None);
+    let all = [as_is, compacted, by_pieces, sloppy];
+    for c in all.iter().filter(|c| within(c)) {
+        if !candidates.contains(c) {
+            candidates.push(c.clone());
+        }
     }
-    if out.is_empty() {
-        out = welded;
+    let out = match candidates.len() {
+        // None reaches the target: the smallest there is.
+        0 => all.into_iter().filter(|c| !c.is_empty()).min_by_key(Vec::len).unwrap_or_default(),
+        1 => candidates.pop().unwrap_or_default(),
+        _ => {
+            let truth = OutlineProbe::new(&pos, &welded);
+            candidates
+                .into_iter()
+                .map(|c| (truth.agreement(&pos, &c), c))
+                .max_by(|a, b| a.0.total_cmp(&b.0))
+                .map(|(_, c)| c)
+                .unwrap_or_default()
+        }
+    };
+    if out.is_empty() { welded } else { out }
+}
+
+/// The outline of a mesh seen from seven sides (front, back, both sides, above and two
+/// raised three-quarter views; orthographic, all framed by the mesh's bounding sphere) as
+/// coverage masks, for comparing simplifications of it by silhouette agreement (IoU).
+struct OutlineProbe {
+    centre: Vec3,
+    radius: f32,
+    masks: Vec<Vec<bool>>,
+}
+
+impl OutlineProbe {
+    const SIZE: usize = 96;
+
+    fn directions() -> [(Vec3, Vec3); 7] {
+        let raised = |yaw: f32| {
+            let d = Vec3::new(yaw.sin() * 0.866, 0.5, yaw.cos() * 0.866);
+            (d, Vec3::Y)
+        };
+        [
+            (Vec3::Z, Vec3::Y),
+            (-Vec3::Z, Vec3::Y),
+            (Vec3::X, Vec3::Y),
+            (-Vec3::X, Vec3::Y),
+            (Vec3::Y, Vec3::Z),
+            raised(0.8),
+            raised(-2.3),
+        ]
+    }
+
+    fn new(pos: &[[f32; 3]], indices: &[u32]) -> Self {
+        let (lo, hi) = crate::character::bounds(indices.iter().map(|&i| Vec3::from(pos[i as usize])));
+        let centre = (lo + hi) * 0.5;
+        let radius = ((hi - lo).length() * 0.5).max(f32::MIN_POSITIVE);
+        let mut probe = OutlineProbe {
+            centre,
+            radius,
+            masks: Vec::new(),
+        };
+        probe.masks = probe.draw(pos, indices);
+        probe
+    }
+
+    /// One coverage mask per direction: a pixel is covered when its centre lies in a
+    /// projected triangle (either winding).
+    fn draw(&self, pos: &[[f32; 3]], indices: &[u32]) -> Vec<Vec<bool>> {
+        let n = Self::SIZE;
+        Self::directions()
+            .iter()
+            .map(|&(d, up)| {
+                let right = up.cross(d).normalize();
+                let up = d.cross(right).normalize();
+                let to_px = |p: Vec3| {
+                    let q = p - self.centre;
+                    let s = n as f32 * 0.5 / self.radius;
+                    glam::Vec2::new(q.dot(right) * s + n as f32 * 0.5, q.dot(up) * s + n as f32 * 0.5)
+                };
+                let mut mask = vec![false; n * n];
+                for t in indices.chunks_exact(3) {
+                    let [a, b, c] = [0, 1, 2].map(|k| to_px(Vec3::from(pos[t[k] as usize])));
+                    let area = (b - a).perp_dot(c - a);
+                    if area == 0.0 {
+                        continue;
+                    }
+                    let lo = a.min(b).min(c).floor().max(glam::Vec2::ZERO);
+                    let hi = a.max(b).max(c).ceil().min(glam::Vec2::splat(n as f32));
+                    for y in lo.y as usize..hi.y as usize {
+                        for x in lo.x as usize..hi.x as usize {
+                            let p = glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+                            let w = [(c - b).perp_dot(p - b), (a - c).perp_dot(p - c), (b - a).perp_dot(p - a)];
+                            if w.iter().all(|&w| w * area >= 0.0) {
+                                mask[y * n + x] = true;
+                            }
+                        }
+                    }
+                }
+                mask
+            })
+            .collect()
+    }
+
+    /// The mean over the directions of the IoU of `indices`' outline with the probe's.
+    fn agreement(&self, pos: &[[f32; 3]], indices: &[u32]) -> f64 {
+        let masks = self.draw(pos, indices);
+        let ious = self.masks.iter().zip(&masks).map(|(a, b)| {
+            let both = a.iter().zip(b).filter(|(a, b)| **a && **b).count();
+            let either = a.iter().zip(b).filter(|(a, b)| **a || **b).count();
+            if either == 0 { 1.0 } else { both as f64 / either as f64 }
+        });
+        ious.sum::<f64>() / self.masks.len() as f64
+    }
+}
+
+/// The fewest triangles a piece is given; pieces whose share of the area would buy fewer are
+/// left out (their share goes to the others).
+const PIECE_MIN_TRIANGLES: usize = 8;
+
+/// `indices` (a welded triangle list) simplified to about `target` indices by connected
+/// piece: each piece gets a share of the triangles in proportion to its area, pieces whose
+/// share is under [`PIECE_MIN_TRIANGLES`] are dropped, and each kept piece is simplified
+/// alone (quadric, then clustering where the quadric one cannot reach the share).
+fn simplify_by_pieces(indices: &[u32], pos: &[[f32; 3]], target: usize) -> Vec<u32> {
+    let pieces = connected_pieces(indices, pos.len());
+    let area = |tris: &[u32]| -> f64 {
+        tris.chunks_exact(3)
+            .map(|t| {
+                let [a, b, c] = [0, 1, 2].map(|k| Vec3::from(pos[t[k] as usize]));
+                0.5 * f64::from((b - a).cross(c - a).length())
+            })
+            .sum()
+    };
+    let areas: Vec<f64> = pieces.iter().map(|p| area(p)).collect();
+    let triangles = (target / 3).max(PIECE_MIN_TRIANGLES);
+    // Drop the pieces too small for the minimum until every kept one affords it.
+    let mut kept: Vec<usize> = (0..pieces.len()).filter(|&i| areas[i] > 0.0).collect();
+    kept.sort_by(|&a, &b| areas[b].total_cmp(&areas[a]).then(a.cmp(&b)));
+    loop {
+        let total: f64 = kept.iter().map(|&i| areas[i]).sum();
+        let share = |i: usize| areas[i] / total * triangles as f64;
+        let keep = kept
+            .iter()
+            .take_while(|&&i| share(i) >= PIECE_MIN_TRIANGLES as f64)
+            .count()
+            .max(1);
+        if keep == kept.len() {
+            break;
+        }
+        kept.truncate(keep);
+    }
+    let total: f64 = kept.iter().map(|&i| areas[i]).sum();
+    let mut out = Vec::new();
+    for &i in &kept {
+        let piece = &pieces[i];
+        let share = ((areas[i] / total * triangles as f64).floor() as usize).max(PIECE_MIN_TRIANGLES) * 3;
+        if piece.len() <= share {
+            out.extend_from_slice(piece);
+            continue;
+        }
+        // The piece alone, so that the simplifiers' error and grid are scaled to it (over
+        // the whole character's box the clustering one collapsed a thin arm to nothing).
+        let (kept_vertices, local) = compact_u32(piece);
+        let local_pos: Vec<[f32; 3]> = kept_vertices.iter().map(|&v| pos[v as usize]).collect();
+        let quadric = meshopt::simplify_decoder(&local, &local_pos, share, 1.0, meshopt::SimplifyOptions::None, None);
+        let mut s = quadric.clone();
+        if s.len() > share + share / 2 || s.is_empty() {
+            // Clustering, asking for more where it leaves next to nothing.
+            let mut ask = share;
+            loop {
+                let sloppy = meshopt::simplify_sloppy_decoder(&local, &local_pos, ask, 1.0, None);
+                if sloppy.len() >= 12 && sloppy.len() < quadric.len() {
+                    s = sloppy;
+                    break;
+                }
+                if sloppy.len() >= quadric.len() || ask >= local.len() {
+                    break;
+                }
+                ask *= 2;
+            }
+        }
+        let s: Vec<u32> = s.iter().map(|&l| kept_vertices[l as usize]).collect();
+        out.extend_from_slice(&s);
     }
     out
+}
+
+/// The vertices `indices` use (in first-use order) and the indices renumbered into them.
+fn compact_u32(indices: &[u32]) -> (Vec<u32>, Vec<u32>) {
+    let mut map: rustc_hash::FxHashMap<u32, u32> = Default::default();
+    let mut kept = Vec::new();
+    let local = indices
+        .iter()
+        .map(|&i| {
+            *map.entry(i).or_insert_with(|| {
+                kept.push(i);
+                kept.len() as u32 - 1
+            })
+        })
+        .collect();
+    (kept, local)
+}
+
+/// The triangles of `indices` grouped by the connected piece they belong to (pieces sharing
+/// a vertex are one), each piece's triangles in their original order, pieces in the order of
+/// their first triangle.
+fn connected_pieces(indices: &[u32], vertices: usize) -> Vec<Vec<u32>> {
+    fn root(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            let up = parent[parent[x as usize] as usize];
+            parent[x as usize] = up;
+            x = up;
+        }
+        x
+    }
+    let mut parent: Vec<u32> = (0..vertices as u32).collect();
+    for t in indices.chunks_exact(3) {
+        let a = root(&mut parent, t[0]);
+        for &v in &t[1..] {
+            let b = root(&mut parent, v);
+            if a != b {
+                parent[b as usize] = a;
+            }
+        }
+    }
+    let mut piece_of: rustc_hash::FxHashMap<u32, usize> = Default::default();
+    let mut pieces: Vec<Vec<u32>> = Vec::new();
+    for t in indices.chunks_exact(3) {
+        let r = root(&mut parent, t[0]);
+        let next = pieces.len();
+        let k = *piece_of.entry(r).or_insert(next);
+        if k == next {
+            pieces.push(Vec::new());
+        }
+        pieces[k].extend_from_slice(t);
+    }
+    pieces
 }
 
 /// The vertices `indices` use (in first-use order) and the indices renumbered into them;
