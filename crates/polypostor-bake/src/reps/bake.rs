@@ -812,25 +812,8 @@ fn connected_pieces(indices: &[u32], vertices: usize) -> Vec<Vec<u32>> {
 /// The vertices `indices` use (in first-use order) and the indices renumbered into them;
 /// `None` if they use more than 65,535 vertices (what the 16-bit format holds).
 pub fn compact(indices: &[u32]) -> Option<(Vec<u32>, Vec<u16>)> {
-    let mut map: rustc_hash::FxHashMap<u32, u16> = Default::default();
-    let mut kept = Vec::new();
-    let mut local = Vec::with_capacity(indices.len());
-    for &i in indices {
-        let next = kept.len();
-        let k = match map.entry(i) {
-            std::collections::hash_map::Entry::Occupied(e) => *e.get(),
-            std::collections::hash_map::Entry::Vacant(e) => {
-                if next >= usize::from(u16::MAX) {
-                    return None;
-                }
-                let k = next as u16;
-                kept.push(i);
-                *e.insert(k)
-            }
-        };
-        local.push(k);
-    }
-    Some((kept, local))
+    let (kept, local) = compact_u32(indices);
+    (kept.len() <= usize::from(u16::MAX)).then(|| (kept, local.into_iter().map(|l| l as u16).collect()))
 }
 
 #[cfg(test)]
