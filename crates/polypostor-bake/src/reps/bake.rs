@@ -554,15 +554,16 @@ pub fn simplify(character: &Character, positions: &[Vec3], triangles: usize) -> 
             .collect()
     };
     // Pieces that stop above their share push the sum over: ask for less until it fits.
+    let pieces = connected_pieces(&welded, pos.len());
     let pieces_kept = (triangles.min(target / 3) / 2 / PIECE_MIN_TRIANGLES).max(1);
-    let mut by_pieces = simplify_by_pieces(&welded, &pos, target, pieces_kept);
+    let mut by_pieces = simplify_by_pieces(&pieces, &pos, target, pieces_kept);
     let mut ask = target;
     for _ in 0..4 {
         if by_pieces.len() <= limit || ask <= 3 {
             break;
         }
         ask = (ask as f64 * target as f64 / by_pieces.len() as f64) as usize / 3 * 3;
-        by_pieces = simplify_by_pieces(&welded, &pos, ask.max(3), pieces_kept);
+        by_pieces = simplify_by_pieces(&pieces, &pos, ask.max(3), pieces_kept);
     }
     log::debug!(
         "NP3D mesh candidates: {} / {} / {} triangles ({} asked)",
@@ -698,13 +699,12 @@ impl OutlineProbe {
 /// prism without its ends).
 const PIECE_MIN_TRIANGLES: usize = 6;
 
-/// `indices` (a welded triangle list) simplified to about `target` indices by connected
-/// piece: the `most` largest pieces (the caller allows as many as half the budget gives
+/// A welded mesh's connected `pieces` ([`connected_pieces`]) simplified to about `target`
+/// indices: the `most` largest pieces (the caller allows as many as half the budget gives
 /// [`PIECE_MIN_TRIANGLES`] each) get that many plus a share of the rest in proportion to
-/// their area (the smaller pieces are left out), and each kept piece is simplified alone (quadric, then
-/// clustering where the quadric one cannot reach the share).
-fn simplify_by_pieces(indices: &[u32], pos: &[[f32; 3]], target: usize, most: usize) -> Vec<u32> {
-    let pieces = connected_pieces(indices, pos.len());
+/// their area (the smaller pieces are left out), and each kept piece is simplified alone
+/// (quadric, then clustering where the quadric one cannot reach the share).
+fn simplify_by_pieces(pieces: &[Vec<u32>], pos: &[[f32; 3]], target: usize, most: usize) -> Vec<u32> {
     let area = |tris: &[u32]| -> f64 {
         tris.chunks_exact(3)
             .map(|t| {
@@ -953,9 +953,10 @@ mod tests {
 
     /// A figure modelled in many separate pieces (torso, head, limbs of six segments each, a
     /// spear, a shield, forty small studs), as robot and game characters come: 400 triangles
-    /// of it keep both legs, both arms and the spear, and its outline. Before, the simplifier, holding still every
-    /// vertex with an unused welded duplicate, stopped thousands of triangles above the
-    /// target and the clustering fallback over the whole figure dropped the thin limbs.
+    /// of it keep both legs, both arms and the spear, and its outline. Before, the
+    /// simplifier, holding still every vertex with an unused welded duplicate, stopped
+    /// thousands of triangles above the target, and the clustering fallback over the whole
+    /// figure dropped the spear.
     #[test]
     fn a_figure_of_many_pieces_keeps_its_limbs() {
         let mut c = Character::default();
