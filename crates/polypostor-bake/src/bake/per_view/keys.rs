@@ -1053,6 +1053,40 @@ mod tests {
         assert!(usable_frames(key, frames, &[])[3]);
     }
 
+    /// Each part's first key (at frame 0) and its squared error per frame.
+    fn first_keys(sets: &[Vec<PartTile>], options: &PartFitOptions) -> (Vec<PartFit>, Vec<Vec<f64>>) {
+        let fits: Vec<PartFit> = sets
+            .iter()
+            .map(|t| crate::bake::part_fit::fit_part(t, 0, options, &[]).unwrap())
+            .collect();
+        let sses = sets
+            .iter()
+            .zip(&fits)
+            .map(|(t, fit)| {
+                (0..t.len())
+                    .map(|f| sse(&draw_part(fit, &t[0], f, 48), &tile_canvas(&t[f])))
+                    .collect()
+            })
+            .collect();
+        (fits, sses)
+    }
+
+    /// The parts of `sets` with no key yet but their first.
+    fn states<'a>(sets: &'a [Vec<PartTile>], fits: &'a [PartFit], sses: &'a [Vec<f64>]) -> Vec<Option<PartKeys<'a>>> {
+        (0..sets.len())
+            .map(|i| {
+                Some(PartKeys {
+                    tiles: &sets[i],
+                    targets: &fits[i].targets,
+                    primary: &fits[i],
+                    primary_sse: &sses[i],
+                    clips: &[],
+                    extra: Vec::new(),
+                })
+            })
+            .collect()
+    }
+
     /// The state `choose` starts from: one part, its first key at frame 0.
     fn chosen(frames: usize, keys: &KeyOptions, manual: Option<&[usize]>) -> (Vec<f64>, Vec<ExtraKey>) {
         let t = turning(frames);
@@ -1201,33 +1235,8 @@ mod tests {
         let strong = turning_by(frames, 1.0);
         let weak = turning_by(frames, 0.35);
         let sets = [still, weak, strong];
-        let fits: Vec<PartFit> = sets
-            .iter()
-            .map(|t| crate::bake::part_fit::fit_part(t, 0, &options, &[]).unwrap())
-            .collect();
-        let sses: Vec<Vec<f64>> = sets
-            .iter()
-            .zip(&fits)
-            .map(|(t, fit)| {
-                (0..frames)
-                    .map(|f| sse(&draw_part(fit, &t[0], f, 48), &tile_canvas(&t[f])))
-                    .collect()
-            })
-            .collect();
-        let state = || -> Vec<Option<PartKeys<'_>>> {
-            (0..3)
-                .map(|i| {
-                    Some(PartKeys {
-                        tiles: &sets[i],
-                        targets: &fits[i].targets,
-                        primary: &fits[i],
-                        primary_sse: &sses[i],
-                        clips: &[],
-                        extra: Vec::new(),
-                    })
-                })
-                .collect()
-        };
+        let (fits, sses) = first_keys(&sets, &options);
+        let state = || states(&sets, &fits, &sses);
         let threshold = 10f64.powf(KeyOptions::default().min_gain_db / 10.0);
         // Each part's candidate fitted on its own.
         let probe = state();
@@ -1294,33 +1303,8 @@ mod tests {
         let frames = 8;
         let options = PartFitOptions::default();
         let sets = [turning_sized(frames, 1.0, 0.55), turning_sized(frames, 0.6, 1.35)];
-        let fits: Vec<PartFit> = sets
-            .iter()
-            .map(|t| crate::bake::part_fit::fit_part(t, 0, &options, &[]).unwrap())
-            .collect();
-        let sses: Vec<Vec<f64>> = sets
-            .iter()
-            .zip(&fits)
-            .map(|(t, fit)| {
-                (0..frames)
-                    .map(|f| sse(&draw_part(fit, &t[0], f, 48), &tile_canvas(&t[f])))
-                    .collect()
-            })
-            .collect();
-        let state = || -> Vec<Option<PartKeys<'_>>> {
-            (0..2)
-                .map(|i| {
-                    Some(PartKeys {
-                        tiles: &sets[i],
-                        targets: &fits[i].targets,
-                        primary: &fits[i],
-                        primary_sse: &sses[i],
-                        clips: &[],
-                        extra: Vec::new(),
-                    })
-                })
-                .collect()
-        };
+        let (fits, sses) = first_keys(&sets, &options);
+        let state = || states(&sets, &fits, &sses);
         let threshold = 10f64.powf(KeyOptions::default().min_gain_db / 10.0);
         let probe = state();
         let cands: Vec<Candidate> = probe
