@@ -635,6 +635,11 @@ struct BakeArgs {
     /// half its vertices, drawn for characters small on screen.
     #[arg(long)]
     polygon_vertices: Option<usize>,
+    /// Most vertices added inside each part's polygon (0 to 24; default 24), each moved at every
+    /// frame to where it lowers the drawn error: the image inside a part can then slide where
+    /// its outline hardly moves (a head turning in place). 0: the outline's vertices alone.
+    #[arg(long)]
+    interior_vertices: Option<usize>,
     /// Most views, as a share of all, that the key budget other views left unspent goes to,
     /// worst views first (0 to 1; 0: each view spends only its own; default 0.1).
     #[arg(long)]
@@ -693,6 +698,9 @@ impl BakeArgs {
         }
         if let Some(n) = self.polygon_vertices {
             settings.polygon_vertices = n;
+        }
+        if let Some(n) = self.interior_vertices {
+            settings.interior_vertices = n;
         }
         if let Some(r) = &self.representation {
             settings.representations = r.clone();

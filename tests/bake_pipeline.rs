@@ -43,7 +43,9 @@ fn small_bake_of_the_default_character() {
                 .as_ref()
                 .unwrap_or_else(|| panic!("view {v} part {p}: {:?}", part.problem));
             assert!(fit.kept.len() <= polypostor::bake::part_fit::DEFAULT_POLYGON_VERTICES && fit.kept.len() >= 3);
-            assert_eq!(fit.triangles.len(), fit.kept.len() - 2);
+            // The outline's triangles and two more for each vertex inside.
+            assert_eq!(fit.triangles.len(), fit.kept.len() - 2 + 2 * fit.interior.len());
+            assert!(fit.interior.len() <= polypostor::bake::part_fit::DEFAULT_INTERIOR_VERTICES);
         }
         eprintln!(
             "view {v}: psnr {:?} order {:?}",

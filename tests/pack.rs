@@ -104,18 +104,24 @@ fn pack_round_trip_and_damage() {
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
 
-    // Every drawn part has its coarse level: half its vertices (the bake's simplification
-    // continued), fewer triangles, indices inside its block.
+    // Every drawn part has its coarse level: half its outline's vertices (the bake's
+    // simplification continued; interior vertices are not drawn there), fewer triangles,
+    // indices inside its block.
     let mut coarse = 0;
-    for view in &p.manifest.views {
-        for part in view.parts.iter().flatten() {
+    for (view, baked) in p.manifest.views.iter().zip(&b.views) {
+        for (part, fit) in view.parts.iter().zip(&baked.parts) {
+            let (Some(part), Some(fit)) = (part, &fit.fit) else {
+                continue;
+            };
+            assert_eq!(part.vertex_count as usize, fit.kept.len() + fit.interior.len());
             assert!(part.coarse_index_count > 0 && part.coarse_index_count < part.index_count);
             let start = part.coarse_index_offset as usize;
             let list = &p.indices[start..start + part.coarse_index_count as usize];
             let mut used: Vec<u16> = list.to_vec();
             used.sort_unstable();
             used.dedup();
-            assert_eq!(used.len(), part.vertex_count as usize / 2);
+            assert_eq!(used.len(), fit.kept.len() / 2);
+            assert!(used.iter().all(|&i| usize::from(i) < fit.kept.len()));
             coarse += 1;
         }
     }

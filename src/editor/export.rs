@@ -209,7 +209,12 @@ impl ExportDialog {
                 doc.character.vertices.len(),
                 texture_bytes,
             )
-            .with_polygon_vertices(self.polygon_vertices, self.views, frames, doc.segmentation.parts.len())
+            .with_polygon_vertices(
+                self.polygon_vertices + doc.project.bake.interior_vertices,
+                self.views,
+                frames,
+                doc.segmentation.parts.len(),
+            )
             .with_keys(
                 &doc.project.bake.options().keys,
                 self.views,

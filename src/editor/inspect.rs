@@ -440,7 +440,24 @@ impl Inspector {
                 for &c in &contour {
                     painter.circle_filled(c, 1.5, egui::Color32::from_rgb(80, 200, 255));
                 }
-                let fitted: Vec<egui::Pos2> = positions_at(&fit, t).iter().map(|&p| to_screen(p)).collect();
+                let mut fitted: Vec<egui::Pos2> = positions_at(&fit, t).iter().map(|&p| to_screen(p)).collect();
+                // The mesh's edges faintly (interior vertices make more than the outline's
+                // fan), the interior vertices as rings: only the outline's take pins.
+                for tri in &fit.triangles {
+                    for e in 0..3 {
+                        let (a, b) = (tri[e], tri[(e + 1) % 3]);
+                        if a < b && (a >= fit.kept.len() || b >= fit.kept.len()) {
+                            painter.line_segment(
+                                [fitted[a], fitted[b]],
+                                egui::Stroke::new(0.75, egui::Color32::from_rgba_unmultiplied(255, 255, 0, 110)),
+                            );
+                        }
+                    }
+                }
+                for &v in &fitted[fit.kept.len()..] {
+                    painter.circle_stroke(v, 2.5, egui::Stroke::new(1.0, egui::Color32::YELLOW));
+                }
+                fitted.truncate(fit.kept.len());
                 painter.add(egui::Shape::closed_line(
                     fitted.clone(),
                     egui::Stroke::new(1.5, egui::Color32::YELLOW),
@@ -517,6 +534,9 @@ impl Inspector {
                 ));
                 for &k in &fit.kept {
                     painter.circle_filled(to_screen(fit.key_polygon[k]), 2.5, egui::Color32::YELLOW);
+                }
+                for &q in &fit.interior {
+                    painter.circle_stroke(to_screen(q), 2.5, egui::Stroke::new(1.0, egui::Color32::YELLOW));
                 }
             });
         });

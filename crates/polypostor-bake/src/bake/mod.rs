@@ -41,7 +41,7 @@ pub mod render;
 pub mod setup;
 pub mod shape;
 
-pub use fitting::{fit, gap, image_cost, part_fit, subpixel};
+pub use fitting::{fit, gap, image_cost, interior, part_fit, subpixel};
 pub use output::{eta, inspect, profile, report};
 pub use per_view::{keys, visibility};
 pub use polypostor_runtime::{segment, triangulate, viewpoints};

@@ -986,6 +986,7 @@ impl Prepared {
                         refine_passes: 1,
                         sweeps: 0,
                         subpixel: false,
+                        interior_vertices: 0,
                         ..options.fit
                     };
                     // Each part's fit checks the cancel flag first, so a cancel is not held
@@ -1201,7 +1202,7 @@ pub fn share_key_budget(
                 prepared.times.len(),
                 prepared.timeline.spans.len(),
                 options.resolution,
-                options.fit.final_vertices,
+                options.fit.final_vertices + options.fit.interior_vertices,
             ))
         })
         .collect();

@@ -6,7 +6,7 @@ use super::*;
 
 /// The stages of `bench bake`'s table: a column name and the `cpu_seconds` keys it sums
 /// (`*` matches any job: `*/trace` is tracing wherever it ran).
-const BENCH_STAGES: [(&str, &[&str]); 13] = [
+const BENCH_STAGES: [(&str, &[&str]); 14] = [
     ("render", &["render", "prepare"]),
     ("key frame", &["key frame", "key frame/*"]),
     ("trace", &["part fit/trace", "key choice/trace"]),
@@ -23,6 +23,10 @@ const BENCH_STAGES: [(&str, &[&str]); 13] = [
     ),
     ("simplify", &["part fit/simplify"]),
     ("sub-pixel", &["part fit/subpixel", "key choice/subpixel"]),
+    (
+        "interior",
+        &["part fit/interior vertices", "key choice/interior vertices"],
+    ),
     ("measure", &["measure", "composite"]),
     ("order", &["order"]),
     ("atlas", &["atlas"]),

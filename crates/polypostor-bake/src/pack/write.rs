@@ -224,7 +224,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
             }
             // The coarse level: the polygon simplified on to half its vertices.
             let coarse_offset = indices.len() as u64;
-            let coarse = crate::bake::part_fit::coarse_triangles(&positions, &fit.uvs());
+            let coarse = crate::bake::part_fit::coarse_of(fit, &positions);
             indices.extend(coarse.iter().flatten().map(|&i| i as u16));
             let coarse_count = (coarse.len() * 3) as u32;
             WrittenKey {
@@ -252,7 +252,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                 extra_keys.push(ManifestKey {
                     key_frame: e.frame as u32,
                     vertex_offset: k.vertex_offset,
-                    vertex_count: e.fit.kept.len() as u32,
+                    vertex_count: e.fit.vertex_count() as u32,
                     index_offset: k.index_offset,
                     index_count: (e.fit.triangles.len() * 3) as u32,
                     coarse_index_offset: k.coarse_offset,
@@ -273,7 +273,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
             }
             parts.push(Some(ManifestPart {
                 vertex_offset: first.vertex_offset,
-                vertex_count: fit.kept.len() as u32,
+                vertex_count: fit.vertex_count() as u32,
                 index_offset: first.index_offset,
                 index_count: (fit.triangles.len() * 3) as u32,
                 coarse_index_offset: first.coarse_offset,
@@ -355,6 +355,8 @@ mod tests {
             kept: vec![0, 1, 2, 3],
             triangles: vec![[0, 1, 2], [0, 2, 3]],
             offsets: vec![Vec::new(); frames],
+            interior: Vec::new(),
+            interior_at: vec![Vec::new(); frames],
             key_polygon,
         }
     }

@@ -460,12 +460,18 @@ mod tests {
     #[test]
     fn the_estimate_follows_the_polygon_vertices() {
         let e = estimate(137, 128, 57, 5, 5000, 0);
-        let same = e.with_polygon_vertices(crate::bake::part_fit::DEFAULT_POLYGON_VERTICES, 137, 57, 5);
+        let same = e.with_polygon_vertices(
+            crate::bake::part_fit::DEFAULT_POLYGON_VERTICES + crate::bake::part_fit::DEFAULT_INTERIOR_VERTICES,
+            137,
+            57,
+            5,
+        );
         assert_eq!(same, e);
-        let fewer = e.with_polygon_vertices(20, 137, 57, 5);
+        let fewer = e.with_polygon_vertices(32, 137, 57, 5);
         assert_eq!(fewer.polypostor_atlas, e.polypostor_atlas);
         assert_eq!(fewer.impostor, e.impostor);
-        // Positions are most of the geometry: 20 vertices hold about half of 40's.
+        // Positions are most of the geometry: 32 drawn vertices hold about half of the default
+        // 64's (40 on the outline, 24 inside).
         let (g40, g20) = (
             e.polypostor - e.polypostor_atlas,
             fewer.polypostor - fewer.polypostor_atlas,
@@ -496,7 +502,7 @@ mod tests {
         let bc = crate::bake::pipeline::TextureEncoding::Bc7;
         assert_eq!(
             fewer.with_textures(bc),
-            e.with_textures(bc).with_polygon_vertices(20, 137, 57, 5)
+            e.with_textures(bc).with_polygon_vertices(32, 137, 57, 5)
         );
     }
 }
@@ -625,7 +631,7 @@ pub fn estimate(
         views,
         frames,
         parts,
-        crate::bake::part_fit::DEFAULT_POLYGON_VERTICES,
+        crate::bake::part_fit::DEFAULT_POLYGON_VERTICES + crate::bake::part_fit::DEFAULT_INTERIOR_VERTICES,
     );
     Estimate {
         polypostor: atlas + poly_geometry,

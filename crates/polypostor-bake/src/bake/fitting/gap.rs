@@ -63,12 +63,15 @@ pub fn measure(
 ) -> Result<FitGap, BakeError> {
     let prepared = Prepared::new(ctx, character, segmentation, caps, options)?;
     let views = spread(count, prepared.directions.len());
+    // The gap is the DP's objective; the interior vertices added after it do not change it.
     let fast_options = PartFitOptions {
         exhaustive: false,
+        interior_vertices: 0,
         ..options.fit
     };
     let exact_options = PartFitOptions {
         exhaustive: true,
+        interior_vertices: 0,
         ..options.fit
     };
     let mut gap = FitGap {

@@ -4,5 +4,6 @@
 pub mod fit;
 pub mod gap;
 pub mod image_cost;
+pub mod interior;
 pub mod part_fit;
 pub mod subpixel;

@@ -303,10 +303,38 @@ impl<'k> Refiner<'k> {
         truth: &Canvas,
         fixed: &[bool],
     ) -> (f64, f64) {
-        refine_with(positions, uvs, triangles, self.key, &self.image, truth, fixed)
+        let steps = Steps {
+            lengths: &STEPS,
+            passes: PASSES,
+        };
+        refine_with(positions, uvs, triangles, self.key, &self.image, truth, fixed, steps)
+    }
+
+    /// [`Refiner::refine`] with other step lengths and passes.
+    pub fn refine_steps(
+        &self,
+        positions: &mut [[f32; 2]],
+        uvs: &[[f32; 2]],
+        triangles: &[[usize; 3]],
+        truth: &Canvas,
+        fixed: &[bool],
+        steps: Steps,
+    ) -> (f64, f64) {
+        refine_with(positions, uvs, triangles, self.key, &self.image, truth, fixed, steps)
     }
 }
 
+/// The moves [`Refiner::refine_steps`] tries.
+#[derive(Clone, Copy, Debug)]
+pub struct Steps<'a> {
+    /// Step lengths, pixels, one after another.
+    pub lengths: &'a [f32],
+    /// Most passes over the vertices at each length (a vertex is tried again only after it or
+    /// a vertex it shares a triangle with moved).
+    pub passes: usize,
+}
+
+#[allow(clippy::too_many_arguments)]
 fn refine_with(
     positions: &mut [[f32; 2]],
     uvs: &[[f32; 2]],
@@ -315,6 +343,7 @@ fn refine_with(
     image: &KeyImage,
     truth: &Canvas,
     fixed: &[bool],
+    steps: Steps,
 ) -> (f64, f64) {
     let size = truth.size as i64;
     let mut cur = Canvas::new(truth.size);
@@ -359,9 +388,9 @@ fn refine_with(
         );
     };
     let mut error = before;
-    for step in STEPS {
+    for &step in steps.lengths {
         let mut dirty = vec![true; positions.len()];
-        for _ in 0..PASSES {
+        for _ in 0..steps.passes {
             let mut moved = false;
             let mut next = vec![false; positions.len()];
             for i in 0..positions.len() {

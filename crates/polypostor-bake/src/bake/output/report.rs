@@ -96,6 +96,10 @@ pub struct Settings {
     pub key_vertices: usize,
     pub frame_vertices: usize,
     pub final_vertices: usize,
+    /// Most vertices added inside each part's polygon (0 in reports written before there
+    /// were any).
+    #[serde(default)]
+    pub interior_vertices: usize,
     /// How key images were chosen (absent in reports from before several keys: one key).
     #[serde(default)]
     pub keys: Option<crate::bake::keys::KeyOptions>,
@@ -187,14 +191,14 @@ pub fn animation_bytes(bake: &Bake, range: std::ops::Range<usize>) -> u64 {
     for v in &bake.views {
         for part in &v.parts {
             let Some(fit) = &part.fit else { continue };
-            n += 2 * (fit.kept.len() * range.len()) as u64;
+            n += 2 * (fit.vertex_count() * range.len()) as u64;
             // Extra keys hold only their span's frames (as the pack writes them).
             if part.frame_key.is_empty() {
                 continue;
             }
             for e in &part.extra {
                 let inside = range.clone().filter(|&f| e.span.contains(f, frames)).count();
-                n += 2 * (e.fit.kept.len() * inside) as u64;
+                n += 2 * (e.fit.vertex_count() * inside) as u64;
             }
         }
     }
@@ -233,6 +237,7 @@ impl Report {
                 charge_missed_coverage: s.charge_missed_coverage,
                 restart_threshold: s.restart_threshold.unwrap_or(f64::INFINITY),
                 subpixel: s.subpixel,
+                interior_vertices: s.interior_vertices,
                 ..Default::default()
             },
             keys: s.keys.unwrap_or(crate::bake::keys::KeyOptions::SINGLE),
@@ -331,7 +336,7 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
                             .map(|(c, t)| c / (crate::bake::contour::signed_area2(t).abs() / 2.0).max(1.0))
                             .collect()
                     }),
-                    vertices: part.fit.as_ref().map_or(0, |f| f.kept.len()),
+                    vertices: part.fit.as_ref().map_or(0, |f| f.vertex_count()),
                     triangles: part.fit.as_ref().map_or(0, |f| f.triangles.len()),
                     problem: part.problem.clone(),
                     key_frames: part.key_frames(),
@@ -373,6 +378,7 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
             key_vertices: bake.options.fit.key_vertices,
             frame_vertices: bake.options.fit.frame_vertices,
             final_vertices: bake.options.fit.final_vertices,
+            interior_vertices: bake.options.fit.interior_vertices,
             keys: Some(bake.options.keys),
             textures: Some(bake.options.textures),
         },

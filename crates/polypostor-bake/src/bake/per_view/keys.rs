@@ -453,6 +453,62 @@ pub fn choose(
     manual: Option<&[usize]>,
     images: &(dyn Fn(usize, usize) -> (image::RgbaImage, image::RgbaImage) + Sync),
 ) {
+    // Candidates are fitted and compared on their outlines alone (most are never kept);
+    // the keys kept then get their interior vertices, and their drawn errors again.
+    let outline_only = PartFitOptions {
+        interior_vertices: 0,
+        ..*options
+    };
+    choose_keys(parts, &outline_only, keys, manual, images);
+    if options.interior_vertices == 0 {
+        return;
+    }
+    let jobs: Vec<(usize, usize)> = parts
+        .iter()
+        .enumerate()
+        .filter_map(|(p, part)| part.as_ref().map(|part| (p, part.extra.len())))
+        .flat_map(|(p, n)| (0..n).map(move |k| (p, k)))
+        .collect();
+    let done: Vec<(Vec<[f32; 2]>, Vec<[usize; 3]>, Vec<Vec<[f32; 2]>>, Vec<f64>)> = jobs
+        .par_iter()
+        .map(|&(p, k)| {
+            let _keys = crate::bake::profile::root("key choice");
+            let part = parts[p].as_ref().expect("a part with keys");
+            let e = &part.extra[k];
+            let mut fit = e.fit.clone();
+            crate::bake::part_fit::add_interior_vertices(&mut fit, part.tiles, e.span, options);
+            let frames = part.tiles.len();
+            let key_tile = &part.tiles[e.frame];
+            let sse = (0..frames)
+                .map(|f| {
+                    if e.sse[f].is_finite() {
+                        sse(
+                            &draw_part(&fit, key_tile, f, key_tile.size),
+                            &tile_canvas(&part.tiles[f]),
+                        )
+                    } else {
+                        f64::INFINITY
+                    }
+                })
+                .collect();
+            (fit.interior, fit.triangles, fit.interior_at, sse)
+        })
+        .collect();
+    for ((p, k), (interior, triangles, interior_at, sse)) in jobs.into_iter().zip(done) {
+        if let Some(part) = parts[p].as_mut() {
+            let e = &mut part.extra[k];
+            (e.fit.interior, e.fit.triangles, e.fit.interior_at, e.sse) = (interior, triangles, interior_at, sse);
+        }
+    }
+}
+
+fn choose_keys(
+    parts: &mut [Option<PartKeys<'_>>],
+    options: &PartFitOptions,
+    keys: &KeyOptions,
+    manual: Option<&[usize]>,
+    images: &(dyn Fn(usize, usize) -> (image::RgbaImage, image::RgbaImage) + Sync),
+) {
     let frames = parts.iter().flatten().map(|p| p.tiles.len()).next().unwrap_or(0);
     if frames < 2 {
         return;
@@ -488,7 +544,14 @@ pub fn choose(
             .map(|t| t.size)
             .next()
             .unwrap_or(0);
-        ViewBytes::new(first, some.count(), frames, clips, resolution, options.final_vertices)
+        ViewBytes::new(
+            first,
+            some.count(),
+            frames,
+            clips,
+            resolution,
+            options.final_vertices + options.interior_vertices,
+        )
     };
     let mut budget = keys.view_budget(view) * first;
     if max_keys < 2 || budget <= 0.0 {

@@ -53,7 +53,13 @@ pub struct BakeSettings {
     /// Vertices of each part's polygon in the pack (3 to the fitted polygon's 40; fewer are
     /// chosen by deformation-aware simplification).
     pub polygon_vertices: usize,
+    /// Most vertices added inside each part's polygon, moved at every frame to where they
+    /// lower the drawn error (0 to [`MAX_INTERIOR_VERTICES`]).
+    pub interior_vertices: usize,
 }
+
+/// The most interior vertices a part's polygon may get.
+pub const MAX_INTERIOR_VERTICES: usize = 24;
 
 impl Default for BakeSettings {
     fn default() -> Self {
@@ -77,6 +83,7 @@ impl Default for BakeSettings {
             no_restarts: false,
             no_subpixel: false,
             polygon_vertices: crate::bake::part_fit::DEFAULT_POLYGON_VERTICES,
+            interior_vertices: crate::bake::part_fit::DEFAULT_INTERIOR_VERTICES,
         }
     }
 }
@@ -145,6 +152,12 @@ impl BakeSettings {
                 format!("{}: choose 3 to {most}", self.polygon_vertices),
             );
         }
+        if self.interior_vertices > MAX_INTERIOR_VERTICES {
+            return bad(
+                "interior-vertices",
+                format!("{}: choose 0 to {MAX_INTERIOR_VERTICES}", self.interior_vertices),
+            );
+        }
         if self.exhaustive && self.no_restarts {
             return bad("no-restarts", "applies to the fast mode, not with --exhaustive".into());
         }
@@ -180,6 +193,7 @@ impl BakeSettings {
                     crate::bake::part_fit::DEFAULT_RESTART_THRESHOLD
                 },
                 subpixel: !self.no_subpixel,
+                interior_vertices: self.interior_vertices,
                 ..Default::default()
             },
             keys: KeyOptions {
