@@ -307,7 +307,7 @@ impl<'k> Refiner<'k> {
             lengths: &STEPS,
             passes: PASSES,
         };
-        refine_with(positions, uvs, triangles, self.key, &self.image, truth, fixed, steps)
+        self.refine_steps(positions, uvs, triangles, truth, fixed, steps)
     }
 
     /// [`Refiner::refine`] with other step lengths and passes.

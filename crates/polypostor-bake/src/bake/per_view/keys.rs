@@ -390,19 +390,7 @@ impl PartKeys<'_> {
             ..*options
         };
         let (fit, span) = fit_part_span(self.tiles, self.targets, frame, &options, &[], Some(&losing)).ok()?;
-        let key_tile = &self.tiles[frame];
-        let sse = (0..frames)
-            .map(|f| {
-                if span.contains(f, frames) {
-                    sse(
-                        &draw_part(&fit, key_tile, f, key_tile.size),
-                        &tile_canvas(&self.tiles[f]),
-                    )
-                } else {
-                    f64::INFINITY
-                }
-            })
-            .collect();
+        let sse = span_sse(&fit, self.tiles, frame, span);
         Some(ExtraKey {
             frame,
             fit,
@@ -477,20 +465,7 @@ pub fn choose(
             let e = &part.extra[k];
             let mut fit = e.fit.clone();
             crate::bake::part_fit::add_interior_vertices(&mut fit, part.tiles, e.span, options);
-            let frames = part.tiles.len();
-            let key_tile = &part.tiles[e.frame];
-            let sse = (0..frames)
-                .map(|f| {
-                    if e.sse[f].is_finite() {
-                        sse(
-                            &draw_part(&fit, key_tile, f, key_tile.size),
-                            &tile_canvas(&part.tiles[f]),
-                        )
-                    } else {
-                        f64::INFINITY
-                    }
-                })
-                .collect();
+            let sse = span_sse(&fit, part.tiles, e.frame, e.span);
             (fit.interior, fit.triangles, fit.interior_at, sse)
         })
         .collect();
@@ -500,6 +475,22 @@ pub fn choose(
             (e.fit.interior, e.fit.triangles, e.fit.interior_at, e.sse) = (interior, triangles, interior_at, sse);
         }
     }
+}
+
+/// Per frame, the drawn squared error of a key's fit (`frame`: the key's; the image drawn from
+/// `tiles[frame]`) inside its span, infinite outside.
+fn span_sse(fit: &PartFit, tiles: &[PartTile], frame: usize, span: Span) -> Vec<f64> {
+    let frames = tiles.len();
+    let key_tile = &tiles[frame];
+    (0..frames)
+        .map(|f| {
+            if span.contains(f, frames) {
+                sse(&draw_part(fit, key_tile, f, key_tile.size), &tile_canvas(&tiles[f]))
+            } else {
+                f64::INFINITY
+            }
+        })
+        .collect()
 }
 
 fn choose_keys(
