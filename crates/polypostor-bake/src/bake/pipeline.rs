@@ -241,6 +241,10 @@ pub struct PartResult {
     pub extra: Vec<ExtraKey>,
     /// Per frame, the key it is drawn from: 0 the first, `k` `extra[k - 1]` (empty: all 0).
     pub frame_key: Vec<u8>,
+    /// The first key's drawn error summed over frames before its interior vertices (its
+    /// outline alone): what the view's interior vertices are priced against
+    /// ([`view_fit_options`]).
+    pub outline_error: f64,
 }
 
 impl PartResult {
@@ -482,36 +486,91 @@ pub fn fit_view_part(
 ) -> PartResult {
     let images = &data.depth_order_tiles;
     let tiles = &data.tiles[p];
-    let frames = tiles.len();
     let (fit, problem) = match profile::in_root("part fit", || fit_part(tiles, key, options, pins)) {
         Ok(f) => (Some(f), None),
         Err(e) => (None, Some(e.to_string())),
     };
+    let mut r = PartResult {
+        fit,
+        problem,
+        psnr: Vec::new(),
+        ssim: Vec::new(),
+        key_color: images.tile(&images.color, p, key),
+        key_normal: images.tile(&images.normal, p, key),
+        sse: Vec::new(),
+        extra: Vec::new(),
+        frame_key: Vec::new(),
+        outline_error: 0.0,
+    };
+    if options.interior_vertices == 0 {
+        // The interior vertices come later, priced by the whole view (`refit_view`): here
+        // only the outline's error, which prices them.
+        measure_first_key(data, p, &mut r, false);
+        r.outline_error = r.sse.iter().sum();
+    } else {
+        measure_first_key(data, p, &mut r, true);
+    }
+    r
+}
+
+/// Part `p`'s first key's squared error (and with `quality` its PSNR and SSIM) at every frame
+/// against its render.
+fn measure_first_key(data: &ViewData, p: usize, r: &mut PartResult, quality: bool) {
     let _measure = profile::root("measure");
-    let truths: Vec<Canvas> = tiles.iter().map(tile_canvas).collect();
+    let tiles = &data.tiles[p];
+    let frames = tiles.len();
     let per_frame: Vec<(f64, f64, f64)> = (0..frames)
-        .map(|f| match &fit {
+        .map(|f| match &r.fit {
             Some(fit) => {
-                let c = keys::draw_part(fit, &tiles[key], f, tiles[f].size);
-                let truth = &truths[f];
-                let (rmse, n) = c.rmse(truth);
+                let c = keys::draw_part(fit, &tiles[fit.key_frame], f, tiles[f].size);
+                let truth = tile_canvas(&tiles[f]);
+                let (rmse, n) = c.rmse(&truth);
+                let ssim = if quality { c.ssim(&truth) } else { 0.0 };
                 // As keys::sse, from the same RMSE.
-                (psnr(rmse), c.ssim(truth), rmse * rmse * (3 * n) as f64)
+                (psnr(rmse), ssim, rmse * rmse * (3 * n) as f64)
             }
             None => (0.0, 0.0, 0.0),
         })
         .collect();
-    PartResult {
-        fit,
-        problem,
-        psnr: per_frame.iter().map(|e| e.0).collect(),
-        ssim: per_frame.iter().map(|e| e.1).collect(),
-        key_color: images.tile(&images.color, p, key),
-        key_normal: images.tile(&images.normal, p, key),
-        sse: per_frame.iter().map(|e| e.2).collect(),
-        extra: Vec::new(),
-        frame_key: Vec::new(),
+    r.psnr = per_frame.iter().map(|e| e.0).collect();
+    r.ssim = per_frame.iter().map(|e| e.1).collect();
+    r.sse = per_frame.iter().map(|e| e.2).collect();
+}
+
+/// Share of a view's outline-only drawn error (its parts' [`PartResult::outline_error`]
+/// summed) an interior vertex must be expected to cut per byte it adds: the view's PSNR is
+/// what the bake reports, so a vertex is worth the same in a view drawn almost perfectly
+/// (where a small cut is a large part of the error) as a larger cut where the error is large.
+/// 3·10⁻⁶ per byte: about 0.013 dB of the view per kilobyte (the extra keys kept on
+/// RobotExpressive buy 0.005–0.02 dB per kilobyte).
+pub const INTERIOR_MIN_SHARE: f64 = 3e-6;
+
+/// `options` with the interior vertices priced for a view whose parts are `parts`
+/// ([`PartFitOptions::interior_min_gain`] = [`INTERIOR_MIN_SHARE`] of their outline-only
+/// error): the same for every part and key of the view, whichever way it is fitted.
+pub fn view_fit_options(options: &PartFitOptions, parts: &[PartResult]) -> PartFitOptions {
+    let error: f64 = parts.iter().map(|r| r.outline_error).sum();
+    PartFitOptions {
+        interior_min_gain: INTERIOR_MIN_SHARE * error,
+        ..*options
     }
+}
+
+/// Gives part `p`'s first key, fitted on its outline alone, its interior vertices
+/// ([`crate::bake::part_fit::add_interior_vertices`] over all frames, priced by `options`)
+/// and measures it.
+fn add_first_key_interior(data: &ViewData, p: usize, r: &mut PartResult, options: &PartFitOptions) {
+    if let Some(fit) = r.fit.as_mut() {
+        let frames = data.tiles[p].len();
+        let all = crate::bake::part_fit::Span {
+            start: 0,
+            count: frames,
+        };
+        profile::in_root("part fit", || {
+            crate::bake::part_fit::add_interior_vertices(fit, &data.tiles[p], all, options)
+        });
+    }
+    measure_first_key(data, p, r, true);
 }
 
 /// Gives the parts of a view their key images after the first ([`keys::choose`]; `manual`:
@@ -525,6 +584,7 @@ pub fn add_view_keys(
 ) {
     let frames = data.tiles.first().map_or(0, |t| t.len());
     let images = &data.depth_order_tiles;
+    let options = &view_fit_options(options, parts);
     {
         let mut state: Vec<Option<keys::PartKeys<'_>>> = parts
             .iter()
@@ -710,12 +770,17 @@ pub fn refit_view(
         _ => (0..parts_n).collect(),
     };
     let same_keys = prev.is_some_and(|prev| prev.ov.keys.as_deref() == manual);
+    // Outlines first; the interior vertices once the whole view's error prices them.
+    let outline_only = PartFitOptions {
+        interior_vertices: 0,
+        ..*options
+    };
     let fitted: Vec<PartResult> = refit
         .par_iter()
         .map(|&p| {
             let pins = ov.map_or_else(Vec::new, |o| o.pins_per_frame(p, frames));
             let forced = ov.is_some_and(|o| o.key_frame.is_some());
-            fit_view_part(data, p, part_key(&data.tiles[p], key, forced), options, &pins)
+            fit_view_part(data, p, part_key(&data.tiles[p], key, forced), &outline_only, &pins)
         })
         .collect();
     let mut parts: Vec<Option<PartResult>> = match prev {
@@ -729,6 +794,17 @@ pub fn refit_view(
         .into_iter()
         .map(|p| p.expect("every part fitted or kept"))
         .collect();
+    if !refit.is_empty() {
+        let priced = view_fit_options(options, &parts);
+        let mut fresh: Vec<(usize, &mut PartResult)> = parts
+            .iter_mut()
+            .enumerate()
+            .filter(|(p, _)| refit.contains(p))
+            .collect();
+        fresh
+            .par_iter_mut()
+            .for_each(|(p, r)| add_first_key_interior(data, *p, r, &priced));
+    }
     // The extra keys depend on every part of the view (one budget): chosen again whenever
     // a part was re-fitted or the artist's keys changed, exactly as a bake would.
     if !refit.is_empty() || !same_keys {

@@ -112,6 +112,33 @@ pub struct PartFitOptions {
     /// A triangle under this many key-image pixels gets no interior vertex. Default value:
     /// [`DEFAULT_INTERIOR_MIN_AREA`].
     pub interior_min_area: f32,
+    /// Least drawn error (squared colour error summed over pixels and frames) an interior
+    /// vertex is expected to cut per byte it adds to the pack ([`interior_budget`]). 0: every
+    /// part gets [`PartFitOptions::interior_vertices`]. Default value: 0; a bake prices each
+    /// view's vertices by its error (`pipeline::view_fit_options`).
+    pub interior_min_gain: f64,
+}
+
+/// What [`PartFitOptions::interior_vertices`] interior vertices cut of a part's outline-only
+/// drawn error, about (RobotExpressive, 24 views: 14–34 % per part, a quarter typical).
+const INTERIOR_CUT: f64 = 0.25;
+
+/// Interior vertices worth their bytes for a part whose outline-only polygon draws
+/// `outline_error` (squared colour error summed over the block's frames) in a block of
+/// `block_frames` frames: at most `most`, as many as each is expected to cut at least
+/// `min_gain` times its bytes (a UV, a position per frame, two more triangles). Expected cuts
+/// follow what was measured: `k` vertices cut about [`INTERIOR_CUT`] × `ln(1 + k) / ln(1 + 24)`
+/// of the error (6 vertices half of what 24 do, 12 four fifths), so each added vertex is worth
+/// less than the one before. `min_gain` 0 (or less) gives `most`.
+pub fn interior_budget(most: usize, outline_error: f64, block_frames: usize, min_gain: f64) -> usize {
+    if min_gain.is_nan() || min_gain <= 0.0 {
+        return most;
+    }
+    let need = min_gain * (4 + 2 * block_frames + 12) as f64;
+    let cut = INTERIOR_CUT * outline_error.max(0.0) / 25f64.ln();
+    (0..most)
+        .take_while(|&k| cut * ((k + 2) as f64 / (k + 1) as f64).ln() >= need)
+        .count()
 }
 
 /// [`PartFitOptions::interior_vertices`]'s default.
@@ -166,6 +193,7 @@ impl Default for PartFitOptions {
             near_still_px2: NEAR_STILL_PX2,
             interior_vertices: DEFAULT_INTERIOR_VERTICES,
             interior_min_area: DEFAULT_INTERIOR_MIN_AREA,
+            interior_min_gain: 0.0,
         }
     }
 }
@@ -1302,13 +1330,15 @@ const INTERIOR_STEPS: crate::bake::subpixel::Steps<'static> = crate::bake::subpi
     passes: 2,
 };
 
-/// Adds [`PartFitOptions::interior_vertices`] vertices inside the polygon
-/// ([`crate::bake::interior`]) and moves them, at every fitted frame not drawing the key
+/// Adds up to [`PartFitOptions::interior_vertices`] vertices inside the polygon
+/// ([`crate::bake::interior`]; as many as [`interior_budget`] finds worth their bytes from the
+/// outline-only drawing's error) and moves them, at every fitted frame not drawing the key
 /// image itself, wherever that lowers the drawn error. Two meshes are tried: the outline's
 /// triangles split at the added vertices (each frame then starts from exactly the
 /// outline-only drawing, so it can only gain) and the same made Delaunay by flips (better
 /// shaped triangles that let a vertex travel further, but whose start differs from the
-/// outline-only drawing); the one whose frames end with less error in all is kept. Frames
+/// outline-only drawing); the one whose frames nearest the key (a third of them) end with
+/// less error is kept and moved at the rest ([`InteriorWalk`]). Frames
 /// outside the fitted span borrow the positions of the frame whose mapping they borrow
 /// (`nearest`).
 fn interior_frames(
@@ -1336,21 +1366,60 @@ fn interior_frames(
         .zip(tiles)
         .map(|(d, t)| d.as_ref().map(|_| crate::bake::raster::tile_canvas(t)))
         .collect();
-    let best = [false, true]
-        .into_iter()
-        .map(|flip| {
-            let mesh = crate::bake::interior::add_interior(
-                &outline,
-                &fit.triangles,
-                &drawn,
-                options.interior_vertices,
-                options.interior_min_area,
-                flip,
-            );
-            let (at, error) = move_interior(fit, &mesh, &drawn, &truths, &refiner);
-            (mesh, at, error)
+    // How many the part's error pays for, from its outline-only drawing's error.
+    let unmoved = crate::bake::subpixel::Steps {
+        lengths: &[],
+        passes: 0,
+    };
+    let outline_error: f64 = drawn
+        .iter()
+        .zip(&truths)
+        .filter_map(|(d, t)| {
+            let (d, t) = (d.as_ref()?, t.as_ref()?);
+            Some(
+                refiner
+                    .refine_steps(&mut d.clone(), &outline, &fit.triangles, t, &[], unmoved)
+                    .0,
+            )
         })
-        .min_by(|a, b| a.2.total_cmp(&b.2));
+        .sum();
+    let block_frames = fitted.iter().filter(|&&f| f).count();
+    let most = interior_budget(
+        options.interior_vertices,
+        outline_error,
+        block_frames,
+        options.interior_min_gain,
+    );
+    if most == 0 {
+        return;
+    }
+    let meshes = [false, true].map(|flip| {
+        crate::bake::interior::add_interior(&outline, &fit.triangles, &drawn, most, options.interior_min_area, flip)
+    });
+    // Both meshes walk the frames nearest the key (a third of the drawn frames, both ways);
+    // only the one with less error there walks the rest (both all the way: 0.00–0.02 dB more
+    // for half again the time).
+    let walk: Vec<(usize, Vec<usize>)> = walk_order(frames, fit.key_frame)
+        .into_iter()
+        .filter(|(f, _)| drawn[*f].is_some())
+        .collect();
+    let trial = walk.len().div_ceil(INTERIOR_TRIAL_SHARE).min(walk.len());
+    let mut walks: Vec<InteriorWalk<'_>> = meshes
+        .iter()
+        .filter(|m| !m.uvs.is_empty())
+        .map(|m| InteriorWalk::new(fit, m, &drawn, &truths, &refiner))
+        .collect();
+    for w in &mut walks {
+        for (f, neighbours) in &walk[..trial] {
+            w.visit(*f, neighbours);
+        }
+    }
+    let best = walks.into_iter().min_by(|a, b| a.total.total_cmp(&b.total));
+    let Some(mut best) = best else { return };
+    for (f, neighbours) in &walk[trial..] {
+        best.visit(*f, neighbours);
+    }
+    let best = Some((best.mesh.clone(), best.interior_at, best.total));
     let Some((mesh, mut interior_at, _)) = best else { return };
     if mesh.uvs.is_empty() {
         return;
@@ -1365,56 +1434,90 @@ fn interior_frames(
     fit.interior_at = interior_at;
 }
 
-/// The interior vertices of `mesh` moved at every frame `drawn` gives outline positions for
-/// (`truths`: those frames' renders), and the drawn error summed over those frames. Frames are
-/// visited out from the key frame; each starts from a visited neighbouring frame's moves
-/// carried over (a slide that builds up over frames; from both neighbours where two were
-/// visited, keeping whichever ends with less error), else (or where that folds a triangle)
-/// from where the outline's warp puts the vertices.
-fn move_interior(
-    fit: &PartFit,
-    mesh: &crate::bake::interior::Interior,
-    drawn: &[Option<Vec<[f32; 2]>>],
-    truths: &[Option<crate::bake::raster::Canvas>],
-    refiner: &crate::bake::subpixel::Refiner,
-) -> (Vec<Vec<[f32; 2]>>, f64) {
-    use crate::bake::interior::area2;
-    let frames = drawn.len();
-    let mut interior_at = vec![Vec::new(); frames];
-    if mesh.uvs.is_empty() {
-        return (interior_at, 0.0);
-    }
-    let n = fit.kept.len();
-    let uvs: Vec<[f32; 2]> = fit.uvs().into_iter().chain(mesh.uvs.iter().copied()).collect();
-    let fixed: Vec<bool> = (0..uvs.len()).map(|i| i < n).collect();
-    let sign: Vec<f32> = mesh
-        .triangles
-        .iter()
-        .map(|t| area2(uvs[t[0]], uvs[t[1]], uvs[t[2]]).signum())
-        .collect();
-    let fold_free = |p: &[[f32; 2]]| {
-        mesh.triangles
+/// Drawn frames (out of every three) on which both interior meshes are tried before one is
+/// kept ([`interior_frames`]).
+const INTERIOR_TRIAL_SHARE: usize = 3;
+
+/// The interior vertices of `mesh` moved frame by frame ([`InteriorWalk::visit`], in the
+/// order of [`walk_order`]) at the frames `drawn` gives outline positions for (`truths`: those
+/// frames' renders), with the drawn error summed over the frames visited. Each frame starts
+/// from a visited neighbouring frame's moves carried over (a slide that builds up over frames;
+/// from both neighbours where two were visited, keeping whichever ends with less error), else
+/// (or where that folds a triangle) from where the outline's warp puts the vertices.
+struct InteriorWalk<'a> {
+    mesh: &'a crate::bake::interior::Interior,
+    drawn: &'a [Option<Vec<[f32; 2]>>],
+    truths: &'a [Option<crate::bake::raster::Canvas>],
+    refiner: &'a crate::bake::subpixel::Refiner<'a>,
+    /// Outline vertices (numbered first).
+    n: usize,
+    uvs: Vec<[f32; 2]>,
+    fixed: Vec<bool>,
+    sign: Vec<f32>,
+    /// Each visited frame's interior moves off the outline's warp.
+    moves: Vec<Option<Vec<[f32; 2]>>>,
+    interior_at: Vec<Vec<[f32; 2]>>,
+    total: f64,
+}
+
+impl<'a> InteriorWalk<'a> {
+    fn new(
+        fit: &PartFit,
+        mesh: &'a crate::bake::interior::Interior,
+        drawn: &'a [Option<Vec<[f32; 2]>>],
+        truths: &'a [Option<crate::bake::raster::Canvas>],
+        refiner: &'a crate::bake::subpixel::Refiner<'a>,
+    ) -> Self {
+        use crate::bake::interior::area2;
+        let frames = drawn.len();
+        let n = fit.kept.len();
+        let uvs: Vec<[f32; 2]> = fit.uvs().into_iter().chain(mesh.uvs.iter().copied()).collect();
+        let fixed: Vec<bool> = (0..uvs.len()).map(|i| i < n).collect();
+        let sign: Vec<f32> = mesh
+            .triangles
             .iter()
-            .zip(&sign)
+            .map(|t| area2(uvs[t[0]], uvs[t[1]], uvs[t[2]]).signum())
+            .collect();
+        Self {
+            mesh,
+            drawn,
+            truths,
+            refiner,
+            n,
+            uvs,
+            fixed,
+            sign,
+            moves: vec![None; frames],
+            interior_at: vec![Vec::new(); frames],
+            total: 0.0,
+        }
+    }
+
+    fn fold_free(&self, p: &[[f32; 2]]) -> bool {
+        use crate::bake::interior::area2;
+        self.mesh
+            .triangles
+            .iter()
+            .zip(&self.sign)
             .all(|(t, s)| area2(p[t[0]], p[t[1]], p[t[2]]) * s >= 0.0)
-    };
-    // Each visited frame's interior moves off the outline's warp.
-    let mut moves: Vec<Option<Vec<[f32; 2]>>> = vec![None; frames];
-    let mut total = 0.0;
-    for (f, neighbours) in walk_order(frames, fit.key_frame) {
-        let (Some(outline), Some(truth)) = (&drawn[f], &truths[f]) else {
-            continue;
+    }
+
+    /// Moves the interior vertices at frame `f`, whose visited neighbours are `neighbours`.
+    fn visit(&mut self, f: usize, neighbours: &[usize]) {
+        let (Some(outline), Some(truth)) = (&self.drawn[f], &self.truths[f]) else {
+            return;
         };
+        let n = self.n;
         let mut warped = outline.clone();
-        warped.extend_from_slice(&mesh.positions[f]);
+        warped.extend_from_slice(&self.mesh.positions[f]);
         let mut starts: Vec<Vec<[f32; 2]>> = Vec::new();
-        for g in neighbours {
-            if let Some(m) = &moves[g] {
+        for &g in neighbours {
+            if let Some(m) = &self.moves[g] {
                 let mut carried = warped.clone();
                 for (k, d) in m.iter().enumerate() {
                     carried[n + k] = [carried[n + k][0] + d[0], carried[n + k][1] + d[1]];
                 }
-                if fold_free(&carried) && !starts.contains(&carried) {
+                if self.fold_free(&carried) && !starts.contains(&carried) {
                     starts.push(carried);
                 }
             }
@@ -1425,20 +1528,26 @@ fn move_interior(
         let (best, error) = starts
             .into_iter()
             .map(|mut pos| {
-                let (_, after) = refiner.refine_steps(&mut pos, &uvs, &mesh.triangles, truth, &fixed, INTERIOR_STEPS);
+                let (_, after) = self.refiner.refine_steps(
+                    &mut pos,
+                    &self.uvs,
+                    &self.mesh.triangles,
+                    truth,
+                    &self.fixed,
+                    INTERIOR_STEPS,
+                );
                 (pos, after)
             })
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .unwrap_or((warped.clone(), 0.0));
-        total += error;
-        moves[f] = Some(
+        self.total += error;
+        self.moves[f] = Some(
             (n..best.len())
                 .map(|i| [best[i][0] - warped[i][0], best[i][1] - warped[i][1]])
                 .collect(),
         );
-        interior_at[f] = best[n..].to_vec();
+        self.interior_at[f] = best[n..].to_vec();
     }
-    (interior_at, total)
 }
 
 /// Moves every fitted frame's drawn vertices by fractions of a pixel where that lowers the
@@ -1849,6 +1958,78 @@ mod tests {
     /// it: the drawn error falls well below the outline-only polygon's, no drawn triangle
     /// turns over, the key frame draws the key image itself, and the vertex numbering is
     /// the outline's then the interior ones'.
+    /// The budget against its closed form: the `k`-th vertex pays while
+    /// `cut · ln((k + 1) / k) ≥ need`, that is while `k ≤ 1 / (e^(need / cut) − 1)`.
+    #[test]
+    fn the_interior_budget_is_the_closed_form_count() {
+        for error in [0.0, 0.5, 3.0, 41.0, 917.0, 1e6] {
+            for frames in [1usize, 10, 34, 200] {
+                for gain in [0.003, 0.03, 0.3] {
+                    let got = interior_budget(24, error, frames, gain);
+                    let need = gain * (16 + 2 * frames) as f64;
+                    let cut = INTERIOR_CUT * error / 25f64.ln();
+                    let closed = if cut <= 0.0 {
+                        0
+                    } else {
+                        (1.0 / ((need / cut).exp() - 1.0)).floor().min(24.0) as usize
+                    };
+                    assert_eq!(got, closed, "error {error}, {frames} frames, gain {gain}");
+                }
+            }
+        }
+        // Scaling the error and the price together changes nothing.
+        assert_eq!(
+            interior_budget(24, 300.0, 10, 0.03),
+            interior_budget(24, 1200.0, 10, 0.12)
+        );
+        // More error never buys fewer; more frames (more bytes each) never more.
+        let mut last = 0;
+        for e in [1.0, 10.0, 100.0, 1000.0, 10000.0] {
+            let n = interior_budget(24, e, 10, 0.03);
+            assert!(n >= last && n <= 24);
+            last = n;
+        }
+        assert!(last > 0);
+        assert!(interior_budget(24, 500.0, 100, 0.03) <= interior_budget(24, 500.0, 10, 0.03));
+        // Off: every part gets the most.
+        assert_eq!(interior_budget(12, 0.0, 10, 0.0), 12);
+        assert_eq!(interior_budget(12, 0.0, 10, f64::NAN), 12);
+    }
+
+    /// The budget is what the fit uses: none when no vertex could pay, some where the texture
+    /// slides.
+    #[test]
+    fn a_part_gets_interior_vertices_only_where_their_bytes_pay() {
+        let t = sliding_tiles(4, 2.0);
+        let fit = |min_gain: f64| {
+            let options = PartFitOptions {
+                interior_vertices: 8,
+                interior_min_gain: min_gain,
+                ..Default::default()
+            };
+            fit_part(&t, 0, &options, &[]).unwrap()
+        };
+        let outline_only = fit_part(
+            &t,
+            0,
+            &PartFitOptions {
+                interior_vertices: 0,
+                ..Default::default()
+            },
+            &[],
+        )
+        .unwrap();
+        let priced_out = fit(1e9);
+        assert!(priced_out.interior.is_empty());
+        assert_eq!(priced_out.triangles, outline_only.triangles);
+        let paid = fit(0.03);
+        assert!(
+            !paid.interior.is_empty() && paid.interior.len() <= 8,
+            "{}",
+            paid.interior.len()
+        );
+    }
+
     #[test]
     fn interior_vertices_follow_a_texture_sliding_inside_a_still_outline() {
         let t = sliding_tiles(4, 2.0);

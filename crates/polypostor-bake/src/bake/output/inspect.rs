@@ -183,6 +183,7 @@ mod tests {
             sse: vec![],
             extra: vec![],
             frame_key: vec![],
+            outline_error: 0.0,
         };
         let parts = vec![part];
         let keys = vec![tiles[0].clone()];
