@@ -2001,28 +2001,18 @@ mod tests {
     #[test]
     fn a_part_gets_interior_vertices_only_where_their_bytes_pay() {
         let t = sliding_tiles(4, 2.0);
-        let fit = |min_gain: f64| {
+        let fit = |interior_vertices: usize, interior_min_gain: f64| {
             let options = PartFitOptions {
-                interior_vertices: 8,
-                interior_min_gain: min_gain,
+                interior_vertices,
+                interior_min_gain,
                 ..Default::default()
             };
             fit_part(&t, 0, &options, &[]).unwrap()
         };
-        let outline_only = fit_part(
-            &t,
-            0,
-            &PartFitOptions {
-                interior_vertices: 0,
-                ..Default::default()
-            },
-            &[],
-        )
-        .unwrap();
-        let priced_out = fit(1e9);
+        let priced_out = fit(8, 1e9);
         assert!(priced_out.interior.is_empty());
-        assert_eq!(priced_out.triangles, outline_only.triangles);
-        let paid = fit(0.03);
+        assert_eq!(priced_out.triangles, fit(0, 0.0).triangles);
+        let paid = fit(8, 0.03);
         assert!(
             !paid.interior.is_empty() && paid.interior.len() <= 8,
             "{}",
