@@ -412,8 +412,7 @@ impl Inspector {
             ui.vertical(|ui| {
                 // The key frame (and frames showing exactly its image) draw the key image
                 // itself: the key polygon onto its own vertices, nothing to correct.
-                let own_image =
-                    fit.targets[f] == fit.key_polygon && fit.mappings[f].iter().enumerate().all(|(i, &j)| i == j);
+                let own_image = fit.draws_key_image(f);
                 let pinnable = first_key && !own_image;
                 let hint = if own_image {
                     "the key image itself (pin at other frames)"

@@ -269,6 +269,16 @@ impl PartFit {
             .collect()
     }
 
+    /// Frame `f` draws the key image itself: the key polygon mapped onto its own vertices
+    /// (the key frame, and frames showing exactly its image), nothing to move or correct.
+    pub fn draws_key_image(&self, f: usize) -> bool {
+        self.targets.get(f) == Some(&self.key_polygon)
+            && self
+                .mappings
+                .get(f)
+                .is_some_and(|m| m.iter().enumerate().all(|(i, &j)| i == j))
+    }
+
     /// Vertices drawn: the kept outline's and the interior ones.
     pub fn vertex_count(&self) -> usize {
         self.kept.len() + self.interior.len()
@@ -1350,11 +1360,8 @@ fn interior_frames(
 ) {
     let frames = tiles.len();
     let outline = fit.uvs();
-    let identity = |fit: &PartFit, f: usize| {
-        fit.targets[f] == fit.key_polygon && fit.mappings[f].iter().enumerate().all(|(i, &j)| i == j)
-    };
     let drawn: Vec<Option<Vec<[f32; 2]>>> = (0..frames)
-        .map(|f| (fitted[f] && !identity(fit, f)).then(|| fit.positions(f)))
+        .map(|f| (fitted[f] && !fit.draws_key_image(f)).then(|| fit.positions(f)))
         .collect();
     // A part drawing its key image in every frame (a prop at rest) has nothing to move.
     if drawn.iter().all(Option::is_none) {
@@ -1564,8 +1571,7 @@ fn subpixel_frames(
     let uvs = fit.uvs();
     let refiner = crate::bake::subpixel::Refiner::new(&tiles[fit.key_frame]);
     for f in 0..tiles.len() {
-        let identity = fit.targets[f] == fit.key_polygon && fit.mappings[f].iter().enumerate().all(|(i, &j)| i == j);
-        if !fitted[f] || identity {
+        if !fitted[f] || fit.draws_key_image(f) {
             continue;
         }
         let pinned: Vec<usize> = pins.get(f).map_or(Vec::new(), |p| p.iter().map(|&(s, _)| s).collect());
