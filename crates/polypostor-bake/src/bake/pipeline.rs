@@ -475,8 +475,9 @@ pub fn render_view_frame(
     c
 }
 
-/// Fits one part of a view (with its pins) and measures it against its own render per
-/// frame.
+/// Fits one part of a view (with its pins) on its outline alone and measures its squared
+/// error against its own render per frame ([`PartResult::outline_error`]); `refit_view` then
+/// gives it its interior vertices and its PSNR and SSIM.
 pub fn fit_view_part(
     data: &ViewData,
     p: usize,
@@ -486,7 +487,11 @@ pub fn fit_view_part(
 ) -> PartResult {
     let images = &data.depth_order_tiles;
     let tiles = &data.tiles[p];
-    let (fit, problem) = match profile::in_root("part fit", || fit_part(tiles, key, options, pins)) {
+    let outline_only = PartFitOptions {
+        interior_vertices: 0,
+        ..*options
+    };
+    let (fit, problem) = match profile::in_root("part fit", || fit_part(tiles, key, &outline_only, pins)) {
         Ok(f) => (Some(f), None),
         Err(e) => (None, Some(e.to_string())),
     };
@@ -502,14 +507,10 @@ pub fn fit_view_part(
         frame_key: Vec::new(),
         outline_error: 0.0,
     };
-    if options.interior_vertices == 0 {
-        // The interior vertices come later, priced by the whole view (`refit_view`): here
-        // only the outline's error, which prices them.
-        measure_first_key(data, p, &mut r, false);
-        r.outline_error = r.sse.iter().sum();
-    } else {
-        measure_first_key(data, p, &mut r, true);
-    }
+    // The interior vertices come later, priced by the whole view (`refit_view`): here only
+    // the outline's error, which prices them.
+    measure_first_key(data, p, &mut r, false);
+    r.outline_error = r.sse.iter().sum();
     r
 }
 
@@ -771,16 +772,12 @@ pub fn refit_view(
     };
     let same_keys = prev.is_some_and(|prev| prev.ov.keys.as_deref() == manual);
     // Outlines first; the interior vertices once the whole view's error prices them.
-    let outline_only = PartFitOptions {
-        interior_vertices: 0,
-        ..*options
-    };
     let fitted: Vec<PartResult> = refit
         .par_iter()
         .map(|&p| {
             let pins = ov.map_or_else(Vec::new, |o| o.pins_per_frame(p, frames));
             let forced = ov.is_some_and(|o| o.key_frame.is_some());
-            fit_view_part(data, p, part_key(&data.tiles[p], key, forced), &outline_only, &pins)
+            fit_view_part(data, p, part_key(&data.tiles[p], key, forced), options, &pins)
         })
         .collect();
     let mut parts: Vec<Option<PartResult>> = match prev {
