@@ -963,8 +963,19 @@ fn morphing_pieces(c: &Character) -> Option<Segmentation> {
     Some(seg)
 }
 
-/// Most parts [`morphing_motion_parts`] cuts a one-piece morphing prop into.
-pub const MOTION_PARTS_MAX: usize = 6;
+/// Most motion clusters [`morphing_motion_parts`] cuts a one-piece morphing prop into.
+pub const MOTION_PARTS_MAX: usize = 8;
+
+/// Most parts [`morphing_motion_parts`] keeps once clusters are split into connected pieces
+/// (a quadruped: body, head and neck, tail, four legs).
+pub const MOTION_PIECES_MAX: usize = 10;
+
+/// Triangles tried as the next centre by [`morphing_motion_parts`]: this many of the worst
+/// fitted, and as many spread evenly.
+const SEED_CANDIDATES: usize = 32;
+
+/// Feature entries the cut of a candidate centre is measured on.
+const SEED_ENTRIES: usize = 4_000_000;
 
 /// How far apart (mean squared Frobenius distance per sampled pose) a triangle's rotations may
 /// be from its part's for [`morphing_motion_parts`] to stop cutting: `8 sin²(θ/2)` for two
@@ -1087,11 +1098,31 @@ fn morphing_motion_parts(c: &Character) -> Option<Segmentation> {
     assign(&centres, &mut labels, &mut dist, &|_| true);
     let residual = |dist: &[f64]| (0..tris).map(|t| weight[t] * dist[t]).sum::<f64>() / total / samples as f64;
     while residual(&dist) > MOTION_RESIDUAL && centres.len() < MOTION_PARTS_MAX {
-        // The next centre: the triangle its part fits worst (by weight).
-        let worst = (0..tris)
-            .max_by(|&a, &b| (weight[a] * dist[a]).total_cmp(&(weight[b] * dist[b])).then(b.cmp(&a)))
-            .unwrap_or(0);
-        centres.push(feature(worst).to_vec());
+        // The next centre: of the triangles their parts fit worst (by weight) and an even
+        // spread of the others, the one whose rotations as a centre would cut the residual
+        // most (the worst-fit triangle alone is often a sliver turning on its own, whose part
+        // is then dropped as too small and the limbs stay in the body).
+        let mut candidates: Vec<usize> = (0..tris).collect();
+        candidates.sort_by(|&a, &b| (weight[b] * dist[b]).total_cmp(&(weight[a] * dist[a])).then(a.cmp(&b)));
+        candidates.truncate(SEED_CANDIDATES);
+        candidates.extend((0..tris).step_by(tris.div_ceil(SEED_CANDIDATES).max(1)));
+        candidates.sort_unstable();
+        candidates.dedup();
+        // The cut is measured on an even sample of the triangles (a few million entries).
+        let stride = (tris * dim).div_ceil(SEED_ENTRIES).max(1);
+        let cut = |c: usize| -> f64 {
+            let f = feature(c);
+            (0..tris)
+                .step_by(stride)
+                .map(|t| weight[t] * (dist[t] - distance(feature(t), f)).max(0.0))
+                .sum()
+        };
+        let seed = candidates
+            .iter()
+            .map(|&c| (c, cut(c)))
+            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
+            .map_or(0, |(c, _)| c);
+        centres.push(feature(seed).to_vec());
         for _ in 0..12 {
             let before = labels.clone();
             assign(&centres, &mut labels, &mut dist, &|_| true);
@@ -1111,57 +1142,79 @@ fn morphing_motion_parts(c: &Character) -> Option<Segmentation> {
     }
     let kept: Vec<bool> = area.iter().map(|&a| a >= PIECE_SHARE * total).collect();
     assign(&centres, &mut labels, &mut dist, &|l| kept[l]);
-    // Each part keeps its largest connected piece.
+    // Each connected piece of a part holding at least PIECE_SHARE of the area is a part of its
+    // own (a galloping horse's front legs turn alike but are two limbs; one polygon cannot
+    // hold both), the largest MOTION_PIECES_MAX; the other pieces grow into the parts around
+    // them (islands touching none join the part whose centre is nearest).
     let neighbours = rest_neighbours(c);
-    for _ in 0..8 {
-        let pieces = label_pieces(&neighbours, &labels);
-        let largest = largest_pieces(&pieces, centres.len());
-        let mut changed = false;
-        for (i, (l, members)) in pieces.iter().enumerate() {
-            if largest[*l as usize] == Some(i) {
-                continue;
-            }
-            let mut edges = vec![0usize; centres.len()];
-            for &t in members {
-                for &n in &neighbours[t as usize] {
-                    if let Some(&m) = labels.get(n as usize)
-                        && m != *l
-                    {
-                        edges[m as usize] += 1;
-                    }
-                }
-            }
-            if let Some(to) = (0..edges.len())
-                .filter(|&p| edges[p] > 0)
-                .max_by(|&a, &b| edges[a].cmp(&edges[b]).then(b.cmp(&a)))
-            {
-                for &t in members {
-                    labels[t as usize] = to as u16;
-                }
-                changed = true;
-            }
-        }
-        if !changed {
-            break;
-        }
-    }
-    // Parts by area, largest first.
-    let mut area = vec![0.0f64; centres.len()];
-    for t in 0..tris {
-        area[labels[t] as usize] += weight[t];
-    }
-    let mut order: Vec<usize> = (0..centres.len()).filter(|&l| labels.contains(&(l as u16))).collect();
-    order.sort_by(|&a, &b| area[b].total_cmp(&area[a]).then(a.cmp(&b)));
-    if order.len() < 2 {
+    let pieces = label_pieces(&neighbours, &labels);
+    let piece_area: Vec<f64> = pieces
+        .iter()
+        .map(|(_, m)| m.iter().map(|&t| weight[t as usize]).sum())
+        .collect();
+    let mut order: Vec<usize> = (0..pieces.len()).collect();
+    order.sort_by(|&a, &b| piece_area[b].total_cmp(&piece_area[a]).then(a.cmp(&b)));
+    let kept: Vec<usize> = order
+        .into_iter()
+        .filter(|&i| piece_area[i] >= PIECE_SHARE * total)
+        .take(MOTION_PIECES_MAX)
+        .collect();
+    if kept.len() < 2 {
         return None;
     }
-    let mut rank = vec![0u16; centres.len()];
-    for (i, &l) in order.iter().enumerate() {
-        rank[l] = i as u16;
+    let mut part = vec![u16::MAX; tris];
+    let mut queue = std::collections::VecDeque::new();
+    for (rank, &i) in kept.iter().enumerate() {
+        for &t in &pieces[i].1 {
+            part[t as usize] = rank as u16;
+            queue.push_back(t as usize);
+        }
     }
-    let parts = numbered_parts(order.len(), "Part");
-    let labels = labels.iter().map(|&l| rank[l as usize]).collect();
-    Some(Segmentation { parts, labels })
+    while let Some(t) = queue.pop_front() {
+        for &n in &neighbours[t] {
+            let n = n as usize;
+            if n < tris && part[n] == u16::MAX {
+                part[n] = part[t];
+                queue.push_back(n);
+            }
+        }
+    }
+    if part.contains(&u16::MAX) {
+        let centre_of = |members: &[u32]| {
+            let (mut sum, mut w) = (Vec3::ZERO, 0.0f32);
+            for &t in members {
+                let tri = &c.indices[3 * t as usize..3 * t as usize + 3];
+                let m = tri
+                    .iter()
+                    .map(|&v| rest.get(v as usize).copied().unwrap_or(Vec3::ZERO))
+                    .sum::<Vec3>()
+                    / 3.0;
+                sum += m;
+                w += 1.0;
+            }
+            sum / w.max(1.0)
+        };
+        let centres: Vec<Vec3> = kept.iter().map(|&i| centre_of(&pieces[i].1)).collect();
+        for (_, members) in label_pieces(&neighbours, &part) {
+            if members.first().is_none_or(|&t| part[t as usize] != u16::MAX) {
+                continue;
+            }
+            let at = centre_of(&members);
+            let nearest = (0..centres.len())
+                .min_by(|&a, &b| {
+                    centres[a]
+                        .distance(at)
+                        .total_cmp(&centres[b].distance(at))
+                        .then(a.cmp(&b))
+                })
+                .unwrap_or(0);
+            for &t in &members {
+                part[t as usize] = nearest as u16;
+            }
+        }
+    }
+    let parts = numbered_parts(kept.len(), "Part");
+    Some(Segmentation { parts, labels: part })
 }
 
 /// `count` parts in palette order: "Body", then `"{word} 2"`, `"{word} 3"`, …
@@ -1314,85 +1367,19 @@ mod tests {
     /// flap's triangles as built (quads right of the hinge column).
     #[test]
     fn a_morphing_prop_in_one_piece_gets_a_part_per_turning_region() {
-        use crate::character::{Bone, Clip, Interpolation, MorphChannel, MorphTarget, Node, Skeleton, Transform};
         let n = 10;
         let hinge = 6.0;
-        let build = |scale: f32, turn: glam::Quat, shift: Vec3, flap: bool| {
-            let mut c = grid(n, false);
-            c.skeleton = Skeleton {
-                nodes: vec![Node {
-                    name: "root".into(),
-                    parent: None,
-                    rest: Transform::IDENTITY,
-                    is_joint: true,
-                }],
-            };
-            c.bones = vec![Bone {
-                node: 0,
-                inverse_bind: glam::Mat4::IDENTITY,
-            }];
-            let place = |p: Vec3| turn * (p * scale) + shift;
-            let rest: Vec<Vec3> = c.vertices.iter().map(|v| v.position).collect();
-            for v in &mut c.vertices {
-                v.position = place(v.position);
+        let flap = |p: Vec3, swing: glam::Quat, _: f32| {
+            if p.x > hinge {
+                Vec3::new(hinge, 0.0, 0.0) + swing * (p - Vec3::new(hinge, 0.0, 0.0))
+            } else {
+                p
             }
-            let angles = [-50.0f32, 0.0, 50.0];
-            c.morphs = angles
-                .iter()
-                .map(|&deg| {
-                    let swing = glam::Quat::from_rotation_y(deg.to_radians());
-                    let vertices: Vec<u32> = (0..rest.len() as u32).collect();
-                    let positions = rest
-                        .iter()
-                        .map(|&p| {
-                            let moved = if !flap {
-                                p * (1.0 + deg.abs() / 100.0)
-                            } else if p.x > hinge {
-                                Vec3::new(hinge, 0.0, 0.0) + swing * (p - Vec3::new(hinge, 0.0, 0.0))
-                            } else {
-                                p
-                            };
-                            place(moved) - place(p)
-                        })
-                        .collect();
-                    MorphTarget {
-                        name: format!("swing {deg}"),
-                        rest_weight: 0.0,
-                        normals: vec![Vec3::ZERO; rest.len()],
-                        vertices,
-                        positions,
-                    }
-                })
-                .collect();
-            c.clips = vec![Clip {
-                name: "flap".into(),
-                duration_secs: 1.0,
-                channels: Vec::new(),
-                in_place_velocity: Vec3::ZERO,
-                morph_channels: vec![MorphChannel {
-                    targets: vec![0, 1, 2],
-                    interpolation: Interpolation::Linear,
-                    times: vec![0.0, 0.25, 0.5, 0.75, 1.0],
-                    values: vec![
-                        1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0,
-                    ],
-                }],
-            }];
-            c
         };
         // Quad (x, y) holds triangles 2 (y n + x) and + 1: the flap is the quads right of the hinge.
         let on_flap = |t: usize| (t / 2) % n >= hinge as usize;
-        let poses = [
-            (1.0, glam::Quat::IDENTITY, Vec3::ZERO),
-            (
-                100.0,
-                glam::Quat::from_rotation_x(1.1) * glam::Quat::from_rotation_z(0.4),
-                Vec3::new(3.0, -40.0, 7.0),
-            ),
-            (0.001, glam::Quat::from_rotation_y(2.0), Vec3::new(0.0, 0.002, 0.0)),
-        ];
-        for (scale, turn, shift) in poses {
-            let c = build(scale, turn, shift, true);
+        for (scale, turn, shift) in rig_placements() {
+            let c = morphing_grid(n, scale, turn, shift, &flap);
             let seg = auto_segment(&c);
             assert_eq!(seg.parts.len(), 2, "scale {scale}: {:?}", seg.parts);
             assert_eq!(seg.parts[0].name, "Body");
@@ -1404,12 +1391,124 @@ mod tests {
             // The plate (6 of 10 columns) is the larger part.
             assert_ne!(flap_label, 0, "scale {scale}");
         }
-        let grows = build(1.0, glam::Quat::IDENTITY, Vec3::ZERO, false);
+        let grows = morphing_grid(n, 1.0, glam::Quat::IDENTITY, Vec3::ZERO, &|p, _, deg| {
+            p * (1.0 + deg.abs() / 100.0)
+        });
         assert_eq!(
             auto_segment(&grows).parts.len(),
             1,
             "growing turns no triangle: one part"
         );
+    }
+
+    /// Two flaps on either side of a plate swinging alike (a galloping horse's front legs, a
+    /// bird's wings beating together) turn the same way at every pose, so one motion cluster
+    /// holds both; they are two limbs apart, and get a part each. Independent answer: the
+    /// flaps' quads as built (three columns each side of a four-column plate), whatever the
+    /// prop's size, place and orientation.
+    #[test]
+    fn limbs_that_swing_alike_get_a_part_each() {
+        let n = 10;
+        let (left, right) = (3.0, 7.0);
+        let flaps = |p: Vec3, swing: glam::Quat, _: f32| {
+            let hinge = |h: f32| Vec3::new(h, 0.0, 0.0) + swing * (p - Vec3::new(h, 0.0, 0.0));
+            if p.x < left {
+                hinge(left)
+            } else if p.x > right {
+                hinge(right)
+            } else {
+                p
+            }
+        };
+        let column = |t: usize| (t / 2) % n;
+        for (scale, turn, shift) in rig_placements() {
+            let c = morphing_grid(n, scale, turn, shift, &flaps);
+            let seg = auto_segment(&c);
+            assert_eq!(seg.parts.len(), 3, "scale {scale}: {:?}", seg.parts);
+            let (l, r) = (seg.labels[0], seg.labels[2 * (n - 1)]);
+            assert_ne!(l, r, "scale {scale}: the two flaps share a part");
+            for t in 0..c.indices.len() / 3 {
+                let want = match column(t) {
+                    x if x < left as usize => l,
+                    x if x >= right as usize => r,
+                    _ => 0,
+                };
+                assert_eq!(seg.labels[t], want, "scale {scale}: triangle {t}");
+            }
+        }
+    }
+
+    /// Placements of a test rig: as built, huge and turned and moved, tiny and turned.
+    fn rig_placements() -> [(f32, glam::Quat, Vec3); 3] {
+        [
+            (1.0, glam::Quat::IDENTITY, Vec3::ZERO),
+            (
+                100.0,
+                glam::Quat::from_rotation_x(1.1) * glam::Quat::from_rotation_z(0.4),
+                Vec3::new(3.0, -40.0, 7.0),
+            ),
+            (0.001, glam::Quat::from_rotation_y(2.0), Vec3::new(0.0, 0.002, 0.0)),
+        ]
+    }
+
+    /// The grid of [`grid`] (`n`×`n`, no seam) as a one-bone prop with three morph targets
+    /// and a clip that plays them in turn: target `k` moves each rest point `p` to
+    /// `moved(p, swing, deg)` for `deg` −50°, 0°, 50° (`swing`: that turn about y), the whole
+    /// placed by `scale`, `turn` and `shift`.
+    fn morphing_grid(
+        n: usize,
+        scale: f32,
+        turn: glam::Quat,
+        shift: Vec3,
+        moved: &dyn Fn(Vec3, glam::Quat, f32) -> Vec3,
+    ) -> Character {
+        use crate::character::{Bone, Clip, Interpolation, MorphChannel, MorphTarget, Node, Skeleton, Transform};
+        let mut c = grid(n, false);
+        c.skeleton = Skeleton {
+            nodes: vec![Node {
+                name: "root".into(),
+                parent: None,
+                rest: Transform::IDENTITY,
+                is_joint: true,
+            }],
+        };
+        c.bones = vec![Bone {
+            node: 0,
+            inverse_bind: glam::Mat4::IDENTITY,
+        }];
+        let place = |p: Vec3| turn * (p * scale) + shift;
+        let rest: Vec<Vec3> = c.vertices.iter().map(|v| v.position).collect();
+        for v in &mut c.vertices {
+            v.position = place(v.position);
+        }
+        c.morphs = [-50.0f32, 0.0, 50.0]
+            .iter()
+            .map(|&deg| {
+                let swing = glam::Quat::from_rotation_y(deg.to_radians());
+                MorphTarget {
+                    name: format!("swing {deg}"),
+                    rest_weight: 0.0,
+                    normals: vec![Vec3::ZERO; rest.len()],
+                    vertices: (0..rest.len() as u32).collect(),
+                    positions: rest.iter().map(|&p| place(moved(p, swing, deg)) - place(p)).collect(),
+                }
+            })
+            .collect();
+        c.clips = vec![Clip {
+            name: "flap".into(),
+            duration_secs: 1.0,
+            channels: Vec::new(),
+            in_place_velocity: Vec3::ZERO,
+            morph_channels: vec![MorphChannel {
+                targets: vec![0, 1, 2],
+                interpolation: Interpolation::Linear,
+                times: vec![0.0, 0.25, 0.5, 0.75, 1.0],
+                values: vec![
+                    1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0,
+                ],
+            }],
+        }];
+        c
     }
 
     /// A flat grid of `n`×`n` unit quads (two triangles each, quad `(x, y)` holding triangles
