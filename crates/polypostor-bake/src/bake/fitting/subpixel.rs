@@ -39,8 +39,18 @@ fn pixel_error(a: &[f32; 4], b: &[f32; 4]) -> f64 {
         let d = a[c] * a[3] - b[c] * b[3];
         s += (d * d) as f64;
     }
-    s
+    let d = a[3] - b[3];
+    s + COVERAGE_WEIGHT * (d * d) as f64
 }
+
+/// Weight of the coverage difference in a pixel's error, beside the colour's: without it a
+/// black part's silhouette costs nothing against the empty background (colour × coverage is 0
+/// either way) and its vertices never move onto the render's edge. 0.25: a pixel of black
+/// drawn or missed costs what a mid-grey one does by colour (measured on 24 views: three.js's
+/// black horse's silhouette agreement 0.962 → 0.971, its white-based copy's being 0.972; the
+/// bakes' colour PSNR within −0.02 to +0.05 dB on six characters; 1 cost the default 0.10 dB).
+/// The reported PSNR stays colour only, as every figure in the README is measured.
+const COVERAGE_WEIGHT: f64 = 0.25;
 
 fn signed_area(p: [[f32; 2]; 3]) -> f32 {
     (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0])
@@ -584,8 +594,31 @@ mod tests {
 
     #[test]
     fn a_polygon_under_a_pixel_off_moves_onto_the_part_and_the_error_falls() {
-        let key = rect_tile(48, 10.0, 10.0, 30.0, 40.0);
-        let truth = tile_canvas(&rect_tile(48, 12.0, 9.0, 32.0, 39.0));
+        moves_onto_the_part(&|t| t, true);
+    }
+
+    /// A black part: colour × coverage is 0 inside and out, so only the coverage term of the
+    /// error sees its edge; the polygon still moves onto the render.
+    #[test]
+    fn a_black_part_s_polygon_moves_onto_its_silhouette() {
+        moves_onto_the_part(
+            &|mut t| {
+                for p in &mut t.px {
+                    p[..3].fill(0.0);
+                }
+                t
+            },
+            false,
+        );
+    }
+
+    /// A rectangle's polygon placed under a pixel off its render (`paint` colours both tiles)
+    /// ends within half a pixel of it, its redrawn error under a fifth of what it was and, with
+    /// `exact`, the tracked error the redrawn one (a black part's edges may end on pixel centres
+    /// exactly, which the tracked drawing and the canvas may round apart).
+    fn moves_onto_the_part(paint: &dyn Fn(PartTile) -> PartTile, exact: bool) {
+        let key = paint(rect_tile(48, 10.0, 10.0, 30.0, 40.0));
+        let truth = tile_canvas(&paint(rect_tile(48, 12.0, 9.0, 32.0, 39.0)));
         let uvs = vec![[10.0, 10.0], [30.0, 10.0], [30.0, 40.0], [10.0, 40.0]];
         let triangles = vec![[0, 1, 2], [0, 2, 3]];
         // Placed three quarters of a pixel short of the truth to the right and half a pixel
@@ -597,9 +630,9 @@ mod tests {
             drawn.draw_textured(t.map(|i| pos[i]), t.map(|i| uvs[i]), &key);
         }
         let measured: f64 = drawn.px.iter().zip(&truth.px).map(|(a, b)| pixel_error(a, b)).sum();
-        assert!(after < 0.2 * before, "{before} -> {after}");
+        assert!(before > 0.0 && measured < 0.2 * before, "{before} -> {measured}");
         assert!(
-            (measured - after).abs() < 1e-6 * before.max(1.0),
+            !exact || (measured - after).abs() < 1e-6 * before.max(1.0),
             "{measured} vs {after}"
         );
         for (p, u) in pos.iter().zip(&uvs) {
