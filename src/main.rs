@@ -901,13 +901,14 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     }
     let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json"))?)?;
     eprintln!(
-        "wrote {} in {:.1} s: key frame {}, mean PSNR {:.2} dB (worst {:.2}), SSIM {:.3}, {} KiB vs {} KiB for impostors ({:.1}×), {:.0} triangles per view{}",
+        "wrote {} in {:.1} s: key frame {}, mean PSNR {:.2} dB (worst {:.2}), SSIM {:.3}, silhouette {:.3}, {} KiB vs {} KiB for impostors ({:.1}×), {:.0} triangles per view{}",
         out.display(),
         started.elapsed().as_secs_f64(),
         b.key_frame,
         report["mean_psnr"].as_f64().unwrap_or(0.0),
         report["worst_psnr"].as_f64().unwrap_or(0.0),
         report["mean_ssim"].as_f64().unwrap_or(0.0),
+        report["mean_silhouette_iou"].as_f64().unwrap_or(0.0),
         stats.pack_bytes / 1024,
         report["impostor_bytes"].as_u64().unwrap_or(0) / 1024,
         report["memory_ratio"].as_f64().unwrap_or(0.0),
@@ -918,6 +919,12 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
             String::new()
         }
     );
+    let brightness = report["truth_brightness"].as_f64().unwrap_or(1.0);
+    if brightness < polypostor::bake::pipeline::DARK_BRIGHTNESS {
+        eprintln!(
+            "note: the character is nearly black (its renders' brightest channel averages {brightness:.2}): PSNR and SSIM compare colour against a black background and see little of its shape errors; read the silhouette agreement (IoU of the covered pixels, 1 = the same shape)"
+        );
+    }
     let parsed: Option<polypostor::bake::report::Report> = serde_json::from_value(report).ok();
     if let Some(table) = parsed.and_then(|r| r.clip_table()) {
         eprint!("{table}");

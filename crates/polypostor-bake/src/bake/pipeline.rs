@@ -286,6 +286,10 @@ pub struct ViewResult {
     pub psnr_static: Vec<f64>,
     /// Composited character SSIM per frame ([`crate::metrics`]).
     pub ssim: Vec<f64>,
+    /// Composited silhouette agreement per frame and the renders' brightness
+    /// ([`CompositeError`]).
+    pub silhouette_iou: Vec<f64>,
+    pub truth_brightness: f64,
     /// Every part's colour image per frame, when [`BakeOptions::keep_frame_images`] is set.
     pub frame_colors: Vec<Vec<image::RgbaImage>>,
     /// The key budget ([`KeyOptions::budget`]) this view's keys were chosen with when the
@@ -640,7 +644,18 @@ pub struct CompositeError {
     pub psnr_static: Vec<f64>,
     /// SSIM with the polygons moving.
     pub ssim: Vec<f64>,
+    /// Silhouette agreement with the polygons moving ([`Canvas::silhouette_iou`]).
+    pub silhouette_iou: Vec<f64>,
+    /// The renders' brightness: the mean over their covered pixels of the brightest channel
+    /// (0..1; under about 0.1 PSNR and SSIM see little of the shape, see
+    /// [`DARK_BRIGHTNESS`]).
+    pub truth_brightness: f64,
 }
+
+/// Renders darker than this ([`CompositeError::truth_brightness`]) leave PSNR and SSIM, which
+/// compare colour × coverage against a black background, blind to most shape errors: the
+/// bake says so and points at the silhouette agreement.
+pub const DARK_BRIGHTNESS: f64 = 0.1;
 
 /// The composite's PSNR and SSIM per frame against the ground truth, with the polygons
 /// moving, and its PSNR left still at the key frame. Frames are measured in parallel.
@@ -663,19 +678,28 @@ pub fn composite_error(data: &ViewData, parts: &[PartResult], order: &[usize], k
     let still = profile::in_root("composite", || {
         render_polypostor(parts, &key_tiles, order, key, images.resolution)
     });
-    let per_frame: Vec<(f64, f64, f64)> = (0..frames)
+    let per_frame: Vec<(f64, f64, f64, f64, (f64, usize))> = (0..frames)
         .into_par_iter()
         .map(|f| {
             let _composite = profile::root("composite");
             let gt = ground_truth(images, f);
             let poly = render_view_frame(parts, &data.tiles, order, f, images.resolution);
-            (psnr(poly.rmse(&gt).0), psnr(still.rmse(&gt).0), poly.ssim(&gt))
+            (
+                psnr(poly.rmse(&gt).0),
+                psnr(still.rmse(&gt).0),
+                poly.ssim(&gt),
+                poly.silhouette_iou(&gt),
+                gt.brightness(),
+            )
         })
         .collect();
+    let (lit, covered) = per_frame.iter().fold((0.0, 0usize), |(s, n), e| (s + e.4.0, n + e.4.1));
     CompositeError {
         psnr: per_frame.iter().map(|e| e.0).collect(),
         psnr_static: per_frame.iter().map(|e| e.1).collect(),
         ssim: per_frame.iter().map(|e| e.2).collect(),
+        silhouette_iou: per_frame.iter().map(|e| e.3).collect(),
+        truth_brightness: if covered == 0 { 1.0 } else { lit / covered as f64 },
     }
 }
 
@@ -863,6 +887,8 @@ pub fn rechoose_view_keys(
     view.psnr = error.psnr;
     view.psnr_static = error.psnr_static;
     view.ssim = error.ssim;
+    view.silhouette_iou = error.silhouette_iou;
+    view.truth_brightness = error.truth_brightness;
 }
 
 /// Bytes of a view's first key images and of its key images after them.
@@ -914,6 +940,8 @@ pub fn fit_view(
         psnr: fit.error.psnr,
         psnr_static: fit.error.psnr_static,
         ssim: fit.error.ssim,
+        silhouette_iou: fit.error.silhouette_iou,
+        truth_brightness: fit.error.truth_brightness,
         frame_colors,
         key_budget: None,
     }
@@ -1486,6 +1514,8 @@ pub fn rebake_sharing(
             view.psnr = fit.error.psnr;
             view.psnr_static = fit.error.psnr_static;
             view.ssim = fit.error.ssim;
+            view.silhouette_iou = fit.error.silhouette_iou;
+            view.truth_brightness = fit.error.truth_brightness;
             view.hidden = data.hidden;
             view.key_budget = None;
         }

@@ -46,6 +46,13 @@ pub struct ViewReport {
     pub ssim: Vec<f64>,
     #[serde(default)]
     pub mean_ssim: f64,
+    /// Composited silhouette agreement per frame (the pixels both the composite and the
+    /// render cover over those either covers), and its mean: what PSNR and SSIM cannot see of
+    /// a dark character's shape.
+    #[serde(default)]
+    pub silhouette_iou: Vec<f64>,
+    #[serde(default)]
+    pub mean_silhouette_iou: f64,
     pub order: Vec<usize>,
     pub parts: Vec<PartReport>,
     /// This view's texture key frame.
@@ -132,6 +139,14 @@ pub struct Report {
     pub mean_ssim: f64,
     #[serde(default)]
     pub worst_ssim: f64,
+    /// Mean composited silhouette agreement over every view and frame.
+    #[serde(default)]
+    pub mean_silhouette_iou: f64,
+    /// How dark the renders are: the mean over views of the mean brightest channel of their
+    /// covered pixels (0..1); under [`crate::bake::pipeline::DARK_BRIGHTNESS`] PSNR and SSIM
+    /// see little of the shape.
+    #[serde(default)]
+    pub truth_brightness: f64,
     pub pack_bytes: u64,
     pub pack_bytes_bc: u64,
     pub pack_file_bytes: u64,
@@ -315,6 +330,8 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
             mean_psnr: mean(&v.psnr),
             ssim: v.ssim.clone(),
             mean_ssim: mean(&v.ssim),
+            silhouette_iou: v.silhouette_iou.clone(),
+            mean_silhouette_iou: mean(&v.silhouette_iou),
             order: v.order.clone(),
             key_frame: v.key_frame,
             keys: view_keys_of(v),
@@ -349,6 +366,8 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
     let all: Vec<f64> = views.iter().flat_map(|v| v.psnr.iter().copied()).collect();
     let all_static: Vec<f64> = views.iter().flat_map(|v| v.psnr_static.iter().copied()).collect();
     let all_ssim: Vec<f64> = views.iter().flat_map(|v| v.ssim.iter().copied()).collect();
+    let all_iou: Vec<f64> = views.iter().flat_map(|v| v.silhouette_iou.iter().copied()).collect();
+    let brightness: Vec<f64> = bake.views.iter().map(|v| v.truth_brightness).collect();
     let mut worst: Vec<WorstView> = views
         .iter()
         .map(|v| WorstView {
@@ -392,6 +411,8 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
         mean_psnr_static: mean(&all_static),
         mean_ssim: mean(&all_ssim),
         worst_ssim: all_ssim.iter().copied().fold(f64::INFINITY, f64::min).min(1.0),
+        mean_silhouette_iou: mean(&all_iou),
+        truth_brightness: mean(&brightness),
         pack_bytes: stats.pack_bytes,
         pack_bytes_bc: stats.pack_bytes_bc,
         pack_file_bytes: stats.file_bytes,

@@ -140,6 +140,29 @@ impl Canvas {
         }
     }
 
+    /// The pixels both images cover over the pixels either covers (coverage at least a half),
+    /// whatever their colours: the shape's agreement, which [`Canvas::rmse`] weighs by colour
+    /// against a black background and so cannot see on a dark part. 1 when neither covers
+    /// anything.
+    pub fn silhouette_iou(&self, other: &Canvas) -> f64 {
+        let (mut both, mut either) = (0usize, 0usize);
+        for (a, b) in self.px.iter().zip(&other.px) {
+            let (ca, cb) = (a[3] >= 0.5, b[3] >= 0.5);
+            both += usize::from(ca && cb);
+            either += usize::from(ca || cb);
+        }
+        if either == 0 { 1.0 } else { both as f64 / either as f64 }
+    }
+
+    /// The brightest channel of each covered pixel (coverage at least a half), summed, and the
+    /// number of those pixels.
+    pub fn brightness(&self) -> (f64, usize) {
+        self.px
+            .iter()
+            .filter(|p| p[3] >= 0.5)
+            .fold((0.0, 0), |(s, n), p| (s + p[0].max(p[1]).max(p[2]) as f64, n + 1))
+    }
+
     /// SSIM against `other` over the pixels covered in either image (colour × coverage), as
     /// [`Canvas::rmse`] measures; see [`crate::metrics`]. 1 when neither covers anything.
     pub fn ssim(&self, other: &Canvas) -> f64 {
@@ -216,6 +239,28 @@ pub fn tile_canvas(tile: &PartTile) -> Canvas {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Silhouette agreement and brightness by hand on 4 × 4 canvases: a black pixel that
+    /// PSNR cannot see (black against the black background) halves the agreement.
+    #[test]
+    fn the_silhouette_sees_what_colour_against_black_does_not() {
+        let mut a = Canvas::new(4);
+        let mut b = Canvas::new(4);
+        assert_eq!(a.silhouette_iou(&b), 1.0, "nothing covered");
+        a.px[0] = [0.8, 0.2, 0.4, 1.0];
+        b.px[0] = [0.8, 0.2, 0.4, 1.0];
+        b.px[5] = [0.0, 0.0, 0.0, 1.0];
+        assert_eq!(a.rmse(&b).0, 0.0, "black on black background: no colour error");
+        assert_eq!(a.silhouette_iou(&b), 0.5);
+        assert_eq!(b.silhouette_iou(&a), 0.5);
+        // Coverage under a half counts as uncovered.
+        b.px[6] = [1.0, 1.0, 1.0, 0.4];
+        assert_eq!(a.silhouette_iou(&b), 0.5);
+        // Brightest channels 0.8 and 0 over the two covered pixels.
+        let (sum, n) = b.brightness();
+        assert_eq!(n, 2);
+        assert!((sum - 0.8).abs() < 1e-6, "{sum}");
+    }
 
     /// The dither: every level once; each 2×2 block holds one threshold of each quarter
     /// (so any fraction is spread evenly, not in clumps); the share of pixels kept below a
