@@ -237,9 +237,15 @@ impl ViewsPanel {
             );
         }
         let Some((_, _, report)) = &self.report else { return };
-        let (lo, hi) = report.views.iter().fold((f64::MAX, f64::MIN), |(a, b), v| {
-            (a.min(v.mean_psnr), b.max(v.mean_psnr))
-        });
+        // A nearly black character's views are ranked by their silhouette agreement: PSNR sees
+        // little of its shape (every view reads about 99 dB).
+        let dark =
+            report.truth_brightness < polypostor::bake::pipeline::DARK_BRIGHTNESS && report.mean_silhouette_iou > 0.0;
+        let score = |v: &polypostor::bake::report::ViewReport| if dark { v.mean_silhouette_iou } else { v.mean_psnr };
+        let (lo, hi) = report
+            .views
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(score(v)), b.max(score(v))));
         let span = (hi - lo).max(1e-6);
         ui.label(format!(
             "{} views · mean {:.2} dB, SSIM {:.3} · worst {:.2} dB, SSIM {:.3} · key frame {}",
@@ -250,6 +256,21 @@ impl ViewsPanel {
             report.worst_ssim,
             report.key_frame
         ));
+        // Reports written before the silhouette was measured have none.
+        if report.mean_silhouette_iou > 0.0 {
+            ui.label(format!("silhouette agreement {:.3}", report.mean_silhouette_iou))
+                .on_hover_text("the pixels both the composite and the render cover over those either covers, whatever their colours (1 = the same shape)");
+        }
+        if report.truth_brightness < polypostor::bake::pipeline::DARK_BRIGHTNESS {
+            ui.label(
+                egui::RichText::new(format!(
+                    "⚠ the character is nearly black (brightness {:.2}): PSNR and SSIM compare colour against a black background and see little of its shape; read the silhouette agreement",
+                    report.truth_brightness
+                ))
+                .small()
+                .color(ui.visuals().warn_fg_color),
+            );
+        }
         let dropped = report.dropped_corrections.lines();
         if !dropped.is_empty() {
             egui::Frame::group(ui.style()).show(ui, |ui| {
@@ -297,7 +318,7 @@ impl ViewsPanel {
         let pointer = response.hover_pos();
         for (i, v) in report.views.iter().enumerate() {
             let p = place(v.direction);
-            let t = ((v.mean_psnr - lo) / span) as f32;
+            let t = ((score(v) - lo) / span) as f32;
             let r = if self.selected == Some(i) { 6.0 } else { 4.0 };
             painter.circle_filled(p, r, heat(t));
             if self.selected == Some(i) {
@@ -310,28 +331,40 @@ impl ViewsPanel {
         let mut pick = None;
         if let Some(i) = hovered {
             let v = &report.views[i];
-            response
-                .clone()
-                .on_hover_text(format!("view {i}: {:.2} dB, SSIM {:.3}", v.mean_psnr, v.mean_ssim));
+            response.clone().on_hover_text(format!(
+                "view {i}: {:.2} dB, SSIM {:.3}, silhouette {:.3}",
+                v.mean_psnr, v.mean_ssim, v.mean_silhouette_iou
+            ));
             if response.clicked() {
                 pick = Some(i);
             }
         }
         // Worst first.
-        ui.label(egui::RichText::new("Worst views first").strong());
+        ui.label(
+            egui::RichText::new(if dark {
+                "Worst views first (by silhouette)"
+            } else {
+                "Worst views first"
+            })
+            .strong(),
+        );
         let mut order: Vec<usize> = (0..report.views.len()).collect();
-        order.sort_by(|&a, &b| report.views[a].mean_psnr.total_cmp(&report.views[b].mean_psnr));
+        order.sort_by(|&a, &b| score(&report.views[a]).total_cmp(&score(&report.views[b])));
         egui::ScrollArea::vertical()
             .id_salt("views list")
             .max_height(160.0)
             .show(ui, |ui| {
                 for &i in &order {
                     let v = &report.views[i];
-                    let t = ((v.mean_psnr - lo) / span) as f32;
+                    let t = ((score(v) - lo) / span) as f32;
                     ui.horizontal(|ui| {
                         let (dot, _) = ui.allocate_exact_size(egui::vec2(10.0, 10.0), egui::Sense::hover());
                         ui.painter().circle_filled(dot.center(), 4.0, heat(t));
-                        let text = format!("view {i:>3}   {:.2} dB   SSIM {:.3}", v.mean_psnr, v.mean_ssim);
+                        let text = if dark {
+                            format!("view {i:>3}   silhouette {:.3}", v.mean_silhouette_iou)
+                        } else {
+                            format!("view {i:>3}   {:.2} dB   SSIM {:.3}", v.mean_psnr, v.mean_ssim)
+                        };
                         if ui.selectable_label(self.selected == Some(i), text).clicked() {
                             pick = Some(i);
                         }

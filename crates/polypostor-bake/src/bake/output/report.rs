@@ -144,8 +144,8 @@ pub struct Report {
     pub mean_silhouette_iou: f64,
     /// How dark the renders are: the mean over views of the mean brightest channel of their
     /// covered pixels (0..1); under [`crate::bake::pipeline::DARK_BRIGHTNESS`] PSNR and SSIM
-    /// see little of the shape.
-    #[serde(default)]
+    /// see little of the shape. 1 in reports written before it was measured.
+    #[serde(default = "fully_bright")]
     pub truth_brightness: f64,
     pub pack_bytes: u64,
     pub pack_bytes_bc: u64,
@@ -311,6 +311,11 @@ pub struct PackStats {
     /// What the key images after each view's first take of `pack_bytes` (their atlas crops,
     /// colour and half-resolution normals, and their vertices and indices).
     pub extra_key_bytes: u64,
+}
+
+/// What a report written before brightness was measured reads as: not dark.
+fn fully_bright() -> f64 {
+    1.0
 }
 
 /// Builds the report of a finished bake and its written pack.
