@@ -994,13 +994,16 @@ const MOTION_FEATURES_MAX: usize = 24_000_000;
 /// one. A Polypostor part is one warped image; a wing sweeping over the body cannot be one
 /// image with it. Each triangle's rotation from the rest pose (its edge and normal frame) at
 /// poses sampled over every clip is one feature vector; a weighted k-means (by rest area;
-/// the next centre at the triangle its part fits worst) adds parts until the triangles turn
-/// within about 12° of their part's rotations on average ([`MOTION_RESIDUAL`]) or there are
-/// [`MOTION_PARTS_MAX`]. Parts under [`PIECE_SHARE`] of the area join their nearest centre;
-/// every part keeps its largest connected piece (the others join the part they share most
-/// edges with). The largest part is "Body". `None` where that leaves one part (a blob that
-/// breathes, a cube that grows), for characters with joints and for props without animated
-/// morphs.
+/// the next centre at the candidate triangle whose rotations cut the residual most, of the
+/// worst-fitted and an even spread, [`SEED_CANDIDATES`]) adds clusters until the triangles turn
+/// within about 12° of their cluster's rotations on average ([`MOTION_RESIDUAL`]) or there are
+/// [`MOTION_PARTS_MAX`]. Clusters under [`PIECE_SHARE`] of the area join their nearest centre;
+/// then every connected piece of a cluster holding [`PIECE_SHARE`] of the area is a part (two
+/// legs swinging alike are two parts), at most [`MOTION_PIECES_MAX`], largest first, and the
+/// smaller pieces grow into the parts around them (an island touching none joins the part
+/// whose centre is nearest). The largest part is "Body". `None` where that leaves one part (a
+/// blob that breathes, a cube that grows), for characters with joints and for props without
+/// animated morphs.
 fn morphing_motion_parts(c: &Character) -> Option<Segmentation> {
     use glam::Mat3;
     if c.morphs.is_empty() || c.bones.len() > 1 || c.indices.len() < 6 {
