@@ -920,10 +920,8 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         }
     );
     let brightness = report["truth_brightness"].as_f64().unwrap_or(1.0);
-    if brightness < polypostor::bake::pipeline::DARK_BRIGHTNESS {
-        eprintln!(
-            "note: the character is nearly black (its renders' brightest channel averages {brightness:.2}): PSNR and SSIM compare colour against a black background and see little of its shape errors; read the silhouette agreement (IoU of the covered pixels, 1 = the same shape)"
-        );
+    if let Some(note) = polypostor::bake::pipeline::dark_note(brightness) {
+        eprintln!("note: {note}");
     }
     let parsed: Option<polypostor::bake::report::Report> = serde_json::from_value(report).ok();
     if let Some(table) = parsed.and_then(|r| r.clip_table()) {

@@ -49,10 +49,14 @@ fn small_bake_of_the_default_character() {
         }
         eprintln!(
             "view {v}: psnr {:?} order {:?}",
-            view.psnr.iter().map(|x| (x * 10.0).round() / 10.0).collect::<Vec<_>>(),
+            view.error
+                .psnr
+                .iter()
+                .map(|x| (x * 10.0).round() / 10.0)
+                .collect::<Vec<_>>(),
             view.order
         );
-        all.extend(view.psnr.iter().copied());
+        all.extend(view.error.psnr.iter().copied());
     }
     if std::env::var_os("POLYPOSTOR_TEST_IMAGES").is_some() {
         use polypostor::bake::image_cost::PartTile;
@@ -78,8 +82,8 @@ fn small_bake_of_the_default_character() {
     let (mut fitted, mut frozen, mut n) = (0.0, 0.0, 0);
     for view in &b.views {
         for f in (0..b.frame_times.len()).filter(|&f| f != b.key_frame) {
-            fitted += view.psnr[f];
-            frozen += view.psnr_static[f];
+            fitted += view.error.psnr[f];
+            frozen += view.error.psnr_static[f];
             n += 1;
         }
     }
@@ -192,7 +196,7 @@ fn overrides_change_only_their_view() {
     for (a, b) in again.views.iter().zip(&corrected.views) {
         assert_eq!(a.key_frame, b.key_frame);
         assert_eq!(a.order, b.order);
-        assert_eq!(a.psnr, b.psnr);
+        assert_eq!(a.error.psnr, b.error.psnr);
         for (pa, pb) in a.parts.iter().zip(&b.parts) {
             assert_eq!(
                 pa.fit.as_ref().map(|f| &f.mappings),
@@ -235,8 +239,8 @@ fn overrides_change_only_their_view() {
     let (a, b) = (&back.views[1], &plain.views[1]);
     assert_eq!(a.key_frame, b.key_frame);
     assert_eq!(a.order, b.order);
-    assert_eq!(a.psnr, b.psnr);
-    assert_eq!(a.ssim, b.ssim);
+    assert_eq!(a.error.psnr, b.error.psnr);
+    assert_eq!(a.error.ssim, b.error.ssim);
     for (pa, pb) in a.parts.iter().zip(&b.parts) {
         assert_eq!(
             pa.fit.as_ref().map(|f| &f.mappings),

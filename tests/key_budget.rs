@@ -70,7 +70,10 @@ fn unspent_key_budget_goes_to_the_worst_views_and_refits_reproduce_it() {
             ..options.keys
         };
         let fit = refit_view(&data, bake.key_frame, &options.fit, &keys, None, None);
-        assert_eq!(fit.error.psnr, view.psnr, "view {v}: a refit differs from the bake");
+        assert_eq!(
+            fit.error.psnr, view.error.psnr,
+            "view {v}: a refit differs from the bake"
+        );
         for (a, b) in fit.parts.iter().zip(&view.parts) {
             assert_eq!(a.key_frames(), b.key_frames(), "view {v}");
             assert_eq!(a.frame_key, b.frame_key, "view {v}");
@@ -81,9 +84,9 @@ fn unspent_key_budget_goes_to_the_worst_views_and_refits_reproduce_it() {
         if let Some(b) = view.key_budget {
             assert!(b > base, "view {v}: given {b}, base {base}");
             assert!(
-                mean(&view.psnr) >= mean(&alone.error.psnr) - 1e-9,
+                mean(&view.error.psnr) >= mean(&alone.error.psnr) - 1e-9,
                 "view {v}: more budget made it worse ({} vs {})",
-                mean(&view.psnr),
+                mean(&view.error.psnr),
                 mean(&alone.error.psnr)
             );
         }
@@ -144,7 +147,10 @@ fn the_key_ratio_gives_views_with_room_more_and_refits_reproduce_it() {
         past_base += (extra > keys.budget * first) as usize;
         let data = prepared.render(&ctx, v).unwrap();
         let fit = refit_view(&data, bake.key_frame, &options.fit, &keys, None, None);
-        assert_eq!(fit.error.psnr, view.psnr, "view {v}: a refit differs from the bake");
+        assert_eq!(
+            fit.error.psnr, view.error.psnr,
+            "view {v}: a refit differs from the bake"
+        );
         for (a, b) in fit.parts.iter().zip(&view.parts) {
             assert_eq!(a.key_frames(), b.key_frames(), "view {v}");
         }

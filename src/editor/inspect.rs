@@ -16,7 +16,9 @@ use polypostor::bake::inspect::{composite_at, error_map, positions_at, tile_imag
 use polypostor::bake::keys::{KeyOptions, MAX_KEYS};
 use polypostor::bake::overrides::{OverrideBasis, Pin, ViewOverride};
 use polypostor::bake::part_fit::PartFitOptions;
-use polypostor::bake::pipeline::{PartResult, Prepared, PreviousFit, ViewData, ground_truth, refit_view};
+use polypostor::bake::pipeline::{
+    CompositeError, PartResult, Prepared, PreviousFit, ViewData, ground_truth, refit_view,
+};
 use polypostor::bake::raster::psnr;
 use polypostor::bake::report::{Report, view_keys_of_parts};
 use polypostor::project::StoredSegmentation;
@@ -35,9 +37,8 @@ pub struct Session {
     pub data: Arc<ViewData>,
     pub parts: Vec<PartResult>,
     pub order: Vec<usize>,
-    pub psnr: Vec<f64>,
-    pub psnr_static: Vec<f64>,
-    pub ssim: Vec<f64>,
+    /// The composite's error per frame, as the bake measures it.
+    pub error: CompositeError,
     pub names: Vec<String>,
     /// The corrections it was fitted with.
     pub ov: ViewOverride,
@@ -213,9 +214,7 @@ impl Inspector {
                 data,
                 parts: fit.parts,
                 order: fit.order,
-                psnr: fit.error.psnr,
-                psnr_static: fit.error.psnr_static,
-                ssim: fit.error.ssim,
+                error: fit.error,
                 names,
                 ov,
                 made_for,
@@ -253,9 +252,7 @@ impl Inspector {
                 s.parts = r.fit.parts;
                 s.key = r.fit.key;
                 s.order = r.fit.order;
-                s.psnr = r.fit.error.psnr;
-                s.psnr_static = r.fit.error.psnr_static;
-                s.ssim = r.fit.error.ssim;
+                s.error = r.fit.error;
                 s.ov = r.ov;
                 s.version = fresh_version();
                 self.last_refit_ms = Some(r.ms);
@@ -587,9 +584,9 @@ impl Inspector {
                 ui.label(
                     egui::RichText::new(format!(
                         "view at frame {f}: {:.1} dB, SSIM {:.3} (still: {:.1} dB)",
-                        s.psnr.get(f).copied().unwrap_or(0.0),
-                        s.ssim.get(f).copied().unwrap_or(0.0),
-                        s.psnr_static.get(f).copied().unwrap_or(0.0)
+                        s.error.psnr.get(f).copied().unwrap_or(0.0),
+                        s.error.ssim.get(f).copied().unwrap_or(0.0),
+                        s.error.psnr_static.get(f).copied().unwrap_or(0.0)
                     ))
                     .small(),
                 );

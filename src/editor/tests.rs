@@ -501,8 +501,14 @@ fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
         assert_eq!(s.view, worst);
         // The same error the bake wrote, frame by frame (one refit path).
         let baked = &report.views[worst];
-        assert_eq!(s.psnr.len(), baked.psnr.len());
-        for (a, b) in s.psnr.iter().zip(&baked.psnr).chain(s.ssim.iter().zip(&baked.ssim)) {
+        assert_eq!(s.error.psnr.len(), baked.psnr.len());
+        for (a, b) in s
+            .error
+            .psnr
+            .iter()
+            .zip(&baked.psnr)
+            .chain(s.error.ssim.iter().zip(&baked.ssim))
+        {
             assert!((a - b).abs() < 1e-9, "inspector {a} vs bake {b}");
         }
         for (p, r) in s.parts.iter().enumerate() {

@@ -261,14 +261,11 @@ impl ViewsPanel {
             ui.label(format!("silhouette agreement {:.3}", report.mean_silhouette_iou))
                 .on_hover_text("the pixels both the composite and the render cover over those either covers, whatever their colours (1 = the same shape)");
         }
-        if report.truth_brightness < polypostor::bake::pipeline::DARK_BRIGHTNESS {
+        if let Some(note) = polypostor::bake::pipeline::dark_note(report.truth_brightness) {
             ui.label(
-                egui::RichText::new(format!(
-                    "⚠ the character is nearly black (brightness {:.2}): PSNR and SSIM compare colour against a black background and see little of its shape; read the silhouette agreement",
-                    report.truth_brightness
-                ))
-                .small()
-                .color(ui.visuals().warn_fg_color),
+                egui::RichText::new(format!("⚠ {note}"))
+                    .small()
+                    .color(ui.visuals().warn_fg_color),
             );
         }
         let dropped = report.dropped_corrections.lines();
@@ -421,8 +418,8 @@ impl ViewsPanel {
         // After corrections the inspector's re-fit is newer than the report.
         let live = self.inspector.session.as_ref().filter(|s| s.view == sel);
         let (overall, still): (Vec<f64>, Vec<f64>) = match (live, ssim) {
-            (Some(s), false) => (s.psnr.clone(), s.psnr_static.clone()),
-            (Some(s), true) => (s.ssim.clone(), Vec::new()),
+            (Some(s), false) => (s.error.psnr.clone(), s.error.psnr_static.clone()),
+            (Some(s), true) => (s.error.ssim.clone(), Vec::new()),
             (None, false) => (v.psnr.clone(), v.psnr_static.clone()),
             (None, true) => (v.ssim.clone(), Vec::new()),
         };

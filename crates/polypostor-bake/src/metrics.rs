@@ -136,6 +136,19 @@ pub fn ssim_map(a: &[f32], b: &[f32], w: usize, h: usize, channels: usize) -> Ve
     map
 }
 
+/// Silhouette agreement: the pixels both images cover over the pixels either covers, from
+/// each pixel's (covered in the first, covered in the second); 1 when neither covers any.
+/// Whatever the colours: the shape's agreement, which PSNR and SSIM weigh by colour against a
+/// black background and so cannot see on a dark character.
+pub fn silhouette_iou(covered: impl Iterator<Item = (bool, bool)>) -> f64 {
+    let (mut both, mut either) = (0usize, 0usize);
+    for (a, b) in covered {
+        both += usize::from(a && b);
+        either += usize::from(a || b);
+    }
+    if either == 0 { 1.0 } else { both as f64 / either as f64 }
+}
+
 /// Mean SSIM over the pixels where `mask` is true (`None` when it selects none).
 pub fn masked_mean(map: &[f64], mask: &[bool]) -> Option<f64> {
     let (mut sum, mut n) = (0.0, 0usize);

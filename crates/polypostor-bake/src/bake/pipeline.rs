@@ -279,17 +279,9 @@ pub struct ViewResult {
     pub hidden: Vec<Vec<f64>>,
     /// Drawing order, back to front.
     pub order: Vec<usize>,
-    /// Composited character PSNR per frame.
-    pub psnr: Vec<f64>,
-    /// The same for the key-frame polygons left still (what fitting gains over a static
-    /// textured polygon).
-    pub psnr_static: Vec<f64>,
-    /// Composited character SSIM per frame ([`crate::metrics`]).
-    pub ssim: Vec<f64>,
-    /// Composited silhouette agreement per frame and the renders' brightness
-    /// ([`CompositeError`]).
-    pub silhouette_iou: Vec<f64>,
-    pub truth_brightness: f64,
+    /// The composited character's error per frame (PSNR moving and still, SSIM, silhouette
+    /// agreement) and the renders' brightness.
+    pub error: CompositeError,
     /// Every part's colour image per frame, when [`BakeOptions::keep_frame_images`] is set.
     pub frame_colors: Vec<Vec<image::RgbaImage>>,
     /// The key budget ([`KeyOptions::budget`]) this view's keys were chosen with when the
@@ -657,6 +649,18 @@ pub struct CompositeError {
 /// bake says so and points at the silhouette agreement.
 pub const DARK_BRIGHTNESS: f64 = 0.1;
 
+/// What the bake, `compare` and the editor say of renders of brightness `brightness`
+/// ([`CompositeError::truth_brightness`]): a warning under [`DARK_BRIGHTNESS`], else nothing.
+pub fn dark_note(brightness: f64) -> Option<String> {
+    (brightness < DARK_BRIGHTNESS).then(|| {
+        format!(
+            "the character is nearly black (its renders' brightest channel averages {brightness:.2}): PSNR and SSIM \
+             compare colour against a black background and see little of its shape errors; read the silhouette \
+             agreement (IoU of the covered pixels, 1 = the same shape)"
+        )
+    })
+}
+
 /// The composite's PSNR and SSIM per frame against the ground truth, with the polygons
 /// moving, and its PSNR left still at the key frame. Frames are measured in parallel.
 pub fn composite_error(data: &ViewData, parts: &[PartResult], order: &[usize], key: usize) -> CompositeError {
@@ -883,12 +887,7 @@ pub fn rechoose_view_keys(
         key_options,
         ov.and_then(|o| o.keys.as_deref()),
     );
-    let error = composite_error(data, &view.parts, &view.order, view.key_frame);
-    view.psnr = error.psnr;
-    view.psnr_static = error.psnr_static;
-    view.ssim = error.ssim;
-    view.silhouette_iou = error.silhouette_iou;
-    view.truth_brightness = error.truth_brightness;
+    view.error = composite_error(data, &view.parts, &view.order, view.key_frame);
 }
 
 /// Bytes of a view's first key images and of its key images after them.
@@ -937,11 +936,7 @@ pub fn fit_view(
         parts: fit.parts,
         hidden: data.hidden,
         order: fit.order,
-        psnr: fit.error.psnr,
-        psnr_static: fit.error.psnr_static,
-        ssim: fit.error.ssim,
-        silhouette_iou: fit.error.silhouette_iou,
-        truth_brightness: fit.error.truth_brightness,
+        error: fit.error,
         frame_colors,
         key_budget: None,
     }
@@ -1318,7 +1313,7 @@ pub fn share_key_budget(
             .view(prepared.basis, v)
             .is_some_and(|o| o.keys.is_some())
     };
-    let mean = |v: &ViewResult| v.psnr.iter().sum::<f64>() / v.psnr.len().max(1) as f64;
+    let mean = |v: &ViewResult| v.error.psnr.iter().sum::<f64>() / v.error.psnr.len().max(1) as f64;
     let mut worst: Vec<usize> = (0..views.len()).filter(|&v| !manual(v) && bytes[v].0 > 0.0).collect();
     worst.sort_by(|&a, &b| mean(&views[a]).total_cmp(&mean(&views[b])).then(a.cmp(&b)));
     let most = (views.len() as f64 * k.share.min(1.0)).ceil() as usize;
@@ -1511,11 +1506,7 @@ pub fn rebake_sharing(
             view.parts = fit.parts;
             view.key_frame = fit.key;
             view.order = fit.order;
-            view.psnr = fit.error.psnr;
-            view.psnr_static = fit.error.psnr_static;
-            view.ssim = fit.error.ssim;
-            view.silhouette_iou = fit.error.silhouette_iou;
-            view.truth_brightness = fit.error.truth_brightness;
+            view.error = fit.error;
             view.hidden = data.hidden;
             view.key_budget = None;
         }

@@ -4,10 +4,6 @@ use std::path::{Path, PathBuf};
 
 use super::*;
 
-/// Below this mean brightest channel of the real mesh's covered pixels, `compare` says that
-/// PSNR and SSIM see little of the character's shape errors.
-pub const DARK_CHARACTER: f64 = 0.1;
-
 /// `compare`: memory and error of every representation in a baked folder against the real
 /// mesh; writes the plots, the quality sheet and `compare.json` into `out`.
 pub fn compare(
@@ -186,15 +182,11 @@ pub fn compare(
         say_part!(t, " {} {:.3}", e.representation, e.mean_silhouette_iou);
     }
     say!(t, "");
-    if let Some(e) = errors.first()
-        && e.truth_brightness < DARK_CHARACTER
+    if let Some(note) = errors
+        .first()
+        .and_then(|e| crate::bake::pipeline::dark_note(e.truth_brightness))
     {
-        say!(
-            t,
-            "note: the character is nearly black (its brightest channel averages {:.2}): PSNR and SSIM compare \
-             colour against a black background and see little of its shape errors; read the silhouette agreement",
-            e.truth_brightness
-        );
+        say!(t, "note: {note}");
     }
     // A whole-character pack: each clip's error per representation.
     if assets.timeline.spans.len() > 1 {

@@ -398,16 +398,10 @@ pub fn errors(
         .collect())
 }
 
-/// The pixels both images cover (alpha over half) over the pixels either covers; 1 when
-/// neither covers any.
+/// [`crate::metrics::silhouette_iou`] of two images, a pixel covered when its alpha is over
+/// half.
 pub fn silhouette_iou(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
-    let (mut both, mut either) = (0usize, 0usize);
-    for (p, q) in a.pixels().zip(b.pixels()) {
-        let (ca, cb) = (p[3] > 127, q[3] > 127);
-        both += usize::from(ca && cb);
-        either += usize::from(ca || cb);
-    }
-    if either == 0 { 1.0 } else { both as f64 / either as f64 }
+    crate::metrics::silhouette_iou(a.pixels().zip(b.pixels()).map(|(p, q)| (p[3] > 127, q[3] > 127)))
 }
 
 /// RMSE (0..1) of colour × coverage over the pixels either image covers.

@@ -330,13 +330,13 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
         .map(|(i, v)| ViewReport {
             index: i,
             direction: v.direction.to_array(),
-            psnr: v.psnr.clone(),
-            psnr_static: v.psnr_static.clone(),
-            mean_psnr: mean(&v.psnr),
-            ssim: v.ssim.clone(),
-            mean_ssim: mean(&v.ssim),
-            silhouette_iou: v.silhouette_iou.clone(),
-            mean_silhouette_iou: mean(&v.silhouette_iou),
+            psnr: v.error.psnr.clone(),
+            psnr_static: v.error.psnr_static.clone(),
+            mean_psnr: mean(&v.error.psnr),
+            ssim: v.error.ssim.clone(),
+            mean_ssim: mean(&v.error.ssim),
+            silhouette_iou: v.error.silhouette_iou.clone(),
+            mean_silhouette_iou: mean(&v.error.silhouette_iou),
             order: v.order.clone(),
             key_frame: v.key_frame,
             keys: view_keys_of(v),
@@ -372,7 +372,7 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
     let all_static: Vec<f64> = views.iter().flat_map(|v| v.psnr_static.iter().copied()).collect();
     let all_ssim: Vec<f64> = views.iter().flat_map(|v| v.ssim.iter().copied()).collect();
     let all_iou: Vec<f64> = views.iter().flat_map(|v| v.silhouette_iou.iter().copied()).collect();
-    let brightness: Vec<f64> = bake.views.iter().map(|v| v.truth_brightness).collect();
+    let brightness: Vec<f64> = bake.views.iter().map(|v| v.error.truth_brightness).collect();
     let mut worst: Vec<WorstView> = views
         .iter()
         .map(|v| WorstView {

@@ -140,18 +140,10 @@ impl Canvas {
         }
     }
 
-    /// The pixels both images cover over the pixels either covers (coverage at least a half),
-    /// whatever their colours: the shape's agreement, which [`Canvas::rmse`] weighs by colour
-    /// against a black background and so cannot see on a dark part. 1 when neither covers
-    /// anything.
+    /// [`crate::metrics::silhouette_iou`] with `other`, a pixel covered when its coverage is
+    /// at least a half.
     pub fn silhouette_iou(&self, other: &Canvas) -> f64 {
-        let (mut both, mut either) = (0usize, 0usize);
-        for (a, b) in self.px.iter().zip(&other.px) {
-            let (ca, cb) = (a[3] >= 0.5, b[3] >= 0.5);
-            both += usize::from(ca && cb);
-            either += usize::from(ca || cb);
-        }
-        if either == 0 { 1.0 } else { both as f64 / either as f64 }
+        crate::metrics::silhouette_iou(self.px.iter().zip(&other.px).map(|(a, b)| (a[3] >= 0.5, b[3] >= 0.5)))
     }
 
     /// The brightest channel of each covered pixel (coverage at least a half), summed, and the
