@@ -646,7 +646,7 @@ struct BakeArgs {
     key_share: Option<f64>,
     /// A view may also spend on added key images whatever keeps it this many times smaller
     /// than classic impostors of one clip, up to as many bytes as its first key images (long
-    /// clips, whose packs are small beside impostors, get more keys; 0: off; default 45).
+    /// clips, whose packs are small beside impostors, get more keys; 0: off; default 58).
     #[arg(long)]
     key_ratio: Option<f64>,
     /// Views on the whole sphere instead of the upper hemisphere.

@@ -25,7 +25,7 @@ fn unspent_key_budget_goes_to_the_worst_views_and_refits_reproduce_it() {
     let (c, bake) = common::bake_default(&ctx, &options);
     let mean = |p: &[f64]| p.iter().sum::<f64>() / p.len() as f64;
     // The ratio rule leaves a 10-frame clip's views at the settings' budget (their packs are
-    // already under 45× below impostors), so the bounds below are the settings'.
+    // already under 58× below impostors), so the bounds below are the settings'.
     for (v, view) in bake.views.iter().enumerate() {
         let parts = view.parts.iter().filter(|p| p.fit.is_some()).count();
         let bytes = ViewBytes::new(
