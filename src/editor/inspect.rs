@@ -583,9 +583,10 @@ impl Inspector {
                 painter.image(truth_id, right, full, egui::Color32::WHITE);
                 ui.label(
                     egui::RichText::new(format!(
-                        "view at frame {f}: {:.1} dB, SSIM {:.3} (still: {:.1} dB)",
+                        "view at frame {f}: {:.1} dB, SSIM {:.3}, silhouette {:.3} (still: {:.1} dB)",
                         s.error.psnr.get(f).copied().unwrap_or(0.0),
                         s.error.ssim.get(f).copied().unwrap_or(0.0),
+                        s.error.silhouette_iou.get(f).copied().unwrap_or(0.0),
                         s.error.psnr_static.get(f).copied().unwrap_or(0.0)
                     ))
                     .small(),
