@@ -392,8 +392,15 @@ fn inspect(file: &Path, json: bool, up: polypostor::UpAxis) -> anyhow::Result<()
                 .enumerate()
                 .map(|(i, m)| (c.clips[i].name.clone(), m, c.clips[i].in_place_velocity.length()))
                 .collect();
+            // The parts the bake would cut it into (what the editor's Segment tab starts from).
+            let seg = polypostor::bake::segment::auto_segment(&c);
+            let parts: Vec<(String, usize)> = seg.parts.iter().map(|p| p.name.clone()).zip(seg.part_sizes()).collect();
             if json {
                 let mut v = serde_json::to_value(&s)?;
+                v["automatic_parts"] = parts
+                    .iter()
+                    .map(|(name, triangles)| serde_json::json!({ "name": name, "triangles": triangles }))
+                    .collect();
                 v["clip_motion"] = motion
                     .iter()
                     .map(|(name, m, root)| {
@@ -414,6 +421,10 @@ fn inspect(file: &Path, json: bool, up: polypostor::UpAxis) -> anyhow::Result<()
                 println!("{}", serde_json::to_string_pretty(&v)?);
             } else {
                 print!("{}", s.to_text());
+                println!("automatic parts (triangles)");
+                for (name, triangles) in &parts {
+                    println!("  {name:<24} {triangles:>8}");
+                }
                 if !motion.is_empty() {
                     println!(
                         "clip motion (ground speed in scene units/s; closure, contact, spread and the legs' sweep as measured)"

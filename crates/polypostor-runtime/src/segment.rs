@@ -287,6 +287,7 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
         color: PALETTE[0],
     }];
     let mut leg_parts: Vec<usize> = Vec::new();
+    let mut rigid_props: Vec<(usize, usize)> = Vec::new();
     if count > 0 {
         let root = (0..count)
             .filter(|&j| tree.parent[j].is_none())
@@ -541,6 +542,22 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
                 part_of_joint[j] = part;
             }
         }
+        // Props: inside a limb, a joint whose mesh is a piece of its own (no edge joins it
+        // to the rest of the mesh in the rest pose) and reaches far from the limb's bones —
+        // a spear in a hand, a shield on a forearm — is a part of its own. One warped image
+        // of the arm cannot hold a spear turning about the hand: seen from above, the spear
+        // vanished and the shield became a shard. Pieces that hug their bones (a robot's
+        // hands and shins, a helmet) stay with their limb.
+        rigid_props = split_props(
+            c,
+            &tree,
+            &rest,
+            &subtree,
+            span,
+            &leg_parts,
+            &mut part_of_joint,
+            &mut parts,
+        );
         // The head: the trunk beyond the last joint a limb hangs from (neck and head, on a
         // quadruped as on a humanoid), a part of its own where it turns on its own — one
         // warped image of the torso cannot show a head turning away (RobotExpressive's
@@ -586,11 +603,14 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
         }
     }
     // Vertex parts by summed weight, triangle parts by the majority of weight.
-    let bone_part: Vec<usize> = c
+    let mut bone_part: Vec<usize> = c
         .bones
         .iter()
         .map(|b| joint_of_node(c, &tree.node, b.node).map_or(0, |j| part_of_joint[j]))
         .collect();
+    for (b, part) in rigid_props {
+        bone_part[b] = part;
+    }
     let np = parts.len();
     let vertex_weights: Vec<Vec<f32>> = c
         .vertices
@@ -622,6 +642,198 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
         .collect();
     let legs = (0..np).map(|p| leg_parts.contains(&p)).collect();
     (Segmentation { parts, labels }, legs, vertex_weights)
+}
+
+/// How far (a share of the character's height) a separate piece inside a limb must reach
+/// from the limb's bones to be a part of its own ([`split_props`]). Measured: a soldier's
+/// spear 0.67 and shield 0.165, the `knight` variants' swords 0.34–0.38 (CesiumMan's 0.117)
+/// and shields 0.13–0.26; pieces that are body: RobotExpressive's forearms 0.104, the
+/// default's hands 0.094, X Bot's 0.02–0.05 (and in legs, which keep their props,
+/// RobotExpressive's shins 0.119 and feet 0.19).
+pub const PROP_REACH: f32 = 0.14;
+
+/// Gives each prop a limb carries its own part (see the call in [`skeleton_parts`]): the
+/// highest joint of a limb other than a leg (a robot's feet, a shoe: the leg), below its
+/// root, whose subtree's mesh is made only of whole
+/// pieces (triangles joined by edges in the rest pose, UV seams welded) that each reach at
+/// least [`PROP_REACH`] × `span` from the limb's bones; and each mesh bound rigidly to a node
+/// inside a limb (a sword parented to a hand, no skin) that is such pieces. The part is
+/// named after the joint or node, less a socket word ("WeaponSlot" → "Weapon"). Returns the
+/// rigid bones given a part, with the part.
+fn split_props(
+    c: &Character,
+    tree: &JointTree,
+    rest: &[Vec3],
+    subtree: &dyn Fn(usize) -> Vec<usize>,
+    span: f32,
+    legs: &[usize],
+    part_of_joint: &mut [usize],
+    parts: &mut Vec<Part>,
+) -> Vec<(usize, usize)> {
+    let count = tree.node.len();
+    let bone_joint: Vec<Option<usize>> = c.bones.iter().map(|b| joint_of_node(c, &tree.node, b.node)).collect();
+    let vertex_bone: Vec<usize> = c.vertices.iter().map(main_bone).collect();
+    let vertex_joint: Vec<Option<usize>> = vertex_bone
+        .iter()
+        .map(|&b| bone_joint.get(b).copied().flatten())
+        .collect();
+    let (piece, pieces) = rest_pieces(c);
+    let mut piece_vertices: Vec<Vec<u32>> = vec![Vec::new(); pieces];
+    for (t, tri) in c.indices.chunks_exact(3).enumerate() {
+        piece_vertices[piece[t]].extend_from_slice(tri);
+    }
+    for v in &mut piece_vertices {
+        v.sort_unstable();
+        v.dedup();
+    }
+    let mut vertex_piece = vec![usize::MAX; c.vertices.len()];
+    for (k, vs) in piece_vertices.iter().enumerate() {
+        for &v in vs {
+            vertex_piece[v as usize] = k;
+        }
+    }
+    // The least any piece of the vertices `held` picks reaches from the bones of part
+    // `limb` (each piece's farthest point); `None` unless those are whole pieces.
+    let reach = |held: &dyn Fn(usize) -> bool, part_of_joint: &[usize], limb: usize| -> Option<f32> {
+        let mut own: Vec<usize> = (0..c.vertices.len())
+            .filter(|&v| held(v))
+            .map(|v| vertex_piece[v])
+            .filter(|&k| k != usize::MAX)
+            .collect();
+        own.sort_unstable();
+        own.dedup();
+        if own.is_empty() || !own.iter().all(|&k| piece_vertices[k].iter().all(|&v| held(v as usize))) {
+            return None;
+        }
+        let bones: Vec<(Vec3, Vec3)> = (0..count)
+            .filter(|&k| part_of_joint[k] == limb)
+            .filter_map(|k| Some((tree.pos[tree.parent[k]?], tree.pos[k])))
+            .collect();
+        Some(
+            own.iter()
+                .map(|&k| {
+                    let vs = &piece_vertices[k];
+                    vs.iter()
+                        .step_by((vs.len() / 500).max(1))
+                        .map(|&v| {
+                            let p = rest[v as usize];
+                            bones
+                                .iter()
+                                .map(|&(a, b)| segment_distance(p, a, b))
+                                .fold(f32::INFINITY, f32::min)
+                        })
+                        .fold(0.0f32, f32::max)
+                })
+                .fold(f32::INFINITY, f32::min),
+        )
+    };
+    let add_part = |name: &str, parts: &mut Vec<Part>| {
+        let base = pretty(&side_free_name(name).0);
+        let base = ["Slot", "Socket", "Attach", "Mount", "Holder"]
+            .iter()
+            .find_map(|w| base.strip_suffix(w).filter(|b| !b.trim().is_empty()))
+            .unwrap_or(&base)
+            .trim()
+            .to_string();
+        let base = if base.is_empty() { "Prop".to_string() } else { base };
+        let mut name = base.clone();
+        let mut n = 2;
+        while parts.iter().any(|p| p.name == name) {
+            name = format!("{base} {n}");
+            n += 1;
+        }
+        parts.push(Part {
+            name,
+            color: PALETTE[parts.len() % PALETTE.len()],
+        });
+        parts.len() - 1
+    };
+    let mut split = vec![false; count];
+    for j in 0..count {
+        let limb = part_of_joint[j];
+        let Some(parent) = tree.parent[j] else { continue };
+        if limb == 0 || legs.contains(&limb) || part_of_joint[parent] != limb {
+            continue;
+        }
+        // Nothing below a joint already split (joints are not ordered parents first).
+        let mut above = tree.parent[j];
+        let mut inside_split = false;
+        while let Some(a) = above {
+            inside_split |= split[a];
+            above = tree.parent[a];
+        }
+        if inside_split {
+            continue;
+        }
+        let joints = subtree(j);
+        let mut in_subtree = vec![false; count];
+        for &k in &joints {
+            in_subtree[k] = true;
+        }
+        let held = |v: usize| vertex_joint[v].is_some_and(|k| in_subtree[k]);
+        if reach(&held, part_of_joint, limb).is_none_or(|r| r < PROP_REACH * span) {
+            continue;
+        }
+        split[j] = true;
+        let part = add_part(&tree.name[j], parts);
+        for k in joints {
+            part_of_joint[k] = part;
+        }
+    }
+    // Meshes bound rigidly to a node that is no joint, inside a limb.
+    let mut rigid = Vec::new();
+    for (b, bone) in c.bones.iter().enumerate() {
+        let Some(j) = bone_joint[b] else { continue };
+        let limb = part_of_joint[j];
+        if limb == 0 || legs.contains(&limb) || tree.node[j] == bone.node || split[j] {
+            continue;
+        }
+        let held = |v: usize| vertex_bone[v] == b;
+        if reach(&held, part_of_joint, limb).is_none_or(|r| r < PROP_REACH * span) {
+            continue;
+        }
+        let name = c.skeleton.nodes.get(bone.node).map_or("", |n| n.name.as_str());
+        rigid.push((b, add_part(name, parts)));
+    }
+    rigid
+}
+
+/// Distance from `p` to the segment `a`–`b`.
+fn segment_distance(p: Vec3, a: Vec3, b: Vec3) -> f32 {
+    let d = b - a;
+    let t = if d.length_squared() > 0.0 {
+        ((p - a).dot(d) / d.length_squared()).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    p.distance(a + d * t)
+}
+
+/// Each triangle's piece (triangles joined by edges in the rest pose, UV seams welded) and
+/// the number of pieces.
+fn rest_pieces(c: &Character) -> (Vec<usize>, usize) {
+    let neighbours = rest_neighbours(c);
+    let tris = neighbours.len();
+    let mut piece = vec![usize::MAX; tris];
+    let mut pieces = 0;
+    for start in 0..tris {
+        if piece[start] != usize::MAX {
+            continue;
+        }
+        let mut stack = vec![start];
+        piece[start] = pieces;
+        while let Some(t) = stack.pop() {
+            for &u in &neighbours[t] {
+                let u = u as usize;
+                if u < tris && piece[u] == usize::MAX {
+                    piece[u] = pieces;
+                    stack.push(u);
+                }
+            }
+        }
+        pieces += 1;
+    }
+    (piece, pieces)
 }
 
 /// Each triangle's neighbours across its edges in the rest pose (UV seams welded): pieces
@@ -898,29 +1110,11 @@ fn morphing_pieces(c: &Character) -> Option<Segmentation> {
     if c.morphs.is_empty() || c.bones.len() > 1 || c.indices.len() < 6 {
         return None;
     }
-    let neighbours = rest_neighbours(c);
-    let tris = neighbours.len();
-    let mut piece = vec![usize::MAX; tris];
-    let mut sizes: Vec<usize> = Vec::new();
-    for start in 0..tris {
-        if piece[start] != usize::MAX {
-            continue;
-        }
-        let id = sizes.len();
-        let mut stack = vec![start];
-        piece[start] = id;
-        let mut n = 0;
-        while let Some(t) = stack.pop() {
-            n += 1;
-            for &u in &neighbours[t] {
-                let u = u as usize;
-                if u < tris && piece[u] == usize::MAX {
-                    piece[u] = id;
-                    stack.push(u);
-                }
-            }
-        }
-        sizes.push(n);
+    let (piece, pieces) = rest_pieces(c);
+    let tris = piece.len();
+    let mut sizes = vec![0usize; pieces];
+    for &k in &piece {
+        sizes[k] += 1;
     }
     let mut order: Vec<usize> = (0..sizes.len()).collect();
     order.sort_by(|&a, &b| sizes[b].cmp(&sizes[a]).then(a.cmp(&b)));
@@ -1754,6 +1948,107 @@ mod tests {
                 "scale {k}: {extent:?}"
             );
             assert_eq!(auto_segment(&scaled), plain, "scale {k}");
+        }
+    }
+
+    /// A spear held in the default's right hand (a separate piece skinned to a joint of its
+    /// own below the hand, as game rigs carry weapons) is a part of its own, named after the
+    /// joint; the rest keeps its five parts; a small piece on the same kind of joint (a
+    /// bracelet) stays with the arm; the same two bound rigidly to a node under the hand
+    /// (no skin) likewise; the rig's scale changes nothing.
+    #[test]
+    fn a_spear_in_a_hand_is_a_part_of_its_own() {
+        use crate::character::{Bone, Node, Transform, Vertex};
+        // `joint`: skinned to a joint of its own; else bound rigidly to a node that is no
+        // joint (a mesh parented to the hand, as the `knight` variants carry their props).
+        let with_piece = |name: &str, half: Vec3, offset: Vec3, joint: bool| {
+            let mut c = crate::default_character::generate();
+            let hand = c.skeleton.find("RightHand").unwrap();
+            c.skeleton.nodes.push(Node {
+                name: name.into(),
+                parent: Some(hand),
+                rest: Transform {
+                    translation: Vec3::new(0.0, -0.05, 0.0),
+                    ..Transform::default()
+                },
+                is_joint: joint,
+            });
+            let node = c.skeleton.nodes.len() - 1;
+            let world = c.skeleton.rest_world()[node];
+            let (inverse_bind, centre) = if joint {
+                (world.inverse(), world.transform_point3(offset))
+            } else {
+                (glam::Mat4::IDENTITY, offset)
+            };
+            c.bones.push(Bone { node, inverse_bind });
+            let bone = (c.bones.len() - 1) as u16;
+            let first = c.vertices.len() as u32;
+            for k in 0..8 {
+                let s = |bit: u32| if k & bit != 0 { 1.0 } else { -1.0 };
+                c.vertices.push(Vertex {
+                    position: centre + half * Vec3::new(s(1), s(2), s(4)),
+                    normal: Vec3::Y,
+                    uv: [0.0, 0.0],
+                    color: [1.0; 4],
+                    bones: [bone, 0, 0, 0],
+                    weights: [1.0, 0.0, 0.0, 0.0],
+                });
+            }
+            let faces: [[u32; 4]; 6] = [
+                [0, 2, 3, 1],
+                [4, 5, 7, 6],
+                [0, 1, 5, 4],
+                [2, 6, 7, 3],
+                [0, 4, 6, 2],
+                [1, 3, 7, 5],
+            ];
+            for f in faces {
+                c.indices
+                    .extend([f[0], f[1], f[2], f[0], f[2], f[3]].map(|i| first + i));
+            }
+            if let Some(last) = c.submeshes.last_mut() {
+                last.index_count += 36;
+            }
+            c
+        };
+        let names = |s: &Segmentation| {
+            let mut n: Vec<String> = s.parts.iter().map(|p| p.name.clone()).collect();
+            n.sort();
+            n
+        };
+        let spear = with_piece(
+            "WeaponSlot",
+            Vec3::new(0.015, 0.015, 0.7),
+            Vec3::new(0.0, 0.0, 0.4),
+            true,
+        );
+        let s = auto_segment(&spear);
+        assert_eq!(
+            names(&s),
+            ["Left Arm", "Left Leg", "Right Arm", "Right Leg", "Torso", "Weapon"],
+            "{:?}",
+            names(&s)
+        );
+        let weapon = s.parts.iter().position(|p| p.name == "Weapon").unwrap() as u16;
+        let tris = spear.triangle_count();
+        assert!(
+            s.labels[tris - 12..].iter().all(|&l| l == weapon),
+            "{:?}",
+            &s.labels[tris - 12..]
+        );
+        assert_eq!(s.part_sizes()[weapon as usize], 12);
+        let bracelet = with_piece("WeaponSlot", Vec3::splat(0.04), Vec3::ZERO, true);
+        assert_eq!(names(&auto_segment(&bracelet)).len(), 5);
+        let sword = with_piece("Sword", Vec3::new(0.015, 0.015, 0.7), Vec3::new(0.0, 0.0, 0.4), false);
+        let rigid = auto_segment(&sword);
+        assert_eq!(rigid.parts.last().map(|p| p.name.as_str()), Some("Sword"));
+        assert_eq!(rigid.labels, s.labels);
+        let bead = with_piece("Bead", Vec3::splat(0.04), Vec3::ZERO, false);
+        assert_eq!(names(&auto_segment(&bead)).len(), 5);
+        for k in [1e-3f32, 1e3] {
+            let mut scaled = spear.clone();
+            scaled.skeleton.nodes[0].rest.scale *= k;
+            assert_eq!(auto_segment(&scaled), s, "scale {k}");
         }
     }
 }
