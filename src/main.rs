@@ -940,3 +940,42 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    /// Every "default N" that `bake --help` states by hand is the value the bake uses
+    /// (`BakeSettings::default()`): a changed default cannot leave its help text behind.
+    #[test]
+    fn the_bake_help_states_the_real_defaults() {
+        let mut cli = super::Cli::command();
+        let bake = cli.find_subcommand_mut("bake").expect("a bake command");
+        let help = bake.render_long_help().to_string();
+        let d = polypostor::bake::settings::BakeSettings::default();
+        let flat = help.split_whitespace().collect::<Vec<_>>().join(" ");
+        for (flag, value) in [
+            ("--views", format!("else {}", d.views)),
+            ("--resolution", format!("default {}", d.resolution)),
+            ("--fps", format!("default {}", d.fps)),
+            ("--max-keys", format!("default {}", d.max_keys)),
+            ("--key-gain-db", format!("default {}", d.key_gain_db)),
+            ("--key-budget", format!("default {}", d.key_budget)),
+            ("--key-share", format!("default {}", d.key_share)),
+            ("--key-ratio", format!("default {}", d.key_ratio)),
+            ("--polygon-vertices", format!("default {}", d.polygon_vertices)),
+            ("--interior-vertices", format!("default {}", d.interior_vertices)),
+        ] {
+            let at = flat
+                .find(&format!("{flag} <"))
+                .unwrap_or_else(|| panic!("{flag} missing from:\n{help}"));
+            let text = &flat[at..];
+            let end = text[2..].find(" --").map_or(text.len(), |e| e + 2);
+            assert!(
+                text[..end].contains(&value),
+                "{flag}: expected \"{value}\" in \"{}\"",
+                &text[..end]
+            );
+        }
+    }
+}

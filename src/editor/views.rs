@@ -21,12 +21,23 @@ pub struct ViewsPanel {
     pub error: Option<String>,
     /// Where the report is looked for (the project's bake folder).
     pub source: Option<PathBuf>,
-    /// The error plot shows SSIM instead of PSNR.
-    pub plot_ssim: bool,
+    /// What the error plot shows (set to the silhouette when a nearly black character's
+    /// report loads: its PSNR reads about 99 dB at every frame).
+    pub plot: PlotMetric,
     /// The quality sheet of one view (the real mesh beside every representation).
     pub sheet: QualitySheet,
     /// The up axis the shown bake read the character with (its manifest's `character_up`).
     pub baked_up: polypostor::UpAxis,
+}
+
+/// What the Views tab's per-frame plot shows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PlotMetric {
+    #[default]
+    Psnr,
+    Ssim,
+    /// The silhouette agreement (the character only: parts have none of their own).
+    Silhouette,
 }
 
 /// The quality sheet of the chosen view at a frame and half-way to the next, made in the
@@ -171,6 +182,11 @@ impl ViewsPanel {
         match read_report(&file) {
             Ok(r) => {
                 self.selected = self.selected.filter(|&s| s < r.views.len());
+                if dark_report(&r) {
+                    self.plot = PlotMetric::Silhouette;
+                } else if self.plot == PlotMetric::Silhouette {
+                    self.plot = PlotMetric::Psnr;
+                }
                 self.report = Some((file, modified, r));
                 self.error = None;
                 // A pack records the axis only when it is not glTF's.
@@ -239,8 +255,7 @@ impl ViewsPanel {
         let Some((_, _, report)) = &self.report else { return };
         // A nearly black character's views are ranked by their silhouette agreement: PSNR sees
         // little of its shape (every view reads about 99 dB).
-        let dark =
-            report.truth_brightness < polypostor::bake::pipeline::DARK_BRIGHTNESS && report.mean_silhouette_iou > 0.0;
+        let dark = dark_report(report);
         let score = |v: &polypostor::bake::report::ViewReport| if dark { v.mean_silhouette_iou } else { v.mean_psnr };
         let (lo, hi) = report
             .views
@@ -347,27 +362,35 @@ impl ViewsPanel {
         );
         let mut order: Vec<usize> = (0..report.views.len()).collect();
         order.sort_by(|&a, &b| score(&report.views[a]).total_cmp(&score(&report.views[b])));
-        egui::ScrollArea::vertical()
-            .id_salt("views list")
-            .max_height(160.0)
-            .show(ui, |ui| {
-                for &i in &order {
-                    let v = &report.views[i];
-                    let t = ((score(v) - lo) / span) as f32;
-                    ui.horizontal(|ui| {
-                        let (dot, _) = ui.allocate_exact_size(egui::vec2(10.0, 10.0), egui::Sense::hover());
-                        ui.painter().circle_filled(dot.center(), 4.0, heat(t));
-                        let text = if dark {
-                            format!("view {i:>3}   silhouette {:.3}", v.mean_silhouette_iou)
-                        } else {
-                            format!("view {i:>3}   {:.2} dB   SSIM {:.3}", v.mean_psnr, v.mean_ssim)
-                        };
-                        if ui.selectable_label(self.selected == Some(i), text).clicked() {
-                            pick = Some(i);
-                        }
-                    });
-                }
-            });
+        // Eight views whole; a longer list shows seven and a half rows and its scroll bar, so
+        // that it reads as one to scroll (a fixed height hid an eighth view with no sign).
+        let row = ui.spacing().interact_size.y.max(18.0) + ui.spacing().item_spacing.y;
+        let rows = order.len();
+        ui.scope(|ui| {
+            // A solid bar, always drawn (egui's floating bars show only under the pointer).
+            ui.spacing_mut().scroll = egui::style::ScrollStyle::solid();
+            egui::ScrollArea::vertical()
+                .id_salt("views list")
+                .max_height(if rows <= 8 { row * rows as f32 + 4.0 } else { row * 7.5 })
+                .show(ui, |ui| {
+                    for &i in &order {
+                        let v = &report.views[i];
+                        let t = ((score(v) - lo) / span) as f32;
+                        ui.horizontal(|ui| {
+                            let (dot, _) = ui.allocate_exact_size(egui::vec2(10.0, 10.0), egui::Sense::hover());
+                            ui.painter().circle_filled(dot.center(), 4.0, heat(t));
+                            let text = if dark {
+                                format!("view {i:>3}   silhouette {:.3}", v.mean_silhouette_iou)
+                            } else {
+                                format!("view {i:>3}   {:.2} dB   SSIM {:.3}", v.mean_psnr, v.mean_ssim)
+                            };
+                            if ui.selectable_label(self.selected == Some(i), text).clicked() {
+                                pick = Some(i);
+                            }
+                        });
+                    }
+                });
+        });
         if let Some(i) = pick {
             self.select(i, camera);
         }
@@ -414,40 +437,57 @@ impl ViewsPanel {
             return;
         };
         let v = &report.views[sel];
-        let ssim = self.plot_ssim;
+        let metric = self.plot;
         // After corrections the inspector's re-fit is newer than the report.
         let live = self.inspector.session.as_ref().filter(|s| s.view == sel);
-        let (overall, still): (Vec<f64>, Vec<f64>) = match (live, ssim) {
-            (Some(s), false) => (s.error.psnr.clone(), s.error.psnr_static.clone()),
-            (Some(s), true) => (s.error.ssim.clone(), Vec::new()),
-            (None, false) => (v.psnr.clone(), v.psnr_static.clone()),
-            (None, true) => (v.ssim.clone(), Vec::new()),
+        let (overall, still): (Vec<f64>, Vec<f64>) = match (live, metric) {
+            (Some(s), PlotMetric::Psnr) => (s.error.psnr.clone(), s.error.psnr_static.clone()),
+            (Some(s), PlotMetric::Ssim) => (s.error.ssim.clone(), Vec::new()),
+            (Some(s), PlotMetric::Silhouette) => (s.error.silhouette_iou.clone(), Vec::new()),
+            (None, PlotMetric::Psnr) => (v.psnr.clone(), v.psnr_static.clone()),
+            (None, PlotMetric::Ssim) => (v.ssim.clone(), Vec::new()),
+            (None, PlotMetric::Silhouette) => (v.silhouette_iou.clone(), Vec::new()),
         };
-        let pick = |psnr: &Vec<f64>, ssim_values: &Vec<f64>| if ssim { ssim_values.clone() } else { psnr.clone() };
+        let pick = |psnr: &Vec<f64>, ssim: &Vec<f64>| match metric {
+            PlotMetric::Psnr => Some(psnr.clone()),
+            PlotMetric::Ssim => Some(ssim.clone()),
+            PlotMetric::Silhouette => None,
+        };
         let per_part: Vec<(String, Vec<f64>)> = match live {
             Some(s) => s
                 .names
                 .iter()
                 .cloned()
                 .zip(s.parts.iter().map(|p| pick(&p.psnr, &p.ssim)))
+                .filter_map(|(n, v)| Some((n, v?)))
                 .collect(),
             None => v
                 .parts
                 .iter()
-                .map(|p| (p.name.clone(), pick(&p.psnr, &p.ssim)))
+                .filter_map(|p| Some((p.name.clone(), pick(&p.psnr, &p.ssim)?)))
                 .collect(),
         };
         ui.separator();
-        let mut plot_ssim = self.plot_ssim;
+        let mut chosen = metric;
         ui.horizontal(|ui| {
-            let what = if ssim { "SSIM per frame" } else { "PSNR per frame (dB)" };
+            let what = match metric {
+                PlotMetric::Psnr => "PSNR per frame (dB)",
+                PlotMetric::Ssim => "SSIM per frame",
+                PlotMetric::Silhouette => "silhouette per frame",
+            };
             ui.label(egui::RichText::new(format!("View {sel}: {what}")).strong());
-            ui.selectable_value(&mut plot_ssim, false, "PSNR")
+            ui.selectable_value(&mut chosen, PlotMetric::Psnr, "PSNR")
                 .on_hover_text("Peak signal-to-noise ratio over the pixels either image covers (higher is better)");
-            ui.selectable_value(&mut plot_ssim, true, "SSIM").on_hover_text(
+            ui.selectable_value(&mut chosen, PlotMetric::Ssim, "SSIM").on_hover_text(
                 "Structural similarity (11×11 Gaussian window, σ 1.5) over the pixels either image covers: 1 is identical",
             );
+            ui.selectable_value(&mut chosen, PlotMetric::Silhouette, "Silhouette").on_hover_text(
+                "The pixels both the composite and the render cover over those either covers, whatever their colours (1 = the same shape; the character only): what to read for a nearly black character",
+            );
         });
+        if overall.is_empty() && metric == PlotMetric::Silhouette {
+            ui.label(egui::RichText::new("This report has no silhouette per frame: bake again.").weak());
+        }
         use egui_plot::{Legend, Line, Plot, PlotPoints};
         let series = |values: &[f64]| -> PlotPoints<'static> {
             values
@@ -457,7 +497,7 @@ impl ViewsPanel {
                 .map(|(f, &y)| [f as f64, y])
                 .collect()
         };
-        Plot::new(("view error", sel, ssim))
+        Plot::new(("view error", sel, metric as u8))
             .height(180.0)
             .legend(Legend::default())
             .x_axis_label("frame")
@@ -479,8 +519,15 @@ impl ViewsPanel {
                     plot.line(Line::new(name.clone(), series(values)));
                 }
             });
-        self.plot_ssim = plot_ssim;
+        self.plot = chosen;
     }
+}
+
+/// Whether `report`'s views are ranked and plotted by their silhouette agreement: a nearly
+/// black character ([`polypostor::bake::pipeline::is_dark`]) with the silhouette measured
+/// (reports written before it have none).
+fn dark_report(report: &Report) -> bool {
+    polypostor::bake::pipeline::is_dark(report.truth_brightness) && report.mean_silhouette_iou > 0.0
 }
 
 #[cfg(test)]

@@ -649,10 +649,17 @@ pub struct CompositeError {
 /// bake says so and points at the silhouette agreement.
 pub const DARK_BRIGHTNESS: f64 = 0.1;
 
+/// Whether renders of brightness `brightness` ([`CompositeError::truth_brightness`]) are
+/// too dark for PSNR and SSIM to judge shape: under [`DARK_BRIGHTNESS`]. The one test the
+/// bake, `compare` and the editor use.
+pub fn is_dark(brightness: f64) -> bool {
+    brightness < DARK_BRIGHTNESS
+}
+
 /// What the bake, `compare` and the editor say of renders of brightness `brightness`
-/// ([`CompositeError::truth_brightness`]): a warning under [`DARK_BRIGHTNESS`], else nothing.
+/// ([`CompositeError::truth_brightness`]): a warning where [`is_dark`], else nothing.
 pub fn dark_note(brightness: f64) -> Option<String> {
-    (brightness < DARK_BRIGHTNESS).then(|| {
+    is_dark(brightness).then(|| {
         format!(
             "the character is nearly black (its renders' brightest channel averages {brightness:.2}): PSNR and SSIM \
              compare colour against a black background and see little of its shape errors; read the silhouette \
