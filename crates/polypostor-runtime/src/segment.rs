@@ -288,6 +288,7 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
     }];
     let mut leg_parts: Vec<usize> = Vec::new();
     let mut rigid_props: Vec<(usize, usize)> = Vec::new();
+    let mut prop_triangles: Vec<Option<usize>> = Vec::new();
     if count > 0 {
         let root = (0..count)
             .filter(|&j| tree.parent[j].is_none())
@@ -548,7 +549,7 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
         // of the arm cannot hold a spear turning about the hand: seen from above, the spear
         // vanished and the shield became a shard. Pieces that hug their bones (a robot's
         // hands and shins, a helmet) stay with their limb.
-        rigid_props = split_props(
+        (rigid_props, prop_triangles) = split_props(
             c,
             &tree,
             &rest,
@@ -628,7 +629,11 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
     let labels: Vec<u16> = c
         .indices
         .chunks_exact(3)
-        .map(|t| {
+        .enumerate()
+        .map(|(k, t)| {
+            if let Some(Some(p)) = prop_triangles.get(k) {
+                return *p as u16;
+            }
             let mut w = vec![0.0f32; np];
             for &v in t {
                 for (p, x) in vertex_weights[v as usize].iter().enumerate() {
@@ -654,12 +659,14 @@ pub const PROP_REACH: f32 = 0.14;
 
 /// Gives each prop a limb carries its own part (see the call in [`skeleton_parts`]): the
 /// highest joint of a limb other than a leg (a robot's feet, a shoe: the leg), below its
-/// root, whose subtree's mesh is made only of whole
-/// pieces (triangles joined by edges in the rest pose, UV seams welded) that each reach at
-/// least [`PROP_REACH`] × `span` from the limb's bones; and each mesh bound rigidly to a node
-/// inside a limb (a sword parented to a hand, no skin) that is such pieces. The part is
-/// named after the joint or node, less a socket word ("WeaponSlot" → "Weapon"). Returns the
-/// rigid bones given a part, with the part.
+/// root, whose subtree's mesh is made only of whole pieces (triangles joined by edges in the
+/// rest pose, UV seams welded) that each reach at least [`PROP_REACH`] × `span` from the
+/// limb's bones; each mesh bound rigidly to a node inside such a limb (a sword parented to
+/// a hand, no skin) that is such pieces; and each single such piece skinned to the limb's
+/// own joints (a spear weighted to the hand bone itself), unless it is the limb's largest.
+/// The part is named after the joint or node, less a socket word ("WeaponSlot" →
+/// "Weapon"), or after the limb ("Right Arm Prop"). Returns the rigid bones given a part,
+/// with the part, and each triangle's part where a piece was given one (empty if none).
 fn split_props(
     c: &Character,
     tree: &JointTree,
@@ -669,7 +676,7 @@ fn split_props(
     legs: &[usize],
     part_of_joint: &mut [usize],
     parts: &mut Vec<Part>,
-) -> Vec<(usize, usize)> {
+) -> (Vec<(usize, usize)>, Vec<Option<usize>>) {
     let count = tree.node.len();
     let bone_joint: Vec<Option<usize>> = c.bones.iter().map(|b| joint_of_node(c, &tree.node, b.node)).collect();
     let vertex_bone: Vec<usize> = c.vertices.iter().map(main_bone).collect();
@@ -795,7 +802,57 @@ fn split_props(
         let name = c.skeleton.nodes.get(bone.node).map_or("", |n| n.name.as_str());
         rigid.push((b, add_part(name, parts)));
     }
-    rigid
+    // Single pieces skinned to the limb's own joints (a spear weighted to the hand bone),
+    // other than the limb's largest piece, named after the limb ("Right Arm Prop").
+    let mut triangle_part: Vec<Option<usize>> = Vec::new();
+    let limb_parts = parts.len();
+    let limb_of = |v: u32| vertex_joint[v as usize].map(|j| part_of_joint[j]);
+    for (k, vs) in piece_vertices.iter().enumerate() {
+        let Some(limb) = vs.first().and_then(|&v| limb_of(v)) else {
+            continue;
+        };
+        if limb == 0
+            || limb >= limb_parts
+            || legs.contains(&limb)
+            || rigid
+                .iter()
+                .any(|&(b, _)| vs.iter().any(|&v| vertex_bone[v as usize] == b))
+            || !vs.iter().all(|&v| limb_of(v) == Some(limb))
+        {
+            continue;
+        }
+        let largest = (0..pieces)
+            .filter(|&o| piece_vertices[o].first().and_then(|&v| limb_of(v)) == Some(limb))
+            .max_by_key(|&o| (piece_vertices[o].len(), std::cmp::Reverse(o)));
+        if largest == Some(k) {
+            continue;
+        }
+        let held = |v: usize| vertex_piece[v] == k;
+        if reach(&held, part_of_joint, limb).is_none_or(|r| r < PROP_REACH * span) {
+            continue;
+        }
+        let base = format!("{} Prop", parts[limb].name);
+        let mut name = base.clone();
+        let mut n = 2;
+        while parts.iter().any(|p| p.name == name) {
+            name = format!("{base} {n}");
+            n += 1;
+        }
+        let part = parts.len();
+        parts.push(Part {
+            name,
+            color: PALETTE[part % PALETTE.len()],
+        });
+        if triangle_part.is_empty() {
+            triangle_part = vec![None; piece.len()];
+        }
+        for (t, &p) in piece.iter().enumerate() {
+            if p == k {
+                triangle_part[t] = Some(part);
+            }
+        }
+    }
+    (rigid, triangle_part)
 }
 
 /// Distance from `p` to the segment `a`–`b`.
@@ -2045,6 +2102,21 @@ mod tests {
         assert_eq!(rigid.labels, s.labels);
         let bead = with_piece("Bead", Vec3::splat(0.04), Vec3::ZERO, false);
         assert_eq!(names(&auto_segment(&bead)).len(), 5);
+        // The spear weighted to the hand bone itself (no joint of its own): a part named
+        // after the arm, of the spear's triangles.
+        let mut on_hand = spear.clone();
+        let hand_bone = on_hand
+            .bones
+            .iter()
+            .position(|b| b.node == on_hand.skeleton.find("RightHand").unwrap())
+            .unwrap() as u16;
+        let n = on_hand.vertices.len();
+        for v in &mut on_hand.vertices[n - 8..] {
+            v.bones[0] = hand_bone;
+        }
+        let held = auto_segment(&on_hand);
+        assert_eq!(held.parts.last().map(|p| p.name.as_str()), Some("Right Arm Prop"));
+        assert_eq!(held.labels, s.labels);
         for k in [1e-3f32, 1e3] {
             let mut scaled = spear.clone();
             scaled.skeleton.nodes[0].rest.scale *= k;
