@@ -657,6 +657,10 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
 /// RobotExpressive's shins 0.119 and feet 0.19).
 pub const PROP_REACH: f32 = 0.14;
 
+/// Most parts [`split_props`] cuts out of single pieces skinned to a limb's joints (the
+/// farthest-reaching first).
+pub const PROP_PIECES_MAX: usize = 4;
+
 /// Gives each prop a limb carries its own part (see the call in [`skeleton_parts`]): the
 /// highest joint of a limb other than a leg (a robot's feet, a shoe: the leg), below its
 /// root, whose subtree's mesh is made only of whole pieces (triangles joined by edges in the
@@ -701,21 +705,19 @@ fn split_props(
     }
     // The least any piece of the vertices `held` picks reaches from the bones of part
     // `limb` (each piece's farthest point); `None` unless those are whole pieces.
-    let reach = |held: &dyn Fn(usize) -> bool, part_of_joint: &[usize], limb: usize| -> Option<f32> {
-        let mut own: Vec<usize> = (0..c.vertices.len())
-            .filter(|&v| held(v))
-            .map(|v| vertex_piece[v])
-            .filter(|&k| k != usize::MAX)
-            .collect();
-        own.sort_unstable();
-        own.dedup();
+    // The limb's bones, as segments.
+    let limb_bones = |part_of_joint: &[usize], limb: usize| -> Vec<(Vec3, Vec3)> {
+        (0..count)
+            .filter(|&k| part_of_joint[k] == limb)
+            .filter_map(|k| Some((tree.pos[tree.parent[k]?], tree.pos[k])))
+            .collect()
+    };
+    // The least any of pieces `own` reaches from `bones` (each piece's farthest point); `None`
+    // unless every vertex of those pieces is `held` (whole pieces).
+    let reach = |own: &[usize], held: &dyn Fn(usize) -> bool, bones: &[(Vec3, Vec3)]| -> Option<f32> {
         if own.is_empty() || !own.iter().all(|&k| piece_vertices[k].iter().all(|&v| held(v as usize))) {
             return None;
         }
-        let bones: Vec<(Vec3, Vec3)> = (0..count)
-            .filter(|&k| part_of_joint[k] == limb)
-            .filter_map(|k| Some((tree.pos[tree.parent[k]?], tree.pos[k])))
-            .collect();
         Some(
             own.iter()
                 .map(|&k| {
@@ -734,6 +736,25 @@ fn split_props(
                 .fold(f32::INFINITY, f32::min),
         )
     };
+    // The pieces each joint's and each bone's vertices lie in.
+    let mut joint_pieces: Vec<Vec<usize>> = vec![Vec::new(); count];
+    let mut bone_pieces: Vec<Vec<usize>> = vec![Vec::new(); c.bones.len()];
+    for v in 0..c.vertices.len() {
+        let k = vertex_piece[v];
+        if k == usize::MAX {
+            continue;
+        }
+        if let Some(j) = vertex_joint[v] {
+            joint_pieces[j].push(k);
+        }
+        if let Some(b) = bone_pieces.get_mut(vertex_bone[v]) {
+            b.push(k);
+        }
+    }
+    for l in joint_pieces.iter_mut().chain(bone_pieces.iter_mut()) {
+        l.sort_unstable();
+        l.dedup();
+    }
     let add_part = |name: &str, parts: &mut Vec<Part>| {
         let base = pretty(&side_free_name(name).0);
         let base = ["Slot", "Socket", "Attach", "Mount", "Holder"]
@@ -778,7 +799,11 @@ fn split_props(
             in_subtree[k] = true;
         }
         let held = |v: usize| vertex_joint[v].is_some_and(|k| in_subtree[k]);
-        if reach(&held, part_of_joint, limb).is_none_or(|r| r < PROP_REACH * span) {
+        let mut own: Vec<usize> = joints.iter().flat_map(|&k| joint_pieces[k].iter().copied()).collect();
+        own.sort_unstable();
+        own.dedup();
+        let bones = limb_bones(part_of_joint, limb);
+        if reach(&own, &held, &bones).is_none_or(|r| r < PROP_REACH * span) {
             continue;
         }
         split[j] = true;
@@ -796,7 +821,8 @@ fn split_props(
             continue;
         }
         let held = |v: usize| vertex_bone[v] == b;
-        if reach(&held, part_of_joint, limb).is_none_or(|r| r < PROP_REACH * span) {
+        let bones = limb_bones(part_of_joint, limb);
+        if reach(&bone_pieces[b], &held, &bones).is_none_or(|r| r < PROP_REACH * span) {
             continue;
         }
         let name = c.skeleton.nodes.get(bone.node).map_or("", |n| n.name.as_str());
@@ -804,33 +830,55 @@ fn split_props(
     }
     // Single pieces skinned to the limb's own joints (a spear weighted to the hand bone),
     // other than the limb's largest piece, named after the limb ("Right Arm Prop").
-    let mut triangle_part: Vec<Option<usize>> = Vec::new();
     let limb_parts = parts.len();
     let limb_of = |v: u32| vertex_joint[v as usize].map(|j| part_of_joint[j]);
+    let piece_limb: Vec<Option<usize>> = piece_vertices
+        .iter()
+        .map(|vs| {
+            let limb = vs.first().and_then(|&v| limb_of(v))?;
+            vs.iter().all(|&v| limb_of(v) == Some(limb)).then_some(limb)
+        })
+        .collect();
+    let mut largest: std::collections::HashMap<usize, usize> = Default::default();
+    for k in 0..pieces {
+        if let Some(limb) = piece_limb[k] {
+            let e = largest.entry(limb).or_insert(k);
+            if piece_vertices[k].len() > piece_vertices[*e].len() {
+                *e = k;
+            }
+        }
+    }
+    let mut rigid_bone = vec![false; c.bones.len()];
+    for &(b, _) in &rigid {
+        rigid_bone[b] = true;
+    }
+    let mut bones_of: std::collections::HashMap<usize, Vec<(Vec3, Vec3)>> = Default::default();
+    let mut found: Vec<(usize, usize, f32)> = Vec::new();
     for (k, vs) in piece_vertices.iter().enumerate() {
-        let Some(limb) = vs.first().and_then(|&v| limb_of(v)) else {
-            continue;
-        };
+        let Some(limb) = piece_limb[k] else { continue };
         if limb == 0
             || limb >= limb_parts
             || legs.contains(&limb)
-            || rigid
+            || largest.get(&limb) == Some(&k)
+            || vs
                 .iter()
-                .any(|&(b, _)| vs.iter().any(|&v| vertex_bone[v as usize] == b))
-            || !vs.iter().all(|&v| limb_of(v) == Some(limb))
+                .any(|&v| rigid_bone.get(vertex_bone[v as usize]).copied().unwrap_or(false))
         {
             continue;
         }
-        let largest = (0..pieces)
-            .filter(|&o| piece_vertices[o].first().and_then(|&v| limb_of(v)) == Some(limb))
-            .max_by_key(|&o| (piece_vertices[o].len(), std::cmp::Reverse(o)));
-        if largest == Some(k) {
-            continue;
-        }
+        let bones = bones_of.entry(limb).or_insert_with(|| limb_bones(part_of_joint, limb));
         let held = |v: usize| vertex_piece[v] == k;
-        if reach(&held, part_of_joint, limb).is_none_or(|r| r < PROP_REACH * span) {
-            continue;
+        if let Some(r) = reach(&[k], &held, bones).filter(|&r| r >= PROP_REACH * span) {
+            found.push((k, limb, r));
         }
+    }
+    // The farthest-reaching first, at most PROP_PIECES_MAX (feathers or hair cards, each a
+    // piece, are no props).
+    found.sort_by(|a, b| b.2.total_cmp(&a.2).then(a.0.cmp(&b.0)));
+    found.truncate(PROP_PIECES_MAX);
+    found.sort_by_key(|f| f.0);
+    let mut part_of_piece: Vec<Option<usize>> = vec![None; pieces];
+    for &(k, limb, _) in &found {
         let base = format!("{} Prop", parts[limb].name);
         let mut name = base.clone();
         let mut n = 2;
@@ -838,20 +886,17 @@ fn split_props(
             name = format!("{base} {n}");
             n += 1;
         }
-        let part = parts.len();
+        part_of_piece[k] = Some(parts.len());
         parts.push(Part {
             name,
-            color: PALETTE[part % PALETTE.len()],
+            color: PALETTE[parts.len() % PALETTE.len()],
         });
-        if triangle_part.is_empty() {
-            triangle_part = vec![None; piece.len()];
-        }
-        for (t, &p) in piece.iter().enumerate() {
-            if p == k {
-                triangle_part[t] = Some(part);
-            }
-        }
     }
+    let triangle_part = if found.is_empty() {
+        Vec::new()
+    } else {
+        piece.iter().map(|&k| part_of_piece[k]).collect()
+    };
     (rigid, triangle_part)
 }
 
@@ -2117,6 +2162,38 @@ mod tests {
         let held = auto_segment(&on_hand);
         assert_eq!(held.parts.last().map(|p| p.name.as_str()), Some("Right Arm Prop"));
         assert_eq!(held.labels, s.labels);
+        // Two thousand loose triangles weighted to the hand, far from it (feathers, hair
+        // cards): at most PROP_PIECES_MAX parts of them.
+        let mut loose = crate::default_character::generate();
+        let hand = loose.skeleton.find("RightHand").unwrap();
+        let bone = loose.bones.iter().position(|b| b.node == hand).unwrap() as u16;
+        let at = loose.skeleton.rest_world()[hand].transform_point3(Vec3::ZERO);
+        for k in 0..2000 {
+            let first = loose.vertices.len() as u32;
+            let p = at + Vec3::new(0.3 + 0.0005 * k as f32, 0.0, 0.4);
+            for d in [Vec3::ZERO, Vec3::X * 0.01, Vec3::Y * 0.01] {
+                loose.vertices.push(Vertex {
+                    position: p + d,
+                    normal: Vec3::Z,
+                    uv: [0.0, 0.0],
+                    color: [1.0; 4],
+                    bones: [bone, 0, 0, 0],
+                    weights: [1.0, 0.0, 0.0, 0.0],
+                });
+            }
+            loose.indices.extend([first, first + 1, first + 2]);
+        }
+        if let Some(last) = loose.submeshes.last_mut() {
+            last.index_count += 6000;
+        }
+        let seg = auto_segment(&loose);
+        let props = seg
+            .parts
+            .iter()
+            .filter(|p| p.name.starts_with("Right Arm Prop"))
+            .count();
+        assert_eq!(props, PROP_PIECES_MAX, "{:?}", names(&seg));
+        assert_eq!(seg.parts.len(), 5 + PROP_PIECES_MAX);
         for k in [1e-3f32, 1e3] {
             let mut scaled = spear.clone();
             scaled.skeleton.nodes[0].rest.scale *= k;
