@@ -971,11 +971,14 @@ mod tests {
                 .unwrap_or_else(|| panic!("{flag} missing from:\n{help}"));
             let text = &flat[at..];
             let end = text[2..].find(" --").map_or(text.len(), |e| e + 2);
-            assert!(
-                text[..end].contains(&value),
-                "{flag}: expected \"{value}\" in \"{}\"",
-                &text[..end]
-            );
+            // The value whole ("default 4" is not "default 40").
+            let whole = text[..end].match_indices(&value).any(|(i, m)| {
+                !text[i + m.len()..]
+                    .chars()
+                    .next()
+                    .is_some_and(|c| c.is_ascii_digit() || c == '.')
+            });
+            assert!(whole, "{flag}: expected \"{value}\" in \"{}\"", &text[..end]);
         }
     }
 }

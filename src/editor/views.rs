@@ -182,10 +182,16 @@ impl ViewsPanel {
         match read_report(&file) {
             Ok(r) => {
                 self.selected = self.selected.filter(|&s| s < r.views.len());
-                if dark_report(&r) {
-                    self.plot = PlotMetric::Silhouette;
-                } else if self.plot == PlotMetric::Silhouette {
-                    self.plot = PlotMetric::Psnr;
+                // The plot opens on the silhouette for a nearly black character, on PSNR
+                // otherwise; a re-read of the same kind of report (a re-bake) keeps the
+                // artist's choice.
+                let was_dark = self.report.as_ref().map(|(_, _, old)| dark_report(old));
+                if was_dark != Some(dark_report(&r)) {
+                    self.plot = if dark_report(&r) {
+                        PlotMetric::Silhouette
+                    } else {
+                        PlotMetric::Psnr
+                    };
                 }
                 self.report = Some((file, modified, r));
                 self.error = None;
@@ -429,8 +435,8 @@ impl ViewsPanel {
         self.inspector.ui(ui, doc, &report, dt);
     }
 
-    /// PSNR (or SSIM) per frame of the chosen view: the character (fitted, and for PSNR the
-    /// still key-frame polygons) and every part.
+    /// PSNR, SSIM or the silhouette agreement per frame of the chosen view: the character
+    /// (fitted, and for PSNR the still key-frame polygons) and, for PSNR and SSIM, every part.
     fn error_plot(&mut self, ui: &mut egui::Ui) {
         let (Some((_, _, report)), Some(sel)) = (&self.report, self.selected) else {
             ui.label(egui::RichText::new("Pick a view to see its error per frame.").weak());

@@ -666,8 +666,9 @@ pub const PROP_PIECES_MAX: usize = 4;
 /// root, whose subtree's mesh is made only of whole pieces (triangles joined by edges in the
 /// rest pose, UV seams welded) that each reach at least [`PROP_REACH`] × `span` from the
 /// limb's bones; each mesh bound rigidly to a node inside such a limb (a sword parented to
-/// a hand, no skin) that is such pieces; and each single such piece skinned to the limb's
-/// own joints (a spear weighted to the hand bone itself), unless it is the limb's largest.
+/// a hand, no skin) that is such pieces; and each single such piece skinned to one joint of
+/// the limb (a spear weighted to the hand bone itself; a piece that follows two joints or
+/// more bends with the limb and is skin).
 /// The part is named after the joint or node, less a socket word ("WeaponSlot" →
 /// "Weapon"), or after the limb ("Right Arm Prop"). Returns the rigid bones given a part,
 /// with the part, and each triangle's part where a piece was given one (empty if none).
@@ -703,38 +704,52 @@ fn split_props(
             vertex_piece[v as usize] = k;
         }
     }
-    // The least any piece of the vertices `held` picks reaches from the bones of part
-    // `limb` (each piece's farthest point); `None` unless those are whole pieces.
-    // The limb's bones, as segments.
+    // The limbs' own parts (the parts made here come after them).
+    let limb_parts = parts.len();
+    // The limb's bones, as segments (a prop's own joints among them: a prop rigged with a
+    // chain of its own, a flail, hugs those and stays in the limb).
     let limb_bones = |part_of_joint: &[usize], limb: usize| -> Vec<(Vec3, Vec3)> {
         (0..count)
             .filter(|&k| part_of_joint[k] == limb)
             .filter_map(|k| Some((tree.pos[tree.parent[k]?], tree.pos[k])))
             .collect()
     };
-    // The least any of pieces `own` reaches from `bones` (each piece's farthest point); `None`
-    // unless every vertex of those pieces is `held` (whole pieces).
-    let reach = |own: &[usize], held: &dyn Fn(usize) -> bool, bones: &[(Vec3, Vec3)]| -> Option<f32> {
+    // How far piece `k` reaches from `bones` (its farthest point).
+    let piece_reach = |k: usize, bones: &[(Vec3, Vec3)]| -> f32 {
+        let vs = &piece_vertices[k];
+        vs.iter()
+            .step_by((vs.len() / 500).max(1))
+            .map(|&v| {
+                let p = rest[v as usize];
+                bones
+                    .iter()
+                    .map(|&(a, b)| segment_distance(p, a, b))
+                    .fold(f32::INFINITY, f32::min)
+            })
+            .fold(0.0f32, f32::max)
+    };
+    // Each piece's reach from its limb's bones as they stand (cleared for a limb when a
+    // split takes bones from it), so that a long chain of separate pieces (a segmented
+    // tail) measures each piece once, not once per joint above it.
+    let mut reach_cache: std::collections::HashMap<(usize, usize), f32> = Default::default();
+    let mut bones_cache: std::collections::HashMap<usize, Vec<(Vec3, Vec3)>> = Default::default();
+    // Whether pieces `own` of limb `limb` are whole (every vertex `held`) and each reaches
+    // at least [`PROP_REACH`] × `span` from the limb's bones.
+    let far = |own: &[usize],
+               held: &dyn Fn(usize) -> bool,
+               limb: usize,
+               part_of_joint: &[usize],
+               reach_cache: &mut std::collections::HashMap<(usize, usize), f32>,
+               bones_cache: &mut std::collections::HashMap<usize, Vec<(Vec3, Vec3)>>|
+     -> bool {
         if own.is_empty() || !own.iter().all(|&k| piece_vertices[k].iter().all(|&v| held(v as usize))) {
-            return None;
+            return false;
         }
-        Some(
-            own.iter()
-                .map(|&k| {
-                    let vs = &piece_vertices[k];
-                    vs.iter()
-                        .step_by((vs.len() / 500).max(1))
-                        .map(|&v| {
-                            let p = rest[v as usize];
-                            bones
-                                .iter()
-                                .map(|&(a, b)| segment_distance(p, a, b))
-                                .fold(f32::INFINITY, f32::min)
-                        })
-                        .fold(0.0f32, f32::max)
-                })
-                .fold(f32::INFINITY, f32::min),
-        )
+        let bones = bones_cache
+            .entry(limb)
+            .or_insert_with(|| limb_bones(part_of_joint, limb));
+        own.iter()
+            .all(|&k| *reach_cache.entry((limb, k)).or_insert_with(|| piece_reach(k, bones)) >= PROP_REACH * span)
     };
     // The pieces each joint's and each bone's vertices lie in.
     let mut joint_pieces: Vec<Vec<usize>> = vec![Vec::new(); count];
@@ -802,8 +817,7 @@ fn split_props(
         let mut own: Vec<usize> = joints.iter().flat_map(|&k| joint_pieces[k].iter().copied()).collect();
         own.sort_unstable();
         own.dedup();
-        let bones = limb_bones(part_of_joint, limb);
-        if reach(&own, &held, &bones).is_none_or(|r| r < PROP_REACH * span) {
+        if !far(&own, &held, limb, part_of_joint, &mut reach_cache, &mut bones_cache) {
             continue;
         }
         split[j] = true;
@@ -811,26 +825,33 @@ fn split_props(
         for k in joints {
             part_of_joint[k] = part;
         }
+        reach_cache.retain(|&(l, _), _| l != limb);
+        bones_cache.remove(&limb);
     }
     // Meshes bound rigidly to a node that is no joint, inside a limb.
     let mut rigid = Vec::new();
     for (b, bone) in c.bones.iter().enumerate() {
         let Some(j) = bone_joint[b] else { continue };
         let limb = part_of_joint[j];
-        if limb == 0 || legs.contains(&limb) || tree.node[j] == bone.node || split[j] {
+        if limb == 0 || limb >= limb_parts || legs.contains(&limb) || tree.node[j] == bone.node {
             continue;
         }
         let held = |v: usize| vertex_bone[v] == b;
-        let bones = limb_bones(part_of_joint, limb);
-        if reach(&bone_pieces[b], &held, &bones).is_none_or(|r| r < PROP_REACH * span) {
+        if !far(
+            &bone_pieces[b],
+            &held,
+            limb,
+            part_of_joint,
+            &mut reach_cache,
+            &mut bones_cache,
+        ) {
             continue;
         }
         let name = c.skeleton.nodes.get(bone.node).map_or("", |n| n.name.as_str());
         rigid.push((b, add_part(name, parts)));
     }
-    // Single pieces skinned to the limb's own joints (a spear weighted to the hand bone),
-    // other than the limb's largest piece, named after the limb ("Right Arm Prop").
-    let limb_parts = parts.len();
+    // Single pieces skinned to one of the limb's own joints (a spear weighted to the hand
+    // bone), named after the limb ("Right Arm Prop").
     let limb_of = |v: u32| vertex_joint[v as usize].map(|j| part_of_joint[j]);
     let piece_limb: Vec<Option<usize>> = piece_vertices
         .iter()
@@ -839,37 +860,32 @@ fn split_props(
             vs.iter().all(|&v| limb_of(v) == Some(limb)).then_some(limb)
         })
         .collect();
-    let mut largest: std::collections::HashMap<usize, usize> = Default::default();
-    for k in 0..pieces {
-        if let Some(limb) = piece_limb[k] {
-            let e = largest.entry(limb).or_insert(k);
-            if piece_vertices[k].len() > piece_vertices[*e].len() {
-                *e = k;
-            }
-        }
-    }
+    // A piece whose vertices follow two joints or more bends with the limb: it is skin (an
+    // arm, a sleeve), never a prop, whatever its size.
+    let bends = |vs: &[u32]| {
+        let first = vs.first().and_then(|&v| vertex_joint[v as usize]);
+        vs.iter().any(|&v| vertex_joint[v as usize] != first)
+    };
     let mut rigid_bone = vec![false; c.bones.len()];
     for &(b, _) in &rigid {
         rigid_bone[b] = true;
     }
-    let mut bones_of: std::collections::HashMap<usize, Vec<(Vec3, Vec3)>> = Default::default();
     let mut found: Vec<(usize, usize, f32)> = Vec::new();
     for (k, vs) in piece_vertices.iter().enumerate() {
         let Some(limb) = piece_limb[k] else { continue };
         if limb == 0
             || limb >= limb_parts
             || legs.contains(&limb)
-            || largest.get(&limb) == Some(&k)
+            || bends(vs)
             || vs
                 .iter()
                 .any(|&v| rigid_bone.get(vertex_bone[v as usize]).copied().unwrap_or(false))
         {
             continue;
         }
-        let bones = bones_of.entry(limb).or_insert_with(|| limb_bones(part_of_joint, limb));
         let held = |v: usize| vertex_piece[v] == k;
-        if let Some(r) = reach(&[k], &held, bones).filter(|&r| r >= PROP_REACH * span) {
-            found.push((k, limb, r));
+        if far(&[k], &held, limb, part_of_joint, &mut reach_cache, &mut bones_cache) {
+            found.push((k, limb, reach_cache[&(limb, k)]));
         }
     }
     // The farthest-reaching first, at most PROP_PIECES_MAX (feathers or hair cards, each a
@@ -2162,6 +2178,47 @@ mod tests {
         let held = auto_segment(&on_hand);
         assert_eq!(held.parts.last().map(|p| p.name.as_str()), Some("Right Arm Prop"));
         assert_eq!(held.labels, s.labels);
+        // A detailed spear (one piece of 101 rings, more vertices than the hand and the arm's
+        // own pieces) weighted to the hand bone: a part too.
+        let mut detailed = crate::default_character::generate();
+        let hand = detailed.skeleton.find("RightHand").unwrap();
+        let hand_bone = detailed.bones.iter().position(|b| b.node == hand).unwrap() as u16;
+        let at = detailed.skeleton.rest_world()[hand].transform_point3(Vec3::new(0.0, -0.05, 0.0));
+        let tris = detailed.triangle_count();
+        let first = detailed.vertices.len() as u32;
+        let rings = 101u32;
+        for r in 0..rings {
+            let z = -0.3 + 1.4 * r as f32 / (rings - 1) as f32;
+            for (x, y) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                detailed.vertices.push(Vertex {
+                    position: at + Vec3::new(0.015 * x, 0.015 * y, z),
+                    normal: Vec3::Y,
+                    uv: [0.0, 0.0],
+                    color: [1.0; 4],
+                    bones: [hand_bone, 0, 0, 0],
+                    weights: [1.0, 0.0, 0.0, 0.0],
+                });
+            }
+        }
+        for r in 0..rings - 1 {
+            for q in 0..4 {
+                let (a, b) = (first + 4 * r + q, first + 4 * r + (q + 1) % 4);
+                detailed.indices.extend([a, b, b + 4, a, b + 4, a + 4]);
+            }
+        }
+        let added = (detailed.indices.len() / 3 - tris) as u32;
+        if let Some(last) = detailed.submeshes.last_mut() {
+            last.index_count += 3 * added;
+        }
+        let seg = auto_segment(&detailed);
+        let prop = seg
+            .parts
+            .iter()
+            .position(|p| p.name == "Right Arm Prop")
+            .expect("a prop part") as u16;
+        assert!(seg.labels[tris..].iter().all(|&l| l == prop));
+        assert_eq!(seg.part_sizes()[prop as usize], added as usize);
+        assert_eq!(seg.parts.len(), 6);
         // Two thousand loose triangles weighted to the hand, far from it (feathers, hair
         // cards): at most PROP_PIECES_MAX parts of them.
         let mut loose = crate::default_character::generate();
