@@ -522,12 +522,7 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
             } else {
                 ""
             };
-            let mut label = format!("{end_word}{side_word}{kind}");
-            let mut k = 2;
-            while parts.iter().any(|p| p.name == label) {
-                label = format!("{end_word}{side_word}{kind} {k}");
-                k += 1;
-            }
+            let label = unique_name(&parts, &format!("{end_word}{side_word}{kind}"));
             part_of_limb[i] = parts.len();
             if is_leg(i) {
                 leg_parts.push(parts.len());
@@ -553,6 +548,7 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
             c,
             &tree,
             &rest,
+            &bone_joint,
             &subtree,
             span,
             &leg_parts,
@@ -584,12 +580,7 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
             let turn = head_turn(c, tree.node[trunk[k]], tree.node[top]);
             let share = carried_here as f64 / carried_all.max(1) as f64;
             if turn > HEAD_TURN_DEGREES && (HEAD_SHARE..=HEAD_SHARE_MAX).contains(&share) {
-                let mut name = "Head".to_string();
-                let mut n = 2;
-                while parts.iter().any(|p| p.name == name) {
-                    name = format!("Head {n}");
-                    n += 1;
-                }
+                let name = unique_name(&parts, "Head");
                 let part = parts.len();
                 parts.push(Part {
                     name,
@@ -676,6 +667,7 @@ fn split_props(
     c: &Character,
     tree: &JointTree,
     rest: &[Vec3],
+    bone_joint: &[Option<usize>],
     subtree: &dyn Fn(usize) -> Vec<usize>,
     span: f32,
     legs: &[usize],
@@ -683,13 +675,12 @@ fn split_props(
     parts: &mut Vec<Part>,
 ) -> (Vec<(usize, usize)>, Vec<Option<usize>>) {
     let count = tree.node.len();
-    let bone_joint: Vec<Option<usize>> = c.bones.iter().map(|b| joint_of_node(c, &tree.node, b.node)).collect();
     let vertex_bone: Vec<usize> = c.vertices.iter().map(main_bone).collect();
     let vertex_joint: Vec<Option<usize>> = vertex_bone
         .iter()
         .map(|&b| bone_joint.get(b).copied().flatten())
         .collect();
-    let (piece, pieces) = rest_pieces(c);
+    let (piece, pieces) = pieces_at(c, rest);
     let mut piece_vertices: Vec<Vec<u32>> = vec![Vec::new(); pieces];
     for (t, tri) in c.indices.chunks_exact(3).enumerate() {
         piece_vertices[piece[t]].extend_from_slice(tri);
@@ -779,12 +770,7 @@ fn split_props(
             .trim()
             .to_string();
         let base = if base.is_empty() { "Prop".to_string() } else { base };
-        let mut name = base.clone();
-        let mut n = 2;
-        while parts.iter().any(|p| p.name == name) {
-            name = format!("{base} {n}");
-            n += 1;
-        }
+        let name = unique_name(parts, &base);
         parts.push(Part {
             name,
             color: PALETTE[parts.len() % PALETTE.len()],
@@ -895,13 +881,7 @@ fn split_props(
     found.sort_by_key(|f| f.0);
     let mut part_of_piece: Vec<Option<usize>> = vec![None; pieces];
     for &(k, limb, _) in &found {
-        let base = format!("{} Prop", parts[limb].name);
-        let mut name = base.clone();
-        let mut n = 2;
-        while parts.iter().any(|p| p.name == name) {
-            name = format!("{base} {n}");
-            n += 1;
-        }
+        let name = unique_name(parts, &format!("{} Prop", parts[limb].name));
         part_of_piece[k] = Some(parts.len());
         parts.push(Part {
             name,
@@ -927,10 +907,10 @@ fn segment_distance(p: Vec3, a: Vec3, b: Vec3) -> f32 {
     p.distance(a + d * t)
 }
 
-/// Each triangle's piece (triangles joined by edges in the rest pose, UV seams welded) and
-/// the number of pieces.
-fn rest_pieces(c: &Character) -> (Vec<usize>, usize) {
-    let neighbours = rest_neighbours(c);
+/// Each triangle's piece (triangles joined by edges in the rest pose `rest`, the vertices
+/// skinned at rest; UV seams welded) and the number of pieces.
+fn pieces_at(c: &Character, rest: &[Vec3]) -> (Vec<usize>, usize) {
+    let neighbours = neighbours_at(c, rest);
     let tris = neighbours.len();
     let mut piece = vec![usize::MAX; tris];
     let mut pieces = 0;
@@ -958,6 +938,11 @@ fn rest_pieces(c: &Character) -> (Vec<usize>, usize) {
 /// modelled in one place and moved apart by their joints (a robot's two hands) are not joined.
 fn rest_neighbours(c: &Character) -> Vec<[u32; 3]> {
     let rest = crate::animation::skin_vertices(c, &crate::animation::Pose::rest(c)).0;
+    neighbours_at(c, &rest)
+}
+
+/// [`rest_neighbours`] with the rest pose's vertices already skinned (`rest`).
+fn neighbours_at(c: &Character, rest: &[Vec3]) -> Vec<[u32; 3]> {
     let welded = crate::character::weld_points(rest.iter().copied());
     crate::character::triangle_neighbours(&c.indices, &welded)
 }
@@ -1181,12 +1166,7 @@ fn moving_pieces(c: &Character) -> Option<Segmentation> {
         } else {
             base
         };
-        let mut name = base.clone();
-        let mut k = 2;
-        while parts.iter().any(|p| p.name == name) {
-            name = format!("{base} {k}");
-            k += 1;
-        }
+        let name = unique_name(&parts, &base);
         part_of.insert(m, parts.len() as u16);
         parts.push(Part {
             name,
@@ -1228,7 +1208,8 @@ fn morphing_pieces(c: &Character) -> Option<Segmentation> {
     if c.morphs.is_empty() || c.bones.len() > 1 || c.indices.len() < 6 {
         return None;
     }
-    let (piece, pieces) = rest_pieces(c);
+    let rest = crate::animation::skin_vertices(c, &crate::animation::Pose::rest(c)).0;
+    let (piece, pieces) = pieces_at(c, &rest);
     let tris = piece.len();
     let mut sizes = vec![0usize; pieces];
     for &k in &piece {
@@ -1246,7 +1227,6 @@ fn morphing_pieces(c: &Character) -> Option<Segmentation> {
         return None;
     }
     // Each piece's bounds centre (rest pose).
-    let rest = crate::animation::skin_vertices(c, &crate::animation::Pose::rest(c)).0;
     let mut lo = vec![glam::Vec3::splat(f32::INFINITY); sizes.len()];
     let mut hi = vec![glam::Vec3::splat(f32::NEG_INFINITY); sizes.len()];
     for (t, tri) in c.indices.chunks_exact(3).enumerate() {
@@ -1552,6 +1532,17 @@ fn main_bone(v: &crate::character::Vertex) -> usize {
         .max_by(|&a, &b| v.weights[a].total_cmp(&v.weights[b]))
         .unwrap_or(0);
     v.bones[k] as usize
+}
+
+/// `base`, or `base 2`, `base 3`, … : the first no part of `parts` has.
+fn unique_name(parts: &[Part], base: &str) -> String {
+    let mut name = base.to_string();
+    let mut n = 2;
+    while parts.iter().any(|p| p.name == name) {
+        name = format!("{base} {n}");
+        n += 1;
+    }
+    name
 }
 
 fn pretty(base: &str) -> String {
