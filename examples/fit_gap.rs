@@ -149,6 +149,7 @@ fn main() {
         options.near_still_px2 = t;
     }
     options.finish_exact = std::env::var("FIT_EXACT").is_ok();
+    options.respread = std::env::var("FIT_NORESPREAD").is_err();
     if let Some(t) = std::env::var("FIT_BOUND").ok().and_then(|s| s.parse().ok()) {
         options.restart_bound = t;
     }

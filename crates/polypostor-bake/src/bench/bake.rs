@@ -10,7 +10,7 @@ const BENCH_STAGES: [(&str, &[&str]); 14] = [
     ("render", &["render", "prepare"]),
     ("key frame", &["key frame", "key frame/*"]),
     ("trace", &["part fit/trace", "key choice/trace"]),
-    ("fit", &["part fit", "part fit/fold rescue"]),
+    ("fit", &["part fit", "part fit/fold rescue", "part fit/respread"]),
     ("restarts", &["part fit/restart"]),
     (
         "keys",
@@ -18,6 +18,7 @@ const BENCH_STAGES: [(&str, &[&str]); 14] = [
             "key choice",
             "key choice/restart",
             "key choice/fold rescue",
+            "key choice/respread",
             "key choice/simplify",
         ],
     ),
