@@ -2282,12 +2282,19 @@ mod tests {
         }
     }
 
-    #[test]
-    fn restarts_never_raise_a_frame_cost_nor_beat_the_exact_dp() {
+    /// Six [`tiles`], fitted from key frame 0, with the plan and source samples a frame's
+    /// solve needs.
+    fn fitted_tiles() -> (Vec<PartTile>, PartFit, Plan, SourceSamples) {
         let t = tiles(6);
         let fit = fit_part(&t, 0, &PartFitOptions::default(), &[]).unwrap();
         let plan = Plan::new(fit.key_polygon.len(), &fit.key_triangles).unwrap();
         let samples = SourceSamples::new(&t[0], &fit.key_polygon, &fit.key_triangles, true);
+        (t, fit, plan, samples)
+    }
+
+    #[test]
+    fn restarts_never_raise_a_frame_cost_nor_beat_the_exact_dp() {
+        let (t, fit, plan, samples) = fitted_tiles();
         let seed = [Seed {
             positions: fit.key_polygon.clone(),
             indices: None,
@@ -2379,10 +2386,7 @@ mod tests {
 
     #[test]
     fn respreading_never_raises_a_frame_cost_and_frees_a_piled_fit() {
-        let t = tiles(6);
-        let fit = fit_part(&t, 0, &PartFitOptions::default(), &[]).unwrap();
-        let plan = Plan::new(fit.key_polygon.len(), &fit.key_triangles).unwrap();
-        let samples = SourceSamples::new(&t[0], &fit.key_polygon, &fit.key_triangles, true);
+        let (t, fit, plan, samples) = fitted_tiles();
         let mut freed = 0;
         for f in 1..t.len() {
             let grid = TargetGrid::new(&t[f]);
@@ -2428,10 +2432,7 @@ mod tests {
 
     #[test]
     fn stuck_neighbours_spare_a_restart_only_while_the_cost_does_not_rise() {
-        let t = tiles(6);
-        let fit = fit_part(&t, 0, &PartFitOptions::default(), &[]).unwrap();
-        let plan = Plan::new(fit.key_polygon.len(), &fit.key_triangles).unwrap();
-        let samples = SourceSamples::new(&t[0], &fit.key_polygon, &fit.key_triangles, true);
+        let (t, fit, plan, samples) = fitted_tiles();
         let mut trusted_some = false;
         for f in 1..t.len() {
             let grid = TargetGrid::new(&t[f]);
