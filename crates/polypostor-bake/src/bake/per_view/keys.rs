@@ -579,6 +579,9 @@ fn choose_keys(
         std::collections::HashMap::new();
     let state = |part: &PartKeys<'_>| -> Vec<usize> { part.extra.iter().map(|e| e.frame).collect() };
     let mut exchanges = 0usize;
+    // Per slot, the frames whose keys did not buy the threshold with the part's keys as they
+    // are (cleared when those change).
+    let mut failed: Vec<Vec<usize>> = vec![Vec::new(); slots];
     loop {
         for s in 0..slots {
             if !active[s] || proposals[s].is_some() {
@@ -589,17 +592,27 @@ fn choose_keys(
                 active[s] = false;
                 continue;
             };
-            let mut x = propose(part, clip, max_keys, threshold, frames);
-            if let Some(x) = x.as_mut() {
-                match fits.get(&(s, x.frame, state(part))) {
-                    Some(Some(c)) => x.fitted = Some(c.clone()),
-                    Some(None) => {
-                        active[s] = false;
-                        continue;
-                    }
-                    None => {}
+            // A frame whose key did not buy the threshold is passed over for the slot's next
+            // worst, up to KEY_TRIES of them (a whole-character pack's worst frame is often a
+            // clip's first or last, whose key draws nothing unless it wins the whole clip).
+            let x = loop {
+                if failed[s].len() >= KEY_TRIES {
+                    break None;
                 }
-            }
+                let mut x = propose(part, clip, max_keys, threshold, frames, &failed[s]);
+                if let Some(x) = x.as_mut()
+                    && let Some(known) = fits.get(&(s, x.frame, state(part)))
+                {
+                    match known {
+                        Some(c) => x.fitted = Some(c.clone()),
+                        None => {
+                            failed[s].push(x.frame);
+                            continue;
+                        }
+                    }
+                }
+                break x;
+            };
             active[s] = x.is_some();
             proposals[s] = x;
         }
@@ -695,6 +708,7 @@ fn choose_keys(
                 for k in 0..nc {
                     proposals[q * nc + k] = None;
                     active[q * nc + k] = true;
+                    failed[q * nc + k].clear();
                 }
             }
             let c = proposals[s].take().and_then(|x| x.fitted).expect("a fitted proposal");
@@ -727,6 +741,7 @@ fn choose_keys(
             for k in 0..nc {
                 proposals[p * nc + k] = None;
                 active[p * nc + k] = true;
+                failed[p * nc + k].clear();
             }
             continue;
         }
@@ -757,8 +772,10 @@ fn choose_keys(
                         s / nc,
                         proposals[s].as_ref().map(|x| x.frame)
                     );
-                    proposals[s] = None;
-                    active[s] = false;
+                    // The slot proposes its next worst frame in the next round.
+                    if let Some(x) = proposals[s].take() {
+                        failed[s].push(x.frame);
+                    }
                 }
             }
         }
@@ -855,13 +872,16 @@ fn clip_range(part: &PartKeys<'_>, clip: Option<usize>, frames: usize) -> std::o
 const MIN_KEY_GAIN: f64 = 1.0;
 
 /// Part `part`'s next key for clip `clip` (`None`: all frames) to try, or `None` when it is
-/// done (its keys at `max_keys`, or no key could buy `threshold` on the clip).
+/// done (its keys at `max_keys`, no key could buy `threshold` on the clip, or every frame
+/// left is in `skip`): the frame its keys fit worst, among those a key fitted round it could
+/// draw ([`drawable_alone`]) when the clip has any.
 fn propose(
     part: &PartKeys<'_>,
     clip: Option<usize>,
     max_keys: usize,
     threshold: f64,
     frames: usize,
+    skip: &[usize],
 ) -> Option<Proposal> {
     if part.extra.len() + 1 >= max_keys {
         return None;
@@ -883,9 +903,15 @@ fn propose(
     if !(now > 0.0) || now <= best_case * threshold || now - best_case < MIN_KEY_GAIN {
         return None;
     }
-    let frame = range
-        .filter(|&f| !part.used(f))
-        .max_by(|&x, &y| cur[x].total_cmp(&cur[y]))?;
+    let open = |f: &usize| !part.used(*f) && !skip.contains(f);
+    let worst = |frames: &mut dyn Iterator<Item = usize>| frames.max_by(|&x, &y| cur[x].total_cmp(&cur[y]));
+    let frame = worst(
+        &mut range
+            .clone()
+            .filter(open)
+            .filter(|&f| drawable_alone(part.clips, f, frames)),
+    )
+    .or_else(|| worst(&mut range.filter(open)))?;
     // The key's image is about its frame's outline's bounds ([`choose`] does not fit it
     // when that is past what the view can spend).
     let min_bytes = 0.9 * polygon_bytes(&part.targets[frame]);
@@ -901,8 +927,25 @@ fn propose(
     })
 }
 
-/// Fits a proposal; `None` when it does not buy `threshold` on its clip (the slot is then
-/// done).
+/// Whether a key at frame `f` could draw it without winning the whole of its clip: the frames
+/// before and after it as the clip plays ([`usable_frames`]) are its neighbours on the
+/// timeline too. Not so for a looping clip's first and last frames in a whole-character pack
+/// (each plays next to the other, at the clip's far end), whose keys fit from there mostly
+/// draw nothing.
+fn drawable_alone(clips: &[crate::timeline::ClipSpan], f: usize, frames: usize) -> bool {
+    use crate::timeline::{next_frame, prev_frame};
+    clips.len() < 2
+        || [prev_frame(clips, f), next_frame(clips, f)]
+            .iter()
+            .all(|&g| g.abs_diff(f) <= 1 && g < frames)
+}
+
+/// Most frames a proposal slot of [`choose`] tries whose keys do not buy the threshold, with
+/// the part's keys as they are, before it is done.
+const KEY_TRIES: usize = 3;
+
+/// Fits a proposal; `None` when it does not buy `threshold` on its clip (the slot then tries
+/// its next worst frame, [`KEY_TRIES`] at most).
 fn evaluate(
     part: &PartKeys<'_>,
     x: &Proposal,
@@ -1109,6 +1152,107 @@ mod tests {
         assert!(usable_frames(key, frames, &[])[3]);
     }
 
+    fn clip(start: u32, frames: u32, looping: bool) -> crate::timeline::ClipSpan {
+        crate::timeline::ClipSpan {
+            name: format!("c{start}"),
+            start,
+            frames,
+            looping,
+            ground_speed: 0.0,
+            secs_per_frame: 0.0,
+        }
+    }
+
+    /// Brute force over clip tables of 1–4 clips of 1–5 frames, looping or not: a frame is
+    /// drawable by a key fitted round it alone exactly where the frames before and after it
+    /// as its clip plays are itself or its timeline neighbours; one clip is one loop.
+    #[test]
+    fn a_frame_is_drawable_alone_where_its_clip_neighbours_are_its_timeline_neighbours() {
+        let mut tables = 0;
+        for n in 1..=4usize {
+            for code in 0..(10usize.pow(n as u32)) {
+                let mut clips = Vec::new();
+                let mut start = 0u32;
+                let mut c = code;
+                for _ in 0..n {
+                    let (len, looping) = ((c % 5) as u32 + 1, (c / 5) % 2 == 1);
+                    c /= 10;
+                    clips.push(clip(start, len, looping));
+                    start += len;
+                }
+                let frames = start as usize;
+                tables += 1;
+                for f in 0..frames {
+                    let k = clips.iter().find(|c| c.range().contains(&f)).unwrap();
+                    let r = k.range();
+                    let (prev, next) = if k.looping {
+                        (
+                            r.start + (f - r.start + r.len() - 1) % r.len(),
+                            r.start + (f - r.start + 1) % r.len(),
+                        )
+                    } else {
+                        (f.saturating_sub(1).max(r.start), (f + 1).min(r.end - 1))
+                    };
+                    let want = n < 2 || (prev.abs_diff(f) <= 1 && next.abs_diff(f) <= 1);
+                    assert_eq!(drawable_alone(&clips, f, frames), want, "{clips:?} frame {f}");
+                }
+            }
+        }
+        assert!(tables > 10_000);
+        // A looping clip's ends are not; a held (non-looping) clip's are.
+        let two = [clip(0, 6, true), clip(6, 6, false)];
+        let got: Vec<bool> = (0..12).map(|f| drawable_alone(&two, f, 12)).collect();
+        assert_eq!(
+            got,
+            [false, true, true, true, true, false, true, true, true, true, true, true]
+        );
+    }
+
+    /// In a whole-character pack a slot proposes its clip's worst frame among those a key
+    /// could draw alone (not a looping clip's first or last), passes over the frames it is
+    /// told failed, and falls back on the clip's ends only when nothing else is left.
+    #[test]
+    fn a_proposal_passes_over_clip_ends_and_frames_that_failed() {
+        let frames = 12;
+        let t = turning(frames);
+        let options = PartFitOptions::default();
+        let fit = crate::bake::part_fit::fit_part(&t, 0, &options, &[]).unwrap();
+        let sse: Vec<f64> = (0..frames)
+            .map(|f| sse(&draw_part(&fit, &t[0], f, 48), &tile_canvas(&t[f])))
+            .collect();
+        let clips = [clip(0, 6, true), clip(6, 6, true)];
+        let part = PartKeys {
+            tiles: &t,
+            targets: &fit.targets,
+            primary: &fit,
+            primary_sse: &sse,
+            clips: &clips,
+            extra: Vec::new(),
+        };
+        let threshold = 10f64.powf(KeyOptions::default().min_gain_db / 10.0);
+        let frame = |skip: &[usize]| propose(&part, Some(1), 4, threshold, frames, skip).map(|x| x.frame);
+        // Brute force: the worst of frames 7..=10, then the next worst, and so on.
+        let mut inner: Vec<usize> = (7..=10).collect();
+        inner.sort_by(|&a, &b| sse[b].total_cmp(&sse[a]));
+        let mut skip = Vec::new();
+        for &want in &inner {
+            assert_eq!(frame(&skip), Some(want), "skipping {skip:?}");
+            skip.push(want);
+        }
+        // Only the clip's ends left: the worse of them.
+        let end = if sse[6] >= sse[11] { 6 } else { 11 };
+        assert_eq!(frame(&skip), Some(end));
+        skip.extend([6, 11]);
+        assert_eq!(frame(&skip), None);
+        // One clip: every frame but the key's may be proposed, the worst first.
+        let one = PartKeys { clips: &[], ..part };
+        let worst = (1..frames).max_by(|&a, &b| sse[a].total_cmp(&sse[b])).unwrap();
+        assert_eq!(
+            propose(&one, None, 4, threshold, frames, &[]).map(|x| x.frame),
+            Some(worst)
+        );
+    }
+
     /// Each part's first key (at frame 0) and its squared error per frame.
     fn first_keys(sets: &[Vec<PartTile>], options: &PartFitOptions) -> (Vec<PartFit>, Vec<Vec<f64>>) {
         let fits: Vec<PartFit> = sets
@@ -1300,7 +1444,7 @@ mod tests {
             .iter()
             .map(|p| {
                 let p = p.as_ref().unwrap();
-                let x = propose(p, None, 4, threshold, frames)?;
+                let x = propose(p, None, 4, threshold, frames, &[])?;
                 evaluate(p, &x, &options, threshold, frames)
             })
             .collect();
@@ -1367,7 +1511,7 @@ mod tests {
             .iter()
             .map(|p| {
                 let p = p.as_ref().unwrap();
-                let x = propose(p, None, 2, threshold, frames).expect("a proposal");
+                let x = propose(p, None, 2, threshold, frames, &[]).expect("a proposal");
                 evaluate(p, &x, &options, threshold, frames).expect("a key")
             })
             .collect();
