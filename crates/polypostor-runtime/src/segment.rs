@@ -1200,7 +1200,7 @@ pub const PIECE_SHARE: f64 = 0.02;
 /// A prop without joints whose clips animate morph targets (bars that grow, a blob that
 /// breathes, a flag; a static file's one bone) and that is made of separate pieces: a part per piece (connected in the
 /// rest pose, UV seams welded) holding at least [`PIECE_SHARE`] of the triangles, the
-/// largest [`MAX_PIECES`] first ("Body", then "Piece 2", …); smaller pieces join the kept
+/// largest [`MAX_PIECES`] first ("Body", then named by place, [`placed_parts`]); smaller pieces join the kept
 /// piece whose bounds' centre is nearest. One polygon per view cannot follow pieces that
 /// change shape on their own. `None` for characters with more than one bone, without
 /// animated morphs, or of one piece.
@@ -1248,8 +1248,8 @@ fn morphing_pieces(c: &Character) -> Option<Segmentation> {
             kept.iter().position(|&x| x == k).unwrap_or(nearest) as u16
         })
         .collect();
-    let parts = numbered_parts(kept.len(), "Piece");
-    let labels = piece.iter().map(|&k| part_of[k]).collect();
+    let labels: Vec<u16> = piece.iter().map(|&k| part_of[k]).collect();
+    let parts = placed_parts(c, &labels, kept.len());
     let mut seg = Segmentation { parts, labels };
     compact(&mut seg);
     Some(seg)
@@ -1508,22 +1508,64 @@ fn morphing_motion_parts(c: &Character) -> Option<Segmentation> {
             }
         }
     }
-    let parts = numbered_parts(kept.len(), "Part");
+    let parts = placed_parts(c, &part, kept.len());
     Some(Segmentation { parts, labels: part })
 }
 
-/// `count` parts in palette order: "Body", then `"{word} 2"`, `"{word} 3"`, …
-fn numbered_parts(count: usize, word: &str) -> Vec<Part> {
-    (0..count)
-        .map(|i| Part {
-            name: if i == 0 {
-                "Body".into()
+/// Least offset from the body's centre, as a share of the prop's size along an axis, that
+/// [`placed_parts`] names (a part nearer the middle along every axis is "Middle").
+pub const PLACE_NAME_SHARE: f32 = 0.15;
+
+/// Names for `count` parts cut from a prop without joints, in palette order: the largest
+/// (part 0) "Body", every other by where its rest-pose centre (the mean of its triangles'
+/// centres) lies from the body's, along glTF's axes (the front is +z, the prop's left +x, up
+/// +y): "Front Left Lower", "Rear", "Upper", … — words along each axis where the offset is at
+/// least [`PLACE_NAME_SHARE`] of the prop's size along it, "Middle" where none is; repeats
+/// numbered ("Front Left Lower 2"). A horse's legs read as such in the editor's list, not
+/// as "Part 7".
+fn placed_parts(c: &Character, labels: &[u16], count: usize) -> Vec<Part> {
+    let rest = crate::animation::skin_vertices(c, &crate::animation::Pose::rest(c)).0;
+    let mut sum = vec![Vec3::ZERO; count];
+    let mut n = vec![0u32; count];
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for (tri, &l) in c.indices.chunks_exact(3).zip(labels) {
+        let corners: Option<Vec<Vec3>> = tri.iter().map(|&v| rest.get(v as usize).copied()).collect();
+        let Some(corners) = corners else { continue };
+        for &q in &corners {
+            lo = lo.min(q);
+            hi = hi.max(q);
+        }
+        if let Some(k) = sum.get_mut(l as usize) {
+            *k += (corners[0] + corners[1] + corners[2]) / 3.0;
+            n[l as usize] += 1;
+        }
+    }
+    let centre = |k: usize| sum[k] / n[k].max(1) as f32;
+    let size = (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE));
+    let mut parts: Vec<Part> = Vec::with_capacity(count);
+    for k in 0..count {
+        let name = if k == 0 {
+            "Body".to_string()
+        } else {
+            let d = (centre(k) - centre(0)) / size;
+            let words: Vec<&str> = [(d.z, "Front", "Rear"), (d.x, "Left", "Right"), (d.y, "Upper", "Lower")]
+                .into_iter()
+                .filter(|(o, _, _)| o.abs() >= PLACE_NAME_SHARE)
+                .map(|(o, plus, minus)| if o > 0.0 { plus } else { minus })
+                .collect();
+            let base = if words.is_empty() {
+                "Middle".to_string()
             } else {
-                format!("{word} {}", i + 1)
-            },
-            color: PALETTE[i % PALETTE.len()],
-        })
-        .collect()
+                words.join(" ")
+            };
+            unique_name(&parts, &base)
+        };
+        parts.push(Part {
+            name,
+            color: PALETTE[k % PALETTE.len()],
+        });
+    }
+    parts
 }
 
 /// The bone carrying most of a vertex's weight.
@@ -1642,6 +1684,10 @@ mod tests {
         }];
         let seg = auto_segment(&c);
         assert_eq!(seg.parts.len(), 3, "{:?}", seg.parts);
+        // Named by place: the other two lie towards +x (the prop's left) of the body.
+        let mut names: Vec<&str> = seg.parts.iter().map(|p| p.name.as_str()).collect();
+        names.sort_unstable();
+        assert_eq!(names, ["Body", "Left", "Left 2"]);
         let label = |t: usize| seg.labels[t];
         for k in 0..3 {
             let first = label(k * per_piece);
@@ -1689,6 +1735,10 @@ mod tests {
             let seg = auto_segment(&c);
             assert_eq!(seg.parts.len(), 2, "scale {scale}: {:?}", seg.parts);
             assert_eq!(seg.parts[0].name, "Body");
+            if scale == 1.0 {
+                // The flap lies towards +x of the plate: the prop's left.
+                assert_eq!(seg.parts[1].name, "Left");
+            }
             let tris = c.indices.len() / 3;
             let flap_label = seg.labels[2 * (n - 1)];
             for t in 0..tris {
@@ -1733,6 +1783,11 @@ mod tests {
             assert_eq!(seg.parts.len(), 3, "scale {scale}: {:?}", seg.parts);
             let (l, r) = (seg.labels[0], seg.labels[2 * (n - 1)]);
             assert_ne!(l, r, "scale {scale}: the two flaps share a part");
+            if scale == 1.0 {
+                // Named by place (−x is the prop's right), not numbered.
+                assert_eq!(seg.parts[l as usize].name, "Right");
+                assert_eq!(seg.parts[r as usize].name, "Left");
+            }
             for t in 0..c.indices.len() / 3 {
                 let want = match column(t) {
                     x if x < left as usize => l,

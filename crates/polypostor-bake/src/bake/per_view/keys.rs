@@ -2,8 +2,10 @@
 //!
 //! One key image per part and view stretches a texture over frames where the part turns or
 //! foreshortens (a leg seen from above, a head that turns). Here each part of a view may get
-//! up to [`KeyOptions::max_keys`] key images. The bake adds them greedily: for every part it
-//! tries the frame its current keys fit worst, fitted from that frame only as far round the
+//! up to [`KeyOptions::max_keys`] key images. The bake adds them greedily: for every part (and
+//! clip, in a whole-character pack) it tries the frame its current keys fit worst (of those a
+//! key could draw without winning the whole clip, [`drawable_alone`]; where that key does not
+//! buy enough, the next worst, [`KEY_TRIES`] at most), fitted from that frame only as far round the
 //! loop as it can win ([`fit_part_span`]), and keeps the additions that cut the part's
 //! rendered error over all frames most per byte of texture, while each cuts it (on some clip,
 //! for a whole-character pack) by at least
@@ -31,7 +33,8 @@ pub struct KeyOptions {
     /// 0.5.
     pub min_gain_db: f64,
     /// Bytes of added key images a view may spend, as a fraction of its first key images'.
-    /// Default value: 0.5 (packs at most about 1.5× the single-key size).
+    /// Default value: 0.25 (packs at most about 1.25× the single-key size, before
+    /// [`KeyOptions::ratio`]).
     pub budget: f64,
     /// Most views, as a share of all, that the budget other views left unspent goes to
     /// (worst first; `pipeline::share_key_budget`). 0: each view spends only its own.
@@ -558,7 +561,7 @@ fn choose_keys(
     let mut active: Vec<bool> = (0..slots).map(|s| parts[s / nc].is_some()).collect();
     let threshold = 10f64.powf(keys.min_gain_db / 10.0);
     // Lazy greedy: every active slot proposes its part's next key (the frame of its clip its
-    // keys fit worst) with an optimistic gain per byte, known before fitting; proposals are
+    // keys fit worst, see `propose`) with an optimistic gain per byte, known before fitting; proposals are
     // fitted, best estimate first, only until the best fitted one beats every estimate left,
     // which is then taken. A proposal depends only on its part, so fitted proposals stay
     // valid while other parts take keys (a part taking a key proposes again); proposals the
@@ -929,9 +932,10 @@ fn propose(
 
 /// Whether a key at frame `f` could draw it without winning the whole of its clip: the frames
 /// before and after it as the clip plays ([`usable_frames`]) are its neighbours on the
-/// timeline too. Not so for a looping clip's first and last frames in a whole-character pack
-/// (each plays next to the other, at the clip's far end), whose keys fit from there mostly
-/// draw nothing.
+/// timeline too. Not so for the first and last frames of a looping clip of three frames or
+/// more in a whole-character pack (each plays next to the other, at the clip's far end): no
+/// key draws them unless its span holds the whole clip, so a key proposed there for them
+/// mostly buys little. (They are proposed last, [`propose`].)
 fn drawable_alone(clips: &[crate::timeline::ClipSpan], f: usize, frames: usize) -> bool {
     use crate::timeline::{next_frame, prev_frame};
     clips.len() < 2
@@ -1214,7 +1218,10 @@ mod tests {
     #[test]
     fn a_proposal_passes_over_clip_ends_and_frames_that_failed() {
         let frames = 12;
-        let t = turning(frames);
+        // The second clip's last frame is its worst (the square grown by a fifth): the one
+        // proposal a key there could not draw alone.
+        let mut t = turning(frames);
+        t[11] = turning_sized(frames, 1.0, 1.2).swap_remove(11);
         let options = PartFitOptions::default();
         let fit = crate::bake::part_fit::fit_part(&t, 0, &options, &[]).unwrap();
         let sse: Vec<f64> = (0..frames)
@@ -1231,16 +1238,19 @@ mod tests {
         };
         let threshold = 10f64.powf(KeyOptions::default().min_gain_db / 10.0);
         let frame = |skip: &[usize]| propose(&part, Some(1), 4, threshold, frames, skip).map(|x| x.frame);
-        // Brute force: the worst of frames 7..=10, then the next worst, and so on.
+        // Brute force: the worst of frames 7..=10, then the next worst, and so on (the later
+        // frame first among equals, as `propose` picks).
         let mut inner: Vec<usize> = (7..=10).collect();
-        inner.sort_by(|&a, &b| sse[b].total_cmp(&sse[a]));
+        inner.sort_by(|&a, &b| sse[b].total_cmp(&sse[a]).then(b.cmp(&a)));
+        // Not vacuous: a clip end is worse than every frame proposed before it.
+        assert!(sse[6].max(sse[11]) > sse[inner[0]], "{sse:?}");
         let mut skip = Vec::new();
         for &want in &inner {
             assert_eq!(frame(&skip), Some(want), "skipping {skip:?}");
             skip.push(want);
         }
         // Only the clip's ends left: the worse of them.
-        let end = if sse[6] >= sse[11] { 6 } else { 11 };
+        let end = if sse[6] > sse[11] { 6 } else { 11 };
         assert_eq!(frame(&skip), Some(end));
         skip.extend([6, 11]);
         assert_eq!(frame(&skip), None);
