@@ -1039,35 +1039,40 @@ mod tests {
     fn turning_sized(frames: usize, change: f32, scale: f32) -> Vec<PartTile> {
         (0..frames)
             .map(|f| {
-                let size = 48u32;
                 let blue = f >= frames / 2;
-                let px = (0..size * size)
-                    .map(|i| {
-                        let (x, y) = ((i % size) as f32 + 0.5, (i / size) as f32 + 0.5);
-                        let (u, v) = (
-                            (x - 22.0 - 0.7 * f as f32) / (14.0 * scale),
-                            (y - 24.0) / (16.0 * scale),
-                        );
-                        if u.abs() < 1.0 && v.abs() < 1.0 {
-                            let stripe = if ((v + 1.0) * 3.0).floor() as i32 % 2 == 0 {
-                                0.9
-                            } else {
-                                0.5
-                            };
-                            let (r, b) = if blue {
-                                (stripe + (0.1 - stripe) * change, 0.1 + (stripe - 0.1) * change)
-                            } else {
-                                (stripe, 0.1)
-                            };
-                            [r, 0.2, b, 0.5, 0.5, 1.0, 1.0]
-                        } else {
-                            [0.0; 7]
-                        }
-                    })
-                    .collect();
-                PartTile { size, px }
+                square(0.7 * f as f32, scale, &|stripe| {
+                    if blue {
+                        [stripe + (0.1 - stripe) * change, 0.2, 0.1 + (stripe - 0.1) * change]
+                    } else {
+                        [stripe, 0.2, 0.1]
+                    }
+                })
             })
             .collect()
+    }
+
+    /// A 48-pixel tile holding a striped square `scale` times 28 × 32 pixels, `drift` pixels
+    /// right of the first frame's place, its stripes coloured by `paint(stripe)`.
+    fn square(drift: f32, scale: f32, paint: &dyn Fn(f32) -> [f32; 3]) -> PartTile {
+        let size = 48u32;
+        let px = (0..size * size)
+            .map(|i| {
+                let (x, y) = ((i % size) as f32 + 0.5, (i / size) as f32 + 0.5);
+                let (u, v) = ((x - 22.0 - drift) / (14.0 * scale), (y - 24.0) / (16.0 * scale));
+                if u.abs() < 1.0 && v.abs() < 1.0 {
+                    let stripe = if ((v + 1.0) * 3.0).floor() as i32 % 2 == 0 {
+                        0.9
+                    } else {
+                        0.5
+                    };
+                    let [r, g, b] = paint(stripe);
+                    [r, g, b, 0.5, 0.5, 1.0, 1.0]
+                } else {
+                    [0.0; 7]
+                }
+            })
+            .collect();
+        PartTile { size, px }
     }
 
     fn extra(frame: usize, start: usize, count: usize, sse: Vec<f64>) -> ExtraKey {
@@ -1260,6 +1265,73 @@ mod tests {
         assert_eq!(
             propose(&one, None, 4, threshold, frames, &[]).map(|x| x.frame),
             Some(worst)
+        );
+    }
+
+    /// A slot whose first proposal does not buy the threshold tries its next worst frame: a
+    /// red square (clip a, 4 frames, the first key) turns blue for clip b (36 frames) but for
+    /// one frame flashing white — the clip's worst frame, whose key draws that frame alone
+    /// (under the 0.5 dB asked of the clip) — and a key at a blue frame then buys the clip.
+    /// With one try a slot (the rule before) clip b gets no key. Independent answer: the
+    /// frames as painted.
+    #[test]
+    fn a_slot_whose_key_does_not_buy_enough_tries_its_next_worst_frame() {
+        let (a, b) = (4usize, 36usize);
+        let frames = a + b;
+        let flash = a + 10;
+        let t: Vec<PartTile> = (0..frames)
+            .map(|f| {
+                let drift = 0.2 * f as f32;
+                if f < a {
+                    square(drift, 1.0, &|s| [s, 0.2, 0.1])
+                } else if f == flash {
+                    square(drift, 1.0, &|_| [1.0, 1.0, 1.0])
+                } else {
+                    square(drift, 1.0, &|s| [0.1, 0.2, s])
+                }
+            })
+            .collect();
+        let options = PartFitOptions::default();
+        let fit = crate::bake::part_fit::fit_part(&t, 0, &options, &[]).unwrap();
+        let primary_sse: Vec<f64> = (0..frames)
+            .map(|f| sse(&draw_part(&fit, &t[0], f, 48), &tile_canvas(&t[f])))
+            .collect();
+        let clips = [clip(0, a as u32, true), clip(a as u32, b as u32, true)];
+        let part = || PartKeys {
+            tiles: &t,
+            targets: &fit.targets,
+            primary: &fit,
+            primary_sse: &primary_sse,
+            clips: &clips,
+            extra: Vec::new(),
+        };
+        let keys = KeyOptions {
+            budget: 4.0,
+            max_keys: 2,
+            ratio: 0.0,
+            ..KeyOptions::default()
+        };
+        let threshold = 10f64.powf(keys.min_gain_db / 10.0);
+        // The setting holds: clip b's first proposal is the flash, and its key is refused.
+        let probe = part();
+        let x = propose(&probe, Some(1), 2, threshold, frames, &[]).expect("a proposal");
+        assert_eq!(x.frame, flash, "{primary_sse:?}");
+        assert!(evaluate(&probe, &x, &options, threshold, frames).is_none());
+        let blank = |_: usize, _: usize| (image::RgbaImage::new(1, 1), image::RgbaImage::new(1, 1));
+        let mut parts = vec![Some(part())];
+        choose(&mut parts, &options, &keys, None, &blank);
+        let extra = parts.pop().unwrap().unwrap().extra;
+        let blue = |f: usize| f >= a && f != flash;
+        assert!(
+            extra.iter().any(|e| blue(e.frame)),
+            "a key at a blue frame: {:?}",
+            extra.iter().map(|e| e.frame).collect::<Vec<_>>()
+        );
+        // It draws most of clip b's blue frames.
+        let drawn = assign(&primary_sse, &extra, frames);
+        assert!(
+            (a..frames).filter(|&f| blue(f) && drawn[f] != 0).count() >= b / 2,
+            "{drawn:?}"
         );
     }
 
