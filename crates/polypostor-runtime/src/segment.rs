@@ -1249,7 +1249,7 @@ fn morphing_pieces(c: &Character) -> Option<Segmentation> {
         })
         .collect();
     let labels: Vec<u16> = piece.iter().map(|&k| part_of[k]).collect();
-    let parts = placed_parts(c, &labels, kept.len());
+    let parts = placed_parts(c, &rest, &labels, kept.len());
     let mut seg = Segmentation { parts, labels };
     compact(&mut seg);
     Some(seg)
@@ -1508,7 +1508,7 @@ fn morphing_motion_parts(c: &Character) -> Option<Segmentation> {
             }
         }
     }
-    let parts = placed_parts(c, &part, kept.len());
+    let parts = placed_parts(c, &rest, &part, kept.len());
     Some(Segmentation { parts, labels: part })
 }
 
@@ -1516,15 +1516,14 @@ fn morphing_motion_parts(c: &Character) -> Option<Segmentation> {
 /// [`placed_parts`] names (a part nearer the middle along every axis is "Middle").
 pub const PLACE_NAME_SHARE: f32 = 0.15;
 
-/// Names for `count` parts cut from a prop without joints, in palette order: the largest
-/// (part 0) "Body", every other by where its rest-pose centre (the mean of its triangles'
+/// Names for `count` parts cut from a prop without joints (`rest`: its rest-pose vertex
+/// positions), in palette order: the largest (part 0) "Body", every other by where its rest-pose centre (the mean of its triangles'
 /// centres) lies from the body's, along glTF's axes (the front is +z, the prop's left +x, up
 /// +y): "Front Left Lower", "Rear", "Upper", … — words along each axis where the offset is at
 /// least [`PLACE_NAME_SHARE`] of the prop's size along it, "Middle" where none is; repeats
 /// numbered ("Front Left Lower 2"). A horse's legs read as such in the editor's list, not
 /// as "Part 7".
-fn placed_parts(c: &Character, labels: &[u16], count: usize) -> Vec<Part> {
-    let rest = crate::animation::skin_vertices(c, &crate::animation::Pose::rest(c)).0;
+fn placed_parts(c: &Character, rest: &[Vec3], labels: &[u16], count: usize) -> Vec<Part> {
     let mut sum = vec![Vec3::ZERO; count];
     let mut n = vec![0u32; count];
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));

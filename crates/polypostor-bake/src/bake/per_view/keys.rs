@@ -907,7 +907,7 @@ fn propose(
         return None;
     }
     let open = |f: &usize| !part.used(*f) && !skip.contains(f);
-    let worst = |frames: &mut dyn Iterator<Item = usize>| frames.max_by(|&x, &y| cur[x].total_cmp(&cur[y]));
+    let worst = |among: &mut dyn Iterator<Item = usize>| among.max_by(|&x, &y| cur[x].total_cmp(&cur[y]));
     let frame = worst(
         &mut range
             .clone()
