@@ -210,7 +210,7 @@ impl ExportDialog {
                 texture_bytes,
             )
             .with_polygon_vertices(
-                self.polygon_vertices + doc.project.bake.interior_vertices,
+                self.polygon_vertices + polypostor::reps::compare::kept_interior(doc.project.bake.interior_vertices),
                 self.views,
                 frames,
                 doc.segmentation.parts.len(),

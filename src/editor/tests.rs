@@ -753,7 +753,12 @@ fn export_writes_the_chosen_representations_and_opens_the_preview() {
     // The estimate shown before writing, against what was written.
     let c = &h.state().doc.as_ref().unwrap().character;
     let e = polypostor::reps::compare::estimate(4, 64, report.settings.frames, 5, c.vertices.len(), 0)
-        .with_polygon_vertices(24 + report.settings.interior_vertices, 4, report.settings.frames, 5);
+        .with_polygon_vertices(
+            24 + polypostor::reps::compare::kept_interior(report.settings.interior_vertices),
+            4,
+            report.settings.frames,
+            5,
+        );
     assert_eq!(e.impostor, report.impostor_bytes, "impostor memory is exact");
     let ratio = e.polypostor as f64 / report.pack_bytes as f64;
     assert!(

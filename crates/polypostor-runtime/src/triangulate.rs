@@ -50,6 +50,21 @@ fn inside(poly: &[[f64; 2]], p: [f64; 2]) -> bool {
     c
 }
 
+/// The crowd's thinned level of a polygon outline: triangles over every `step`-th vertex
+/// (indices into `outline`), `None` when the outline has fewer than `4 · step` vertices or the
+/// thinned polygon is not simple. What the Polypostor renderer draws for characters small on
+/// screen, and what the bake's atlas keeps texels for (`pack::atlas` in the studio).
+pub fn thinned(outline: &[[f32; 2]], step: usize) -> Option<Vec<[usize; 3]>> {
+    let step = step.max(1);
+    if outline.len() < 4 * step {
+        return None;
+    }
+    let keep: Vec<usize> = (0..outline.len()).step_by(step).collect();
+    let points: Vec<[f32; 2]> = keep.iter().map(|&k| outline[k]).collect();
+    let tris = triangulate(&points).ok()?;
+    Some(tris.iter().map(|t| t.map(|i| keep[i])).collect())
+}
+
 /// Triangles `[a, b, c]` (polygon vertex indices) covering the polygon, each with the same
 /// orientation as the polygon's vertex order.
 pub fn triangulate(points: &[[f32; 2]]) -> Result<Vec<[usize; 3]>, TriangulateError> {

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::atlas::pack_atlas;
+use super::atlas::{Atlas, AtlasItem, pack_atlas};
 use crate::bake::pipeline::{Bake, TextureEncoding};
 pub use crate::bake::report::PackStats;
 use crate::pack::{
@@ -143,6 +143,103 @@ fn key_aligned_uvs(
         .collect()
 }
 
+/// One key's block before it is written: its positions as bytes in their box, its texture
+/// coordinates (tile pixels) and its coarse level.
+struct PreparedKey {
+    bx: PositionBox,
+    bytes: Vec<u8>,
+    uvs: Vec<[f32; 2]>,
+    /// Outline vertices (the first of `uvs`; interior vertices follow).
+    outline: usize,
+    triangles: Vec<[usize; 3]>,
+    coarse: Vec<[usize; 3]>,
+}
+
+impl PreparedKey {
+    /// The key `fit` over `count` frames from `start` (of a timeline of `frames`), for `r`²
+    /// tiles.
+    fn new(fit: &crate::bake::part_fit::PartFit, start: usize, count: usize, frames: usize, r: f32) -> Self {
+        let positions: Vec<Vec<[f32; 2]>> = (0..count).map(|s| fit.positions((start + s) % frames)).collect();
+        let (bx, bytes) = quantised_block(&positions, r);
+        let uvs = key_aligned_uvs(fit, &positions, &bx, &bytes, r);
+        let coarse = crate::bake::part_fit::coarse_of(fit, &positions);
+        Self {
+            bx,
+            bytes,
+            uvs,
+            outline: fit.kept.len(),
+            triangles: fit.triangles.clone(),
+            coarse,
+        }
+    }
+
+    /// Every triangle (tile pixels) the run time may draw the key's image with: the
+    /// polygon's, its coarse level's, and the crowd's thinned levels over every second and
+    /// fourth outline vertex ([`polypostor_runtime::triangulate::thinned`]).
+    fn sampled_triangles(&self) -> Vec<[[f32; 2]; 3]> {
+        let outline = &self.uvs[..self.outline.min(self.uvs.len())];
+        let thinned = [2, 4]
+            .into_iter()
+            .filter_map(|step| polypostor_runtime::triangulate::thinned(outline, step))
+            .flatten();
+        self.triangles
+            .iter()
+            .chain(&self.coarse)
+            .copied()
+            .chain(thinned)
+            .filter(|t| t.iter().all(|&i| i < self.uvs.len()))
+            .map(|t| t.map(|i| self.uvs[i]))
+            .collect()
+    }
+}
+
+/// A view's keys prepared for writing (every part's first key, then every extra key, part
+/// by part), per part where its extra keys are in that list, and the atlas of their images
+/// (which keeps the texels their triangles, at every level, can sample).
+fn pack_view(
+    view: &crate::bake::pipeline::ViewResult,
+    frames: usize,
+    r: f32,
+) -> (Vec<Option<PreparedKey>>, Vec<Vec<usize>>, Atlas) {
+    let mut keys: Vec<Option<PreparedKey>> = view
+        .parts
+        .iter()
+        .map(|p| p.fit.as_ref().map(|f| PreparedKey::new(f, 0, frames, frames, r)))
+        .collect();
+    let mut extra_item: Vec<Vec<usize>> = Vec::with_capacity(view.parts.len());
+    for p in &view.parts {
+        let mut list = Vec::new();
+        for e in p.extra.iter().filter(|_| p.fit.is_some()) {
+            list.push(keys.len());
+            keys.push(Some(PreparedKey::new(&e.fit, e.span.start, e.span.count, frames, r)));
+        }
+        extra_item.push(list);
+    }
+    let images = view
+        .parts
+        .iter()
+        .map(|p| (&p.key_color, &p.key_normal))
+        .chain(view.parts.iter().flat_map(|p| {
+            p.extra
+                .iter()
+                .filter(|_| p.fit.is_some())
+                .map(|e| (&e.key_color, &e.key_normal))
+        }));
+    let items: Vec<Option<AtlasItem<'_>>> = keys
+        .iter()
+        .zip(images)
+        .map(|(k, (color, normal))| {
+            k.as_ref().map(|k| AtlasItem {
+                color,
+                normal,
+                triangles: k.sampled_triangles(),
+            })
+        })
+        .collect();
+    let atlas = pack_atlas(&items);
+    (keys, extra_item, atlas)
+}
+
 fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> Result<PackStats, String> {
     let r = bake.options.resolution as f32;
     let frames = bake.frame_times.len();
@@ -154,32 +251,18 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
     let mut stats = PackStats::default();
     let mut sums = Checksums::new();
     let mut triangles = 0usize;
-    for (v, view) in bake.views.iter().enumerate() {
-        let bounds = |fit: &crate::bake::part_fit::PartFit| {
-            let uv = fit.uvs();
-            [
-                uv.iter().map(|q| q[0]).fold(f32::INFINITY, f32::min),
-                uv.iter().map(|q| q[1]).fold(f32::INFINITY, f32::min),
-                uv.iter().map(|q| q[0]).fold(f32::NEG_INFINITY, f32::max),
-                uv.iter().map(|q| q[1]).fold(f32::NEG_INFINITY, f32::max),
-            ]
-        };
-        // Atlas items: every part's first key, then every extra key (part by part).
-        let mut items: Vec<_> = view
-            .parts
-            .iter()
-            .map(|p| p.fit.as_ref().map(|f| (&p.key_color, &p.key_normal, bounds(f))))
-            .collect();
-        let mut extra_item: Vec<Vec<usize>> = Vec::with_capacity(view.parts.len());
-        for p in &view.parts {
-            let mut list = Vec::new();
-            for e in p.extra.iter().filter(|_| p.fit.is_some()) {
-                list.push(items.len());
-                items.push(Some((&e.key_color, &e.key_normal, bounds(&e.fit))));
-            }
-            extra_item.push(list);
-        }
-        let atlas = crate::bake::profile::in_root("atlas", || pack_atlas(&items));
+    // Every view's keys and atlas, views in parallel (the writing below is in order).
+    let packed: Vec<(Vec<Option<PreparedKey>>, Vec<Vec<usize>>, Atlas)> = {
+        use rayon::prelude::*;
+        bake.views
+            .par_iter()
+            .map(|view| {
+                let _atlas = crate::bake::profile::root("atlas");
+                pack_view(view, frames, r)
+            })
+            .collect()
+    };
+    for ((v, view), (keys, extra_item, atlas)) in bake.views.iter().enumerate().zip(packed) {
         let ext = bake.options.textures.extension();
         let atlas_name = format!("atlas_{v:03}.{ext}");
         let normal_name = format!("normal_{v:03}.{ext}");
@@ -198,35 +281,31 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
             stats.texture_bytes += img.width() as u64 * img.height() as u64 * 4;
         }
         let (aw, ah) = (atlas.width as f32, atlas.height as f32);
-        // One key's block: UVs, then the positions of `span` frames from `start`.
+        // One key's block: UVs, then the positions of its frames.
         let write_key = |fit: &crate::bake::part_fit::PartFit,
+                         key: &PreparedKey,
                          rect: &crate::pack::atlas::AtlasRect,
-                         start: usize,
-                         count: usize,
                          vertices: &mut Vec<u16>,
                          indices: &mut Vec<u16>|
          -> WrittenKey {
             let vertex_offset = vertices.len() as u64;
             let index_start = indices.len();
-            let positions: Vec<Vec<[f32; 2]>> = (0..count).map(|s| fit.positions((start + s) % frames)).collect();
-            let (bx, bytes) = quantised_block(&positions, r);
-            for q in key_aligned_uvs(fit, &positions, &bx, &bytes, r) {
+            for &q in &key.uvs {
                 let t = rect.to_atlas(q);
                 vertices.push(unorm(t[0] / aw));
                 vertices.push(unorm(t[1] / ah));
             }
-            vertices.extend(bx.to_words());
+            vertices.extend(key.bx.to_words());
             // x and y of a vertex in one u16 slot.
-            vertices.extend(bytes.chunks_exact(2).map(|xy| u16::from_le_bytes([xy[0], xy[1]])));
+            vertices.extend(key.bytes.chunks_exact(2).map(|xy| u16::from_le_bytes([xy[0], xy[1]])));
             let index_offset = indices.len() as u64;
             for t in &fit.triangles {
                 indices.extend(t.iter().map(|&i| i as u16));
             }
             // The coarse level: the polygon simplified on to half its vertices.
             let coarse_offset = indices.len() as u64;
-            let coarse = crate::bake::part_fit::coarse_of(fit, &positions);
-            indices.extend(coarse.iter().flatten().map(|&i| i as u16));
-            let coarse_count = (coarse.len() * 3) as u32;
+            indices.extend(key.coarse.iter().flatten().map(|&i| i as u16));
+            let coarse_count = (key.coarse.len() * 3) as u32;
             WrittenKey {
                 vertex_offset,
                 index_offset,
@@ -237,18 +316,20 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
         };
         let mut parts = Vec::new();
         for (p, part) in view.parts.iter().enumerate() {
-            let (Some(fit), Some(rect)) = (&part.fit, atlas.rects[p]) else {
+            let (Some(fit), Some(rect), Some(key)) = (&part.fit, atlas.rects[p], keys[p].as_ref()) else {
                 parts.push(None);
                 continue;
             };
-            let first = write_key(fit, &rect, 0, frames, &mut vertices, &mut indices);
+            let first = write_key(fit, key, &rect, &mut vertices, &mut indices);
             // Triangles drawn per character (a part's other keys draw instead of its first).
             triangles += fit.triangles.len();
             let mut extra_keys = Vec::new();
             for (e, &item) in part.extra.iter().zip(&extra_item[p]) {
-                let Some(er) = atlas.rects[item] else { continue };
-                let k = write_key(&e.fit, &er, e.span.start, e.span.count, &mut vertices, &mut indices);
-                stats.extra_key_bytes += 5 * u64::from(er.w) * u64::from(er.h) + k.bytes;
+                let (Some(er), Some(key)) = (atlas.rects[item], keys[item].as_ref()) else {
+                    continue;
+                };
+                let k = write_key(&e.fit, key, &er, &mut vertices, &mut indices);
+                stats.extra_key_bytes += 5 * atlas.texels[item] + k.bytes;
                 extra_keys.push(ManifestKey {
                     key_frame: e.frame as u32,
                     vertex_offset: k.vertex_offset,

@@ -454,18 +454,15 @@ mod tests {
     #[test]
     fn the_estimate_follows_the_polygon_vertices() {
         let e = estimate(137, 128, 57, 5, 5000, 0);
-        let same = e.with_polygon_vertices(
-            crate::bake::part_fit::DEFAULT_POLYGON_VERTICES + crate::bake::part_fit::DEFAULT_INTERIOR_VERTICES,
-            137,
-            57,
-            5,
-        );
+        let drawn = crate::bake::part_fit::DEFAULT_POLYGON_VERTICES
+            + kept_interior(crate::bake::part_fit::DEFAULT_INTERIOR_VERTICES);
+        let same = e.with_polygon_vertices(drawn, 137, 57, 5);
         assert_eq!(same, e);
-        let fewer = e.with_polygon_vertices(32, 137, 57, 5);
+        let fewer = e.with_polygon_vertices(drawn / 2, 137, 57, 5);
         assert_eq!(fewer.polypostor_atlas, e.polypostor_atlas);
         assert_eq!(fewer.impostor, e.impostor);
-        // Positions are most of the geometry: 32 drawn vertices hold about half of the default
-        // 64's (40 on the outline, 24 inside).
+        // Positions are most of the geometry: half the drawn vertices hold about half of the
+        // default's (40 on the outline, two fifths of the 24 inside allowed).
         let (g40, g20) = (
             e.polypostor - e.polypostor_atlas,
             fewer.polypostor - fewer.polypostor_atlas,
@@ -496,7 +493,7 @@ mod tests {
         let bc = crate::bake::pipeline::TextureEncoding::Bc7;
         assert_eq!(
             fewer.with_textures(bc),
-            e.with_textures(bc).with_polygon_vertices(32, 137, 57, 5)
+            e.with_textures(bc).with_polygon_vertices(drawn / 2, 137, 57, 5)
         );
     }
 }
@@ -504,8 +501,9 @@ mod tests {
 /// Memory of each representation estimated before baking (uncompressed bytes, textures and
 /// geometry): exact for classic impostors (a colour and a normal image per view per frame);
 /// for Polypostors and NP3D from densities measured on the default character (atlas texels
-/// per view ≈ 0.42 r² + 18 r with the extra key images, plus a quarter for normals; the
-/// default polygon's vertices per part and frame, two bytes each, or
+/// per view ≈ 0.386 r² + 16.5 r with the extra key images, plus a quarter for normals; the
+/// default polygon's vertices per part and frame, two bytes each, with the interior vertices a
+/// view keeps ([`kept_interior`]), or
 /// [`Estimate::with_polygon_vertices`]);
 /// skinned and rigid from the mesh (the character's textures with their mipmaps).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -596,6 +594,15 @@ impl Estimate {
     }
 }
 
+/// Interior vertices a polygon keeps on average when at most `most` are allowed: each view
+/// keeps those its error pays for in bytes (`bake::interior`), about two fifths of the most
+/// (measured on the default character's one- and four-clip packs, 128², 137 views: 74.9 KB a
+/// frame of positions against 96.5 KB with every one kept). What [`estimate`] and the
+/// export dialog count.
+pub fn kept_interior(most: usize) -> usize {
+    most * 2 / 5
+}
+
 /// See [`Estimate`]. `texture_bytes`: the character's own textures, uncompressed.
 pub fn estimate(
     views: usize,
@@ -612,20 +619,21 @@ pub fn estimate(
         vertices as u64,
     );
     // Atlas texels per view, key images after the first included (`bake::keys`, default
-    // budget): about 0.42 r² + 18 r (the crops' padding weighs more at low resolution),
-    // measured on the default character at 128², 137 views (6.3 MB of colour and normals with
-    // the key budget 0.25; 0.48 r² + 21 r with the budget 0.5 it had before, at 64² and 128²);
-    // colour 4 bytes a texel plus the quarter-size normal atlas. Against the packs written
-    // (default character, 128², 137 views, 30 polygon vertices): one clip 0.5 % under, four
-    // clips 7 % over.
+    // budget): about 0.386 r² + 16.5 r (the cut-outs' padding weighs more at low
+    // resolution), measured on the default character's Walk at 128², 137 views (5.8 MB of
+    // colour and normals; 0.42 r² + 18 r before the atlases kept only the texels their
+    // polygons sample, 2026-12-02); colour 4 bytes a texel plus the quarter-size normal atlas.
+    // Against the packs written (default character, 128², 137 views, 40 polygon and up to 24
+    // interior vertices, 2026-12-02): one clip 6.7 % under, four clips 6.3 % over.
     let r = resolution as u64;
-    let atlas = v * (r2 * 42 / 100 + 18 * r) * 5;
+    let atlas = v * (r2 * 386 / 1000 + 165 * r / 10) * 5;
     let texture_bytes = texture_bytes * 4 / 3;
     let poly_geometry = crate::bake::keys::polygon_bytes_estimate(
         views,
         frames,
         parts,
-        crate::bake::part_fit::DEFAULT_POLYGON_VERTICES + crate::bake::part_fit::DEFAULT_INTERIOR_VERTICES,
+        crate::bake::part_fit::DEFAULT_POLYGON_VERTICES
+            + kept_interior(crate::bake::part_fit::DEFAULT_INTERIOR_VERTICES),
     );
     Estimate {
         polypostor: atlas + poly_geometry,

@@ -619,14 +619,9 @@ fn outline_len(indices: &[u16], vc: usize) -> usize {
 }
 
 fn coarse_triangles(uvs: &[f32], step: usize) -> Option<Vec<u32>> {
-    let n = uvs.len() / 2;
-    if n < 4 * step {
-        return None;
-    }
-    let keep: Vec<usize> = (0..n).step_by(step).collect();
-    let points: Vec<[f32; 2]> = keep.iter().map(|&k| [uvs[2 * k], uvs[2 * k + 1]]).collect();
-    let tris = crate::triangulate::triangulate(&points).ok()?;
-    Some(tris.iter().flatten().map(|&i| keep[i] as u32).collect())
+    let points: Vec<[f32; 2]> = uvs.chunks_exact(2).map(|q| [q[0], q[1]]).collect();
+    let tris = crate::triangulate::thinned(&points, step)?;
+    Some(tris.iter().flatten().map(|&i| i as u32).collect())
 }
 
 /// Where each view's atlas lies in the shared pages.
