@@ -50,6 +50,32 @@ fn inside(poly: &[[f64; 2]], p: [f64; 2]) -> bool {
     c
 }
 
+/// Vertices of a part's outline: those on an edge of one triangle only, when they are the
+/// block's first `m` vertices (the bake's order: outline, then interior vertices); else all
+/// `vc` (a block the run time cannot read so, thinned as before). What the Polypostor
+/// renderer thins ([`thinned`]) and the bake's atlas keeps texels for.
+pub fn outline_len(indices: &[u16], vc: usize) -> usize {
+    let mut edges: std::collections::HashMap<(u16, u16), u32> = std::collections::HashMap::new();
+    for t in indices.chunks_exact(3) {
+        for e in 0..3 {
+            let (a, b) = (t[e], t[(e + 1) % 3]);
+            *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+    }
+    let mut on = vec![false; vc];
+    for (&(a, b), &n) in &edges {
+        if n == 1 {
+            for v in [a, b] {
+                if let Some(o) = on.get_mut(usize::from(v)) {
+                    *o = true;
+                }
+            }
+        }
+    }
+    let m = on.iter().take_while(|&&o| o).count();
+    if m >= 3 && on[m..].iter().all(|&o| !o) { m } else { vc }
+}
+
 /// The crowd's thinned level of a polygon outline: triangles over every `step`-th vertex
 /// (indices into `outline`), `None` when the outline has fewer than `4 · step` vertices or the
 /// thinned polygon is not simple. What the Polypostor renderer draws for characters small on

@@ -1,9 +1,9 @@
 //! Atlas packing: each key image is cut to the texels its polygon can sample (every triangle
 //! of every level the run time draws, one texel round, in cells of two texels or more), and
 //! the cut-outs are packed into a colour atlas and a half-resolution normal atlas with the
-//! same layout, interlocking like the pieces of a wall (a skyline of column profiles), with
-//! the empty texels round each polygon filled by dilation so filtering never bleeds in the
-//! background. Until 2026-12-02 each key image took its polygon's bounding rectangle: a
+//! same layout so that they interlock (a bottom-left fill on a bitmap of cells, four ways
+//! round), with the empty texels round each polygon filled by dilation so filtering never
+//! bleeds in the background. Until 2026-12-02 each key image took its polygon's bounding rectangle: a
 //! polygon covers 38-43 % of its rectangle on the default character (a limb seen slanting,
 //! a bent arm), so most of the atlas held texels no polygon reads.
 
@@ -162,11 +162,23 @@ impl Mask {
         if !keep.contains(&true) {
             keep.fill(true);
         }
+        // Trimmed to its kept cells, so the placed box is the cut-out's own.
+        let rows: Vec<u32> = (0..h).filter(|&y| (0..w).any(|x| keep[(y * w + x) as usize])).collect();
+        let cols: Vec<u32> = (0..w).filter(|&x| (0..h).any(|y| keep[(y * w + x) as usize])).collect();
+        let (y0, y1, x0, x1) = (rows[0], rows[rows.len() - 1] + 1, cols[0], cols[cols.len() - 1] + 1);
+        let trimmed = (y0..y1)
+            .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+            .map(|(x, y)| keep[(y * w + x) as usize])
+            .collect();
+        debug_assert!(
+            x1 - x0 <= 128 && y1 - y0 <= 128,
+            "cut-outs are at most 128 cells across"
+        );
         Mask {
-            origin: [cx0 * cell, cy0 * cell],
-            w,
-            h,
-            keep,
+            origin: [(cx0 + x0) * cell, (cy0 + y0) * cell],
+            w: x1 - x0,
+            h: y1 - y0,
+            keep: trimmed,
         }
     }
 
@@ -296,10 +308,11 @@ fn triangle_meets_box(t: &[[f32; 2]; 3], b0: [f32; 2], b1: [f32; 2]) -> bool {
     true
 }
 
-/// Packs `items` (per key image, or `None`): each cut-out, largest first (several orders and
-/// atlas widths tried, the smallest atlas kept), goes where it sits lowest on the skyline of
-/// the cut-outs below it, column by column (a cut-out's lowest kept cell in each column rests
-/// on that column's top), either way round.
+/// Packs `items` (per key image, or `None`): each cut-out, in turn (three orders, largest
+/// first, and about a dozen atlas widths tried, the smallest atlas kept), goes to the lowest,
+/// then leftmost, place where its cells are all free, of the four ways round the one whose
+/// top is lowest (a bottom-left fill on a bitmap of cells: a later cut-out may fill a hole
+/// the earlier ones left).
 pub fn pack_atlas(items: &[Option<AtlasItem<'_>>]) -> Atlas {
     let tile = items.iter().flatten().map(|it| it.color.width()).max().unwrap_or(2);
     let cell = cell_size(tile);
@@ -336,7 +349,7 @@ pub fn pack_atlas(items: &[Option<AtlasItem<'_>>]) -> Atlas {
         let mut taken = Occupancy::new(width);
         let mut placed: Vec<Option<(u32, u32, Way)>> = vec![None; masks.len()];
         for &i in order {
-            // Lowest top over both ways round, then lowest bottom, leftmost.
+            // Of the four ways round: lowest top, then lowest bottom, then leftmost.
             let mut best: Option<(usize, usize, u32, usize)> = None;
             for (k, &o) in Way::ALL.iter().enumerate() {
                 let (w, h) = mask(i).size(o);
@@ -640,7 +653,14 @@ mod tests {
         // The independent answer: sampling the source tile (colour) and its half-resolution
         // normals at the point itself. Any overlap of two cut-outs, any texel of the
         // footprint left out, or a wrong transposition changes the sample.
-        for (size, count, seed) in [(64u32, 9usize, 1u64), (128, 14, 2), (600, 5, 3), (37, 6, 4)] {
+        let mut ways = std::collections::HashSet::new();
+        for (size, count, seed) in [
+            (64u32, 9usize, 1u64),
+            (128, 14, 2),
+            (600, 5, 3),
+            (37, 6, 4),
+            (96, 16, 5),
+        ] {
             let (tiles, tris) = tiles_and_triangles(size, count, seed);
             let normals: Vec<image::RgbaImage> = tiles
                 .iter()
@@ -672,6 +692,7 @@ mod tests {
             let mut samples = 0;
             for k in (0..count).filter(|&k| k != 4) {
                 let r = a.rects[k].expect("placed");
+                ways.insert((r.transposed, r.turned));
                 assert!(r.x + r.w <= a.width && r.y + r.h <= a.height, "{r:?}");
                 let half_tile = half_normals(&normals[k]);
                 for t in &tris[k] {
@@ -714,6 +735,7 @@ mod tests {
             }
             assert!(samples > 100, "{samples} samples");
         }
+        assert_eq!(ways.len(), 4, "every way round was tried and checked: {ways:?}");
     }
 
     #[test]

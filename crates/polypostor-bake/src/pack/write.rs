@@ -149,8 +149,6 @@ struct PreparedKey {
     bx: PositionBox,
     bytes: Vec<u8>,
     uvs: Vec<[f32; 2]>,
-    /// Outline vertices (the first of `uvs`; interior vertices follow).
-    outline: usize,
     triangles: Vec<[usize; 3]>,
     coarse: Vec<[usize; 3]>,
 }
@@ -167,7 +165,6 @@ impl PreparedKey {
             bx,
             bytes,
             uvs,
-            outline: fit.kept.len(),
             triangles: fit.triangles.clone(),
             coarse,
         }
@@ -175,19 +172,35 @@ impl PreparedKey {
 
     /// Every triangle (tile pixels) the run time may draw the key's image with: the
     /// polygon's, its coarse level's, and the crowd's thinned levels over every second and
-    /// fourth outline vertex ([`polypostor_runtime::triangulate::thinned`]).
+    /// fourth outline vertex ([`polypostor_runtime::triangulate::thinned`], over the outline
+    /// the run time finds, [`polypostor_runtime::triangulate::outline_len`]). Each chord of a
+    /// thinned level also brings the fan from its first vertex over the outline it cuts off,
+    /// so the texels stay kept where the run time, from the UVs as rounded in the pack, finds
+    /// a thinned polygon simple that the bake, from these, did not.
     fn sampled_triangles(&self) -> Vec<[[f32; 2]; 3]> {
-        let outline = &self.uvs[..self.outline.min(self.uvs.len())];
-        let thinned = [2, 4]
-            .into_iter()
-            .filter_map(|step| polypostor_runtime::triangulate::thinned(outline, step))
-            .flatten();
-        self.triangles
-            .iter()
-            .chain(&self.coarse)
-            .copied()
-            .chain(thinned)
-            .filter(|t| t.iter().all(|&i| i < self.uvs.len()))
+        let n = self.uvs.len();
+        let words: Vec<u16> = self.triangles.iter().flatten().map(|&i| i as u16).collect();
+        let outline = &self.uvs[..polypostor_runtime::triangulate::outline_len(&words, n).min(n)];
+        let m = outline.len();
+        let mut out: Vec<[usize; 3]> = self.triangles.iter().chain(&self.coarse).copied().collect();
+        for step in [2usize, 4] {
+            if m < 4 * step {
+                continue;
+            }
+            out.extend(
+                polypostor_runtime::triangulate::thinned(outline, step)
+                    .into_iter()
+                    .flatten(),
+            );
+            for i in (0..m).step_by(step) {
+                let end = (i + step).min(m);
+                for j in i + 1..end {
+                    out.push([i, j, (j + 1) % m]);
+                }
+            }
+        }
+        out.into_iter()
+            .filter(|t| t.iter().all(|&i| i < n))
             .map(|t| t.map(|i| self.uvs[i]))
             .collect()
     }
@@ -251,17 +264,20 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
     let mut stats = PackStats::default();
     let mut sums = Checksums::new();
     let mut triangles = 0usize;
-    // Every view's keys and atlas, views in parallel (the writing below is in order).
-    let packed: Vec<(Vec<Option<PreparedKey>>, Vec<Vec<usize>>, Atlas)> = {
+    // Every view's keys and atlas, a few views at a time in parallel (so that no more than
+    // a few views' atlases are held at once), written in order.
+    let chunk = 2 * rayon::current_num_threads().max(1);
+    let packed = bake.views.chunks(chunk).flat_map(|views| {
         use rayon::prelude::*;
-        bake.views
+        let done: Vec<(Vec<Option<PreparedKey>>, Vec<Vec<usize>>, Atlas)> = views
             .par_iter()
             .map(|view| {
                 let _atlas = crate::bake::profile::root("atlas");
                 pack_view(view, frames, r)
             })
-            .collect()
-    };
+            .collect();
+        done
+    });
     for ((v, view), (keys, extra_item, atlas)) in bake.views.iter().enumerate().zip(packed) {
         let ext = bake.options.textures.extension();
         let atlas_name = format!("atlas_{v:03}.{ext}");

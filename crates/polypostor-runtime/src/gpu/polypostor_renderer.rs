@@ -250,7 +250,7 @@ impl GpuPolypostors {
                     let mut previous: Vec<u32> = list.iter().map(|&i| i as u32).collect();
                     // Thinning takes the outline's vertices only (a polygon's interior
                     // vertices follow its outline's in the block).
-                    let outline = &uvs[..2 * outline_len(list, vc)];
+                    let outline = &uvs[..2 * crate::triangulate::outline_len(list, vc)];
                     for (level, words) in coarse_words.iter_mut().enumerate() {
                         let tris = match packed {
                             Some(c) if level == 0 => Some(c.iter().map(|&i| u32::from(i)).collect()),
@@ -593,31 +593,6 @@ fn push_block(
     Some((word, bx))
 }
 
-/// Vertices of a part's outline: those on an edge of one triangle only, when they are the
-/// block's first `m` vertices (the bake's order: outline, then interior vertices); else all
-/// `vc` (a block the run time cannot read so, thinned as before).
-fn outline_len(indices: &[u16], vc: usize) -> usize {
-    let mut edges: std::collections::HashMap<(u16, u16), u32> = std::collections::HashMap::new();
-    for t in indices.chunks_exact(3) {
-        for e in 0..3 {
-            let (a, b) = (t[e], t[(e + 1) % 3]);
-            *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
-        }
-    }
-    let mut on = vec![false; vc];
-    for (&(a, b), &n) in &edges {
-        if n == 1 {
-            for v in [a, b] {
-                if let Some(o) = on.get_mut(usize::from(v)) {
-                    *o = true;
-                }
-            }
-        }
-    }
-    let m = on.iter().take_while(|&&o| o).count();
-    if m >= 3 && on[m..].iter().all(|&o| !o) { m } else { vc }
-}
-
 fn coarse_triangles(uvs: &[f32], step: usize) -> Option<Vec<u32>> {
     let points: Vec<[f32; 2]> = uvs.chunks_exact(2).map(|q| [q[0], q[1]]).collect();
     let tris = crate::triangulate::thinned(&points, step)?;
@@ -735,12 +710,12 @@ mod tests {
     fn the_outline_is_the_leading_vertices_on_one_triangle_edge() {
         // A square of four outline vertices and one in the middle (vertex 4).
         let fan: Vec<u16> = vec![0, 1, 4, 1, 2, 4, 2, 3, 4, 3, 0, 4];
-        assert_eq!(super::outline_len(&fan, 5), 4);
+        assert_eq!(crate::triangulate::outline_len(&fan, 5), 4);
         // The outline alone: every vertex.
-        assert_eq!(super::outline_len(&[0, 1, 2, 0, 2, 3], 4), 4);
+        assert_eq!(crate::triangulate::outline_len(&[0, 1, 2, 0, 2, 3], 4), 4);
         // A vertex inside numbered before the outline's: not read, every vertex thinned.
         let first: Vec<u16> = vec![1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 1, 0];
-        assert_eq!(super::outline_len(&first, 5), 5);
+        assert_eq!(crate::triangulate::outline_len(&first, 5), 5);
     }
 
     #[test]

@@ -128,9 +128,12 @@ pub struct ManifestPart {
     /// polygon itself).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub coarse_index_count: u32,
-    /// The part's rectangle in the colour atlas, pixels `[x, y, w, h]`.
+    /// The bounding box of the part's image in the colour atlas, pixels `[x, y, w, h]` (the
+    /// image is cut to the texels its polygon samples, so two boxes may overlap where their
+    /// texels do not; for tools).
     pub atlas_rect: [u32; 4],
-    /// The part's image is stored transposed in the atlas (for tools; the UVs already say so).
+    /// The part's image is stored transposed in the atlas (for tools; the UVs already say so,
+    /// and also whether it is turned half round, which is not recorded).
     #[serde(default)]
     pub transposed: bool,
     /// The frame this key image is of (the view's key frame).
@@ -167,7 +170,8 @@ pub struct ManifestKey {
     /// As [`ManifestPart::coarse_index_count`].
     #[serde(default, skip_serializing_if = "is_zero")]
     pub coarse_index_count: u32,
-    /// This key image's rectangle in the view's colour atlas, pixels `[x, y, w, h]`.
+    /// This key image's bounding box in the view's colour atlas, pixels `[x, y, w, h]`, as
+    /// [`ManifestPart::atlas_rect`].
     pub atlas_rect: [u32; 4],
     /// The image is stored transposed in the atlas, as [`ManifestPart::transposed`].
     #[serde(default)]

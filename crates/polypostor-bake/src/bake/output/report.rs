@@ -308,8 +308,9 @@ pub struct PackStats {
     /// Bytes on disk (PNG-compressed atlases).
     pub file_bytes: u64,
     pub triangles_per_view: f64,
-    /// What the key images after each view's first take of `pack_bytes` (their atlas crops,
-    /// colour and half-resolution normals, and their vertices and indices).
+    /// What the key images after each view's first take of `pack_bytes` (their atlas
+    /// cut-outs' texels, colour and half-resolution normals, without the packing's gaps; and
+    /// their vertices and indices).
     pub extra_key_bytes: u64,
 }
 
