@@ -192,18 +192,27 @@ impl PreparedKey {
                     .into_iter()
                     .flatten(),
             );
-            for i in (0..m).step_by(step) {
-                let end = (i + step).min(m);
-                for j in i + 1..end {
-                    out.push([i, j, (j + 1) % m]);
-                }
-            }
+            out.extend(chord_fans(m, step));
         }
         out.into_iter()
             .filter(|t| t.iter().all(|&i| i < n))
             .map(|t| t.map(|i| self.uvs[i]))
             .collect()
     }
+}
+
+/// Under each chord of the outline thinned to every `step`-th of its `m` vertices, the fan
+/// from the chord's first vertex over the outline the chord cuts off: with the polygon's own
+/// triangles, it covers the thinned polygon wherever its notches are seen whole from their
+/// first vertex (a notch of every other vertex is one triangle).
+fn chord_fans(m: usize, step: usize) -> Vec<[usize; 3]> {
+    let mut out = Vec::new();
+    for i in (0..m).step_by(step.max(1)) {
+        for j in i + 1..(i + step).min(m) {
+            out.push([i, j, (j + 1) % m]);
+        }
+    }
+    out
 }
 
 /// A view's keys prepared for writing (every part's first key, then every extra key, part
@@ -491,6 +500,87 @@ mod tests {
                     .map(|(a, b)| (a[0] - b[0]).abs().max((a[1] - b[1]).abs()))
                     .fold(0.0f32, f32::max);
                 assert!(before > 0.01, "{before}");
+            }
+        }
+    }
+
+    /// Even-odd point-in-polygon: the independent answer for what a thinned level covers.
+    fn inside(poly: &[[f32; 2]], p: [f32; 2]) -> bool {
+        let mut c = false;
+        let mut j = poly.len() - 1;
+        for i in 0..poly.len() {
+            let (a, b) = (poly[i], poly[j]);
+            if (a[1] > p[1]) != (b[1] > p[1]) && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0] {
+                c = !c;
+            }
+            j = i;
+        }
+        c
+    }
+
+    fn in_triangle(t: &[[f32; 2]; 3], p: [f32; 2]) -> bool {
+        let d = |a: [f32; 2], b: [f32; 2]| (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
+        let (x, y, z) = (d(t[0], t[1]), d(t[1], t[2]), d(t[2], t[0]));
+        let e = 1e-3;
+        (x >= -e && y >= -e && z >= -e) || (x <= e && y <= e && z <= e)
+    }
+
+    #[test]
+    fn the_atlas_keeps_every_point_a_thinned_level_draws() {
+        // Spiky outlines (every other vertex pulled in): thinning cuts chords across the
+        // notches, outside the polygon itself. Every point of the polygon over every second or
+        // fourth vertex (even-odd, whether or not it is simple) must lie in a kept triangle.
+        for (n, depth, seed) in [(24usize, 0.5f32, 1u32), (40, 0.8, 2), (33, 0.3, 3), (16, 0.9, 4)] {
+            let uvs: Vec<[f32; 2]> = (0..n)
+                .map(|k| {
+                    let a = k as f32 * std::f32::consts::TAU / n as f32;
+                    let wobble = ((k as u32 * 2654435761u32 ^ seed) % 100) as f32 / 400.0;
+                    let r = 30.0 * if k % 2 == 1 { 1.0 - depth } else { 1.0 } + wobble * 10.0;
+                    [64.0 + r * a.cos(), 64.0 + r * a.sin()]
+                })
+                .collect();
+            let triangles = polypostor_runtime::triangulate::triangulate(&uvs).expect("a simple star");
+            let key = PreparedKey {
+                bx: PositionBox::around(&[0.0, 0.0]),
+                bytes: Vec::new(),
+                uvs: uvs.clone(),
+                triangles,
+                coarse: Vec::new(),
+            };
+            let kept = key.sampled_triangles();
+            // The fans alone with the polygon (what holds where the bake's thinned level is
+            // not simple and the run time's, from rounded UVs, is).
+            let fans = |step: usize| -> Vec<[[f32; 2]; 3]> {
+                key.triangles
+                    .iter()
+                    .copied()
+                    .chain(chord_fans(n, step))
+                    .map(|t| t.map(|i| uvs[i]))
+                    .collect()
+            };
+            for step in [2usize, 4] {
+                if n < 4 * step {
+                    continue;
+                }
+                let thin: Vec<[f32; 2]> = uvs.iter().step_by(step).copied().collect();
+                let mut checked = 0;
+                for y in 0..128 {
+                    for x in 0..128 {
+                        let p = [x as f32 + 0.37, y as f32 + 0.61];
+                        if inside(&thin, p) && !inside(&uvs, p) {
+                            checked += 1;
+                            assert!(
+                                kept.iter().any(|t| in_triangle(t, p)),
+                                "n {n} step {step}: {p:?} left out"
+                            );
+                            assert!(
+                                fans(step).iter().any(|t| in_triangle(t, p)),
+                                "n {n} step {step}: {p:?} outside the fans"
+                            );
+                        }
+                    }
+                }
+                assert!(checked > 50, "n {n} step {step}: only {checked} points in the notches");
             }
         }
     }
