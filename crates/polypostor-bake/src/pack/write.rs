@@ -534,7 +534,7 @@ mod tests {
             let uvs: Vec<[f32; 2]> = (0..n)
                 .map(|k| {
                     let a = k as f32 * std::f32::consts::TAU / n as f32;
-                    let wobble = ((k as u32 * 2654435761u32 ^ seed) % 100) as f32 / 400.0;
+                    let wobble = (((k as u32).wrapping_mul(2654435761) ^ seed) % 100) as f32 / 400.0;
                     let r = 30.0 * if k % 2 == 1 { 1.0 - depth } else { 1.0 } + wobble * 10.0;
                     [64.0 + r * a.cos(), 64.0 + r * a.sin()]
                 })
