@@ -223,41 +223,36 @@ fn pack_view(
     frames: usize,
     r: f32,
 ) -> (Vec<Option<PreparedKey>>, Vec<Vec<usize>>, Atlas) {
-    let mut keys: Vec<Option<PreparedKey>> = view
+    // Each key with its images, in that order.
+    let mut keys: Vec<Option<(PreparedKey, &image::RgbaImage, &image::RgbaImage)>> = view
         .parts
         .iter()
-        .map(|p| p.fit.as_ref().map(|f| PreparedKey::new(f, 0, frames, frames, r)))
+        .map(|p| {
+            let f = p.fit.as_ref()?;
+            Some((PreparedKey::new(f, 0, frames, frames, r), &p.key_color, &p.key_normal))
+        })
         .collect();
     let mut extra_item: Vec<Vec<usize>> = Vec::with_capacity(view.parts.len());
     for p in &view.parts {
         let mut list = Vec::new();
         for e in p.extra.iter().filter(|_| p.fit.is_some()) {
             list.push(keys.len());
-            keys.push(Some(PreparedKey::new(&e.fit, e.span.start, e.span.count, frames, r)));
+            let key = PreparedKey::new(&e.fit, e.span.start, e.span.count, frames, r);
+            keys.push(Some((key, &e.key_color, &e.key_normal)));
         }
         extra_item.push(list);
     }
-    let images = view
-        .parts
-        .iter()
-        .map(|p| (&p.key_color, &p.key_normal))
-        .chain(view.parts.iter().flat_map(|p| {
-            p.extra
-                .iter()
-                .filter(|_| p.fit.is_some())
-                .map(|e| (&e.key_color, &e.key_normal))
-        }));
     let items: Vec<Option<AtlasItem<'_>>> = keys
         .iter()
-        .zip(images)
-        .map(|(k, (color, normal))| {
-            k.as_ref().map(|k| AtlasItem {
+        .map(|k| {
+            k.as_ref().map(|(k, color, normal)| AtlasItem {
                 color,
                 normal,
                 triangles: k.sampled_triangles(),
             })
         })
         .collect();
+    let keys = keys.into_iter().map(|k| k.map(|k| k.0)).collect();
     let atlas = pack_atlas(&items);
     (keys, extra_item, atlas)
 }
@@ -307,8 +302,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
         }
         let (aw, ah) = (atlas.width as f32, atlas.height as f32);
         // One key's block: UVs, then the positions of its frames.
-        let write_key = |fit: &crate::bake::part_fit::PartFit,
-                         key: &PreparedKey,
+        let write_key = |key: &PreparedKey,
                          rect: &crate::pack::atlas::AtlasRect,
                          vertices: &mut Vec<u16>,
                          indices: &mut Vec<u16>|
@@ -324,7 +318,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
             // x and y of a vertex in one u16 slot.
             vertices.extend(key.bytes.chunks_exact(2).map(|xy| u16::from_le_bytes([xy[0], xy[1]])));
             let index_offset = indices.len() as u64;
-            for t in &fit.triangles {
+            for t in &key.triangles {
                 indices.extend(t.iter().map(|&i| i as u16));
             }
             // The coarse level: the polygon simplified on to half its vertices.
@@ -345,7 +339,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                 parts.push(None);
                 continue;
             };
-            let first = write_key(fit, key, &rect, &mut vertices, &mut indices);
+            let first = write_key(key, &rect, &mut vertices, &mut indices);
             // Triangles drawn per character (a part's other keys draw instead of its first).
             triangles += fit.triangles.len();
             let mut extra_keys = Vec::new();
@@ -353,7 +347,7 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
                 let (Some(er), Some(key)) = (atlas.rects[item], keys[item].as_ref()) else {
                     continue;
                 };
-                let k = write_key(&e.fit, key, &er, &mut vertices, &mut indices);
+                let k = write_key(key, &er, &mut vertices, &mut indices);
                 stats.extra_key_bytes += 5 * atlas.texels[item] + k.bytes;
                 extra_keys.push(ManifestKey {
                     key_frame: e.frame as u32,
