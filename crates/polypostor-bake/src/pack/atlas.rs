@@ -564,6 +564,7 @@ pub fn fill_background(img: &mut image::RgbaImage) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use polypostor_runtime::pack::atlas_area_bound;
 
     #[test]
     fn filling_the_background_matches_dilating_until_full() {
@@ -648,6 +649,40 @@ mod tests {
         (tiles, tris)
     }
 
+    /// A key image whose polygon covers its whole tile (a prop filling its view) packs within
+    /// the loader's bound at every kind of tile size: sides not a multiple of the atlas's
+    /// 8-texel blocks, and sides just past a multiple of a larger cell (1032 = 64·16 + 8,
+    /// 16-texel cells), where a cut-out rounded up outgrows the tile and its padding. Before
+    /// the bound counted the rounding, these packs were refused as damaged.
+    #[test]
+    fn a_key_image_filling_its_tile_packs_within_the_loader_s_bound() {
+        for size in [16u32, 37, 100, 257, 1030, 1032, 2048] {
+            let s = size as f32;
+            let tile = image::RgbaImage::from_pixel(size, size, image::Rgba([90, 140, 200, 255]));
+            for count in [1usize, 2, 3] {
+                let items: Vec<Option<AtlasItem<'_>>> = (0..count)
+                    .map(|_| {
+                        Some(AtlasItem {
+                            color: &tile,
+                            normal: &tile,
+                            triangles: vec![[[0.0, 0.0], [s, 0.0], [s, s]], [[0.0, 0.0], [s, s], [0.0, s]]],
+                        })
+                    })
+                    .collect();
+                let a = pack_atlas(&items);
+                let area = u64::from(a.width) * u64::from(a.height);
+                assert!(
+                    area <= atlas_area_bound(u64::from(size), count as u64),
+                    "{count} × {size}²: a {}×{} atlas",
+                    a.width,
+                    a.height
+                );
+                // The bound is not vacuous: the atlas holds the cut-outs.
+                assert!(area >= count as u64 * u64::from(size) * u64::from(size));
+            }
+        }
+    }
+
     #[test]
     fn every_point_a_polygon_draws_samples_its_own_texels() {
         // The independent answer: sampling the source tile (colour) and its half-resolution
@@ -684,11 +719,9 @@ mod tests {
             assert_eq!(a.height % SIDE_MULTIPLE, 0);
             assert_eq!(a.normal.dimensions(), (a.width / 2, a.height / 2));
             assert!(a.rects[4].is_none());
-            // The loader's bound on an atlas (`pack::load`): no larger than the key images
-            // stacked in one column.
+            // The loader's bound on an atlas (`pack::load`).
             let present = (count - 1) as u64;
-            let s = u64::from(size);
-            assert!(u64::from(a.width) * u64::from(a.height) <= (s + 2) * (present * s + 2));
+            assert!(u64::from(a.width) * u64::from(a.height) <= atlas_area_bound(u64::from(size), present));
             let mut samples = 0;
             for k in (0..count).filter(|&k| k != 4) {
                 let r = a.rects[k].expect("placed");

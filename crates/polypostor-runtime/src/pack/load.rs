@@ -168,6 +168,17 @@ pub const MAX_PART_VERTICES: u32 = 1024;
 /// Largest atlas side.
 pub const MAX_ATLAS_SIDE: u32 = 16384;
 
+/// Most texels a view's colour atlas of `keys` key images of `tile`² pixels may hold: the
+/// packer's cut-outs stacked in one column, each at most the tile and its padding rounded up
+/// to the packer's cells (a power of two, at most `tile / 64 + 2` texels) and the atlas's
+/// sides to whole blocks (8 texels), with room to spare. The writer's own packing
+/// (`polypostor::pack::atlas`) stays within it for every tile size (tested there, down to a
+/// single key image covering its whole tile).
+pub fn atlas_area_bound(tile: u64, keys: u64) -> u64 {
+    let side = tile.saturating_add(2 + 2 + 8).saturating_add(tile / 64);
+    side.saturating_mul(keys.max(1).saturating_mul(side))
+}
+
 fn damaged(m: String) -> PackError {
     PackError::Damaged(m)
 }
@@ -610,8 +621,7 @@ pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
             .map(|p| 1 + p.extra_keys.len())
             .sum::<usize>()
             .max(1) as u64;
-        // The packer's own bound: no atlas is larger than the crops stacked in one column.
-        let most = (r + 2).saturating_mul(present.saturating_mul(r) + 2);
+        let most = atlas_area_bound(r, present);
         if aw < 2
             || ah < 2
             || aw > MAX_ATLAS_SIDE

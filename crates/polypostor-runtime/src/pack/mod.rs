@@ -18,4 +18,4 @@ pub(crate) use load::{
     FolderReader, check_camera, check_direction, check_resolution_views, check_texture_budget, check_timing,
     parse_manifest,
 };
-pub use load::{LoadedPack, LoadedView, MAX_ATLAS_SIDE, MAX_PART_VERTICES, PackError, load_pack};
+pub use load::{LoadedPack, LoadedView, MAX_ATLAS_SIDE, MAX_PART_VERTICES, PackError, atlas_area_bound, load_pack};
