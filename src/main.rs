@@ -875,8 +875,8 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
             std::fs::create_dir_all(&d).map_err(|e| e.to_string())?;
             for v in 0..b.views.len() {
                 let img = polypostor::bake::report::debug_image(b, v, &b.views[v].frame_colors);
-                img.save(d.join(format!("view_{v:03}.png")))
-                    .map_err(|e| e.to_string())?;
+                // Marked as the tool's, so a later bake over this folder knows it.
+                polypostor::safe_fs::write_png(&d.join(format!("view_{v:03}.png")), &img)?;
             }
         }
         Ok(())

@@ -154,6 +154,21 @@ fn bake_out_replaces_only_what_this_tool_wrote() {
     std::fs::write(dir.join("ok.pack/notes.txt"), "mine").unwrap();
     refused(&bake("ok.pack"), "notes.txt");
     assert_eq!(std::fs::read_to_string(dir.join("ok.pack/notes.txt")).unwrap(), "mine");
+    std::fs::remove_file(dir.join("ok.pack/notes.txt")).unwrap();
+    // Nor in the folders the tool writes into it, nor under a name like the bake's own that
+    // its manifest does not list (both were deleted by a re-bake before 2026-12-02).
+    for (path, shown) in [
+        ("ok.pack/debug/notes.md", "debug/notes.md"),
+        ("ok.pack/compare/notes.md", "compare/notes.md"),
+        ("ok.pack/atlas_999.ktx2", "atlas_999.ktx2"),
+    ] {
+        let file = dir.join(path);
+        std::fs::create_dir_all(file.parent().unwrap()).unwrap();
+        std::fs::write(&file, "mine").unwrap();
+        refused(&bake("ok.pack"), shown);
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
+        std::fs::remove_file(&file).unwrap();
+    }
 
     // generate-default never renames over what it did not write.
     std::fs::write(dir.join("mine.glb"), "mine").unwrap();

@@ -191,22 +191,29 @@ pub fn resolved(path: &Path) -> PathBuf {
     }
 }
 
-/// The files a bake folder may hold: what the pack, the representations, the report, debug
-/// images and `compare` write. Anything else in a folder means it is not (only) ours.
+/// Files every bake folder of the tool's formats may hold, whatever its manifests say.
+const BAKE_FIXED_NAMES: &[&str] = &[
+    "manifest.json",
+    "report.json",
+    "vertices.bin",
+    "indices.bin",
+    "representations.json",
+    "np3d.bin",
+    "np3d_color.png",
+    "np3d_color.ktx2",
+    "rigid.bin",
+];
+
+/// Sub-folders a bake folder may hold: the bake's debug images (`--debug-images`) and
+/// `compare`'s plots and sheet. They hold only files carrying the tool's mark
+/// ([`carries_tool_mark`]).
+const BAKE_SUBFOLDERS: &[&str] = &["debug", "compare"];
+
+/// The names of files a bake folder may hold: what the pack, the representations and the
+/// report write, by name and number (`atlas_012.ktx2`), and the [`BAKE_SUBFOLDERS`]. A name
+/// alone does not make a file the tool's: [`check_bake_output`] also asks that numbered
+/// files be named by the folder's manifests.
 pub fn is_bake_file_name(name: &str) -> bool {
-    const EXACT: &[&str] = &[
-        "manifest.json",
-        "report.json",
-        "vertices.bin",
-        "indices.bin",
-        "representations.json",
-        "np3d.bin",
-        "np3d_color.png",
-        "np3d_color.ktx2",
-        "rigid.bin",
-        "debug",
-        "compare",
-    ];
     const PATTERNS: &[(&str, &str)] = &[
         ("atlas_", ".png"),
         ("normal_", ".png"),
@@ -223,12 +230,110 @@ pub fn is_bake_file_name(name: &str) -> bool {
         ("impostor_part_", ".png"),
         ("far_impostor_part_", ".png"),
     ];
-    EXACT.contains(&name)
+    BAKE_FIXED_NAMES.contains(&name)
+        || BAKE_SUBFOLDERS.contains(&name)
         || PATTERNS.iter().any(|(pre, suf)| {
             name.strip_prefix(pre)
                 .and_then(|r| r.strip_suffix(suf))
                 .is_some_and(|num| !num.is_empty() && num.bytes().all(|b| b.is_ascii_digit()))
         })
+}
+
+/// Whether `path` is a regular file carrying the tool's mark: a PNG whose `Software` text or
+/// a JSON object whose `generator` starts with [`GENERATOR_PREFIX`] (what [`write_png`] and
+/// [`write_json`] write).
+pub fn carries_tool_mark(path: &Path) -> bool {
+    let Ok(meta) = std::fs::symlink_metadata(path) else {
+        return false;
+    };
+    if !meta.is_file() {
+        return false;
+    }
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_lowercase())
+        .unwrap_or_default();
+    if name.ends_with(".png") {
+        check_output_file(path, OutputFile::Png).is_ok()
+    } else if name.ends_with(".json") {
+        check_output_file(path, OutputFile::Json).is_ok()
+    } else {
+        false
+    }
+}
+
+/// The plain file names (no folder parts) the folder's `manifest.json` and
+/// `representations.json` mention anywhere, as values or keys (their `checksums` tables list
+/// every file written).
+fn names_in_manifests(dir: &Path) -> std::collections::HashSet<String> {
+    fn walk(v: &serde_json::Value, out: &mut std::collections::HashSet<String>) {
+        match v {
+            serde_json::Value::String(s) if !s.is_empty() && !s.contains(['/', '\\']) => {
+                out.insert(s.clone());
+            }
+            serde_json::Value::Array(a) => a.iter().for_each(|x| walk(x, out)),
+            serde_json::Value::Object(o) => {
+                for (k, x) in o {
+                    // Keys too: the `checksums` tables are keyed by file name.
+                    walk(&serde_json::Value::String(k.clone()), out);
+                    walk(x, out);
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut names = std::collections::HashSet::new();
+    for file in ["manifest.json", crate::limits::REPS_FILE] {
+        if let Some(v) = read_regular(&dir.join(file), 64 << 20, "a manifest")
+            .ok()
+            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+        {
+            walk(&v, &mut names);
+        }
+    }
+    names
+}
+
+/// The entries of bake folder `dir` this tool did not write (sub-folders' as
+/// `debug/NAME`): anything but the fixed names ([`BAKE_FIXED_NAMES`]); numbered files by
+/// [`is_bake_file_name`] that `named` lists (every such name, where `named` is `None`: a
+/// staging folder whose manifest may not be written yet); sub-folders [`BAKE_SUBFOLDERS`]
+/// holding only files that carry the tool's mark; and, at the top, other files carrying it
+/// (`compare --out` into the pack folder).
+fn foreign_entries(dir: &Path, named: Option<&std::collections::HashSet<String>>) -> Result<Vec<String>, String> {
+    let list = |d: &Path| -> Result<Vec<String>, String> {
+        Ok(std::fs::read_dir(d)
+            .map_err(|e| format!("cannot list '{}': {e}", d.display()))?
+            .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
+            .collect())
+    };
+    let mut foreign = Vec::new();
+    for name in list(dir)? {
+        let path = dir.join(&name);
+        if BAKE_FIXED_NAMES.contains(&name.as_str()) {
+            continue;
+        }
+        if BAKE_SUBFOLDERS.contains(&name.as_str()) {
+            let is_dir = std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_dir());
+            if !is_dir {
+                foreign.push(name);
+                continue;
+            }
+            for inner in list(&path)? {
+                if !carries_tool_mark(&path.join(&inner)) {
+                    foreign.push(format!("{name}/{inner}"));
+                }
+            }
+            continue;
+        }
+        let numbered = is_bake_file_name(&name) && named.is_none_or(|n| n.contains(&name));
+        let is_file = std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_file());
+        if !(is_file && numbered) && !carries_tool_mark(&path) {
+            foreign.push(name);
+        }
+    }
+    foreign.sort();
+    Ok(foreign)
 }
 
 /// What a folder written by this tool says it is, from its manifest(s); `None` if neither
@@ -303,12 +408,11 @@ pub fn check_bake_output(out: &Path, protected: &[&Path]) -> Result<(), String> 
     }
     if bake_folder_format(out).is_none() {
         return Err(format!(
-            "'{shown}' is a folder this tool did not write (no pack manifest.json or representations.json in it); it is left untouched: give a new or empty folder"
+            "'{shown}' is a folder this tool did not write (no manifest.json or representations.json of this tool's formats in it); it is left untouched: give a new or empty folder"
         ));
     }
-    let mut foreign: Vec<String> = entries.into_iter().filter(|n| !is_bake_file_name(n)).collect();
+    let mut foreign = foreign_entries(out, Some(&names_in_manifests(out)))?;
     if !foreign.is_empty() {
-        foreign.sort();
         let n = foreign.len();
         foreign.truncate(5);
         return Err(format!(
@@ -510,10 +614,7 @@ pub fn clean_stale_staging(dir: &Path) -> Vec<PathBuf> {
         let path = entry.path();
         let ok = match entry.file_type() {
             Ok(t) if t.is_dir() && !name.ends_with(".tmp") => {
-                let ours = std::fs::read_dir(&path).is_ok_and(|list| {
-                    list.filter_map(Result::ok)
-                        .all(|e| is_bake_file_name(&e.file_name().to_string_lossy()))
-                });
+                let ours = foreign_entries(&path, None).is_ok_and(|f| f.is_empty());
                 ours && std::fs::remove_dir_all(&path).is_ok()
             }
             Ok(t) if t.is_file() && name.ends_with(".tmp") => {
@@ -713,11 +814,52 @@ mod tests {
         std::fs::create_dir(&pack).unwrap();
         std::fs::write(
             pack.join("manifest.json"),
-            format!(r#"{{"format": "{}"}}"#, crate::limits::PACK_FORMAT_NAME),
+            format!(
+                r#"{{"format": "{}", "views": [{{"atlas": "atlas_000.png", "normal_atlas": "normal_000.png"}}]}}"#,
+                crate::limits::PACK_FORMAT_NAME
+            ),
         )
         .unwrap();
         std::fs::write(pack.join("atlas_000.png"), "x").unwrap();
+        std::fs::write(pack.join("normal_000.png"), "x").unwrap();
         assert!(check_bake_output(&pack, &[]).is_ok());
+        // The tool's debug images and `compare`'s outputs, in their folders or at the top.
+        let marked = image::RgbaImage::new(2, 2);
+        for sub in ["debug", "compare"] {
+            std::fs::create_dir(pack.join(sub)).unwrap();
+            write_png(&pack.join(sub).join("view_000.png"), &marked).unwrap();
+        }
+        write_json(&pack.join("compare").join("compare.json"), serde_json::json!({})).unwrap();
+        write_png(&pack.join("quality.png"), &marked).unwrap();
+        write_json(&pack.join("compare.json"), serde_json::json!({})).unwrap();
+        assert_eq!(check_bake_output(&pack, &[]), Ok(()));
+        // A file of the user's named like one of the bake's numbered files but not in its
+        // manifest, or anything of the user's inside the sub-folders, is theirs.
+        let theirs = |path: &Path, refused_as: &str| {
+            std::fs::write(path, "mine").unwrap();
+            let e = check_bake_output(&pack, &[]).unwrap_err();
+            assert!(e.contains(refused_as) && e.contains("did not write"), "{e}");
+            std::fs::remove_file(path).unwrap();
+            assert_eq!(check_bake_output(&pack, &[]), Ok(()));
+        };
+        theirs(&pack.join("atlas_999.ktx2"), "atlas_999.ktx2");
+        theirs(&pack.join("debug").join("notes.md"), "debug/notes.md");
+        theirs(&pack.join("compare").join("notes.md"), "compare/notes.md");
+        theirs(&pack.join("notes.txt"), "notes.txt");
+        // An unmarked PNG under a name the tool writes is not taken for the tool's.
+        theirs(&pack.join("compare").join("error.png"), "compare/error.png");
+        std::fs::create_dir(pack.join("debug").join("mystuff")).unwrap();
+        assert!(check_bake_output(&pack, &[]).unwrap_err().contains("debug/mystuff"));
+        std::fs::remove_dir(pack.join("debug").join("mystuff")).unwrap();
+        // A stale staging folder holding a user's file in its debug folder is kept.
+        let stale = d.join(".a.pack.writing-4000000");
+        std::fs::create_dir_all(stale.join("debug")).unwrap();
+        std::fs::write(stale.join("atlas_000.png"), "x").unwrap();
+        std::fs::write(stale.join("debug").join("notes.md"), "mine").unwrap();
+        assert!(clean_stale_staging(&d).is_empty());
+        assert!(stale.join("debug").join("notes.md").exists());
+        std::fs::remove_file(stale.join("debug").join("notes.md")).unwrap();
+        assert_eq!(clean_stale_staging(&d), vec![stale.clone()]);
         std::fs::write(pack.join("notes.txt"), "x").unwrap();
         assert!(check_bake_output(&pack, &[]).unwrap_err().contains("notes.txt"));
         // Inputs and the current folder are protected.
