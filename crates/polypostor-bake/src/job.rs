@@ -312,6 +312,7 @@ pub fn run(
     )
     .map_err(BakeError::from)?;
     crate::safe_fs::check_bake_output(job.out, &[job.character_path]).map_err(JobError::Output)?;
+    crate::safe_fs::check_can_write_beside(job.out).map_err(JobError::Output)?;
     let mut reuse = None;
     // The other representations' whole-character images, composited from the Polypostor's
     // part renders as the bake makes them (each view is rendered once).

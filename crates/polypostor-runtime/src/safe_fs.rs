@@ -424,6 +424,43 @@ pub fn check_bake_output(out: &Path, protected: &[&Path]) -> Result<(), String> 
     Ok(())
 }
 
+/// Why the folder for bake output `out` cannot be written, found before any work: a folder
+/// is created (and removed at once) where the bake's staging folder will go — beside `out`,
+/// or in the nearest folder above it that exists (the writer creates the rest). A read-only
+/// file system, a folder without write permission or a pseudo file system such as `/sys`
+/// was only found when the finished bake was written.
+pub fn check_can_write_beside(out: &Path) -> Result<(), String> {
+    let parent = out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let mut existing = parent.to_path_buf();
+    while std::fs::symlink_metadata(&existing).is_err() {
+        match existing.parent() {
+            Some(p) if !p.as_os_str().is_empty() => existing = p.to_path_buf(),
+            _ => {
+                existing = PathBuf::from(".");
+                break;
+            }
+        }
+    }
+    let name = out
+        .file_name()
+        .map_or("out".into(), |n| n.to_string_lossy().into_owned());
+    let probe = existing.join(staging_name(&name, "probe", std::process::id()));
+    match std::fs::create_dir(&probe) {
+        Ok(()) => {
+            let _ = std::fs::remove_dir(&probe);
+            Ok(())
+        }
+        Err(e) => Err(format!(
+            "cannot write the output '{}': creating a folder in '{}' failed ({e}); give an output folder where files can be written",
+            out.display(),
+            existing.display()
+        )),
+    }
+}
+
 /// What a file output writes, to recognise an earlier one.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OutputFile {
@@ -871,6 +908,22 @@ mod tests {
         assert!(check_bake_output(Path::new("."), &[]).is_err());
         assert!(check_bake_output(Path::new(".."), &[]).is_err());
         assert!(check_bake_output(Path::new("/"), &[]).is_err());
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    /// A folder that can be written passes and keeps nothing of the probe; one under a pseudo
+    /// file system no one can create folders in (root included) is refused, naming it.
+    #[test]
+    fn an_unwritable_output_is_found_before_the_work() {
+        let d = temp("probe");
+        assert_eq!(check_can_write_beside(&d.join("a.pack")), Ok(()));
+        assert_eq!(check_can_write_beside(&d.join("not/yet/made/a.pack")), Ok(()));
+        assert!(std::fs::read_dir(&d).unwrap().next().is_none(), "the probe is removed");
+        #[cfg(target_os = "linux")]
+        {
+            let e = check_can_write_beside(Path::new("/proc/polypostor-test.pack")).unwrap_err();
+            assert!(e.contains("cannot write") && e.contains("/proc"), "{e}");
+        }
         std::fs::remove_dir_all(&d).unwrap();
     }
 
