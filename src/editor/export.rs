@@ -68,6 +68,7 @@ impl ExportDialog {
         (self.views, self.resolution, self.fps) = (b.views, b.resolution, b.fps);
         (self.png, self.textures) = (b.png, b.textures);
         self.polygon_vertices = b.polygon_vertices;
+        self.set = b.representation_set();
         if self.folder.is_empty() {
             let dir = doc
                 .project_file

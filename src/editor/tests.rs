@@ -748,6 +748,19 @@ fn export_writes_the_chosen_representations_and_opens_the_preview() {
     // The polygon size chosen in the dialog is the bake's and, from now on, the project's.
     assert_eq!(report.settings.final_vertices, 24);
     assert_eq!(h.state().doc.as_ref().unwrap().project.bake.polygon_vertices, 24);
+    // So are the representations ticked, and the dialog opens with the project's.
+    assert_eq!(
+        h.state().doc.as_ref().unwrap().project.bake.representations,
+        "polypostor,impostor"
+    );
+    h.state_mut().doc.as_mut().unwrap().project.bake.representations = "polypostor,np3d".into();
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::E);
+    h.run_steps(2);
+    assert!(h.state().export.open);
+    assert_eq!(
+        h.state().export.set,
+        polypostor::reps::RepSet::parse("polypostor,np3d").unwrap()
+    );
     let reps = polypostor::reps::load_representations(&out).unwrap();
     assert!(reps.impostor.is_some() && reps.np3d.is_none() && reps.rigid.is_none());
     // The estimate shown before writing, against what was written.

@@ -94,6 +94,7 @@ impl EditorApp {
                 (settings.views, settings.resolution, settings.fps) = (req.views, req.resolution, req.fps);
                 (settings.png, settings.textures) = (req.png, req.textures);
                 settings.polygon_vertices = req.polygon_vertices;
+                settings.representations = req.set.words();
                 if let Some(doc) = self.doc.as_mut()
                     && (doc.project.clips != req.clips || doc.project.bake != settings)
                 {

@@ -89,6 +89,28 @@ impl RepSet {
         Ok(set)
     }
 
+    /// The set as [`RepSet::parse`] reads it: `all`, or the names comma-separated
+    /// (`polypostor,np3d`); `polypostor` for the empty set, which parse refuses.
+    pub fn words(&self) -> String {
+        if *self == RepSet::ALL {
+            return "all".into();
+        }
+        let names: Vec<&str> = [
+            (self.polypostor, "polypostor"),
+            (self.impostor, "impostor"),
+            (self.np3d, "np3d"),
+            (self.rigid, "rigid"),
+        ]
+        .into_iter()
+        .filter_map(|(on, name)| on.then_some(name))
+        .collect();
+        if names.is_empty() {
+            "polypostor".into()
+        } else {
+            names.join(",")
+        }
+    }
+
     /// Anything besides the Polypostor pack.
     pub fn any_other(&self) -> bool {
         self.impostor || self.np3d || self.rigid
@@ -1055,6 +1077,22 @@ pub fn sheet_columns(n: usize) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every set reads back from its words (what the editor stores in a project).
+    #[test]
+    fn a_set_reads_back_from_its_words() {
+        for bits in 1..16u8 {
+            let set = RepSet {
+                polypostor: bits & 1 != 0,
+                impostor: bits & 2 != 0,
+                np3d: bits & 4 != 0,
+                rigid: bits & 8 != 0,
+            };
+            assert_eq!(RepSet::parse(&set.words()), Ok(set), "{}", set.words());
+        }
+        assert_eq!(RepSet::ALL.words(), "all");
+        assert_eq!(RepSet::default().words(), "polypostor");
+    }
 
     #[test]
     fn far_impostors_are_reduced_as_the_switch_distance_allows() {
