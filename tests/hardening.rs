@@ -717,6 +717,7 @@ fn dropped_corrections_are_reported_by_kind() {
         ],
     );
     p.overrides.views.entry(3).or_default().key_frame = Some(1); // no view 3
+    p.view.clip = Some("Nope".into()); // no such clip: the Walk is baked, and that is said
     p.save(&project.join("project.json")).unwrap();
     let bake = |views: &str| {
         run_in(
@@ -742,6 +743,7 @@ fn dropped_corrections_are_reported_by_kind() {
         "warning: 1 key frame(s) lie past the clip's frames; ignored",
         "warning: 1 drawing order(s) do not list each part of the bake once; ignored",
         "warning: 1 correction(s) refer to views this bake does not have; ignored",
+        "warning: the project's clip 'Nope' is not among the character's clips; baking Walk",
     ] {
         assert!(e.contains(want), "missing '{want}' in:\n{e}");
     }

@@ -541,6 +541,18 @@ impl Prepared {
         // character no longer has are skipped, and said.
         if req.clips.is_none() && req.clip.is_none() {
             warnings.extend(lost_clips_warning(&character, project_clips, &clips));
+            // The clip the project was viewing decides when its clip set does not: a name
+            // the character does not have is said, with what is baked instead.
+            let set_decides = project_clips.iter().any(|n| character.find_clip(n).is_some());
+            if let Some(name) = input.project.as_ref().and_then(|p| p.view.clip.as_deref())
+                && viewed.is_none()
+                && !set_decides
+            {
+                warnings.push(format!(
+                    "the project's clip '{name}' is not among the character's clips; baking {}",
+                    clips.name(&character).unwrap_or("its rest pose")
+                ));
+            }
         }
         let (segmentation, seg_warning) = input.segmentation(&character);
         warnings.extend(seg_warning);
