@@ -233,7 +233,9 @@ pub fn bench_crowd(
             all().map(f).reduce(|a, b| Some(a? + b?)).flatten()
         };
         let far = sum(&|r| Some(r.far_impostor.as_ref().map_or(0, |p| p.gpu_bytes))).unwrap_or(0);
-        let full = sum(&|r| Some(r.impostor.as_ref().map_or(0, |p| p.gpu_bytes))).unwrap_or(0);
+        // `None` where some character's full-resolution sheets were not loaded (no impostor
+        // level asked for): not said, rather than said to be nothing.
+        let full = sum(&|r| r.impostor.as_ref().map(|p| p.gpu_bytes));
         let poly_bytes = sum(&|r| r.polypostor.as_ref().map(|p| p.gpu_bytes));
         let mix_bytes = scene.gpu_bytes(Level::Skinned) + poly_bytes.unwrap_or(0) + far;
         let bytes_of = |name: &str| -> Option<u64> {
@@ -248,12 +250,15 @@ pub fn bench_crowd(
         };
         if !json && let Some(poly) = poly_bytes {
             eprintln!(
-                "  {count:>7} GPU memory: mix {:.1} MB ({:.2}× the Polypostor's {:.1} MB; far impostors {:.1} MB, full-resolution impostors {:.1} MB)",
+                "  {count:>7} GPU memory: mix {:.1} MB ({:.2}× the Polypostor's {:.1} MB; far impostors {:.1} MB{})",
                 mix_bytes as f64 / 1e6,
                 mix_bytes as f64 / poly.max(1) as f64,
                 poly as f64 / 1e6,
                 far as f64 / 1e6,
-                full as f64 / 1e6,
+                full.map_or(String::new(), |b| format!(
+                    ", full-resolution impostors {:.1} MB",
+                    b as f64 / 1e6
+                )),
             );
         }
         for (name, fps, cpu_ms, timed, last) in per_rep {
