@@ -679,9 +679,32 @@ struct BakeArgs {
 impl BakeArgs {
     /// `base` (the project's settings, else the defaults) with each flag given overriding
     /// its field, validated.
+    /// Whether the command line gave the setting `SettingError::setting` names.
+    fn gave(&self, setting: &str) -> bool {
+        match setting {
+            "views" => self.views.is_some(),
+            "resolution" => self.resolution.is_some(),
+            "fps" => self.fps.is_some(),
+            "max-keys" => self.max_keys.is_some(),
+            "key-gain-db" => self.key_gain_db.is_some(),
+            "key-budget" => self.key_budget.is_some(),
+            "key-share" => self.key_share.is_some(),
+            "key-ratio" => self.key_ratio.is_some(),
+            "polygon-vertices" => self.polygon_vertices.is_some(),
+            "interior-vertices" => self.interior_vertices.is_some(),
+            "representation" => self.representation.is_some(),
+            "no-restarts" => self.no_restarts,
+            _ => true,
+        }
+    }
+
+    /// `settings` (the project's, from `project_file`, else the defaults) with every flag
+    /// given overriding its field, checked: a value out of range that came from the project
+    /// file is said to come from there.
     fn settings(
         &self,
         mut settings: polypostor::bake::settings::BakeSettings,
+        project_file: Option<&Path>,
     ) -> anyhow::Result<polypostor::bake::settings::BakeSettings> {
         if let Some(v) = self.views {
             settings.views = v;
@@ -726,7 +749,23 @@ impl BakeArgs {
         settings.paper_objective |= self.paper_objective;
         settings.no_restarts |= self.no_restarts;
         settings.no_subpixel |= self.no_subpixel;
-        settings.validate().map_err(anyhow::Error::msg)?;
+        if let Err(e) = settings.validate() {
+            // The project file's name for the setting.
+            let field = match e.setting {
+                "representation" => "representations".to_string(),
+                s => s.replace('-', "_"),
+            };
+            return Err(match project_file.filter(|_| !self.gave(e.setting)) {
+                Some(file) => anyhow::anyhow!(
+                    "{}: the project's bake setting {} {} (correct it there, or give --{} here)",
+                    file.display(),
+                    field,
+                    e.message,
+                    e.setting
+                ),
+                None => anyhow::Error::msg(e),
+            });
+        }
         Ok(settings)
     }
 }
@@ -797,7 +836,7 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     }
     // The settings first: the project's (else the defaults), each flag given overriding its
     // field; nothing is read or rendered for a bake that cannot run.
-    let settings = a.settings(input.settings())?;
+    let settings = a.settings(input.settings(), input.project_file.as_deref())?;
     let key_frame = polypostor::bake::pipeline::KeyFrame::parse(&a.key_frame).map_err(anyhow::Error::msg)?;
     let prepared = Prepared::new(
         input,

@@ -686,6 +686,46 @@ fn damaged_numbers_and_disagreeing_manifests_are_named() {
 
 // --- 5. Dropped corrections, 6. late failures -------------------------------------------
 
+/// A project's bake setting out of range is refused naming the project file and its field,
+/// and a flag given on the command line overrides it; an output no folder can be created in
+/// is refused before the work.
+#[test]
+fn project_settings_and_unwritable_outputs_are_refused_before_the_work() {
+    let dir = common::temp_dir("hardening-project-settings");
+    let project = dir.join("proj");
+    std::fs::create_dir(&project).unwrap();
+    let mut p = polypostor::project::Project::new_for_character("proj", &default_glb(), &project);
+    p.bake.views = 0;
+    p.save(&project.join("project.json")).unwrap();
+    let e = refused(&run_in(&dir, &["bake", "proj", "--out", "a.pack"]), "project.json");
+    assert!(e.contains("bake setting views 0") && e.contains("--views"), "{e}");
+    let o = run_in(
+        &dir,
+        &[
+            "bake",
+            "proj",
+            "--views",
+            "1",
+            "--resolution",
+            "32",
+            "--fps",
+            "5",
+            "--out",
+            "a.pack",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    #[cfg(target_os = "linux")]
+    refused(
+        &run_in(
+            &dir,
+            &["bake", "proj", "--views", "1", "--out", "/proc/polypostor-test.pack"],
+        ),
+        "cannot write",
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn dropped_corrections_are_reported_by_kind() {
     use polypostor::bake::overrides::{OverrideBasis, Pin};

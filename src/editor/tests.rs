@@ -143,6 +143,15 @@ fn save_as_writes_a_project_that_reopens() {
     let mut again = harness(Some(dir.clone()));
     again.run_steps(3);
     assert_eq!(again.state().playback.clip, idle);
+    // Save As onto a user's file (not a folder, not a project file) is refused as such and
+    // leaves it as it was.
+    let theirs = dir.join("user.glb");
+    std::fs::write(&theirs, "mine").unwrap();
+    again.state_mut().send(Command::SaveAs(theirs.clone()));
+    again.run_steps(2);
+    let e = again.state().error.clone().expect("refused");
+    assert!(e.contains("not a project folder") && e.contains("user.glb"), "{e}");
+    assert_eq!(std::fs::read_to_string(&theirs).unwrap(), "mine");
     std::fs::remove_dir_all(dir).unwrap();
 }
 

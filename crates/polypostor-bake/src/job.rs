@@ -244,7 +244,8 @@ pub fn check_output(out: &Path, character_path: &Path, project_file: Option<&Pat
             }
         }
     }
-    crate::safe_fs::check_bake_output(out, &protected)
+    crate::safe_fs::check_bake_output(out, &protected)?;
+    crate::safe_fs::check_can_write_beside(out)
 }
 
 /// A hook that adds files to a bake folder before it moves into place.

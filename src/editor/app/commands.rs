@@ -39,6 +39,21 @@ impl EditorApp {
                 None => {}
             },
             Command::SaveAs(path) => {
+                // A path naming something that is not a folder (a user's file) is not a
+                // project folder to save into: said as such, and left untouched.
+                if let Ok(meta) = std::fs::symlink_metadata(&path)
+                    && !meta.is_dir()
+                    && !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"))
+                {
+                    self.safety.close_after_save = false;
+                    self.safety.replace_after_save = None;
+                    self.fail(format!(
+                        "{} exists and is {}, not a project folder; it is left untouched: choose a new or project folder",
+                        path.display(),
+                        polypostor::safe_fs::kind_of(&meta.file_type())
+                    ));
+                    return;
+                }
                 let file = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
                     path
                 } else {

@@ -109,8 +109,10 @@ pub enum TextureEncoding {
     /// adapter samples BC7, decoded to RGBA8 where it does not. Lossy (see the README's
     /// figures).
     #[default]
+    #[serde(alias = "bc7", alias = "BC7")]
     Bc7,
     /// Lossless PNG (`atlas_NNN.png`) at [`BakeOptions::png`]'s level.
+    #[serde(alias = "png", alias = "PNG")]
     Png,
 }
 
@@ -144,9 +146,12 @@ impl TextureEncoding {
 /// file size.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum PngCompression {
+    #[serde(alias = "fast")]
     Fast,
     #[default]
+    #[serde(alias = "balanced")]
     Balanced,
+    #[serde(alias = "best")]
     Best,
 }
 

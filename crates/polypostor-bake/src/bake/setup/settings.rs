@@ -224,6 +224,16 @@ mod tests {
         // A partial object keeps the defaults of what it leaves out.
         let p: BakeSettings = serde_json::from_str(r#"{"views": 24}"#).unwrap();
         assert_eq!(p, BakeSettings { views: 24, ..s });
+        // Texture settings written as the command line and the README spell them.
+        for (text, textures) in [
+            ("bc7", TextureEncoding::Bc7),
+            ("BC7", TextureEncoding::Bc7),
+            ("Bc7", TextureEncoding::Bc7),
+            ("png", TextureEncoding::Png),
+        ] {
+            let p: BakeSettings = serde_json::from_str(&format!(r#"{{"textures": "{text}", "png": "best"}}"#)).unwrap();
+            assert_eq!((p.textures, p.png), (textures, PngCompression::Best), "{text}");
+        }
     }
 
     #[test]
