@@ -121,6 +121,13 @@ fn a_bad_file_shows_an_error_and_keeps_the_open_project() {
     h.get_by_label("OK").click();
     h.run_steps(2);
     assert!(h.state().error.is_none());
+    // Enter closes it too.
+    h.state_mut().send(Command::NewFromGltf(bad.clone()));
+    h.run_steps(3);
+    assert!(h.state().error.is_some());
+    h.key_press(egui::Key::Enter);
+    h.run_steps(2);
+    assert!(h.state().error.is_none(), "Enter closes the error dialog");
     std::fs::remove_file(bad).unwrap();
 }
 

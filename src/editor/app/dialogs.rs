@@ -200,7 +200,8 @@ impl EditorApp {
                     ui.label(egui::RichText::new("The open project is unchanged.").weak());
                 }
                 ui.add_space(8.0);
-                ui.button("OK").clicked()
+                // OK, Enter or Escape (the modal's own) close it.
+                ui.button("OK").clicked() || ui.input(|i| i.key_pressed(egui::Key::Enter))
             });
             if modal.inner || modal.should_close() {
                 self.error = None;

@@ -495,6 +495,13 @@ mod tests {
             fewer.with_textures(bc),
             e.with_textures(bc).with_polygon_vertices(drawn / 2, 137, 57, 5)
         );
+        // BC7 quarters what the pack writes as BC7, NP3D's images included (a byte a texel),
+        // and leaves the meshes' textures and every mesh as they are.
+        let b = e.with_textures(bc);
+        assert_eq!(b.np3d_images, 137 * 128 * 128);
+        assert_eq!(e.np3d - e.np3d_images, b.np3d - b.np3d_images);
+        assert_eq!((b.rigid, b.skinned), (e.rigid, e.skinned));
+        assert_eq!(b.impostor * 4, e.impostor);
     }
 }
 
@@ -513,6 +520,8 @@ pub struct Estimate {
     pub polypostor_atlas: u64,
     pub impostor: u64,
     pub np3d: u64,
+    /// The part of `np3d` that is its per-view images.
+    pub np3d_images: u64,
     pub rigid: u64,
     pub skinned: u64,
 }
@@ -570,10 +579,11 @@ impl Estimate {
         }
     }
 
-    /// The same bake's bytes with `textures` chosen: BC7 keeps one byte a texel for the
-    /// Polypostor's colour and normal atlases and the impostors' colour sheets (four as
-    /// RGBA8); the impostors' normal sheets, NP3D's images and the meshes' textures stay as
-    /// they are. PNG: unchanged (what a GPU without BC7 holds).
+    /// The same bake's bytes with `textures` chosen: BC7 keeps one byte a texel (four as
+    /// RGBA8) for what the pack writes as BC7 — the Polypostor's colour and normal atlases,
+    /// the impostors' colour and normal sheets and NP3D's images (as `compare`'s
+    /// block-compressed column counts them); the meshes draw the character's own textures,
+    /// which stay as they are. PNG: unchanged (what a GPU without BC7 holds).
     pub fn with_textures(self, textures: crate::bake::pipeline::TextureEncoding) -> Self {
         match textures {
             crate::bake::pipeline::TextureEncoding::Png => self,
@@ -588,6 +598,10 @@ impl Estimate {
                     // `report::impostor_bytes_bc`; the normals were counted uncompressed
                     // until 2026-12-02, which showed the impostors 2.5× too large).
                     impostor: self.impostor / 4,
+                    // NP3D's images are BC7 in the pack too (its mesh as it is; they were
+                    // counted uncompressed until 2026-12-02).
+                    np3d: self.np3d - self.np3d_images + self.np3d_images / 4,
+                    np3d_images: self.np3d_images / 4,
                     ..self
                 }
             }
@@ -652,6 +666,7 @@ pub fn estimate(
         polypostor_atlas: atlas,
         impostor: v * f * r2 * 4 * 2,
         np3d: v * r2 * 4 + f * 220 * 24 + 400 * 3 * 2,
+        np3d_images: v * r2 * 4,
         rigid: f * n * 24 + n * 8 + texture_bytes,
         skinned: n * 56 + texture_bytes,
     }
