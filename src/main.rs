@@ -564,6 +564,9 @@ fn generate_default(out: Option<PathBuf>, quadruped: bool) -> anyhow::Result<()>
         }
     });
     polypostor::safe_fs::check_output_file(&out, polypostor::safe_fs::OutputFile::Glb).map_err(anyhow::Error::msg)?;
+    if !out.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb")) {
+        anyhow::bail!("-o {}: the file written is a binary glTF; name it .glb", out.display());
+    }
     let bytes = if quadruped {
         polypostor::samples::quadruped_glb()
     } else {
@@ -575,6 +578,9 @@ fn generate_default(out: Option<PathBuf>, quadruped: bool) -> anyhow::Result<()>
 }
 
 #[derive(clap::Args)]
+// `--views -3` is a wrong number, said as such (clap otherwise suggests `-- -3`, which would
+// take -3 for the input).
+#[command(allow_negative_numbers = true)]
 struct BakeArgs {
     /// A .glb/.gltf, or a project (folder or project.json).
     input: PathBuf,
@@ -827,6 +833,15 @@ fn with_bake_progress(f: impl FnOnce(&polypostor::bench::Env) -> anyhow::Result<
     }
 }
 
+/// `n word` or `n words`.
+fn counted(n: usize, word: &str) -> String {
+    if n == 1 {
+        format!("1 {word}")
+    } else {
+        format!("{n} {word}s")
+    }
+}
+
 fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     use polypostor::job::{self, BakeInput, Prepared, Request};
     let started = std::time::Instant::now();
@@ -881,9 +896,9 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         polypostor::limits::human_bytes(plan.budget_bytes)
     );
     eprintln!(
-        "baking {} ({} parts: {}), {} {}, {} views, {}², {} fps, on {}",
+        "baking {} ({}: {}), {} {}, {}, {}², {} fps, on {}",
         c.name,
-        seg.parts.len(),
+        counted(seg.parts.len(), "part"),
         seg.parts.iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join(", "),
         if clip_names.len() > 1 { "clips" } else { "clip" },
         if clip_names.is_empty() {
@@ -891,7 +906,7 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         } else {
             clip_names.join(", ")
         },
-        options.views,
+        counted(options.views, "view"),
         options.resolution,
         options.fps,
         ctx.adapter_description()
@@ -935,7 +950,7 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         eprintln!(
             "wrote {} ({}) in {:.1} s",
             out.display(),
-            settings.representations,
+            set.words(),
             started.elapsed().as_secs_f64()
         );
         return Ok(());
@@ -964,7 +979,11 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         report["memory_ratio"].as_f64().unwrap_or(0.0),
         stats.triangles_per_view,
         if set.any_other() {
-            format!(", plus {}", settings.representations)
+            let others = polypostor::reps::RepSet {
+                polypostor: false,
+                ..set
+            };
+            format!(", plus {}", others.words().replace(',', ", "))
         } else {
             String::new()
         }

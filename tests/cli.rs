@@ -443,7 +443,8 @@ fn bake_settings_come_from_the_project_and_flags_override_single_fields() {
     assert_eq!((s["views"].as_u64(), s["resolution"].as_u64()), (Some(2), Some(32)));
     assert_eq!(s["textures"], "Bc7");
     assert!(b.join("atlas_000.ktx2").is_file());
-    // A project setting out of range is named as its flag, before any work.
+    // A project setting out of range is named as the project's field, with the file and
+    // the flag that would override it, before any work.
     let mut bad = project.clone();
     bad["bake"]["views"] = 0.into();
     std::fs::write(proj.join("project.json"), serde_json::to_string_pretty(&bad).unwrap()).unwrap();
@@ -451,7 +452,10 @@ fn bake_settings_come_from_the_project_and_flags_override_single_fields() {
     let o = polypostor(&["bake", proj.to_str().unwrap(), "--out", c.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(1));
     let e = String::from_utf8_lossy(&o.stderr);
-    assert!(e.contains("--views 0"), "{e}");
+    assert!(
+        e.contains("project.json") && e.contains("bake setting views 0") && e.contains("--views"),
+        "{e}"
+    );
     assert!(!c.exists());
 }
 

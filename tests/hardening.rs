@@ -179,6 +179,7 @@ fn bake_out_replaces_only_what_this_tool_wrote() {
         &run_in(&dir, &["generate-default", "-o", "/dev/null"]),
         "character device",
     );
+    refused(&run_in(&dir, &["generate-default", "-o", "gen.txt"]), "name it .glb");
     let o = run_in(&dir, &["generate-default", "-o", "gen.glb"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let o = run_in(&dir, &["generate-default", "-o", "gen.glb"]);

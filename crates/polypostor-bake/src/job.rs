@@ -126,14 +126,7 @@ impl ClipChoice {
     /// Names that do not exist are errors naming the clips there are; the project's own
     /// set skips names the character lost (said by the project's checks elsewhere).
     pub fn resolve(c: &Character, req: ClipRequest) -> Result<Self, String> {
-        let find = |n: &str| {
-            c.find_clip(n).ok_or_else(|| {
-                format!(
-                    "no clip named '{n}' (clips: {})",
-                    c.clips.iter().map(|k| k.name.as_str()).collect::<Vec<_>>().join(", ")
-                )
-            })
-        };
+        let find = |n: &str| c.find_clip(n).ok_or_else(|| crate::timeline::no_clip_named(n, c));
         let from_list = |names: &[String]| -> Result<Self, String> {
             let idx = names.iter().map(|n| find(n)).collect::<Result<Vec<_>, _>>()?;
             Ok(Self {

@@ -239,6 +239,25 @@ impl Timeline {
     }
 }
 
+/// What to say when `character` has no clip named `name`: the clips it has, or that it has
+/// none.
+pub fn no_clip_named(name: &str, character: &Character) -> String {
+    if character.clips.is_empty() {
+        return format!(
+            "no clip named '{name}': the character has no clips (its rest pose is baked when none is named)"
+        );
+    }
+    format!(
+        "no clip named '{name}' (clips: {})",
+        character
+            .clips
+            .iter()
+            .map(|k| k.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
+}
+
 /// The clip names of a `--clips` list: comma-separated names (each must exist, none twice),
 /// or `all` for every clip of the character in file order.
 pub fn parse_clip_list(list: &str, character: &Character) -> Result<Vec<String>, String> {
@@ -255,15 +274,7 @@ pub fn parse_clip_list(list: &str, character: &Character) -> Result<Vec<String>,
             return Err(format!("'{list}' has an empty clip name"));
         }
         if character.find_clip(n).is_none() {
-            return Err(format!(
-                "no clip named '{n}' (clips: {})",
-                character
-                    .clips
-                    .iter()
-                    .map(|k| k.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ));
+            return Err(no_clip_named(n, character));
         }
         if out.iter().any(|o| o == n) {
             return Err(format!("clip '{n}' is named twice"));
