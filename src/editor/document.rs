@@ -72,6 +72,9 @@ pub struct Document {
     pub summary: polypostor::summary::Summary,
     /// Unsaved changes.
     pub dirty: bool,
+    /// The project as last saved or opened (`None`: never saved): undoing or redoing back to
+    /// it leaves no unsaved changes.
+    pub saved: Option<Project>,
     /// Increases with every loaded character (the viewport re-uploads on change).
     pub generation: u64,
     /// The working segmentation (the project's, decoded; automatic when it has none).
@@ -139,7 +142,7 @@ impl Document {
     pub fn restore(&mut self, project: Project) {
         self.project = project;
         self.segmentation = Self::decode_segmentation(&self.project, &self.character).0;
-        self.dirty = true;
+        self.dirty = self.saved.as_ref() != Some(&self.project);
         self.revision += 1;
     }
 

@@ -277,6 +277,33 @@ fn bake_small(
 }
 
 /// A copy of the default project in a fresh folder (absolute character path).
+/// Undoing every edit back to the state last saved leaves no unsaved changes; redoing one
+/// brings them back.
+#[test]
+fn undoing_back_to_the_saved_state_is_clean() {
+    let dir = temp_project("undo-clean");
+    let mut h = harness(Some(dir.clone()));
+    h.run_steps(3);
+    assert!(!h.state().doc.as_ref().unwrap().dirty);
+    h.get_by_label("Segment").click();
+    h.run_steps(2);
+    for _ in 0..2 {
+        h.get_by_label("➕ Add part").click();
+        h.run_steps(2);
+    }
+    assert!(h.state().doc.as_ref().unwrap().dirty);
+    h.state_mut().send(Command::Undo);
+    h.run_steps(2);
+    assert!(h.state().doc.as_ref().unwrap().dirty, "one edit is still there");
+    h.state_mut().send(Command::Undo);
+    h.run_steps(2);
+    assert!(!h.state().doc.as_ref().unwrap().dirty, "back to the saved project");
+    h.state_mut().send(Command::Redo);
+    h.run_steps(2);
+    assert!(h.state().doc.as_ref().unwrap().dirty);
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 fn temp_project(tag: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("polypostor-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);

@@ -37,6 +37,7 @@ impl EditorApp {
         }
         match project.save(&file) {
             Ok(()) => {
+                doc.saved = Some(project.clone());
                 doc.project = project;
                 doc.project_file = Some(file.clone());
                 doc.dirty = false;
@@ -188,6 +189,7 @@ impl EditorApp {
             self.warn(p);
         }
         let doc = Document {
+            saved: loaded.project_file.is_some().then(|| loaded.project.clone()),
             project: loaded.project,
             dirty: loaded.project_file.is_none(),
             project_file: loaded.project_file,
