@@ -91,7 +91,10 @@ impl Document {
     pub fn decode_segmentation(project: &Project, c: &Character) -> (Segmentation, Option<String>) {
         match project.segmentation.as_ref() {
             Some(s) => match s.to_segmentation(c.triangle_count()) {
-                Ok(seg) => (seg, None),
+                Ok(seg) => {
+                    let note = s.renamed_note(&seg);
+                    (seg, note)
+                }
                 Err(e) => (
                     auto_segment(c),
                     Some(format!(

@@ -87,7 +87,10 @@ impl BakeInput {
 pub fn segmentation_for(project: Option<&Project>, c: &Character) -> (Segmentation, Option<String>) {
     match project.and_then(|p| p.segmentation.as_ref()) {
         Some(s) => match s.to_segmentation(c.triangle_count()) {
-            Ok(seg) => (seg, None),
+            Ok(seg) => {
+                let note = s.renamed_note(&seg);
+                (seg, note)
+            }
             Err(e) => (
                 crate::bake::segment::auto_segment(c),
                 Some(format!(

@@ -98,9 +98,43 @@ impl StoredSegmentation {
         if labels.len() != triangles {
             return Err(format!("{} labels for {triangles} triangles", labels.len()));
         }
-        Ok(crate::bake::segment::Segmentation {
-            parts: self.parts.clone(),
-            labels,
+        // Every part named, each name once (a hand-edited file may repeat or empty one; the
+        // pack, the inspector and the report tell parts apart by name).
+        let mut parts = self.parts.clone();
+        let mut seen = std::collections::HashSet::new();
+        for (i, p) in parts.iter_mut().enumerate() {
+            let trimmed = p.name.trim();
+            let base = if trimmed.is_empty() {
+                format!("Part {}", i + 1)
+            } else {
+                trimmed.to_string()
+            };
+            let mut name = base.clone();
+            let mut n = 2;
+            while !seen.insert(name.to_lowercase()) {
+                name = format!("{base} ({n})");
+                n += 1;
+            }
+            p.name = name;
+        }
+        Ok(crate::bake::segment::Segmentation { parts, labels })
+    }
+
+    /// What [`StoredSegmentation::to_segmentation`] renamed in `decoded` (empty or repeated
+    /// part names), as a warning; `None` when every name is as stored.
+    pub fn renamed_note(&self, decoded: &crate::bake::segment::Segmentation) -> Option<String> {
+        let renamed: Vec<String> = self
+            .parts
+            .iter()
+            .zip(&decoded.parts)
+            .filter(|(a, b)| a.name != b.name)
+            .map(|(a, b)| format!("'{}' → '{}'", a.name, b.name))
+            .collect();
+        (!renamed.is_empty()).then(|| {
+            format!(
+                "the project's segmentation has empty or repeated part names; renamed {}",
+                renamed.join(", ")
+            )
         })
     }
 }
@@ -263,6 +297,32 @@ pub fn relative_path(target: &Path, base: &Path) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Empty and repeated part names (a hand-edited project) decode to named, distinct parts,
+    /// and the rename is said; a segmentation with good names is left as it is.
+    #[test]
+    fn part_names_decode_named_and_distinct() {
+        let part = |name: &str| crate::bake::segment::Part {
+            name: name.into(),
+            color: [1, 2, 3],
+        };
+        let stored = StoredSegmentation {
+            parts: vec![part("A"), part("a"), part(" "), part("A"), part("B")],
+            triangles: 5,
+            runs: vec![(0, 1), (1, 1), (2, 1), (3, 1), (4, 1)],
+        };
+        let seg = stored.to_segmentation(5).unwrap();
+        let names: Vec<&str> = seg.parts.iter().map(|p| p.name.as_str()).collect();
+        assert_eq!(names, ["A", "a (2)", "Part 3", "A (3)", "B"]);
+        let note = stored.renamed_note(&seg).expect("said");
+        assert!(
+            note.contains("'a' → 'a (2)'") && note.contains("'A' → 'A (3)'"),
+            "{note}"
+        );
+        let good = StoredSegmentation::from_segmentation(&seg);
+        assert_eq!(good.to_segmentation(5).unwrap(), seg);
+        assert_eq!(good.renamed_note(&seg), None);
+    }
 
     #[test]
     fn the_up_axis_is_stored_only_when_it_is_not_gltfs() {
