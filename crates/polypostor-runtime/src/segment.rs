@@ -47,6 +47,32 @@ pub const PALETTE: [[u8; 3]; 10] = [
     [120, 130, 240],
 ];
 
+/// Colours of the parts after the first ten: darker and lighter ones, each clearly apart
+/// from the [`PALETTE`] and from each other.
+const MORE_COLORS: [[u8; 3]; 10] = [
+    [120, 70, 30],
+    [30, 90, 160],
+    [30, 120, 60],
+    [140, 30, 50],
+    [100, 50, 140],
+    [20, 130, 130],
+    [170, 130, 0],
+    [250, 200, 220],
+    [200, 240, 150],
+    [180, 200, 250],
+];
+
+/// Display colour of the `i`-th part: [`PALETTE`] for the first ten, [`MORE_COLORS`] for the
+/// next ten (up to the part limit), then round again (the palette alone repeated itself from
+/// the eleventh part on).
+pub fn part_color(i: usize) -> [u8; 3] {
+    let k = i % (PALETTE.len() + MORE_COLORS.len());
+    PALETTE
+        .get(k)
+        .copied()
+        .unwrap_or_else(|| MORE_COLORS[k - PALETTE.len()])
+}
+
 impl Segmentation {
     /// Triangles of one part.
     pub fn triangles_of(&self, part: usize) -> Vec<usize> {
@@ -529,7 +555,7 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
             }
             parts.push(Part {
                 name: label,
-                color: PALETTE[parts.len() % PALETTE.len()],
+                color: part_color(parts.len()),
             });
         }
         for (i, (_, joints)) in limbs.iter().enumerate() {
@@ -584,7 +610,7 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
                 let part = parts.len();
                 parts.push(Part {
                     name,
-                    color: PALETTE[part % PALETTE.len()],
+                    color: part_color(part),
                 });
                 for j in joints {
                     if part_of_joint[j] == 0 {
@@ -773,7 +799,7 @@ fn split_props(
         let name = unique_name(parts, &base);
         parts.push(Part {
             name,
-            color: PALETTE[parts.len() % PALETTE.len()],
+            color: part_color(parts.len()),
         });
         parts.len() - 1
     };
@@ -885,7 +911,7 @@ fn split_props(
         part_of_piece[k] = Some(parts.len());
         parts.push(Part {
             name,
-            color: PALETTE[parts.len() % PALETTE.len()],
+            color: part_color(parts.len()),
         });
     }
     let triangle_part = if found.is_empty() {
@@ -1170,7 +1196,7 @@ fn moving_pieces(c: &Character) -> Option<Segmentation> {
         part_of.insert(m, parts.len() as u16);
         parts.push(Part {
             name,
-            color: PALETTE[parts.len() % PALETTE.len()],
+            color: part_color(parts.len()),
         });
     }
     let mut labels: Vec<u16> = tri_mover
@@ -1561,7 +1587,7 @@ fn placed_parts(c: &Character, rest: &[Vec3], labels: &[u16], count: usize) -> V
         };
         parts.push(Part {
             name,
-            color: PALETTE[k % PALETTE.len()],
+            color: part_color(k),
         });
     }
     parts
@@ -1627,6 +1653,19 @@ pub fn compact(seg: &mut Segmentation) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every part a segmentation may hold gets its own colour, clearly apart from every other
+    /// (no two within 40 of each other in the largest channel difference).
+    #[test]
+    fn part_colours_are_distinct_up_to_the_part_limit() {
+        let colors: Vec<[u8; 3]> = (0..crate::limits::MAX_PARTS).map(part_color).collect();
+        for (i, a) in colors.iter().enumerate() {
+            for b in &colors[..i] {
+                let d = (0..3).map(|c| (a[c] as i32 - b[c] as i32).abs()).max().unwrap();
+                assert!(d >= 40, "{a:?} and {b:?} ({colors:?})");
+            }
+        }
+    }
 
     /// A prop whose clips animate morph targets and that is made of separate pieces (three
     /// grids far apart, and a single stray triangle beside the second) gets a part per piece,

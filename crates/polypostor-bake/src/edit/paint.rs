@@ -329,13 +329,11 @@ pub fn add_part(seg: &mut Segmentation, name: &str) -> Result<u16, String> {
     if seg.parts.len() >= crate::limits::MAX_PARTS {
         return Err(part_limit_message());
     }
-    use crate::bake::segment::PALETTE as COLORS;
     let used: Vec<[u8; 3]> = seg.parts.iter().map(|p| p.color).collect();
-    let color = COLORS
-        .iter()
+    let color = (0..=crate::limits::MAX_PARTS)
+        .map(crate::bake::segment::part_color)
         .find(|c| !used.contains(c))
-        .copied()
-        .unwrap_or(COLORS[seg.parts.len() % COLORS.len()]);
+        .unwrap_or(crate::bake::segment::part_color(seg.parts.len()));
     let name = if name.trim().is_empty() {
         format!("Part {}", seg.parts.len() + 1)
     } else {
