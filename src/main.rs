@@ -911,6 +911,20 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         options.fps,
         ctx.adapter_description()
     );
+    // A frame rate so low that a moving clip comes out as one still frame is said.
+    if let Ok(t) = polypostor::timeline::Timeline::new(c, &options.clip_list(), options.fps) {
+        for (span, clip) in t.spans.iter().zip(&t.clips) {
+            let secs = clip.and_then(|i| c.clips.get(i)).map_or(0.0, |k| k.duration_secs);
+            if span.frames == 1 && secs > 0.0 {
+                eprintln!(
+                    "warning: at {} fps the clip '{}' ({secs:.2} s) is one still frame; give --fps {:.0} or more to see it move",
+                    options.fps,
+                    span.name,
+                    (4.0 / secs).ceil().max(polypostor::limits::MIN_FPS)
+                );
+            }
+        }
+    }
     // Corrections that cannot apply are said before the bake, never dropped silently.
     let basis = polypostor::bake::overrides::OverrideBasis {
         views: options.views,
