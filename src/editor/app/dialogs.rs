@@ -159,6 +159,11 @@ impl EditorApp {
         id: &'static str,
         heading: &str,
     ) -> Option<UnsavedAnswer> {
+        // An error on screen is read and closed first; the question waits behind it (both
+        // modal at once stacked one on the other).
+        if self.error.is_some() {
+            return None;
+        }
         let name = self.doc.as_ref().map_or(String::new(), |d| {
             if d.project.name.is_empty() {
                 "This project".to_owned()
