@@ -128,7 +128,7 @@ impl StoredSegmentation {
             .iter()
             .zip(&decoded.parts)
             .filter(|(a, b)| a.name != b.name)
-            .map(|(a, b)| format!("'{}' → '{}'", a.name, b.name))
+            .map(|(a, b)| format!("'{}' to '{}'", a.name, b.name))
             .collect();
         (!renamed.is_empty()).then(|| {
             format!(
@@ -316,7 +316,7 @@ mod tests {
         assert_eq!(names, ["A", "a (2)", "Part 3", "A (3)", "B"]);
         let note = stored.renamed_note(&seg).expect("said");
         assert!(
-            note.contains("'a' → 'a (2)'") && note.contains("'A' → 'A (3)'"),
+            note.contains("'a' to 'a (2)'") && note.contains("'A' to 'A (3)'"),
             "{note}"
         );
         let good = StoredSegmentation::from_segmentation(&seg);
