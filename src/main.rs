@@ -683,8 +683,6 @@ struct BakeArgs {
 }
 
 impl BakeArgs {
-    /// `base` (the project's settings, else the defaults) with each flag given overriding
-    /// its field, validated.
     /// Whether the command line gave the setting `SettingError::setting` names.
     fn gave(&self, setting: &str) -> bool {
         match setting {
@@ -699,7 +697,9 @@ impl BakeArgs {
             "polygon-vertices" => self.polygon_vertices.is_some(),
             "interior-vertices" => self.interior_vertices.is_some(),
             "representation" => self.representation.is_some(),
-            "no-restarts" => self.no_restarts,
+            // A conflict between switches (--no-restarts with --exhaustive): the flags can
+            // only switch them on, so it is said as the command line's.
+            "no-restarts" => true,
             _ => true,
         }
     }
@@ -920,7 +920,9 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
                     "warning: at {} fps the clip '{}' ({secs:.2} s) is one still frame; give --fps {:.0} or more to see it move",
                     options.fps,
                     span.name,
-                    (4.0 / secs).ceil().max(polypostor::limits::MIN_FPS)
+                    (4.0 / secs)
+                        .ceil()
+                        .clamp(polypostor::limits::MIN_FPS, polypostor::limits::MAX_FPS)
                 );
             }
         }

@@ -276,7 +276,6 @@ fn bake_small(
     (dir, out)
 }
 
-/// A copy of the default project in a fresh folder (absolute character path).
 /// Undoing every edit back to the state last saved leaves no unsaved changes; redoing one
 /// brings them back.
 #[test]
@@ -304,6 +303,7 @@ fn undoing_back_to_the_saved_state_is_clean() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// A copy of the default project in a fresh folder (absolute character path).
 fn temp_project(tag: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("polypostor-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);

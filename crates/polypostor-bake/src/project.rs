@@ -100,21 +100,32 @@ impl StoredSegmentation {
         }
         // Every part named, each name once (a hand-edited file may repeat or empty one; the
         // pack, the inspector and the report tell parts apart by name).
+        // The first part of each name keeps it; names are reserved before any rename, so a
+        // rename never takes a name a later part has ("A", "A", "A (2)": the second is
+        // "A (3)").
         let mut parts = self.parts.clone();
-        let mut seen = std::collections::HashSet::new();
+        let key = |n: &str| n.trim().to_lowercase();
+        let mut taken: std::collections::HashSet<String> = parts.iter().map(|p| key(&p.name)).collect();
+        let mut kept = std::collections::HashSet::new();
         for (i, p) in parts.iter_mut().enumerate() {
-            let trimmed = p.name.trim();
+            let trimmed = p.name.trim().to_string();
+            if !trimmed.is_empty() && kept.insert(key(&trimmed)) {
+                p.name = trimmed;
+                continue;
+            }
             let base = if trimmed.is_empty() {
                 format!("Part {}", i + 1)
             } else {
-                trimmed.to_string()
+                trimmed
             };
             let mut name = base.clone();
             let mut n = 2;
-            while !seen.insert(name.to_lowercase()) {
+            while taken.contains(&key(&name)) {
                 name = format!("{base} ({n})");
                 n += 1;
             }
+            taken.insert(key(&name));
+            kept.insert(key(&name));
             p.name = name;
         }
         Ok(crate::bake::segment::Segmentation { parts, labels })
@@ -132,7 +143,7 @@ impl StoredSegmentation {
             .collect();
         (!renamed.is_empty()).then(|| {
             format!(
-                "the project's segmentation has empty or repeated part names; renamed {}",
+                "the project's segmentation has empty, repeated or space-padded part names; renamed {}",
                 renamed.join(", ")
             )
         })
@@ -307,20 +318,20 @@ mod tests {
             color: [1, 2, 3],
         };
         let stored = StoredSegmentation {
-            parts: vec![part("A"), part("a"), part(" "), part("A"), part("B")],
-            triangles: 5,
-            runs: vec![(0, 1), (1, 1), (2, 1), (3, 1), (4, 1)],
+            parts: vec![part("A"), part("a"), part(" "), part("A"), part("B"), part("A (2)")],
+            triangles: 6,
+            runs: vec![(0, 1), (1, 1), (2, 1), (3, 1), (4, 1), (5, 1)],
         };
-        let seg = stored.to_segmentation(5).unwrap();
+        let seg = stored.to_segmentation(6).unwrap();
         let names: Vec<&str> = seg.parts.iter().map(|p| p.name.as_str()).collect();
-        assert_eq!(names, ["A", "a (2)", "Part 3", "A (3)", "B"]);
+        assert_eq!(names, ["A", "a (3)", "Part 3", "A (4)", "B", "A (2)"]);
         let note = stored.renamed_note(&seg).expect("said");
         assert!(
-            note.contains("'a' to 'a (2)'") && note.contains("'A' to 'A (3)'"),
+            note.contains("'a' to 'a (3)'") && note.contains("'A' to 'A (4)'"),
             "{note}"
         );
         let good = StoredSegmentation::from_segmentation(&seg);
-        assert_eq!(good.to_segmentation(5).unwrap(), seg);
+        assert_eq!(good.to_segmentation(6).unwrap(), seg);
         assert_eq!(good.renamed_note(&seg), None);
     }
 

@@ -239,9 +239,10 @@ pub fn is_bake_file_name(name: &str) -> bool {
         })
 }
 
-/// Whether `path` is a regular file carrying the tool's mark: a PNG whose `Software` text or
-/// a JSON object whose `generator` starts with [`GENERATOR_PREFIX`] (what [`write_png`] and
-/// [`write_json`] write).
+/// Whether `path` is a regular file carrying the tool's mark: a PNG whose `Software` text
+/// (in the chunks before its image data, read from the first 64 KiB only) or a JSON object
+/// (at most 16 MiB) whose `generator` starts with [`GENERATOR_PREFIX`] (what [`write_png`]
+/// and [`write_json`] write). Cheap enough to run over a folder of large images.
 pub fn carries_tool_mark(path: &Path) -> bool {
     let Ok(meta) = std::fs::symlink_metadata(path) else {
         return false;
@@ -254,29 +255,76 @@ pub fn carries_tool_mark(path: &Path) -> bool {
         .map(|n| n.to_string_lossy().to_lowercase())
         .unwrap_or_default();
     if name.ends_with(".png") {
-        check_output_file(path, OutputFile::Png).is_ok()
+        let Ok(file) = std::fs::File::open(path) else {
+            return false;
+        };
+        let mut head = Vec::new();
+        if file.take(64 << 10).read_to_end(&mut head).is_err() {
+            return false;
+        }
+        png_text_before_data(&head, "Software").is_some_and(|t| t.starts_with(GENERATOR_PREFIX))
     } else if name.ends_with(".json") {
-        check_output_file(path, OutputFile::Json).is_ok()
+        read_regular(path, 16 << 20, "a JSON file")
+            .ok()
+            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+            .is_some_and(|v| v["generator"].as_str().is_some_and(|g| g.starts_with(GENERATOR_PREFIX)))
     } else {
         false
     }
 }
 
+/// The text of a PNG's `tEXt` chunk `keyword` among the chunks of `head` (the file's first
+/// bytes) before its first image data; `None` if the signature is wrong or it is not there.
+fn png_text_before_data(head: &[u8], keyword: &str) -> Option<String> {
+    const SIGNATURE: &[u8] = b"\x89PNG\r\n\x1a\n";
+    let mut at = SIGNATURE.len();
+    if head.get(..at)? != SIGNATURE {
+        return None;
+    }
+    while at + 8 <= head.len() {
+        let len = u32::from_be_bytes(head[at..at + 4].try_into().ok()?) as usize;
+        let kind = &head[at + 4..at + 8];
+        let data = head.get(at + 8..(at + 8).checked_add(len)?)?;
+        match kind {
+            b"IDAT" | b"IEND" => return None,
+            b"tEXt" => {
+                if let Some(zero) = data.iter().position(|&b| b == 0)
+                    && &data[..zero] == keyword.as_bytes()
+                {
+                    return Some(data[zero + 1..].iter().map(|&b| b as char).collect());
+                }
+            }
+            _ => {}
+        }
+        at += 12 + len;
+    }
+    None
+}
+
 /// The plain file names (no folder parts) the folder's `manifest.json` and
-/// `representations.json` mention anywhere, as values or keys (their `checksums` tables list
-/// every file written).
+/// `representations.json` give as files: the keys of their `checksums` tables (every file
+/// written, from pack format 5 on) and the values of `atlas`, `normal_atlas` and `*_file`
+/// keys (older packs). Not every string: a part or clip may be named like a file.
 fn names_in_manifests(dir: &Path) -> std::collections::HashSet<String> {
+    fn plain(s: &str) -> bool {
+        !s.is_empty() && !s.contains(['/', '\\']) && s != "." && s != ".."
+    }
     fn walk(v: &serde_json::Value, out: &mut std::collections::HashSet<String>) {
         match v {
-            serde_json::Value::String(s) if !s.is_empty() && !s.contains(['/', '\\']) => {
-                out.insert(s.clone());
-            }
             serde_json::Value::Array(a) => a.iter().for_each(|x| walk(x, out)),
             serde_json::Value::Object(o) => {
                 for (k, x) in o {
-                    // Keys too: the `checksums` tables are keyed by file name.
-                    walk(&serde_json::Value::String(k.clone()), out);
-                    walk(x, out);
+                    if k == "checksums"
+                        && let serde_json::Value::Object(files) = x
+                    {
+                        out.extend(files.keys().filter(|n| plain(n)).cloned());
+                    } else if (k == "atlas" || k == "normal_atlas" || k.ends_with("_file"))
+                        && let Some(n) = x.as_str().filter(|n| plain(n))
+                    {
+                        out.insert(n.to_string());
+                    } else {
+                        walk(x, out);
+                    }
                 }
             }
             _ => {}
@@ -292,6 +340,21 @@ fn names_in_manifests(dir: &Path) -> std::collections::HashSet<String> {
         }
     }
     names
+}
+
+/// Debug images an earlier version wrote without the tool's mark: `debug/view_NNN.png`
+/// holding a PNG.
+fn unmarked_debug_image(path: &Path, name: &str) -> bool {
+    let numbered = name
+        .strip_prefix("view_")
+        .and_then(|r| r.strip_suffix(".png"))
+        .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()));
+    numbered
+        && std::fs::symlink_metadata(path).is_ok_and(|m| m.is_file())
+        && std::fs::File::open(path).is_ok_and(|f| {
+            let mut head = Vec::new();
+            f.take(8).read_to_end(&mut head).is_ok() && head == b"\x89PNG\r\n\x1a\n"
+        })
 }
 
 /// The entries of bake folder `dir` this tool did not write (sub-folders' as
@@ -310,7 +373,11 @@ fn foreign_entries(dir: &Path, named: Option<&std::collections::HashSet<String>>
     let mut foreign = Vec::new();
     for name in list(dir)? {
         let path = dir.join(&name);
+        let is_file = std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_file());
         if BAKE_FIXED_NAMES.contains(&name.as_str()) {
+            if !is_file {
+                foreign.push(name);
+            }
             continue;
         }
         if BAKE_SUBFOLDERS.contains(&name.as_str()) {
@@ -320,14 +387,15 @@ fn foreign_entries(dir: &Path, named: Option<&std::collections::HashSet<String>>
                 continue;
             }
             for inner in list(&path)? {
-                if !carries_tool_mark(&path.join(&inner)) {
+                let file = path.join(&inner);
+                let old_debug_image = name == "debug" && unmarked_debug_image(&file, &inner);
+                if !old_debug_image && !carries_tool_mark(&file) {
                     foreign.push(format!("{name}/{inner}"));
                 }
             }
             continue;
         }
         let numbered = is_bake_file_name(&name) && named.is_none_or(|n| n.contains(&name));
-        let is_file = std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_file());
         if !(is_file && numbered) && !carries_tool_mark(&path) {
             foreign.push(name);
         }
@@ -444,10 +512,14 @@ pub fn check_can_write_beside(out: &Path) -> Result<(), String> {
             }
         }
     }
+    // A number per call: two checks at once in one process (the editor's threads) do not
+    // meet on one name.
+    static PROBES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = PROBES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let name = out
         .file_name()
         .map_or("out".into(), |n| n.to_string_lossy().into_owned());
-    let probe = existing.join(staging_name(&name, "probe", std::process::id()));
+    let probe = existing.join(staging_name(&format!("{name}.{n}"), "probe", std::process::id()));
     match std::fs::create_dir(&probe) {
         Ok(()) => {
             let _ = std::fs::remove_dir(&probe);
@@ -650,6 +722,9 @@ pub fn clean_stale_staging(dir: &Path) -> Vec<PathBuf> {
         }
         let path = entry.path();
         let ok = match entry.file_type() {
+            // A write probe ([`check_can_write_beside`]) left by a killed process: only
+            // ever empty, removed only so.
+            Ok(t) if t.is_dir() && name.contains(".probe-") => std::fs::remove_dir(&path).is_ok(),
             Ok(t) if t.is_dir() && !name.ends_with(".tmp") => {
                 let ours = foreign_entries(&path, None).is_ok_and(|f| f.is_empty());
                 ours && std::fs::remove_dir_all(&path).is_ok()
@@ -680,7 +755,10 @@ fn staging_pid(name: &str) -> Option<u32> {
         return pid.parse().ok();
     }
     let (_, tail) = rest.rsplit_once('.')?;
-    let pid = tail.strip_prefix("writing-").or_else(|| tail.strip_prefix("old-"))?;
+    let pid = tail
+        .strip_prefix("writing-")
+        .or_else(|| tail.strip_prefix("old-"))
+        .or_else(|| tail.strip_prefix("probe-"))?;
     pid.parse().ok()
 }
 
@@ -888,6 +966,27 @@ mod tests {
         std::fs::create_dir(pack.join("debug").join("mystuff")).unwrap();
         assert!(check_bake_output(&pack, &[]).unwrap_err().contains("debug/mystuff"));
         std::fs::remove_dir(pack.join("debug").join("mystuff")).unwrap();
+        // An earlier version's debug image (a PNG without the mark) is the tool's; a file
+        // under that name that is not a PNG is not.
+        let mut png = Vec::new();
+        image::RgbaImage::new(2, 2)
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
+        std::fs::write(pack.join("debug").join("view_001.png"), &png).unwrap();
+        assert_eq!(check_bake_output(&pack, &[]), Ok(()));
+        theirs(&pack.join("debug").join("view_002.png"), "debug/view_002.png");
+        // A fixed name that is a folder of the user's.
+        std::fs::create_dir(pack.join("report.json")).unwrap();
+        assert!(check_bake_output(&pack, &[]).unwrap_err().contains("report.json"));
+        std::fs::remove_dir(pack.join("report.json")).unwrap();
+        // A name in the manifest that is not a file's (a part named like one) lists nothing.
+        let manifest = std::fs::read_to_string(pack.join("manifest.json")).unwrap();
+        std::fs::write(
+            pack.join("manifest.json"),
+            manifest.replacen('{', r#"{"parts": [{"name": "atlas_007.png"}], "#, 1),
+        )
+        .unwrap();
+        theirs(&pack.join("atlas_007.png"), "atlas_007.png");
         // A stale staging folder holding a user's file in its debug folder is kept.
         let stale = d.join(".a.pack.writing-4000000");
         std::fs::create_dir_all(stale.join("debug")).unwrap();
@@ -895,6 +994,14 @@ mod tests {
         std::fs::write(stale.join("debug").join("notes.md"), "mine").unwrap();
         assert!(clean_stale_staging(&d).is_empty());
         assert!(stale.join("debug").join("notes.md").exists());
+        // A write probe a killed run left (empty) goes; one holding anything stays.
+        let probe = d.join(".b.pack.0.probe-4000000");
+        std::fs::create_dir(&probe).unwrap();
+        assert_eq!(clean_stale_staging(&d), vec![probe.clone()]);
+        std::fs::create_dir(&probe).unwrap();
+        std::fs::write(probe.join("x"), "mine").unwrap();
+        assert!(clean_stale_staging(&d).is_empty());
+        std::fs::remove_dir_all(&probe).unwrap();
         std::fs::remove_file(stale.join("debug").join("notes.md")).unwrap();
         assert_eq!(clean_stale_staging(&d), vec![stale.clone()]);
         std::fs::write(pack.join("notes.txt"), "x").unwrap();

@@ -41,7 +41,7 @@ impl EditorApp {
             Command::SaveAs(path) => {
                 // A path naming something that is not a folder (a user's file) is not a
                 // project folder to save into: said as such, and left untouched.
-                if let Ok(meta) = std::fs::symlink_metadata(&path)
+                if let Ok(meta) = std::fs::metadata(&path)
                     && !meta.is_dir()
                     && !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"))
                 {

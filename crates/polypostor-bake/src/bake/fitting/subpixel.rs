@@ -33,10 +33,10 @@ const DIRECTIONS: [[f32; 2]; 8] = [
 ];
 
 /// How far past a row's computed span (the zero crossings of the triangle's weights) a pixel
-/// centre may lie and still be visited ([`Placed::each_pixel_near`]): the crossings are
-/// computed in f32 with errors of thousandths of a pixel at most where they narrow the span
-/// at all (a weight changing at least 1/1000 per pixel), so a quarter pixel misses no pixel
-/// [`Placed::cover`] accepts (tested on random and thin triangles). A pixel and a half each
+/// centre may lie and still be visited ([`Placed::each_pixel_near`]), besides a bound on what
+/// f32 rounding may move a crossing by (tiny on most triangles, tenths of a pixel on a long
+/// sliver far from the origin), so no pixel [`Placed::cover`] accepts is missed (tested on
+/// random, sliver and near-axis triangles on 300² and 2048² images). A pixel and a half each
 /// side before 2026-12-02 (session 63): 58 % of the pixels visited were then outside the
 /// triangle.
 const SPAN_MARGIN: f32 = 0.25;
@@ -234,6 +234,7 @@ impl Placed {
             -self.w0[1] - self.w1[1],
             -self.w0[2] - self.w1[2],
         ];
+        let x_far = (c[0].unsigned_abs().max(c[2].unsigned_abs())) as f32;
         for y in c[1]..c[3] {
             let py = y as f32 + 0.5;
             let (mut lo, mut hi) = (c[0] as f32, c[2] as f32);
@@ -243,16 +244,19 @@ impl Placed {
                     continue;
                 }
                 let at = -(w[0] + w[2] * py) / w[1];
+                // What f32 rounding may move the crossing by, here and in `covers` (a few
+                // ulps of the terms summed, over the slope): far from the origin on a
+                // sliver's nearly level edge it reaches tenths of a pixel.
+                let slack = SPAN_MARGIN + 1e-6 * (w[0].abs() + w[1].abs() * x_far + w[2].abs() * py) / w[1].abs();
                 if w[1] > 0.0 {
-                    lo = lo.max(at);
+                    lo = lo.max(at - slack);
                 } else {
-                    hi = hi.min(at);
+                    hi = hi.min(at + slack);
                 }
             }
-            // Pixel x has its centre at x + 0.5: the pixels whose centres lie within
-            // SPAN_MARGIN of [lo, hi].
-            let x0 = (floor(lo - 0.5 - SPAN_MARGIN) as i64 + 1).max(c[0]);
-            let x1 = (floor(hi - 0.5 + SPAN_MARGIN) as i64 + 1).min(c[2]);
+            // Pixel x has its centre at x + 0.5: the pixels whose centres lie in [lo, hi].
+            let x0 = (floor(lo - 0.5) as i64 + 1).max(c[0]);
+            let x1 = (floor(hi - 0.5) as i64 + 1).min(c[2]);
             let row = (y * size) as usize;
             for x in x0..x1 {
                 f(row + x as usize, x as f32 + 0.5, py);
@@ -680,6 +684,42 @@ mod tests {
                     if t.covers(x as f32 + 0.5, y as f32 + 0.5) {
                         covered += 1;
                         assert!(seen.contains(&((y * size + x) as usize)), "{p:?}: pixel {x}, {y}");
+                    }
+                }
+            }
+        }
+        // Long slivers with a nearly level edge far from the origin of a 2048² image, where
+        // f32 rounding moves the crossings most.
+        let size2 = 2048i64;
+        for k in 0..3000 {
+            let (x, y) = (10.0 + next() * 30.0, 1900.0 + next() * 140.0);
+            let long = 1500.0 + next() * 500.0;
+            let rise = (next() - 0.5) * 3.0;
+            let p = [
+                [x, y],
+                [x + long, y + rise],
+                [
+                    x + next() * long,
+                    y + rise * next() + (next() - 0.5) * if k % 2 == 0 { 0.4 } else { 2.0 },
+                ],
+            ];
+            let t = Placed::new(p, p);
+            let b = triangle_box(p);
+            let c: PixelBox = [
+                (b[0].floor() as i64).max(0),
+                (b[1].floor() as i64).max(0),
+                (b[2].ceil() as i64).min(size2),
+                (b[3].ceil() as i64).min(size2),
+            ];
+            let mut seen = std::collections::HashSet::new();
+            t.each_pixel_near(c, size2, |at, _, _| {
+                seen.insert(at);
+            });
+            for y in c[1]..c[3] {
+                for x in c[0]..c[2] {
+                    if t.covers(x as f32 + 0.5, y as f32 + 0.5) {
+                        covered += 1;
+                        assert!(seen.contains(&((y * size2 + x) as usize)), "{p:?}: pixel {x}, {y}");
                     }
                 }
             }
