@@ -626,6 +626,41 @@ mod tests {
         }
     }
 
+    /// Visits the pixels of triangle `p`'s box on a `size`² image as [`Placed::each_pixel_near`]
+    /// does and asserts every pixel [`Placed::covers`] accepts (brute force over the box) is
+    /// among them; returns how many it covers and how many visited pixels it does not.
+    fn check_spans(p: [[f32; 2]; 3], size: i64) -> (usize, usize) {
+        let t = Placed::new(p, p);
+        let b = triangle_box(p);
+        let c: PixelBox = [
+            (b[0].floor() as i64).max(0),
+            (b[1].floor() as i64).max(0),
+            (b[2].ceil() as i64).min(size),
+            (b[3].ceil() as i64).min(size),
+        ];
+        let (mut covered, mut outside) = (0, 0);
+        let mut seen = std::collections::HashSet::new();
+        t.each_pixel_near(c, size, |at, px, py| {
+            assert_eq!(
+                (at as i64 % size, at as i64 / size),
+                ((px - 0.5) as i64, (py - 0.5) as i64)
+            );
+            seen.insert(at);
+            if !t.covers(px, py) {
+                outside += 1;
+            }
+        });
+        for y in c[1]..c[3] {
+            for x in c[0]..c[2] {
+                if t.covers(x as f32 + 0.5, y as f32 + 0.5) {
+                    covered += 1;
+                    assert!(seen.contains(&((y * size + x) as usize)), "{p:?}: pixel {x}, {y}");
+                }
+            }
+        }
+        (covered, outside)
+    }
+
     /// The rows' spans visit every pixel a triangle covers (brute force over its box): random
     /// triangles, thin slivers, near-horizontal and near-vertical edges, large coordinates.
     #[test]
@@ -660,33 +695,9 @@ mod tests {
                 3 => p[1][0] = p[0][0] + 1e-3 * (next() - 0.5),
                 _ => {}
             }
-            let t = Placed::new(p, p);
-            let b = triangle_box(p);
-            let c: PixelBox = [
-                (b[0].floor() as i64).max(0),
-                (b[1].floor() as i64).max(0),
-                (b[2].ceil() as i64).min(size),
-                (b[3].ceil() as i64).min(size),
-            ];
-            let mut seen = std::collections::HashSet::new();
-            t.each_pixel_near(c, size, |at, px, py| {
-                assert_eq!(
-                    (at as i64 % size, at as i64 / size),
-                    ((px - 0.5) as i64, (py - 0.5) as i64)
-                );
-                seen.insert(at);
-                if !t.covers(px, py) {
-                    visited_outside += 1;
-                }
-            });
-            for y in c[1]..c[3] {
-                for x in c[0]..c[2] {
-                    if t.covers(x as f32 + 0.5, y as f32 + 0.5) {
-                        covered += 1;
-                        assert!(seen.contains(&((y * size + x) as usize)), "{p:?}: pixel {x}, {y}");
-                    }
-                }
-            }
+            let (c, o) = check_spans(p, size);
+            covered += c;
+            visited_outside += o;
         }
         // Long slivers with a nearly level edge far from the origin of a 2048² image, where
         // f32 rounding moves the crossings most.
@@ -703,26 +714,9 @@ mod tests {
                     y + rise * next() + (next() - 0.5) * if k % 2 == 0 { 0.4 } else { 2.0 },
                 ],
             ];
-            let t = Placed::new(p, p);
-            let b = triangle_box(p);
-            let c: PixelBox = [
-                (b[0].floor() as i64).max(0),
-                (b[1].floor() as i64).max(0),
-                (b[2].ceil() as i64).min(size2),
-                (b[3].ceil() as i64).min(size2),
-            ];
-            let mut seen = std::collections::HashSet::new();
-            t.each_pixel_near(c, size2, |at, _, _| {
-                seen.insert(at);
-            });
-            for y in c[1]..c[3] {
-                for x in c[0]..c[2] {
-                    if t.covers(x as f32 + 0.5, y as f32 + 0.5) {
-                        covered += 1;
-                        assert!(seen.contains(&((y * size2 + x) as usize)), "{p:?}: pixel {x}, {y}");
-                    }
-                }
-            }
+            let (c, o) = check_spans(p, size2);
+            covered += c;
+            visited_outside += o;
         }
         assert!(covered > 1_000_000, "{covered}");
         // The spans are tight: most pixels visited are covered.
