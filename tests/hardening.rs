@@ -716,6 +716,33 @@ fn project_settings_and_unwritable_outputs_are_refused_before_the_work() {
         ],
     );
     assert!(o.status.success(), "{}", stderr(&o));
+    // A part painted over entirely is said once, by name.
+    let c = polypostor::import_path(&default_glb()).unwrap();
+    let mut seg = polypostor::bake::segment::auto_segment(&c);
+    seg.parts.push(polypostor::bake::segment::Part {
+        name: "Ghost".into(),
+        color: [1, 2, 3],
+    });
+    p.segmentation = Some(polypostor::project::StoredSegmentation::from_segmentation(&seg));
+    p.save(&project.join("project.json")).unwrap();
+    let o = run_in(
+        &dir,
+        &[
+            "bake",
+            "proj",
+            "--views",
+            "1",
+            "--resolution",
+            "32",
+            "--fps",
+            "5",
+            "--out",
+            "b.pack",
+        ],
+    );
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    assert_eq!(e.matches("'Ghost' hold no triangles").count(), 1, "{e}");
     #[cfg(target_os = "linux")]
     refused(
         &run_in(

@@ -553,6 +553,27 @@ impl Prepared {
         }
         let (segmentation, seg_warning) = input.segmentation(&character);
         warnings.extend(seg_warning);
+        // A part painted over entirely keeps its name but draws nothing: said once here, not
+        // as "not visible" in every view.
+        let mut counts = vec![0usize; segmentation.parts.len()];
+        for &l in &segmentation.labels {
+            if let Some(c) = counts.get_mut(l as usize) {
+                *c += 1;
+            }
+        }
+        let empty: Vec<&str> = segmentation
+            .parts
+            .iter()
+            .zip(&counts)
+            .filter(|(_, c)| **c == 0)
+            .map(|(p, _)| p.name.as_str())
+            .collect();
+        if !empty.is_empty() {
+            warnings.push(format!(
+                "part(s) {} hold no triangles and draw nothing (paint some triangles into them, or remove them)",
+                empty.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
+            ));
+        }
         let (caps, overrides) = input.caps_and_overrides();
         let options = crate::bake::pipeline::BakeOptions {
             clip: clips.first,
