@@ -700,21 +700,25 @@ fn project_settings_and_unwritable_outputs_are_refused_before_the_work() {
     p.save(&project.join("project.json")).unwrap();
     let e = refused(&run_in(&dir, &["bake", "proj", "--out", "a.pack"]), "project.json");
     assert!(e.contains("bake setting views 0") && e.contains("--views"), "{e}");
-    let o = run_in(
-        &dir,
-        &[
-            "bake",
-            "proj",
-            "--views",
-            "1",
-            "--resolution",
-            "32",
-            "--fps",
-            "5",
-            "--out",
-            "a.pack",
-        ],
-    );
+    // A small bake of the project into `out`, its settings given on the command line.
+    let small = |out: &str| {
+        run_in(
+            &dir,
+            &[
+                "bake",
+                "proj",
+                "--views",
+                "1",
+                "--resolution",
+                "32",
+                "--fps",
+                "5",
+                "--out",
+                out,
+            ],
+        )
+    };
+    let o = small("a.pack");
     assert!(o.status.success(), "{}", stderr(&o));
     // A part painted over entirely is said once, by name.
     let c = polypostor::import_path(&default_glb()).unwrap();
@@ -725,21 +729,7 @@ fn project_settings_and_unwritable_outputs_are_refused_before_the_work() {
     });
     p.segmentation = Some(polypostor::project::StoredSegmentation::from_segmentation(&seg));
     p.save(&project.join("project.json")).unwrap();
-    let o = run_in(
-        &dir,
-        &[
-            "bake",
-            "proj",
-            "--views",
-            "1",
-            "--resolution",
-            "32",
-            "--fps",
-            "5",
-            "--out",
-            "b.pack",
-        ],
-    );
+    let o = small("b.pack");
     let e = stderr(&o);
     assert!(o.status.success(), "{e}");
     assert_eq!(e.matches("'Ghost' hold no triangles").count(), 1, "{e}");

@@ -241,7 +241,7 @@ pub fn is_bake_file_name(name: &str) -> bool {
 
 /// Whether `path` is a regular file carrying the tool's mark: a PNG whose `Software` text
 /// (in the chunks before its image data, read from the first 64 KiB only) or a JSON object
-/// (at most 16 MiB) whose `generator` starts with [`GENERATOR_PREFIX`] (what [`write_png`]
+/// (at most 256 MiB) whose `generator` starts with [`GENERATOR_PREFIX`] (what [`write_png`]
 /// and [`write_json`] write). Cheap enough to run over a folder of large images.
 pub fn carries_tool_mark(path: &Path) -> bool {
     let Ok(meta) = std::fs::symlink_metadata(path) else {
@@ -255,21 +255,34 @@ pub fn carries_tool_mark(path: &Path) -> bool {
         .map(|n| n.to_string_lossy().to_lowercase())
         .unwrap_or_default();
     if name.ends_with(".png") {
-        let Ok(file) = std::fs::File::open(path) else {
-            return false;
-        };
-        let mut head = Vec::new();
-        if file.take(64 << 10).read_to_end(&mut head).is_err() {
-            return false;
-        }
-        png_text_before_data(&head, "Software").is_some_and(|t| t.starts_with(GENERATOR_PREFIX))
+        marked(path, OutputFile::Png)
     } else if name.ends_with(".json") {
-        read_regular(path, 16 << 20, "a JSON file")
-            .ok()
-            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
-            .is_some_and(|v| v["generator"].as_str().is_some_and(|g| g.starts_with(GENERATOR_PREFIX)))
+        marked(path, OutputFile::Json)
     } else {
         false
+    }
+}
+
+/// Whether regular file `path` carries the tool's mark as a file of `kind`: a PNG's
+/// `Software` text (read from its first 64 KiB, where the chunks before the image data are),
+/// a JSON object's `generator` (at most 256 MiB), a GLB's glTF `asset.generator`.
+fn marked(path: &Path, kind: OutputFile) -> bool {
+    match kind {
+        OutputFile::Png => {
+            let Ok(file) = std::fs::File::open(path) else {
+                return false;
+            };
+            let mut head = Vec::new();
+            file.take(64 << 10).read_to_end(&mut head).is_ok()
+                && png_text_before_data(&head, "Software").is_some_and(|t| t.starts_with(GENERATOR_PREFIX))
+        }
+        OutputFile::Json => read_regular(path, 256 << 20, "a JSON file")
+            .ok()
+            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+            .is_some_and(|v| v["generator"].as_str().is_some_and(|g| g.starts_with(GENERATOR_PREFIX))),
+        OutputFile::Glb => read_regular(path, crate::limits::MAX_IMPORT_FILE_BYTES, "a glTF file")
+            .ok()
+            .is_some_and(|b| glb_generator(&b).is_some_and(|g| g.starts_with(GENERATOR_PREFIX))),
     }
 }
 
@@ -562,18 +575,7 @@ pub fn check_output_file(path: &Path, kind: OutputFile) -> Result<(), String> {
             kind_of(&meta.file_type())
         ));
     }
-    let ours = match kind {
-        OutputFile::Png => read_regular(path, 1 << 30, "an image")
-            .ok()
-            .is_some_and(|b| png_software(&b).is_some_and(|s| s.starts_with(GENERATOR_PREFIX))),
-        OutputFile::Json => read_regular(path, 256 << 20, "a JSON file")
-            .ok()
-            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
-            .is_some_and(|v| v["generator"].as_str().is_some_and(|g| g.starts_with(GENERATOR_PREFIX))),
-        OutputFile::Glb => read_regular(path, crate::limits::MAX_IMPORT_FILE_BYTES, "a glTF file")
-            .ok()
-            .is_some_and(|b| glb_generator(&b).is_some_and(|g| g.starts_with(GENERATOR_PREFIX))),
-    };
+    let ours = marked(path, kind);
     if ours {
         Ok(())
     } else {
@@ -581,23 +583,6 @@ pub fn check_output_file(path: &Path, kind: OutputFile) -> Result<(), String> {
             "'{shown}' exists and was not written by this tool; it is left untouched: choose another path"
         ))
     }
-}
-
-/// The `Software` text of a PNG, if it has one.
-pub fn png_software(bytes: &[u8]) -> Option<String> {
-    let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
-    let reader = decoder.read_info().ok()?;
-    let info = reader.info();
-    info.uncompressed_latin1_text
-        .iter()
-        .find(|t| t.keyword == "Software")
-        .map(|t| t.text.clone())
-        .or_else(|| {
-            info.utf8_text
-                .iter()
-                .find(|t| t.keyword == "Software")
-                .and_then(|t| t.get_text().ok())
-        })
 }
 
 /// `asset.generator` of a GLB file's JSON chunk.
