@@ -7,6 +7,8 @@
 //! polygon covers 38-43 % of its rectangle on the default character (a limb seen slanting,
 //! a bent arm), so most of the atlas held texels no polygon reads.
 
+use polypostor_runtime::pack::MAX_ATLAS_SIDE;
+
 /// A placed key image: where its cut-out, whose bounding box in the tile starts at `src`
 /// (tile pixels), went in the atlas (`x`, `y`, `w`, `h`: the cut-out's bounding box there).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -372,11 +374,28 @@ pub fn pack_atlas(items: &[Option<AtlasItem<'_>>]) -> Atlas {
     let lo = narrowest.next_multiple_of(unit).max(unit);
     let hi = (((area as f64).sqrt() * 2.0).ceil() as u32).max(lo);
     let step = ((hi - lo) / 12).max(unit).next_multiple_of(unit);
-    let (width, (height, placed)) = (lo..=hi)
-        .step_by(step as usize)
+    // And whole multiples of the widest cut-out, where cut-outs of one size (whole tiles)
+    // sit side by side with nothing over.
+    let widest = present.iter().map(|&i| mask(i).w.max(mask(i).h)).max().unwrap_or(1);
+    let mut widths: Vec<u32> = (lo..=hi).step_by(step as usize).collect();
+    widths.extend(
+        (1..=16)
+            .map(|k| (k * widest).next_multiple_of(unit))
+            .filter(|w| (lo..=hi).contains(w)),
+    );
+    widths.sort_unstable();
+    widths.dedup();
+    let (width, (height, placed)) = widths
+        .into_iter()
         .flat_map(|w| orders.iter().map(move |o| (w, o)))
         .map(|(w, o)| (w, fill(w, o)))
-        .min_by_key(|(w, (h, _))| (side(*w) as u64 * *h as u64, *w))
+        // Sides the loader accepts first, then the least area, then the squarest: on a tie
+        // in area (whole tiles) the narrowest width stacked nine 2048² keys into an atlas
+        // 18,432 texels tall, which the loader refuses.
+        .min_by_key(|(w, (h, _))| {
+            let (aw, ah) = (side(*w), *h);
+            (aw.max(ah) > MAX_ATLAS_SIDE, aw as u64 * ah as u64, aw.max(ah), *w)
+        })
         .expect("at least one width");
     let width = side(width);
     let mut color = image::RgbaImage::new(width, height);
@@ -680,6 +699,44 @@ mod tests {
                 // The bound is not vacuous: the atlas holds the cut-outs.
                 assert!(area >= count as u64 * u64::from(size) * u64::from(size));
             }
+        }
+    }
+
+    /// Whole 2048² key images tie in area at every width that is a whole number of tiles;
+    /// the packer took the narrowest, one tile wide and nine tall (18,432 texels: a pack the
+    /// loader refuses). It now takes sides the loader accepts, and the squarest on a tie.
+    #[test]
+    fn whole_tile_keys_pack_square_within_the_loader_s_side() {
+        let size = 2048u32;
+        let s = size as f32;
+        let tile = image::RgbaImage::from_pixel(size, size, image::Rgba([90, 140, 200, 255]));
+        for count in [4usize, 9, 16] {
+            let items: Vec<Option<AtlasItem<'_>>> = (0..count)
+                .map(|_| {
+                    Some(AtlasItem {
+                        color: &tile,
+                        normal: &tile,
+                        triangles: vec![[[0.0, 0.0], [s, 0.0], [s, s]], [[0.0, 0.0], [s, s], [0.0, s]]],
+                    })
+                })
+                .collect();
+            let a = pack_atlas(&items);
+            assert!(
+                a.width.max(a.height) <= MAX_ATLAS_SIDE,
+                "{count} × {size}²: a {}×{} atlas",
+                a.width,
+                a.height
+            );
+            // Square within a tile and its padding: the side a square grid of tiles needs.
+            let per_side = (count as f64).sqrt().ceil() as u32;
+            assert!(
+                a.width.max(a.height) <= per_side * (size + 64),
+                "{count}: {}×{}",
+                a.width,
+                a.height
+            );
+            let placed = a.rects.iter().flatten().count();
+            assert_eq!(placed, count);
         }
     }
 

@@ -283,6 +283,14 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
         done
     });
     for ((v, view), (keys, extra_item, atlas)) in bake.views.iter().enumerate().zip(packed) {
+        let most = polypostor_runtime::pack::MAX_ATLAS_SIDE;
+        if atlas.width > most || atlas.height > most {
+            let count = keys.iter().flatten().count();
+            return Err(format!(
+                "view {v}: its {count} key images at {}² need a {}×{} atlas, more than the {most} texels a side the run time loads: lower --resolution or --max-keys",
+                bake.options.resolution, atlas.width, atlas.height
+            ));
+        }
         let ext = bake.options.textures.extension();
         let atlas_name = format!("atlas_{v:03}.{ext}");
         let normal_name = format!("normal_{v:03}.{ext}");
