@@ -14,6 +14,10 @@ pub struct DepthImage {
     pub data: Vec<f32>,
 }
 
+/// Most bytes one read-back buffer holds: a large image is copied back in bands of rows
+/// (the device's buffer limit, often 256 MiB, is an 8192² RGBA image).
+const READBACK_BAND_BYTES: u64 = 64 << 20;
+
 fn read_texture(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
@@ -21,13 +25,60 @@ fn read_texture(
     aspect: wgpu::TextureAspect,
     bytes_per_px: u32,
 ) -> Result<Vec<u8>, GpuError> {
+    read_texture_in_bands(device, queue, texture, aspect, bytes_per_px, READBACK_BAND_BYTES)
+}
+
+fn read_texture_in_bands(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+    aspect: wgpu::TextureAspect,
+    bytes_per_px: u32,
+    band_bytes: u64,
+) -> Result<Vec<u8>, GpuError> {
     let (w, h) = (texture.width(), texture.height());
-    let unpadded = w * bytes_per_px;
-    let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let unpadded = u64::from(w) * u64::from(bytes_per_px);
+    let align = u64::from(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
     let padded = unpadded.div_ceil(align) * align;
+    let most = band_bytes.min(device.limits().max_buffer_size).max(padded);
+    // Depth can only be copied whole (WebGPU): one band.
+    let band = if aspect == wgpu::TextureAspect::DepthOnly {
+        u64::from(h)
+    } else {
+        (most / padded).clamp(1, u64::from(h.max(1)))
+    };
+    if padded * band > device.limits().max_buffer_size {
+        return Err(GpuError::Readback(format!(
+            "a {w}×{h} image is more than this device can copy back at once ({} bytes at most)",
+            device.limits().max_buffer_size
+        )));
+    }
+    let mut out = Vec::with_capacity((unpadded * u64::from(h)) as usize);
+    let mut y0 = 0u32;
+    while y0 < h {
+        let rows = (band as u32).min(h - y0);
+        read_band(device, queue, texture, aspect, y0, rows, padded, unpadded, &mut out)?;
+        y0 += rows;
+    }
+    Ok(out)
+}
+
+/// Copies rows `y0 .. y0 + rows` of `texture` back, appending them (unpadded) to `out`.
+#[allow(clippy::too_many_arguments)]
+fn read_band(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+    aspect: wgpu::TextureAspect,
+    y0: u32,
+    rows: u32,
+    padded: u64,
+    unpadded: u64,
+    out: &mut Vec<u8>,
+) -> Result<(), GpuError> {
     let buffer = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
-        size: (padded * h) as u64,
+        size: padded * u64::from(rows),
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
@@ -38,20 +89,20 @@ fn read_texture(
         wgpu::TexelCopyTextureInfo {
             texture,
             mip_level: 0,
-            origin: wgpu::Origin3d::ZERO,
+            origin: wgpu::Origin3d { x: 0, y: y0, z: 0 },
             aspect,
         },
         wgpu::TexelCopyBufferInfo {
             buffer: &buffer,
             layout: wgpu::TexelCopyBufferLayout {
                 offset: 0,
-                bytes_per_row: Some(padded),
+                bytes_per_row: Some(padded as u32),
                 rows_per_image: None,
             },
         },
         wgpu::Extent3d {
-            width: w,
-            height: h,
+            width: texture.width(),
+            height: rows,
             depth_or_array_layers: 1,
         },
     );
@@ -71,13 +122,12 @@ fn read_texture(
     let mapped = slice
         .get_mapped_range()
         .map_err(|e| GpuError::Readback(format!("{e:?}")))?;
-    let mut out = Vec::with_capacity((unpadded * h) as usize);
     for row in mapped.chunks_exact(padded as usize) {
         out.extend_from_slice(&row[..unpadded as usize]);
     }
     drop(mapped);
     buffer.unmap();
-    Ok(out)
+    Ok(())
 }
 
 /// Reads an RGBA8 texture (any 4-byte 8-bit format) into an image, rows top to bottom.
@@ -211,4 +261,58 @@ fn depth_bytes_via_shader(
     }
     queue.submit([encoder.finish()]);
     read_texture(device, queue, &bytes, wgpu::TextureAspect::All, 4)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An image read back in bands of a few rows (as an image over the device's buffer limit
+    /// is: `render --size 9000` panicked on one 400 MB buffer) gives every texel, in order.
+    #[test]
+    fn a_texture_read_in_bands_is_the_texture() {
+        let ctx = crate::gpu::GpuContext::new(&crate::gpu::AdapterPreference::SoftwareFirst)
+            .expect("a wgpu adapter (install mesa-vulkan-drivers)");
+        let (w, h) = (37u32, 50u32);
+        let texels: Vec<u8> = (0..w * h * 4)
+            .map(|i| (i.wrapping_mul(2654435761) >> 13) as u8)
+            .collect();
+        let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("banded"),
+            size: wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba8Unorm,
+            usage: wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        ctx.queue.write_texture(
+            texture.as_image_copy(),
+            &texels,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(w * 4),
+                rows_per_image: None,
+            },
+            texture.size(),
+        );
+        // One padded row is 256 bytes: bands of 1, 3 and 7 rows (the last one short), and all.
+        for band in [1u64, 3, 7, 1000] {
+            let got = read_texture_in_bands(
+                &ctx.device,
+                &ctx.queue,
+                &texture,
+                wgpu::TextureAspect::All,
+                4,
+                256 * band,
+            )
+            .unwrap();
+            assert_eq!(got, texels, "bands of {band} rows");
+        }
+    }
 }
