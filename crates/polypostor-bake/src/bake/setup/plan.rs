@@ -15,6 +15,10 @@ use polypostor_runtime::reps::RepSet;
 /// Largest coordinate of a bakeable character over its clip, in scene units (beyond it the
 /// framing and the 16-bit vertex data lose all precision).
 pub const MAX_EXTENT: f32 = 1e12;
+/// Smallest size (largest side of its bounds over the clip) of a bakeable character, in scene
+/// units: below it the pack's cameras are too small for the loader (a character 2e-12 units
+/// tall was baked whole, then refused as a damaged pack).
+pub const MIN_EXTENT: f32 = 1e-8;
 /// Memory the part images of the views being fitted at once may take; fewer views are kept
 /// in flight when each is large.
 pub const VIEWS_IN_FLIGHT_BUDGET: u64 = 2 << 30;
@@ -148,6 +152,11 @@ pub fn check(
     // character (the cameras built around it stop agreeing with their own directions: a bake
     // 100 km out failed when its pack was read back).
     let size = extent.max_element();
+    if size > 0.0 && size < MIN_EXTENT {
+        return fail(format!(
+            "the character is {size:.4e} scene units across, below the smallest bakeable size of {MIN_EXTENT:e}: scale it up in the file (a root node's scale)"
+        ));
+    }
     let offset = ((lo + hi) * 0.5).length();
     if size > 0.0 && offset > MAX_OFFSET_OVER_SIZE * size {
         return fail(format!(
@@ -306,6 +315,38 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.0.contains("from the origin"), "{e}");
+    }
+
+    /// A character too small for the pack's numbers (2e-12 units tall was baked whole, then
+    /// refused as a damaged pack) is refused before any work, naming its size; a thousandth of
+    /// a millimetre passes.
+    #[test]
+    fn a_character_too_small_is_refused_by_its_size() {
+        let (c, seg) = setup();
+        let scaled = |k: f32| {
+            let mut m = c.clone();
+            for n in m.skeleton.nodes.iter_mut().filter(|n| n.parent.is_none()) {
+                n.rest.scale *= k;
+                n.rest.translation *= k;
+            }
+            for clip in &mut m.clips {
+                for ch in &mut clip.channels {
+                    if m.skeleton.nodes[ch.node].parent.is_none() {
+                        match &mut ch.values {
+                            crate::character::ChannelValues::Scale(v) => v.iter_mut().for_each(|s| *s *= k),
+                            crate::character::ChannelValues::Translation(v) => v.iter_mut().for_each(|t| *t *= k),
+                            _ => {}
+                        }
+                    }
+                }
+            }
+            m
+        };
+        assert!(check(&scaled(1e-6), &seg, &BakeOptions::default(), RepSet::POLYPOSTOR, 16384).is_ok());
+        for k in [1e-10f32, 1e-12] {
+            let e = check(&scaled(k), &seg, &BakeOptions::default(), RepSet::POLYPOSTOR, 16384).unwrap_err();
+            assert!(e.0.contains("smallest bakeable size"), "{k}: {e}");
+        }
     }
 
     /// A character scaled to nothing (every vertex at one point in every frame) is refused
