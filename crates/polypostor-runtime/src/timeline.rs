@@ -622,14 +622,35 @@ fn root_motions(character: &mut Character) -> Vec<ClipMotion> {
         .collect()
 }
 
+/// Travel over one play of a clip, in the character's heights, beyond which a clip that is
+/// not locomotion is played in place too: the bake frames the clip's whole path, so a clip
+/// carrying the character 15 heights away baked it a few pixels tall (and 1,000 heights away,
+/// to nothing). A jump forward (a height or two) keeps its travel, as authored.
+pub const FAR_TRAVEL_HEIGHTS: f32 = 3.0;
+
 fn apply_in_place(character: &mut Character, motions: &[ClipMotion]) -> Vec<(String, f32)> {
     let mut changed = Vec::new();
+    let mut notes = Vec::new();
     for (clip, m) in character.clips.iter_mut().zip(motions) {
-        if m.is_locomotion() && m.root.length() >= LOCOMOTION_MIN_SPEED * m.height && m.root.is_finite() {
+        if !m.root.is_finite() {
+            continue;
+        }
+        let travel = m.root.length() * m.duration;
+        let walks = m.is_locomotion() && m.root.length() >= LOCOMOTION_MIN_SPEED * m.height;
+        let far = m.height > 0.0 && travel > FAR_TRAVEL_HEIGHTS * m.height;
+        if walks || far {
             clip.in_place_velocity = Vec3::new(m.root.x, 0.0, m.root.y);
             changed.push((clip.name.clone(), m.root.length()));
+            if !walks {
+                notes.push(format!(
+                    "clip '{}' carries the character {travel:.3} units ({:.1} times its height) without walking: played in place, so that bakes frame the character rather than its path",
+                    clip.name,
+                    travel / m.height
+                ));
+            }
         }
     }
+    character.warnings.extend(notes);
     changed
 }
 
@@ -1348,6 +1369,26 @@ mod tests {
         }
         assert!(play_in_place(&mut forward).is_empty());
         assert_eq!(forward.clips[walk].in_place_velocity, Vec3::ZERO);
+        // Unless it carries the character far (ten heights, more than the bake can frame):
+        // then it is played in place too, and the import says so.
+        let mut far = c.clone();
+        if let Some(ch) = far.clips[walk].channels.last_mut()
+            && let ChannelValues::Translation(vals) = &mut ch.values
+        {
+            vals[1].z += 10.0 * m.height;
+        }
+        let changed = play_in_place(&mut far);
+        assert_eq!(changed.len(), 1, "{changed:?}");
+        let v = far.clips[walk].in_place_velocity;
+        assert!(
+            (v.z * d - 10.0 * m.height).abs() < 0.01 * m.height && v.x.abs() < 1e-3,
+            "{v}"
+        );
+        assert!(
+            far.warnings.iter().any(|w| w.contains("without walking")),
+            "{:?}",
+            far.warnings
+        );
         let t = Timeline::measured(&c, &[Some(walk), Some(idle)], 10.0).unwrap();
         assert!(!t.spans[0].looping && t.spans[1].looping);
         // A clip that does not loop holds its last frame, and that frame is its end pose.

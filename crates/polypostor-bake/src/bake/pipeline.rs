@@ -1261,6 +1261,13 @@ pub fn bake_sharing(
     stage_secs.insert("render".into(), render_secs);
     stage_secs.insert("fit".into(), t3.elapsed().as_secs_f64() - render_secs);
     let mut views: Vec<ViewResult> = results.into_iter().map(|r| r.expect("every view fitted")).collect();
+    // Nothing traced anywhere: an empty pack would report a perfect fit.
+    if !views.is_empty() && views.iter().all(|v| v.parts.iter().all(|p| p.fit.is_none())) {
+        return Err(BakeError::Limit(crate::limits::LimitError(format!(
+            "no part of the character covers a pixel of its {r}² images in any view (transparent, or a speck in its framing: a clip that carries it far away?); nothing to bake",
+            r = options.resolution
+        ))));
+    }
     let t4 = Instant::now();
     share_key_budget(ctx, &prepared, options, &mut views, cancel)?;
     stage_secs.insert("shared key budget".into(), t4.elapsed().as_secs_f64());

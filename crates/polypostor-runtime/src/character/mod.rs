@@ -366,6 +366,38 @@ impl Character {
         self.indices.len() / 3
     }
 
+    /// Per submesh, whether it can draw no fragment at all: its material cuts out below an
+    /// alpha (`MASK`, or `BLEND` drawn as a cut-out) that its base colour never reaches: the
+    /// factor's alpha times the texture's largest alpha times its vertices' largest colour
+    /// alpha. Each texture is scanned once.
+    pub fn submeshes_drawing_nothing(&self) -> Vec<bool> {
+        let mut texture_alpha: Vec<Option<f32>> = vec![None; self.textures.len()];
+        self.submeshes
+            .iter()
+            .map(|s| {
+                let Some(m) = self.materials.get(s.material) else {
+                    return false;
+                };
+                if !(m.alpha_cutoff > 0.0) {
+                    return false;
+                }
+                let texture = match m.base_color_texture.filter(|&t| t < self.textures.len()) {
+                    Some(t) => *texture_alpha[t].get_or_insert_with(|| {
+                        let most = self.textures[t].rgba8.chunks_exact(4).map(|p| p[3]).max();
+                        f32::from(most.unwrap_or(255)) / 255.0
+                    }),
+                    None => 1.0,
+                };
+                let first = (s.first_index as usize).min(self.indices.len());
+                let end = (first + s.index_count as usize).min(self.indices.len());
+                let vertex = self.indices[first..end].iter().fold(0.0f32, |a, &i| {
+                    a.max(self.vertices.get(i as usize).map_or(1.0, |v| v.color[3]))
+                });
+                m.base_color_factor[3] * texture * vertex < m.alpha_cutoff
+            })
+            .collect()
+    }
+
     /// Index of the clip with this name.
     pub fn find_clip(&self, name: &str) -> Option<usize> {
         self.clips.iter().position(|c| c.name == name)

@@ -170,6 +170,24 @@ pub fn import_slice_with(
     }
     .build(name)
     .map(|mut character| {
+        // Materials that cut out every fragment they could draw.
+        let nothing = character.submeshes_drawing_nothing();
+        let mut hidden: Vec<usize> = character
+            .submeshes
+            .iter()
+            .zip(&nothing)
+            .filter(|(_, n)| **n)
+            .map(|(s, _)| s.material)
+            .collect();
+        hidden.sort_unstable();
+        hidden.dedup();
+        for m in hidden {
+            let mat = &character.materials[m];
+            character.warnings.push(format!(
+                "material '{}' draws nothing: its alpha never reaches its cut-off of {:.2} (alpha mode MASK, or BLEND drawn as a cut-out at 0.5)",
+                mat.name, mat.alpha_cutoff
+            ));
+        }
         // Stood up first: where its origin lies and which way it walks are read upright.
         character.up_axis = options.up;
         if options.up != UpAxis::PosY {

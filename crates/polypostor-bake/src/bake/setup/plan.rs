@@ -130,6 +130,12 @@ pub fn check(
     if character.triangle_count() == 0 {
         return fail("the character has no triangles".into());
     }
+    if !character.submeshes.is_empty() && character.submeshes_drawing_nothing().iter().all(|&n| n) {
+        return fail(
+            "nothing of the character is drawn: every material cuts out below an alpha its colour never reaches (alpha mode MASK with a high cut-off, or BLEND with alpha under 0.5); nothing to bake"
+                .into(),
+        );
+    }
     let (lo, hi) = options
         .clip_list()
         .iter()
@@ -315,6 +321,22 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.0.contains("from the origin"), "{e}");
+    }
+
+    /// A character whose every material cuts out all its fragments (alpha 0.5 under a
+    /// cut-off of 1.0: baked to an empty pack reporting 99 dB) is refused before any work;
+    /// one visible material is enough to pass.
+    #[test]
+    fn a_character_that_draws_nothing_is_refused() {
+        let (mut c, seg) = setup();
+        for m in &mut c.materials {
+            m.alpha_cutoff = 1.0;
+            m.base_color_factor[3] = 0.5;
+        }
+        let e = check(&c, &seg, &BakeOptions::default(), RepSet::POLYPOSTOR, 16384).unwrap_err();
+        assert!(e.0.contains("nothing of the character is drawn"), "{e}");
+        c.materials[0].base_color_factor[3] = 1.0;
+        assert!(check(&c, &seg, &BakeOptions::default(), RepSet::POLYPOSTOR, 16384).is_ok());
     }
 
     /// A character too small for the pack's numbers (2e-12 units tall was baked whole, then
