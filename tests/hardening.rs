@@ -1016,3 +1016,48 @@ fn characters_of_implausible_size_are_reported_and_measured_as_the_file_says() {
         assert!((s.scale() / base.scale() - k).abs() < 1e-3 * k);
     }
 }
+
+/// An inverse bind matrix that is not a transform (a NaN, an infinity, all zeros) was taken
+/// silently: the joint's vertices flew off or vanished. Now each is named in a warning and the
+/// joint's rest pose stands in for its bind pose, which for a mesh bound in its rest pose (as
+/// the default character is) gives back the same skinned mesh.
+#[test]
+fn broken_inverse_bind_matrices_are_named_and_replaced_by_the_rest_pose() {
+    use polypostor::animation::{Pose, skin_vertices};
+    let c = polypostor::default_character::generate();
+    let glb = polypostor::gltf_write::write_glb(&c).unwrap();
+    let original = polypostor::import::import_slice(&glb, None, "original").unwrap();
+    let want = skin_vertices(&original, &Pose::rest(&original)).0;
+    let (json, bin) = polypostor::gltf_write::glb_parts(&glb).unwrap();
+    let skin = &json["skins"][0];
+    let accessor = &json["accessors"][skin["inverseBindMatrices"].as_u64().unwrap() as usize];
+    let view = &json["bufferViews"][accessor["bufferView"].as_u64().unwrap() as usize];
+    let start =
+        view["byteOffset"].as_u64().unwrap_or(0) as usize + accessor["byteOffset"].as_u64().unwrap_or(0) as usize;
+    let joints = skin["joints"].as_array().unwrap().len();
+    for (k, bad) in [(1usize, f32::NAN), (joints / 2, f32::INFINITY), (joints - 1, 0.0)] {
+        let mut broken = bin.clone();
+        for e in 0..16 {
+            // The NaN and the infinity in the translation only; zero: the whole matrix.
+            if bad == 0.0 || e == 13 {
+                let at = start + (k * 16 + e) * 4;
+                broken[at..at + 4].copy_from_slice(&bad.to_le_bytes());
+            }
+        }
+        let file = polypostor::gltf_write::glb_container(&json, &broken).unwrap();
+        let got = polypostor::import::import_slice(&file, None, "broken").unwrap();
+        assert!(
+            got.warnings.iter().any(|w| w.contains("inverse bind matrix")),
+            "{bad}: {:?}",
+            got.warnings
+        );
+        let have = skin_vertices(&got, &Pose::rest(&got)).0;
+        assert_eq!(have.len(), want.len());
+        let worst = have
+            .iter()
+            .zip(&want)
+            .map(|(a, b)| (*a - *b).length())
+            .fold(0.0f32, f32::max);
+        assert!(worst < 1e-3, "{bad} in joint {k}: a vertex moved {worst}");
+    }
+}

@@ -24,6 +24,8 @@ struct Rig {
     /// Per bone, whether its skinning transform at rest mirrors (negative determinant: a
     /// skeleton under a node scaled by -1), which turns its triangles' winding around.
     mirrored: Vec<bool>,
+    /// What the rig had to repair (said as import warnings).
+    notes: Vec<String>,
 }
 
 /// The geometry gathered so far, with the materials and textures it uses.
@@ -113,6 +115,9 @@ impl Builder<'_> {
         } else {
             static_rig(&mesh_nodes)
         };
+        for note in std::mem::take(&mut rig.notes) {
+            self.warn(note);
+        }
         let rest = rig.skeleton.rest_world();
         rig.mirrored = rig
             .bones
@@ -279,6 +284,7 @@ impl Builder<'_> {
             });
         }
         let mut same_bone: HashMap<(usize, [u32; 16]), usize> = HashMap::new();
+        let mut notes = Vec::new();
         for &s in &skins {
             let skin = &root.skins[s];
             let ibms: Vec<Mat4> = match skin.inverse_bind_matrices {
@@ -293,7 +299,22 @@ impl Builder<'_> {
                     (0..skin.joints.len())
                         .map(|k| {
                             let m = Mat4::from_cols_slice(&v.data[k * 16..k * 16 + 16]);
-                            if m.is_finite() { m } else { Mat4::IDENTITY }
+                            let det = m.determinant();
+                            if m.is_finite() && det.is_finite() && det.abs() > 1e-30 {
+                                return m;
+                            }
+                            // Not a transform (NaN or infinite numbers, or flat: all zeros):
+                            // the joint's rest pose stands in for its bind pose, as exporters
+                            // write it for a mesh bound in the rest pose.
+                            let j = skin.joints[k].value();
+                            let rest = rest_world(j, parent, locals);
+                            let inverse = rest.inverse();
+                            let name = root.nodes[j].name.clone().unwrap_or_else(|| format!("node {j}"));
+                            notes.push(format!(
+                                "skin {s}: joint '{name}' has an inverse bind matrix that is {}: the inverse of its rest pose is used instead",
+                                if m.is_finite() { "not invertible" } else { "not finite" }
+                            ));
+                            if inverse.is_finite() { inverse } else { Mat4::IDENTITY }
                         })
                         .collect()
                 }
@@ -341,6 +362,7 @@ impl Builder<'_> {
             bindings,
             node_map,
             mirrored: Vec::new(),
+            notes,
         })
     }
 
@@ -879,6 +901,19 @@ fn animates_meshes(root: &json::Root, mesh_nodes: &[usize], parent: &[Option<usi
             )
         ) && moves.get(ch.target.node.value()).copied().unwrap_or(false)
     })
+}
+
+/// Rest world matrix of file node `i`: its local transforms chained up its parents (the
+/// hierarchy has no cycles by now; the chain is bounded by the node count all the same).
+fn rest_world(i: usize, parent: &[Option<usize>], locals: &[Transform]) -> Mat4 {
+    let mut m = Mat4::IDENTITY;
+    let mut at = Some(i);
+    for _ in 0..=parent.len() {
+        let Some(n) = at else { break };
+        m = locals[n].to_mat4() * m;
+        at = parent[n];
+    }
+    m
 }
 
 /// The rig of a file without skins: one root joint every mesh follows rigidly (the
