@@ -1061,3 +1061,25 @@ fn broken_inverse_bind_matrices_are_named_and_replaced_by_the_rest_pose() {
         assert!(worst < 1e-3, "{bad} in joint {k}: a vertex moved {worst}");
     }
 }
+
+/// A file that names no default scene and whose first scene is empty (the character in the
+/// second) was refused ("the default scene has no triangle meshes"): the first scene holding
+/// a mesh is imported, and said. A file whose named default is empty is still refused.
+#[test]
+fn without_a_default_scene_the_first_scene_with_a_mesh_is_imported() {
+    let c = polypostor::default_character::generate();
+    let glb = polypostor::gltf_write::write_glb(&c).unwrap();
+    let (mut json, bin) = polypostor::gltf_write::glb_parts(&glb).unwrap();
+    let scene = json["scene"].as_u64().unwrap_or(0) as usize;
+    let character = json["scenes"][scene].clone();
+    json["scenes"] = serde_json::json!([{"name": "Empty", "nodes": []}, character]);
+    json.as_object_mut().unwrap().remove("scene");
+    let file = polypostor::gltf_write::glb_container(&json, &bin).unwrap();
+    let got = polypostor::import::import_slice(&file, None, "second").unwrap();
+    assert_eq!(got.triangle_count(), c.triangle_count());
+    assert!(got.warnings.iter().any(|w| w.contains("scene 1")), "{:?}", got.warnings);
+    json["scene"] = serde_json::json!(0);
+    let file = polypostor::gltf_write::glb_container(&json, &bin).unwrap();
+    let e = polypostor::import::import_slice(&file, None, "named").unwrap_err();
+    assert!(e.to_string().contains("no triangle meshes"), "{e}");
+}

@@ -555,24 +555,64 @@ impl Builder<'_> {
     }
 
     /// The nodes of the scene to import, in pre-order.
-    fn scene_nodes(&self, parent: &[Option<usize>]) -> Result<Vec<usize>, ImportError> {
-        let roots: Vec<usize> =
-            match self
-                .root
-                .scene
-                .map(|s| s.value())
-                .or(if self.root.scenes.is_empty() { None } else { Some(0) })
-            {
-                Some(s) => {
-                    let scene = self
-                        .root
-                        .scenes
-                        .get(s)
-                        .ok_or_else(|| ImportError::Invalid(format!("default scene {s} does not exist")))?;
-                    scene.nodes.iter().map(|n| n.value()).collect()
-                }
-                None => (0..self.root.nodes.len()).filter(|&i| parent[i].is_none()).collect(),
-            };
+    /// Whether any node under scene `s`'s roots carries a mesh (a bounded walk: each node
+    /// once).
+    fn scene_has_mesh(&self, s: usize) -> bool {
+        let Some(scene) = self.root.scenes.get(s) else {
+            return false;
+        };
+        let mut seen = vec![false; self.root.nodes.len()];
+        let mut stack: Vec<usize> = scene.nodes.iter().map(|n| n.value()).collect();
+        while let Some(i) = stack.pop() {
+            let Some(node) = self.root.nodes.get(i) else { continue };
+            if std::mem::replace(&mut seen[i], true) {
+                continue;
+            }
+            if node.mesh.is_some() {
+                return true;
+            }
+            stack.extend(node.children.iter().flatten().map(|c| c.value()));
+        }
+        false
+    }
+
+    /// The scene to import: the file's default; without one, the first scene that holds a
+    /// mesh (else the first), said when that is not the first.
+    fn chosen_scene(&mut self) -> Option<usize> {
+        if let Some(s) = self.root.scene {
+            return Some(s.value());
+        }
+        if self.root.scenes.is_empty() {
+            return None;
+        }
+        let s = (0..self.root.scenes.len())
+            .find(|&s| self.scene_has_mesh(s))
+            .unwrap_or(0);
+        if s != 0 {
+            self.warn(format!(
+                "the file names no default scene and its first holds no mesh: scene {s}{} imported",
+                self.root.scenes[s]
+                    .name
+                    .as_ref()
+                    .map(|n| format!(" ('{n}')"))
+                    .unwrap_or_default()
+            ));
+        }
+        Some(s)
+    }
+
+    fn scene_nodes(&mut self, parent: &[Option<usize>]) -> Result<Vec<usize>, ImportError> {
+        let roots: Vec<usize> = match self.chosen_scene() {
+            Some(s) => {
+                let scene = self
+                    .root
+                    .scenes
+                    .get(s)
+                    .ok_or_else(|| ImportError::Invalid(format!("default scene {s} does not exist")))?;
+                scene.nodes.iter().map(|n| n.value()).collect()
+            }
+            None => (0..self.root.nodes.len()).filter(|&i| parent[i].is_none()).collect(),
+        };
         let mut out = Vec::new();
         let mut seen = vec![false; self.root.nodes.len()];
         let mut stack: Vec<usize> = roots.into_iter().rev().collect();
