@@ -930,6 +930,10 @@ fn uris_stay_inside_the_models_folder() {
         "a file below the model's folder is read"
     );
     assert!(with_uri("sub/../sub/data.bin").is_ok());
+    // Out of the folder by name and straight back in is still inside (it was refused).
+    assert!(with_uri("../model/./sub/data.bin").is_ok());
+    let e = with_uri("../model2/sub/data.bin").unwrap_err();
+    assert!(e.contains("leaves the model's folder"), "{e}");
     let e = with_uri("../outside.bin").unwrap_err();
     assert!(e.contains("leaves the model's folder"), "{e}");
     let e = with_uri("sub/../../outside.bin").unwrap_err();

@@ -363,21 +363,40 @@ fn resolve_uri(uri: &str, base_dir: Option<&Path>) -> Result<PathBuf, String> {
         ));
     }
     let base = base_dir.ok_or_else(|| format!("URI '{uri}' refers to an external file, but no folder is known"))?;
-    // Lexically first: no `..` may climb above the folder.
-    let mut depth = 0i32;
-    for c in rel.components() {
-        match c {
-            std::path::Component::ParentDir => depth -= 1,
-            std::path::Component::Normal(_) => depth += 1,
-            std::path::Component::CurDir => {}
-            _ => return Err(format!("URI '{uri}' is not a relative path")),
+    // Lexically first: the path, its `..` taken against the folder's own names, must stay in
+    // the folder (`../x/t.png` from folder `x` comes back into it).
+    if rel.components().any(|c| {
+        !matches!(
+            c,
+            std::path::Component::ParentDir | std::path::Component::Normal(_) | std::path::Component::CurDir
+        )
+    }) {
+        return Err(format!("URI '{uri}' is not a relative path"));
+    }
+    let lexical = |p: &Path| -> PathBuf {
+        let mut out = PathBuf::new();
+        for c in p.components() {
+            match c {
+                std::path::Component::ParentDir => {
+                    out.pop();
+                }
+                std::path::Component::CurDir => {}
+                other => out.push(other),
+            }
         }
-        if depth < 0 {
-            return Err(format!(
-                "URI '{uri}' leaves the model's folder (only files in {} and below are read)",
-                base.display()
-            ));
-        }
+        out
+    };
+    let here = if base.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        base
+    };
+    let absolute_base = std::path::absolute(here).map_err(|e| format!("URI '{uri}': {e}"))?;
+    if !lexical(&absolute_base.join(rel)).starts_with(lexical(&absolute_base)) {
+        return Err(format!(
+            "URI '{uri}' leaves the model's folder (only files in {} and below are read)",
+            base.display()
+        ));
     }
     let path = base.join(rel);
     // Then for real, through symbolic links (a missing file is reported when it is read).
