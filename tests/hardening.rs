@@ -1087,3 +1087,26 @@ fn without_a_default_scene_the_first_scene_with_a_mesh_is_imported() {
     let e = polypostor::import::import_slice(&file, None, "named").unwrap_err();
     assert!(e.to_string().contains("no triangle meshes"), "{e}");
 }
+
+/// An animation channel aimed at a node the file does not have was dropped without a word
+/// (a missing sampler was said): now it is said too, and the rest of the clip kept.
+#[test]
+fn a_channel_aimed_at_a_missing_node_is_said() {
+    let c = polypostor::default_character::generate();
+    let glb = polypostor::gltf_write::write_glb(&c).unwrap();
+    let (mut json, bin) = polypostor::gltf_write::glb_parts(&glb).unwrap();
+    let channels = json["animations"][0]["channels"].as_array().unwrap().len();
+    json["animations"][0]["channels"][0]["target"]["node"] = serde_json::json!(9999);
+    let file = polypostor::gltf_write::glb_container(&json, &bin).unwrap();
+    let got = polypostor::import::import_slice(&file, None, "aimless").unwrap();
+    assert!(
+        got.warnings
+            .iter()
+            .any(|w| w.contains("node 9999, which does not exist")),
+        "{:?}",
+        got.warnings
+    );
+    let intact = polypostor::import::import_slice(&glb, None, "intact").unwrap();
+    assert_eq!(intact.clips[0].channels.len(), channels);
+    assert_eq!(got.clips[0].channels.len(), channels - 1);
+}

@@ -940,6 +940,13 @@ impl Builder<'_> {
                         continue;
                     }
                 };
+                if ch.target.node.value() >= root.nodes.len() {
+                    self.warn(format!(
+                        "{what}: animates node {}, which does not exist; skipped",
+                        ch.target.node.value()
+                    ));
+                    continue;
+                }
                 use json::animation::Property;
                 if path == Property::MorphTargetWeights {
                     // Kept where the weights move the shape of a mesh the character has:
