@@ -348,7 +348,9 @@ pub fn validate(spans: &[ClipSpan], frames: usize) -> Result<(), String> {
         if s.frames == 0 {
             return Err(format!("clip {i} ('{}') has no frames", s.name));
         }
-        if !(s.ground_speed.is_finite() && s.ground_speed >= 0.0) {
+        // The bake's largest extent a second (1e12 scene units): beyond it a number, not a
+        // speed (1e30 was taken).
+        if !(s.ground_speed.is_finite() && (0.0..=1e12).contains(&s.ground_speed)) {
             return Err(format!("clip {i} ('{}') has ground speed {}", s.name, s.ground_speed));
         }
         if !(s.secs_per_frame.is_finite() && (0.0..=3600.0).contains(&s.secs_per_frame)) {
@@ -1024,6 +1026,12 @@ mod tests {
         let mut bad = t.spans.clone();
         bad[0].secs_per_frame = f32::NAN;
         assert!(validate(&bad, 13).unwrap_err().contains("between frames"));
+        // So is a ground speed no character has (1e30 was taken).
+        let mut bad = t.spans.clone();
+        bad[0].ground_speed = 1e30;
+        assert!(validate(&bad, 13).unwrap_err().contains("ground speed"));
+        bad[0].ground_speed = 1e6;
+        validate(&bad, 13).unwrap();
     }
 
     #[test]
