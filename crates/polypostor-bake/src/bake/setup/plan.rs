@@ -42,15 +42,16 @@ pub struct BakePlan {
 
 /// Bytes of one view's part images while it is fitted, per pixel of every part and frame: the
 /// renders (colour, normal, depth: 12), the fitter's copy (seven floats: 28) and the fit's
-/// working data per frame (8). Measured on a 1-part character with 1,000 and 3,000 frames
-/// (4 views): 49 bytes a pixel at the peak, where 20 were counted (a bake planned at 2.7 GiB
-/// took 7.3 GB).
+/// working data per frame (12). Measured on a 1-part character with 1,000 and 3,000 frames
+/// (4 views): about 49 bytes a pixel at the peak, where 20 were counted (a bake planned at
+/// 2.7 GiB took 7.3 GB); with this count and the views in flight it sets, planned at 2.6 and
+/// 5.0 GiB, they peaked at 2.5 and 5.0 GiB.
 pub fn view_image_bytes(parts: usize, frames: usize, resolution: u32) -> u64 {
     let px = u64::from(resolution) * u64::from(resolution);
     (parts as u64)
         .saturating_mul(frames as u64)
         .saturating_mul(px)
-        .saturating_mul(12 + 28 + 8)
+        .saturating_mul(12 + 28 + 12)
 }
 
 /// How many views' images the bake keeps in flight: twice the worker threads, fewer when
