@@ -230,10 +230,6 @@ impl Plan {
             None => 0.0,
         };
         let (last, rest) = self.order.split_last().expect("non-empty");
-        // The two solved tables behind a triangle's other edges, laid out row by row for the
-        // inner loop over the third corner (`behind_ac[ka][kc]`, `behind_cb[kb][kc]`): one
-        // contiguous read each instead of a strided look-up through an `Option`.
-        let (mut behind_ac, mut behind_cb) = (Vec::new(), Vec::new());
         for &(t, a, b, c) in rest {
             let (ca, cb, cc) = (&candidates[a], &candidates[b], &candidates[c]);
             let slot = slots(t, a, b);
@@ -242,16 +238,9 @@ impl Plan {
             {
                 let vac = view(&best_of, &by_edge, candidates, a, c);
                 let vcb = view(&best_of, &by_edge, candidates, c, b);
-                let nc = cc.len();
-                behind_ac.clear();
-                behind_ac.extend((0..ca.len()).flat_map(|ka| (0..nc).map(move |kc| at(vac, ka, kc))));
-                behind_cb.clear();
-                behind_cb.extend((0..cb.len()).flat_map(|kb| (0..nc).map(move |kc| at(vcb, kc, kb))));
                 let mut warm = 0usize;
                 for (ka, &pa) in ca.iter().enumerate() {
-                    let row_ac = &behind_ac[ka * nc..(ka + 1) * nc];
                     for (kb, &pb) in cb.iter().enumerate() {
-                        let row_cb = &behind_cb[kb * nc..(kb + 1) * nc];
                         // Start from the previous pair's answer (`warm`): neighbouring pairs
                         // usually share it, and a good first bound prunes the rest. Then the
                         // others in order. One call site, so the cost is compiled inline.
@@ -265,7 +254,7 @@ impl Plan {
                             } else {
                                 step
                             };
-                            let lb = row_ac[kc] + row_cb[kc];
+                            let lb = at(vac, ka, kc) + at(vcb, kc, kb);
                             let v = if lb >= bc {
                                 f64::INFINITY
                             } else {
