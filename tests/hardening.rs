@@ -949,6 +949,13 @@ fn uris_stay_inside_the_models_folder() {
         std::os::unix::fs::symlink(dir.join("outside.bin"), model.join("link.bin")).unwrap();
         let e = with_uri("link.bin").unwrap_err();
         assert!(e.contains("leads outside the model's folder"), "{e}");
+        // The same model opened by its bare name from its own folder (the folder then is
+        // "", whose resolution failed and skipped the link check: the outside file was read).
+        let out = run_in(&model, &["inspect", "c.gltf"]);
+        let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), stderr(&out));
+        assert!(text.contains("leads outside the model's folder"), "{text}");
+        // And through `..` back into the folder, then the link.
+        with_uri("../model/link.bin").unwrap_err();
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -96,8 +96,18 @@ impl CrowdAssets {
             .map(|r| r.manifest.character_up)
             .or_else(|| pack.as_ref().map(|p| p.manifest.character_up))
             .unwrap_or_default();
-        let c = crate::import::import_path_with(&path, crate::import::ImportOptions { up })
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+        let c = crate::import::import_path_with(&path, crate::import::ImportOptions { up }).map_err(|e| {
+            let moved = character.is_none() && matches!(e, crate::import::ImportError::Io { .. });
+            format!(
+                "{}: {e}{}",
+                path.display(),
+                if moved {
+                    " (where the pack says its character was: give --character FILE where it is now)"
+                } else {
+                    ""
+                }
+            )
+        })?;
         let (spans, fps) = pack
             .as_ref()
             .map(|p| (p.manifest.clips.clone(), p.manifest.fps))

@@ -21,7 +21,7 @@ pub fn compare(
         &out,
         &["memory.png", "error.png", "ssim.png", "quality.png", "compare.json"],
     )?;
-    let assets = load_assets(dir, character)?;
+    let assets = crate::scene::CrowdAssets::load(dir, character, None).map_err(|e| anyhow::anyhow!(e))?;
     let memory = compare::memory(&assets);
     let ctx = crate::gpu::GpuContext::from_env()?;
     let total_views = assets.view_directions().len();

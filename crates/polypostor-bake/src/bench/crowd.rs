@@ -82,7 +82,7 @@ pub fn bench_crowd(
             d
         }
     };
-    let assets = super::load_assets(&dir, character.as_deref())?;
+    let assets = CrowdAssets::load(&dir, character.as_deref(), None).map_err(|e| anyhow::anyhow!(e))?;
     let (device, queue) = (&ctx.device, &ctx.queue);
     let target = crate::gpu::RenderTarget::new(device, width, height);
     // The full-resolution impostor sheets only when the impostor level alone is measured
@@ -353,13 +353,13 @@ pub fn bench_stability(
     json: bool,
 ) -> anyhow::Result<String> {
     let mut t = String::new();
-    use crate::scene::temporal_stability;
+    use crate::scene::{CrowdAssets, temporal_stability};
     if !(2..=10_000).contains(&frames) || !(16..=4096).contains(&size) {
         anyhow::bail!("--frames must be 2 to 10,000 and --size 16 to 4096");
     }
     let ctx = crate::gpu::GpuContext::from_env()?;
     crate::limits::check_render_size(&ctx.device, size, size, "--size")?;
-    let assets = super::load_assets(pack, character.as_deref())?;
+    let assets = CrowdAssets::load(pack, character.as_deref(), None).map_err(|e| anyhow::anyhow!(e))?;
     let cut = temporal_stability(&ctx.device, &ctx.queue, &assets, 0.0, frames, size)?;
     let faded = temporal_stability(&ctx.device, &ctx.queue, &assets, 0.25, frames, size)?;
     if json {

@@ -36,21 +36,6 @@ pub use crate::bake::report::human_bytes;
 
 /// Checks, before any work, that the files a command will write into `dir` are new or its
 /// own earlier output (and that `dir` is a folder, or can be made one).
-/// A pack's assets, the character read from where the pack records it unless `character`
-/// says otherwise; when that file is gone, the error says how to point at it.
-pub fn load_assets(dir: &Path, character: Option<&Path>) -> anyhow::Result<crate::scene::CrowdAssets> {
-    crate::scene::CrowdAssets::load(dir, character, None).map_err(|e| {
-        let e = e.to_string();
-        if character.is_none() && e.contains("cannot read") {
-            anyhow::anyhow!(
-                "{e} (the character's file as the pack records it: give --character FILE where it has moved)"
-            )
-        } else {
-            anyhow::anyhow!(e)
-        }
-    })
-}
-
 pub fn check_output_files(dir: &Path, names: &[&str]) -> anyhow::Result<()> {
     if let Ok(m) = std::fs::symlink_metadata(dir)
         && !m.is_dir()

@@ -171,6 +171,7 @@ pub fn import_slice_with(
     .build(name)
     .map(|mut character| {
         // Materials that cut out every fragment they could draw.
+        // (Materials none of whose submeshes draw: the vertices' colour alpha differs.)
         let nothing = character.submeshes_drawing_nothing();
         let mut hidden: Vec<usize> = character
             .submeshes
@@ -181,6 +182,13 @@ pub fn import_slice_with(
             .collect();
         hidden.sort_unstable();
         hidden.dedup();
+        hidden.retain(|&m| {
+            character
+                .submeshes
+                .iter()
+                .zip(&nothing)
+                .all(|(s, n)| s.material != m || *n)
+        });
         for m in hidden {
             let mat = &character.materials[m];
             character.warnings.push(format!(
@@ -398,15 +406,29 @@ fn resolve_uri(uri: &str, base_dir: Option<&Path>) -> Result<PathBuf, String> {
             base.display()
         ));
     }
-    let path = base.join(rel);
-    // Then for real, through symbolic links (a missing file is reported when it is read).
-    if let (Ok(real), Ok(real_base)) = (std::fs::canonicalize(&path), std::fs::canonicalize(base))
+    let path = here.join(rel);
+    // Then for real, through symbolic links. A folder that cannot be resolved refuses every
+    // external file (a model opened from the current folder has the empty folder "": its
+    // resolution failed, and the link check was skipped); a missing file is reported when it
+    // is read, any other failure to resolve it refuses it.
+    let real_base = std::fs::canonicalize(here).map_err(|e| {
+        format!(
+            "URI '{uri}': the model's folder {} cannot be resolved ({e})",
+            here.display()
+        )
+    })?;
+    let real = match std::fs::canonicalize(&path) {
+        Ok(real) => Some(real),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(format!("URI '{uri}' cannot be resolved ({e})")),
+    };
+    if let Some(real) = real
         && !real.starts_with(&real_base)
     {
         return Err(format!(
             "URI '{uri}' leads outside the model's folder (to {}; only files in {} and below are read)",
             real.display(),
-            base.display()
+            here.display()
         ));
     }
     Ok(path)
@@ -587,7 +609,19 @@ impl Builder<'_> {
             if std::mem::replace(&mut seen[i], true) {
                 continue;
             }
-            if node.mesh.is_some() {
+            // A mesh with triangles (strips and fans count; points and lines do not).
+            if let Some(mesh) = node.mesh.and_then(|m| self.root.meshes.get(m.value()))
+                && mesh.primitives.iter().any(|p| {
+                    matches!(
+                        p.mode,
+                        Checked::Valid(
+                            json::mesh::Mode::Triangles
+                                | json::mesh::Mode::TriangleStrip
+                                | json::mesh::Mode::TriangleFan
+                        )
+                    )
+                })
+            {
                 return true;
             }
             stack.extend(node.children.iter().flatten().map(|c| c.value()));
@@ -913,6 +947,13 @@ impl Builder<'_> {
                     self.warn(format!("{what}: missing sampler; skipped"));
                     continue;
                 };
+                if ch.target.node.value() >= root.nodes.len() {
+                    self.warn(format!(
+                        "{what}: animates node {}, which does not exist; skipped",
+                        ch.target.node.value()
+                    ));
+                    continue;
+                }
                 let times = match accessor::read_f32(root, self.buffers, sampler.input.value()) {
                     Ok(t) if t.components == 1 => t.data,
                     Ok(_) => {
@@ -940,13 +981,6 @@ impl Builder<'_> {
                         continue;
                     }
                 };
-                if ch.target.node.value() >= root.nodes.len() {
-                    self.warn(format!(
-                        "{what}: animates node {}, which does not exist; skipped",
-                        ch.target.node.value()
-                    ));
-                    continue;
-                }
                 use json::animation::Property;
                 if path == Property::MorphTargetWeights {
                     // Kept where the weights move the shape of a mesh the character has:
