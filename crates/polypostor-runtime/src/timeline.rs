@@ -348,9 +348,9 @@ pub fn validate(spans: &[ClipSpan], frames: usize) -> Result<(), String> {
         if s.frames == 0 {
             return Err(format!("clip {i} ('{}') has no frames", s.name));
         }
-        // The bake's largest extent a second (1e12 scene units): beyond it a number, not a
-        // speed (1e30 was taken).
-        if !(s.ground_speed.is_finite() && (0.0..=1e12).contains(&s.ground_speed)) {
+        // Ten thousand of the largest bakeable character's heights (1e12 scene units) a
+        // second: beyond it a number, not a speed (1e30 was taken).
+        if !(s.ground_speed.is_finite() && (0.0..=1e16).contains(&s.ground_speed)) {
             return Err(format!("clip {i} ('{}') has ground speed {}", s.name, s.ground_speed));
         }
         if !(s.secs_per_frame.is_finite() && (0.0..=3600.0).contains(&s.secs_per_frame)) {

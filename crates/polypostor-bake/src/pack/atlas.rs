@@ -369,6 +369,8 @@ pub fn pack_atlas(items: &[Option<AtlasItem<'_>>]) -> Atlas {
         }
         (side(taken.height()).max(SIDE_MULTIPLE), placed)
     };
+    // The loader's bound on the atlas's texels for these keys.
+    let most = polypostor_runtime::pack::atlas_area_bound(u64::from(tile), present.len() as u64);
     // At most ~12 widths and three orders, so large atlases stay cheap.
     let narrowest = present.iter().map(|&i| mask(i).w.min(mask(i).h)).max().unwrap_or(1);
     let lo = narrowest.next_multiple_of(unit).max(unit);
@@ -394,7 +396,8 @@ pub fn pack_atlas(items: &[Option<AtlasItem<'_>>]) -> Atlas {
         // 18,432 texels tall, which the loader refuses.
         .min_by_key(|(w, (h, _))| {
             let (aw, ah) = (side(*w), *h);
-            (aw.max(ah) > MAX_ATLAS_SIDE, aw as u64 * ah as u64, aw.max(ah), *w)
+            let area = aw as u64 * ah as u64;
+            (aw.max(ah) > MAX_ATLAS_SIDE, area > most, area, aw.max(ah), *w)
         })
         .expect("at least one width");
     let width = side(width);
@@ -710,7 +713,7 @@ mod tests {
         let size = 2048u32;
         let s = size as f32;
         let tile = image::RgbaImage::from_pixel(size, size, image::Rgba([90, 140, 200, 255]));
-        for count in [4usize, 9, 16] {
+        for count in [4usize, 9, 11] {
             let items: Vec<Option<AtlasItem<'_>>> = (0..count)
                 .map(|_| {
                     Some(AtlasItem {
@@ -737,6 +740,13 @@ mod tests {
             );
             let placed = a.rects.iter().flatten().count();
             assert_eq!(placed, count);
+            let area = u64::from(a.width) * u64::from(a.height);
+            assert!(
+                area <= atlas_area_bound(u64::from(size), count as u64),
+                "{count}: {}×{}",
+                a.width,
+                a.height
+            );
         }
     }
 

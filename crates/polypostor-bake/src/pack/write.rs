@@ -284,10 +284,11 @@ fn write_into(bake: &Bake, character: &str, clip: Option<&str>, dir: &Path) -> R
     });
     for ((v, view), (keys, extra_item, atlas)) in bake.views.iter().enumerate().zip(packed) {
         let most = polypostor_runtime::pack::MAX_ATLAS_SIDE;
-        if atlas.width > most || atlas.height > most {
-            let count = keys.iter().flatten().count();
+        let count = keys.iter().flatten().count();
+        let bound = polypostor_runtime::pack::atlas_area_bound(u64::from(bake.options.resolution), count as u64);
+        if atlas.width > most || atlas.height > most || u64::from(atlas.width) * u64::from(atlas.height) > bound {
             return Err(format!(
-                "view {v}: its {count} key images at {}² need a {}×{} atlas, more than the {most} texels a side the run time loads: lower --resolution or --max-keys",
+                "view {v}: its {count} key images at {}² need a {}×{} atlas, beyond what the run time loads ({most} texels a side, {bound} in all): lower --resolution or --max-keys",
                 bake.options.resolution, atlas.width, atlas.height
             ));
         }

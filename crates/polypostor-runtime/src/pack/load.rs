@@ -169,14 +169,17 @@ pub const MAX_PART_VERTICES: u32 = 1024;
 pub const MAX_ATLAS_SIDE: u32 = 16384;
 
 /// Most texels a view's colour atlas of `keys` key images of `tile`² pixels may hold: the
-/// packer's cut-outs stacked in one column, each at most the tile and its padding rounded up
-/// to the packer's cells (a power of two, at most `tile / 64 + 2` texels) and the atlas's
-/// sides to whole blocks (8 texels), with room to spare. The writer's own packing
-/// (`polypostor::pack::atlas`) stays within it for every tile size (tested there, down to a
-/// single key image covering its whole tile).
+/// packer's cut-outs, each at most the tile and its padding rounded up to the packer's cells
+/// (a power of two, at most `tile / 64 + 2` texels) and the atlas's sides to whole blocks
+/// (8 texels), laid in a grid with one row of them left over (`⌈√keys⌉` more: eleven whole
+/// tiles within the loader's sides take a 4 × 3 grid, not one column of 11). The writer's own
+/// packing (`polypostor::pack::atlas`) stays within it for every tile size (tested there, down
+/// to key images covering their whole tiles).
 pub fn atlas_area_bound(tile: u64, keys: u64) -> u64 {
     let side = tile.saturating_add(2 + 2 + 8).saturating_add(tile / 64);
-    side.saturating_mul(keys.max(1).saturating_mul(side))
+    let keys = keys.max(1);
+    let spare = (keys as f64).sqrt().ceil() as u64;
+    side.saturating_mul(keys.saturating_add(spare).saturating_mul(side))
 }
 
 fn damaged(m: String) -> PackError {
