@@ -671,6 +671,20 @@ mod tests {
         (tiles, tris)
     }
 
+    /// `count` key images of `tile`, each polygon covering the whole tile.
+    fn whole_tile_items(tile: &image::RgbaImage, count: usize) -> Vec<Option<AtlasItem<'_>>> {
+        let s = tile.width() as f32;
+        (0..count)
+            .map(|_| {
+                Some(AtlasItem {
+                    color: tile,
+                    normal: tile,
+                    triangles: vec![[[0.0, 0.0], [s, 0.0], [s, s]], [[0.0, 0.0], [s, s], [0.0, s]]],
+                })
+            })
+            .collect()
+    }
+
     /// A key image whose polygon covers its whole tile (a prop filling its view) packs within
     /// the loader's bound at every kind of tile size: sides not a multiple of the atlas's
     /// 8-texel blocks, and sides just past a multiple of a larger cell (1032 = 64·16 + 8,
@@ -679,19 +693,9 @@ mod tests {
     #[test]
     fn a_key_image_filling_its_tile_packs_within_the_loader_s_bound() {
         for size in [16u32, 37, 100, 257, 1030, 1032, 2048] {
-            let s = size as f32;
             let tile = image::RgbaImage::from_pixel(size, size, image::Rgba([90, 140, 200, 255]));
             for count in [1usize, 2, 3] {
-                let items: Vec<Option<AtlasItem<'_>>> = (0..count)
-                    .map(|_| {
-                        Some(AtlasItem {
-                            color: &tile,
-                            normal: &tile,
-                            triangles: vec![[[0.0, 0.0], [s, 0.0], [s, s]], [[0.0, 0.0], [s, s], [0.0, s]]],
-                        })
-                    })
-                    .collect();
-                let a = pack_atlas(&items);
+                let a = pack_atlas(&whole_tile_items(&tile, count));
                 let area = u64::from(a.width) * u64::from(a.height);
                 assert!(
                     area <= atlas_area_bound(u64::from(size), count as u64),
@@ -711,19 +715,9 @@ mod tests {
     #[test]
     fn whole_tile_keys_pack_square_within_the_loader_s_side() {
         let size = 2048u32;
-        let s = size as f32;
         let tile = image::RgbaImage::from_pixel(size, size, image::Rgba([90, 140, 200, 255]));
         for count in [4usize, 9, 11] {
-            let items: Vec<Option<AtlasItem<'_>>> = (0..count)
-                .map(|_| {
-                    Some(AtlasItem {
-                        color: &tile,
-                        normal: &tile,
-                        triangles: vec![[[0.0, 0.0], [s, 0.0], [s, s]], [[0.0, 0.0], [s, s], [0.0, s]]],
-                    })
-                })
-                .collect();
-            let a = pack_atlas(&items);
+            let a = pack_atlas(&whole_tile_items(&tile, count));
             assert!(
                 a.width.max(a.height) <= MAX_ATLAS_SIDE,
                 "{count} × {size}²: a {}×{} atlas",
