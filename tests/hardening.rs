@@ -720,6 +720,31 @@ fn project_settings_and_unwritable_outputs_are_refused_before_the_work() {
     };
     let o = small("a.pack");
     assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("coarsest outline"), "{}", stderr(&o));
+    // Polygons of a few vertices are allowed but said (3 gave 5.6 dB).
+    let o = run_in(
+        &dir,
+        &[
+            "bake",
+            "proj",
+            "--views",
+            "1",
+            "--resolution",
+            "32",
+            "--fps",
+            "5",
+            "--polygon-vertices",
+            "6",
+            "--out",
+            "few.pack",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("polygons of 6 vertices follow only the coarsest outline"),
+        "{}",
+        stderr(&o)
+    );
     // A part painted over entirely is said once, by name.
     let c = polypostor::import_path(&default_glb()).unwrap();
     let mut seg = polypostor::bake::segment::auto_segment(&c);
