@@ -139,6 +139,8 @@ pub struct CrowdPanel {
     pub last_bake: Option<(PathBuf, Arc<polypostor::bake::pipeline::Bake>)>,
     /// Messages for the editor's log (drained by the app).
     /// What the jobs have to say, for the log (errors also open the error dialog).
+    /// How the last job ended (true: its folder is open), for the app to take once.
+    pub outcome: Option<bool>,
     pub messages: Vec<(LogLevel, String)>,
 }
 
@@ -172,6 +174,7 @@ impl Default for CrowdPanel {
             full_requested: None,
             last_bake: None,
             messages: Vec::new(),
+            outcome: None,
         }
     }
 }
@@ -196,6 +199,13 @@ pub struct BakeRequest {
 }
 
 impl CrowdPanel {
+    /// Asks the running job to stop (the status bar's Cancel).
+    pub fn cancel_job(&self) {
+        if let Some(job) = &self.job {
+            job.cancel.store(true, Ordering::Relaxed);
+        }
+    }
+
     pub fn busy(&self) -> bool {
         self.job.is_some()
     }
@@ -401,8 +411,10 @@ impl CrowdPanel {
                 self.folder = Some(folder);
                 self.open = true;
                 self.job = None;
+                self.outcome = Some(true);
             }
             Ok(Err(e)) => {
+                self.outcome = Some(false);
                 // A cancel is not an error: it is logged, no dialog.
                 let cancelled = job.cancel.load(Ordering::Relaxed);
                 self.messages.push(if cancelled {
@@ -417,6 +429,7 @@ impl CrowdPanel {
                 self.messages
                     .push((LogLevel::Error, "crowd preview: the background job stopped".into()));
                 self.job = None;
+                self.outcome = Some(false);
             }
         }
     }

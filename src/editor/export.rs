@@ -29,6 +29,9 @@ pub struct ExportDialog {
     pub clips: Vec<bool>,
     /// Why the folder typed cannot receive the export (checked when the text changes).
     folder_check: Option<(String, Option<String>)>,
+    /// The project (its file, else its character) the folder was chosen for: another
+    /// project's export folder is not offered (Export would have replaced its pack).
+    folder_for: Option<PathBuf>,
 }
 
 impl Default for ExportDialog {
@@ -45,6 +48,7 @@ impl Default for ExportDialog {
             polygon_vertices: polypostor::bake::part_fit::DEFAULT_POLYGON_VERTICES,
             clips: Vec::new(),
             folder_check: None,
+            folder_for: None,
         }
     }
 }
@@ -69,13 +73,20 @@ impl ExportDialog {
         (self.png, self.textures) = (b.png, b.textures);
         self.polygon_vertices = b.polygon_vertices;
         self.set = b.representation_set();
-        if self.folder.is_empty() {
-            let dir = doc
-                .project_file
-                .as_ref()
-                .and_then(|f| f.parent().map(|p| p.to_owned()))
-                .unwrap_or_else(std::env::temp_dir);
-            self.folder = dir.join("export.pack").display().to_string();
+        let this = doc.project_file.clone().unwrap_or_else(|| doc.character_path.clone());
+        if self.folder.is_empty() || self.folder_for.as_ref() != Some(&this) {
+            self.folder_for = Some(this);
+            // Beside the project; a never-saved one's in the temporary folder, named after
+            // its character (two unsaved projects would otherwise share one folder).
+            self.folder = match doc.project_file.as_ref().and_then(|f| f.parent()) {
+                Some(dir) => dir.join("export.pack"),
+                None => {
+                    let stem = doc.character_path.file_stem().map(|s| s.to_string_lossy().into_owned());
+                    std::env::temp_dir().join(format!("{}-export.pack", stem.as_deref().unwrap_or("character")))
+                }
+            }
+            .display()
+            .to_string();
         }
         self.open = true;
     }

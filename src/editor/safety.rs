@@ -82,9 +82,17 @@ impl Safety {
         Ok(true)
     }
 
+    /// How long until the next autosave is due (zero when it is): the window asks to be
+    /// drawn then, so an idle editor autosaves too (it only ticked when something redrew it).
+    pub fn next_due(&self) -> Duration {
+        self.last
+            .map_or(Duration::ZERO, |t| AUTOSAVE_EVERY.saturating_sub(t.elapsed()))
+    }
+
     /// Forgets the autosave (after a save or an explicit discard) and removes its file.
     pub fn clear(&mut self, doc: &Document, recovery_dir: Option<&Path>) {
         self.written = None;
+        self.written_at = None;
         if let Some(path) = autosave_path(doc, recovery_dir) {
             let _ = std::fs::remove_file(path);
         }
@@ -96,6 +104,8 @@ impl Safety {
     pub fn check_on_open(&mut self, doc: &Document, recovery_dir: Option<&Path>) -> Option<String> {
         self.recovery = None;
         self.written = None;
+        // The status bar's "autosaved N s ago" was the previous project's.
+        self.written_at = None;
         self.last = Some(Instant::now());
         let path = autosave_path(doc, recovery_dir)?;
         let saved_at = std::fs::metadata(&path).and_then(|m| m.modified()).ok()?;

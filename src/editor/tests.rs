@@ -823,6 +823,30 @@ fn export_writes_the_chosen_representations_and_opens_the_preview() {
         e.polypostor,
         report.pack_bytes
     );
+    // An export cancelled before it ends changes nothing: not the project's settings (a
+    // cancelled 137-view export had set them), not the Views tab's folder.
+    let bake_before = h.state().doc.as_ref().unwrap().project.bake.clone();
+    let source_before = h.state().views.source.clone();
+    {
+        let e = &mut h.state_mut().export;
+        e.folder = dir.join("cancelled.pack").display().to_string();
+        e.views = 40;
+    }
+    h.run_steps(2);
+    h.get_by_label("Export").click();
+    h.run_steps(2);
+    assert!(h.state().crowd.busy(), "the export runs");
+    h.state().crowd.cancel_job();
+    let started = std::time::Instant::now();
+    while h.state().crowd.busy() {
+        assert!(started.elapsed().as_secs() < 300, "the cancel did not end the export");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        h.run_steps(1);
+    }
+    h.run_steps(2);
+    assert!(!dir.join("cancelled.pack").exists());
+    assert_eq!(h.state().doc.as_ref().unwrap().project.bake, bake_before);
+    assert_eq!(h.state().views.source, source_before);
     let _ = std::fs::remove_dir_all(dir);
 }
 

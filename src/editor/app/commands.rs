@@ -110,15 +110,13 @@ impl EditorApp {
                 (settings.png, settings.textures) = (req.png, req.textures);
                 settings.polygon_vertices = req.polygon_vertices;
                 settings.representations = req.set.words();
-                if let Some(doc) = self.doc.as_mut()
-                    && (doc.project.clips != req.clips || doc.project.bake != settings)
-                {
-                    doc.project.clips = req.clips.clone();
-                    doc.project.bake = settings.clone();
-                    doc.dirty = true;
-                }
+                // Made the project's when the bake succeeds (see `pending_export`).
                 let options = settings.options();
+                let busy = self.crowd.busy();
                 self.bake_into(req.folder, options, req.set);
+                if !busy && self.crowd.busy() {
+                    self.pending_export = Some((req.clips.clone(), settings));
+                }
             }
             Command::SetUpAxis(up) => {
                 if let Some(doc) = self.doc.as_mut()
@@ -174,6 +172,7 @@ impl EditorApp {
         let c = doc.character.clone();
         let segmentation = doc.segmentation.clone();
         if set.polypostor {
+            self.source_before_bake = Some(self.views.source.clone());
             self.views.set_source(Some(&out));
         }
         // The project's clip set (a whole-character pack), else the clip being viewed: the

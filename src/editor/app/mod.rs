@@ -147,6 +147,12 @@ pub struct EditorApp {
     pub safety: super::safety::Safety,
     pub views: super::views::ViewsPanel,
     pub export: super::export::ExportDialog,
+    /// An export's clip set and settings, made the project's only when its bake succeeds
+    /// (a cancelled 137-view export had already set them).
+    pending_export: Option<(Vec<String>, polypostor::bake::settings::BakeSettings)>,
+    /// The Views tab's folder before the running bake pointed it at its own: back there if
+    /// the bake fails or is cancelled.
+    source_before_bake: Option<Option<std::path::PathBuf>>,
 }
 
 /// An answer to the unsaved-changes prompt.
@@ -203,6 +209,8 @@ impl EditorApp {
             safety: Default::default(),
             views: Default::default(),
             export: Default::default(),
+            pending_export: None,
+            source_before_bake: None,
         };
         match &app.adapter {
             Some(a) => app.info(format!("GPU adapter: {a}")),
@@ -269,6 +277,21 @@ impl eframe::App for EditorApp {
         self.poll_loading();
         self.poll_dialog();
         self.crowd.poll();
+        if let Some(ok) = self.crowd.outcome.take() {
+            let pending = self.pending_export.take();
+            let before = self.source_before_bake.take();
+            if ok {
+                if let (Some((clips, settings)), Some(doc)) = (pending, self.doc.as_mut())
+                    && (doc.project.clips != clips || doc.project.bake != settings)
+                {
+                    doc.project.clips = clips;
+                    doc.project.bake = settings;
+                    doc.dirty = true;
+                }
+            } else if let Some(before) = before {
+                self.views.set_source(before.as_deref());
+            }
+        }
         for (level, text) in std::mem::take(&mut self.crowd.messages) {
             match level {
                 LogLevel::Info => self.info(text),
@@ -284,6 +307,9 @@ impl eframe::App for EditorApp {
         self.apply_commands(&ctx);
         self.reimport_if_needed(&ctx);
         self.autosave(false);
+        if self.options.autosave && self.doc.as_ref().is_some_and(|d| d.dirty) {
+            ctx.request_repaint_after(self.safety.next_due() + std::time::Duration::from_millis(50));
+        }
         // Closing with unsaved changes asks first.
         if ctx.input(|i| i.viewport().close_requested())
             && !self.safety.allow_close
