@@ -444,7 +444,7 @@ impl CrowdPanel {
         ui.horizontal(|ui| {
             // Cancel first: on a narrow window the row is cut on the right, never the button.
             if ui.button("Cancel").clicked() {
-                job.cancel.store(true, Ordering::Relaxed);
+                self.cancel_job();
             }
             ui.label(format!("{} — {}", job.what, eta.stage()));
             ui.add(
