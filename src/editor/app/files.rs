@@ -188,10 +188,25 @@ impl EditorApp {
         if let Some(p) = problem {
             self.warn(p);
         }
+        // Bake settings out of range (a file edited by hand) are named and put back to their
+        // defaults, so an export does not fail on them later.
+        let mut loaded = loaded;
+        let (settings, wrong) = loaded.project.bake.repaired();
+        let repaired = !wrong.is_empty();
+        for e in wrong {
+            let file = loaded.project_file.as_ref().map(|f| f.display().to_string());
+            self.warn(format!(
+                "{}the project's bake setting {} {}: its default is used (save to keep it)",
+                file.map(|f| format!("{f}: ")).unwrap_or_default(),
+                e.setting.replace('-', "_"),
+                e.message
+            ));
+        }
+        loaded.project.bake = settings;
         let doc = Document {
             saved: loaded.project_file.is_some().then(|| loaded.project.clone()),
             project: loaded.project,
-            dirty: loaded.project_file.is_none(),
+            dirty: loaded.project_file.is_none() || repaired,
             project_file: loaded.project_file,
             character_path: loaded.character_path,
             summary: polypostor::summary::Summary::of(&loaded.character),

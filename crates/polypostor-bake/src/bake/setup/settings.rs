@@ -164,6 +164,39 @@ impl BakeSettings {
         Ok(())
     }
 
+    /// These settings with every one out of its range put back to its default, and what was
+    /// wrong with each (a project file written by hand or by another version: the editor
+    /// opened resolution 7 and views 0 without a word, and its export then failed).
+    pub fn repaired(&self) -> (BakeSettings, Vec<SettingError>) {
+        let mut s = self.clone();
+        let d = BakeSettings::default();
+        let mut errors = Vec::new();
+        // One setting a round; at most every setting once.
+        for _ in 0..16 {
+            let Err(e) = s.validate() else { break };
+            match e.setting {
+                "views" => s.views = d.views,
+                "resolution" => s.resolution = d.resolution,
+                "fps" => s.fps = d.fps,
+                "max-keys" => s.max_keys = d.max_keys,
+                "key-gain-db" => s.key_gain_db = d.key_gain_db,
+                "key-budget" => s.key_budget = d.key_budget,
+                "key-share" => s.key_share = d.key_share,
+                "key-ratio" => s.key_ratio = d.key_ratio,
+                "representation" => s.representations = d.representations.clone(),
+                "polygon-vertices" => s.polygon_vertices = d.polygon_vertices,
+                "interior-vertices" => s.interior_vertices = d.interior_vertices,
+                "no-restarts" => s.no_restarts = false,
+                _ => {
+                    errors.push(e);
+                    return (d, errors);
+                }
+            }
+            errors.push(e);
+        }
+        (s, errors)
+    }
+
     /// The representations to bake (checked by [`BakeSettings::validate`]; all of them if
     /// the list does not parse).
     pub fn representation_set(&self) -> polypostor_runtime::reps::RepSet {
@@ -212,6 +245,32 @@ impl BakeSettings {
 
 #[cfg(test)]
 mod tests {
+
+    /// Settings out of range (a project file edited by hand) come back at their defaults,
+    /// each named; the others are kept.
+    #[test]
+    fn settings_out_of_range_are_repaired_to_their_defaults_and_named() {
+        let d = BakeSettings::default();
+        let bad = BakeSettings {
+            views: 0,
+            resolution: 7,
+            fps: 0.0,
+            polygon_vertices: 24,
+            ..d.clone()
+        };
+        let (fixed, errors) = bad.repaired();
+        fixed.validate().unwrap();
+        let named: Vec<&str> = errors.iter().map(|e| e.setting).collect();
+        assert_eq!(named, ["views", "resolution", "fps"]);
+        assert_eq!(
+            (fixed.views, fixed.resolution, fixed.fps),
+            (d.views, d.resolution, d.fps)
+        );
+        assert_eq!(fixed.polygon_vertices, 24);
+        let (same, none) = d.repaired();
+        assert!(none.is_empty() && same == d);
+    }
+
     use super::*;
 
     #[test]
