@@ -1142,3 +1142,14 @@ fn a_channel_aimed_at_a_missing_node_is_said() {
     assert_eq!(intact.clips[0].channels.len(), channels);
     assert_eq!(got.clips[0].channels.len(), channels - 1);
 }
+
+/// A text file given a glTF name was reported as "invalid JSON: expected value at line 1",
+/// which sends the user looking for a typo: it is said to be no glTF file at all. A JSON file
+/// with a syntax error keeps the parser's message.
+#[test]
+fn a_file_that_is_no_gltf_at_all_is_said_to_be_none() {
+    let e = polypostor::import::import_slice(b"hello, this is text\n", None, "fake").unwrap_err();
+    assert!(e.to_string().contains("not a glTF file"), "{e}");
+    let e = polypostor::import::import_slice(b"{\"asset\": ", None, "cut").unwrap_err();
+    assert!(!e.to_string().contains("not a glTF file"), "{e}");
+}

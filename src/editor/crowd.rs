@@ -646,10 +646,11 @@ impl CrowdPanel {
                         ui,
                         a.character.name.as_str(),
                         format!(
-                            "{} tall, {} long; {} clips (walk {}, run {}, {} standing)",
+                            "{} tall, {} long; {} clip{} (walk {}, run {}, {} standing)",
                             metres(a.size.height),
                             metres(a.size.length),
                             a.timeline.spans.len(),
+                            if a.timeline.spans.len() == 1 { "" } else { "s" },
                             speed(gaits.walk),
                             speed(gaits.run),
                             gaits.idle.len()

@@ -155,6 +155,12 @@ pub fn import_slice_with(
             "the JSON starts with a byte-order mark (BOM), which glTF forbids".into(),
         ));
     }
+    // Neither GLB nor JSON (a text file given a .glb name): said as such, not as bad JSON.
+    if bin.is_none() && json_bytes.iter().find(|b| !b.is_ascii_whitespace()) != Some(&b'{') {
+        return Err(ImportError::Json(
+            "neither a GLB (which starts with 'glTF') nor glTF JSON (an object, '{'): not a glTF file".into(),
+        ));
+    }
     let root: json::Root = json::deserialize::from_slice(json_bytes).map_err(|e| ImportError::Json(e.to_string()))?;
     check_asset(&root, &mut warnings)?;
     // Every index is checked where it is used (`get`, never `[]`), so no separate
