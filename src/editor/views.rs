@@ -494,18 +494,44 @@ impl ViewsPanel {
         if overall.is_empty() && metric == PlotMetric::Silhouette {
             ui.label(egui::RichText::new("This report has no silhouette per frame: bake again.").weak());
         }
-        use egui_plot::{Legend, Line, Plot, PlotPoints};
+        use egui_plot::{Corner, Legend, Line, Plot, PlotPoints};
+        // PSNR capped as in `compare`'s plots: a frame drawn from its own key image is exact
+        // (99 dB), and that spike set the axis to 0..100 with every other curve near its foot.
+        let cap = if metric == PlotMetric::Psnr {
+            PSNR_PLOT_CAP
+        } else {
+            f64::INFINITY
+        };
         let series = |values: &[f64]| -> PlotPoints<'static> {
             values
                 .iter()
                 .enumerate()
                 .filter(|(_, y)| y.is_finite())
-                .map(|(f, &y)| [f as f64, y])
+                .map(|(f, &y)| [f as f64, y.min(cap)])
                 .collect()
         };
+        if metric == PlotMetric::Psnr
+            && overall
+                .iter()
+                .chain(per_part.iter().flat_map(|(_, v)| v))
+                .any(|&y| y > cap)
+        {
+            ui.label(
+                egui::RichText::new(format!(
+                    "capped at {PSNR_PLOT_CAP:.0} dB: a frame drawn from its own key image is exact"
+                ))
+                .small()
+                .weak(),
+            );
+        }
         Plot::new(("view error", sel, metric as u8))
             .height(180.0)
-            .legend(Legend::default())
+            .legend(
+                Legend::default()
+                    .position(Corner::LeftBottom)
+                    .background_alpha(0.6)
+                    .text_style(egui::TextStyle::Small),
+            )
             .x_axis_label("frame")
             .allow_scroll(false)
             .show(ui, |plot| {
@@ -528,6 +554,9 @@ impl ViewsPanel {
         self.plot = chosen;
     }
 }
+
+/// Highest PSNR the per-frame plot shows (dB), as `compare`'s plots.
+const PSNR_PLOT_CAP: f64 = 60.0;
 
 /// Whether `report`'s views are ranked and plotted by their silhouette agreement: a nearly
 /// black character ([`polypostor::bake::pipeline::is_dark`]) with the silhouette measured
