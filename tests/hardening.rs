@@ -701,30 +701,8 @@ fn project_settings_and_unwritable_outputs_are_refused_before_the_work() {
     let e = refused(&run_in(&dir, &["bake", "proj", "--out", "a.pack"]), "project.json");
     assert!(e.contains("bake setting views 0") && e.contains("--views"), "{e}");
     // A small bake of the project into `out`, its settings given on the command line.
-    let small = |out: &str| {
-        run_in(
-            &dir,
-            &[
-                "bake",
-                "proj",
-                "--views",
-                "1",
-                "--resolution",
-                "32",
-                "--fps",
-                "5",
-                "--out",
-                out,
-            ],
-        )
-    };
-    let o = small("a.pack");
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert!(!stderr(&o).contains("coarsest outline"), "{}", stderr(&o));
-    // Polygons of a few vertices are allowed but said (3 gave 5.6 dB).
-    let o = run_in(
-        &dir,
-        &[
+    let small_with = |out: &str, more: &[&str]| {
+        let mut args = vec![
             "bake",
             "proj",
             "--views",
@@ -733,12 +711,18 @@ fn project_settings_and_unwritable_outputs_are_refused_before_the_work() {
             "32",
             "--fps",
             "5",
-            "--polygon-vertices",
-            "6",
             "--out",
-            "few.pack",
-        ],
-    );
+            out,
+        ];
+        args.extend_from_slice(more);
+        run_in(&dir, &args)
+    };
+    let small = |out: &str| small_with(out, &[]);
+    let o = small("a.pack");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("coarsest outline"), "{}", stderr(&o));
+    // Polygons of a few vertices are allowed but said (3 gave 5.6 dB).
+    let o = small_with("few.pack", &["--polygon-vertices", "6"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("polygons of 6 vertices follow only the coarsest outline"),
