@@ -2,7 +2,7 @@
 //! crowd of up to 100,000 characters drawn with any one representation or the three-level
 //! mix, with the camera in orbit or fly mode and live statistics.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, channel};
 use std::sync::{Arc, Mutex};
@@ -299,6 +299,15 @@ impl CrowdPanel {
             ));
             return;
         }
+        // The same pack twice is one character counted twice (and two rows of one name).
+        let same = |f: &Path| polypostor::safe_fs::resolved(f) == polypostor::safe_fs::resolved(&folder);
+        if self.folder.as_deref().is_some_and(same) || self.guests.iter().any(|g| same(&g.folder)) {
+            self.messages.push((
+                LogLevel::Warning,
+                format!("crowd preview: {} is in the crowd already", folder.display()),
+            ));
+            return;
+        }
         let what = format!("Adding {}", folder.display());
         self.start_loading(what, true, move || {
             CrowdAssets::load(&folder, None, None).map(|a| (folder, a, None))
@@ -408,6 +417,20 @@ impl CrowdPanel {
                 }
                 self.assets = Some((self.next_generation, Arc::new(assets)));
                 self.next_generation += 1;
+                // A guest that is this very pack (added while another project was open)
+                // leaves the guests: it is the opened character now.
+                let this = polypostor::safe_fs::resolved(&folder);
+                let before = self.guests.len();
+                self.guests.retain(|g| polypostor::safe_fs::resolved(&g.folder) != this);
+                if self.guests.len() < before {
+                    self.messages.push((
+                        LogLevel::Info,
+                        format!(
+                            "crowd preview: {} is the opened character now, not an added one",
+                            folder.display()
+                        ),
+                    ));
+                }
                 self.folder = Some(folder);
                 self.open = true;
                 self.job = None;
@@ -527,9 +550,25 @@ impl CrowdPanel {
                 ui.label(agents(0).to_string());
                 ui.label("");
                 ui.end_row();
-                for (k, g) in self.guests.iter_mut().enumerate() {
-                    ui.label(g.assets.character.name.as_str())
-                        .on_hover_text(g.folder.display().to_string());
+                // Two characters of one name (two bakes of one file) are told apart by folder.
+                let names: Vec<&str> = std::iter::once(assets.character.name.as_str())
+                    .chain(self.guests.iter().map(|g| g.assets.character.name.as_str()))
+                    .collect();
+                let labels: Vec<String> = self
+                    .guests
+                    .iter()
+                    .map(|g| {
+                        let name = g.assets.character.name.as_str();
+                        if names.iter().filter(|&&n| n == name).count() > 1 {
+                            let folder = g.folder.file_name().map(|f| f.to_string_lossy().into_owned());
+                            format!("{name} ({})", folder.unwrap_or_default())
+                        } else {
+                            name.to_string()
+                        }
+                    })
+                    .collect();
+                for (k, (g, label)) in self.guests.iter_mut().zip(labels).enumerate() {
+                    ui.label(label).on_hover_text(g.folder.display().to_string());
                     ui.add(egui::Slider::new(&mut g.share, 0.0..=1.0).show_value(false));
                     ui.label(agents(k + 1).to_string());
                     if ui.small_button("✖").on_hover_text("Remove from the crowd").clicked() {

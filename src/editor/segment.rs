@@ -58,6 +58,8 @@ pub struct SegmentPanel {
     pub eyedropper: Option<String>,
     joint: usize,
     remove_into: u16,
+    /// The active part and part count `remove_into` was chosen for.
+    remove_into_for: Option<(u16, usize)>,
     rename: Option<(u16, String)>,
     stroke: Option<Stroke>,
     topology: Option<(u64, Arc<Topology>)>,
@@ -83,6 +85,7 @@ impl Default for SegmentPanel {
             eyedropper: None,
             joint: 0,
             remove_into: 0,
+            remove_into_for: None,
             rename: None,
             stroke: None,
             topology: None,
@@ -246,8 +249,16 @@ impl SegmentPanel {
                 }
             }
             let can_remove = n > 1;
-            if self.remove_into as usize >= n || self.remove_into == self.active {
-                self.remove_into = if self.active == 0 { 1.min(n as u16 - 1) } else { 0 };
+            // By default the part the active one borders most (chosen again when another
+            // part is made active; a choice in the list below stays until then).
+            if self.remove_into_for != Some((self.active, n))
+                || self.remove_into as usize >= n
+                || self.remove_into == self.active
+            {
+                let topo = self.topology(doc);
+                self.remove_into = paint::neighbour_part(&doc.segmentation, &topo, self.active)
+                    .unwrap_or(if self.active == 0 { 1.min(n as u16 - 1) } else { 0 });
+                self.remove_into_for = Some((self.active, n));
             }
             let into_name = doc
                 .segmentation

@@ -214,9 +214,22 @@ fn crowd_preview_opens_a_baked_folder_and_draws_the_chosen_representation() {
     assert!(stats.draw_calls >= 1);
     let one = stats.gpu_bytes[Level::Np3d as usize];
 
-    // A second character shares the crowd (the same folder again), a quarter of it; then it
-    // is removed.
+    // The same folder again is refused (one character counted twice).
     h.state_mut().send(Command::AddToCrowd(out.clone()));
+    h.run_steps(2);
+    assert!(h.state().crowd.guests.is_empty() && !h.state().crowd.busy());
+    // A second character shares the crowd (a copy of the folder: a second character of the
+    // same name), a quarter of it; then it is removed.
+    let copy = out.with_extension("copy");
+    let _ = std::fs::remove_dir_all(&copy);
+    std::fs::create_dir_all(&copy).unwrap();
+    for e in std::fs::read_dir(&out).unwrap() {
+        let e = e.unwrap();
+        if e.file_type().unwrap().is_file() {
+            std::fs::copy(e.path(), copy.join(e.file_name())).unwrap();
+        }
+    }
+    h.state_mut().send(Command::AddToCrowd(copy.clone()));
     let started = std::time::Instant::now();
     while h.state().crowd.guests.is_empty() {
         assert!(started.elapsed().as_secs() < 60, "the character was not added");
@@ -236,6 +249,9 @@ fn crowd_preview_opens_a_baked_folder_and_draws_the_chosen_representation() {
         "each character on the GPU"
     );
     h.get_by_label("Add character…");
+    // Two rows of one name are told apart by their folders.
+    let name = h.state().crowd.guests[0].assets.character.name.clone();
+    h.get_by_label(&format!("{name} (reps.copy)"));
     h.state_mut().send(Command::RemoveFromCrowd(0));
     h.run_steps(1);
     h.render().expect("render");
@@ -847,6 +863,26 @@ fn export_writes_the_chosen_representations_and_opens_the_preview() {
     assert!(!dir.join("cancelled.pack").exists());
     assert_eq!(h.state().doc.as_ref().unwrap().project.bake, bake_before);
     assert_eq!(h.state().views.source, source_before);
+    // The project remembers the pack exported (not the cancelled one): saved and opened
+    // again, its Views tab shows that pack, not the Ctrl+B folder (crowd.pack).
+    assert_eq!(
+        h.state().doc.as_ref().unwrap().project.view.last_pack.as_deref(),
+        Some("export.pack")
+    );
+    h.state_mut().send(Command::Save);
+    h.run_steps(2);
+    assert!(!h.state().doc.as_ref().unwrap().dirty);
+    drop(h);
+    let mut h = harness(Some(dir.clone()));
+    h.run_steps(3);
+    assert_eq!(h.state().views.source.as_deref(), Some(out.as_path()));
+    drop(h);
+    // A recorded pack that is gone: the Ctrl+B folder.
+    std::fs::remove_dir_all(&out).unwrap();
+    let mut h = harness(Some(dir.clone()));
+    h.run_steps(3);
+    assert_eq!(h.state().views.source, Some(dir.join("crowd.pack")));
+    drop(h);
     let _ = std::fs::remove_dir_all(dir);
 }
 
@@ -1086,6 +1122,10 @@ fn the_up_axis_choice_stands_a_lying_character_up_and_undoes() {
     };
     let mut h = harness(Some(glb));
     h.run_steps(3);
+    assert!(
+        !h.state().doc.as_ref().unwrap().dirty,
+        "a character just imported holds no unsaved work"
+    );
     let lying = height(&h);
     assert!(lying < 0.5, "lies: {lying} m tall");
     h.get_by_label("Up axis").click();

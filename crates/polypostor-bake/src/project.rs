@@ -49,6 +49,11 @@ pub struct ViewState {
     /// Name of the selected clip.
     pub clip: Option<String>,
     pub playback_speed: Option<f32>,
+    /// The folder of the last pack the editor baked or exported for this project (relative
+    /// to the project file's folder where it lies below it): what the Views tab shows when
+    /// the project is opened again.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub last_pack: Option<String>,
 }
 
 /// A segmentation as stored: parts and run-length encoded per-triangle labels.
@@ -204,12 +209,17 @@ impl Project {
     }
 
     pub fn character_path(&self, project_file: &Path) -> PathBuf {
-        let p = Path::new(&self.character.path);
-        if p.is_absolute() {
-            p.to_owned()
-        } else {
-            project_file.parent().unwrap_or(Path::new(".")).join(p)
-        }
+        resolve_beside(&self.character.path, project_file)
+    }
+
+    /// The last pack the editor baked or exported, resolved against the project file's
+    /// folder; `None` if none is recorded.
+    pub fn last_pack_path(&self, project_file: &Path) -> Option<PathBuf> {
+        self.view
+            .last_pack
+            .as_deref()
+            .filter(|p| !p.is_empty())
+            .map(|p| resolve_beside(p, project_file))
     }
 
     /// Loads a project from a `project.json` or from the folder that holds one.
@@ -286,6 +296,16 @@ pub fn resolve_project_file(path: &Path) -> PathBuf {
 pub use crate::safe_fs::write_atomic;
 
 /// `target` relative to `base` when they share a prefix, else `target` as given.
+/// `path` as stored in a project: absolute, or relative to the project file's folder.
+fn resolve_beside(path: &str, project_file: &Path) -> PathBuf {
+    let p = Path::new(path);
+    if p.is_absolute() {
+        p.to_owned()
+    } else {
+        project_file.parent().unwrap_or(Path::new(".")).join(p)
+    }
+}
+
 pub fn relative_path(target: &Path, base: &Path) -> String {
     let abs = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_owned());
     let (t, b) = (abs(target), abs(base));

@@ -233,6 +233,17 @@ pub(super) fn bake_dir(doc: &Document) -> PathBuf {
     }
 }
 
+/// What the Views tab shows when a document is opened: the last pack baked or exported for
+/// its project, where that folder still holds one of this tool's bakes, else where the
+/// editor bakes it ([`bake_dir`]).
+pub(super) fn views_source_on_open(doc: &Document) -> PathBuf {
+    doc.project_file
+        .as_deref()
+        .and_then(|f| doc.project.last_pack_path(f))
+        .filter(|dir| polypostor::safe_fs::bake_folder_format(dir).is_some())
+        .unwrap_or_else(|| bake_dir(doc))
+}
+
 /// Where an editor process bakes a project never saved; removed when the editor exits, and
 /// by the next editor if that one was killed.
 pub(super) fn temp_bake_dir(pid: u32) -> PathBuf {
@@ -250,12 +261,34 @@ pub(super) fn remove_stale_temp_bakes() {
             .strip_prefix("polypostor-crowd-")
             .and_then(|r| r.strip_suffix(".pack"))
             .and_then(|p| p.parse::<u32>().ok());
+        // Only a folder this tool wrote and nothing else put in (what a bake would replace).
         if let Some(pid) = pid
             && pid != std::process::id()
             && !polypostor::safe_fs::process_alive(pid)
             && e.file_type().is_ok_and(|t| t.is_dir())
+            && polypostor::safe_fs::check_bake_output(&e.path(), &[]).is_ok()
         {
             let _ = std::fs::remove_dir_all(e.path());
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// A temporary bake folder of an editor no longer running is removed only when it holds
+    /// nothing but what the tool writes: a folder of that name holding a user's file stays.
+    #[test]
+    fn stale_temporary_bakes_are_removed_only_when_the_tool_s() {
+        // A process number above Linux's largest (4,194,304) is never alive.
+        let (empty, foreign) = (super::temp_bake_dir(4_194_400), super::temp_bake_dir(4_194_401));
+        for d in [&empty, &foreign] {
+            let _ = std::fs::remove_dir_all(d);
+            std::fs::create_dir_all(d).unwrap();
+        }
+        std::fs::write(foreign.join("notes.txt"), "mine").unwrap();
+        super::remove_stale_temp_bakes();
+        assert!(!empty.exists(), "an empty stale folder is removed");
+        assert_eq!(std::fs::read_to_string(foreign.join("notes.txt")).unwrap(), "mine");
+        std::fs::remove_dir_all(&foreign).unwrap();
     }
 }

@@ -206,7 +206,9 @@ impl EditorApp {
         let doc = Document {
             saved: loaded.project_file.is_some().then(|| loaded.project.clone()),
             project: loaded.project,
-            dirty: loaded.project_file.is_none() || repaired,
+            // A character just imported holds no work yet: closing it asks nothing (it is
+            // saved as a project on the first Save, which asks where).
+            dirty: repaired,
             project_file: loaded.project_file,
             character_path: loaded.character_path,
             summary: polypostor::summary::Summary::of(&loaded.character),
@@ -221,7 +223,7 @@ impl EditorApp {
         {
             self.warn(w);
         }
-        self.views.set_source(Some(&bake_dir(&doc)));
+        self.views.set_source(Some(&views_source_on_open(&doc)));
         self.doc = Some(doc);
         self.frame_character();
     }

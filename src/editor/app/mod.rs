@@ -20,7 +20,7 @@ mod dialogs;
 mod files;
 mod panels;
 
-use commands::{bake_dir, remove_stale_temp_bakes, temp_bake_dir};
+use commands::{remove_stale_temp_bakes, temp_bake_dir, views_source_on_open};
 use dialogs::{PathPrompt, PathPurpose};
 use files::{LoadRequest, Loading};
 use files::{expand_home, is_gltf};
@@ -288,6 +288,20 @@ impl eframe::App for EditorApp {
                     doc.project.bake = settings;
                     doc.dirty = true;
                 }
+                // A Polypostor bake (it pointed the Views tab at its folder): the project
+                // remembers it, and opens on it next time.
+                if before.is_some()
+                    && let (Some(doc), Some(out)) = (self.doc.as_mut(), self.views.source.as_deref())
+                {
+                    let stored = match doc.project_file.as_deref().and_then(Path::parent) {
+                        Some(dir) => polypostor::project::relative_path(out, dir),
+                        None => out.display().to_string(),
+                    };
+                    if doc.project.view.last_pack.as_deref() != Some(stored.as_str()) {
+                        doc.project.view.last_pack = Some(stored);
+                        doc.dirty = true;
+                    }
+                }
             } else if let Some(before) = before {
                 self.views.set_source(before.as_deref());
             }
@@ -358,10 +372,14 @@ impl eframe::App for EditorApp {
                 .show(ui, |ui| self.log_panel(ui));
         }
         let fps = self.timer.fps();
+        // Side panels never take more than about half the window: wide content (the crowd's
+        // statistics, long names) is cut at the edge instead of widening them for good.
+        let side_max = (ui.available_width() * 0.45).max(260.0);
         egui::Panel::left("character")
             .frame(panel_frame(ui.style()))
             .resizable(true)
             .default_size(300.0)
+            .max_size(side_max)
             .show(ui, |ui| {
                 ui.horizontal(|ui| {
                     let open = self.crowd.open;
@@ -420,6 +438,7 @@ impl eframe::App for EditorApp {
                 .frame(panel_frame(ui.style()))
                 .resizable(true)
                 .default_size(470.0)
+                .max_size(side_max.max(ui.available_width() * 0.5))
                 .show(ui, |ui| {
                     egui::ScrollArea::vertical().id_salt("inspector scroll").show(ui, |ui| {
                         let doc = self.doc.as_mut().unwrap();

@@ -351,6 +351,46 @@ pub fn part_limit_message() -> String {
     )
 }
 
+/// The part whose triangles share the most edges with part `p`'s (ties: the lower index):
+/// where a removed part's triangles go by default (a hand into its forearm, not into
+/// whichever part comes first). A part touching no other: the largest other part. `None`
+/// for a segmentation of one part.
+pub fn neighbour_part(seg: &Segmentation, topo: &Topology, p: u16) -> Option<u16> {
+    let n = seg.parts.len();
+    if n < 2 || p as usize >= n {
+        return None;
+    }
+    let mut shared = vec![0usize; n];
+    let mut size = vec![0usize; n];
+    for (t, &l) in seg.labels.iter().enumerate() {
+        if let Some(s) = size.get_mut(l as usize) {
+            *s += 1;
+        }
+        if l != p {
+            continue;
+        }
+        for &m in topo.neighbours.get(t).into_iter().flatten().filter(|&&m| m != NONE) {
+            if let Some(&o) = seg.labels.get(m as usize)
+                && o != p
+                && let Some(c) = shared.get_mut(o as usize)
+            {
+                *c += 1;
+            }
+        }
+    }
+    let best = |score: &[usize]| {
+        (0..n)
+            .filter(|&i| i != p as usize)
+            .max_by(|&a, &b| score[a].cmp(&score[b]).then(b.cmp(&a)))
+            .map(|i| i as u16)
+    };
+    if shared.iter().any(|&c| c > 0) {
+        best(&shared)
+    } else {
+        best(&size)
+    }
+}
+
 /// Removes part `p`, giving its triangles to `into` (an index before the removal); later
 /// parts move down one, and the cap colours chosen for them follow. Fails for the last part
 /// or when `into` is `p` or missing.
@@ -556,6 +596,61 @@ mod tests {
             ..dab
         };
         assert!(dab_triangles(&pos, &c.indices, &miss).is_empty());
+    }
+
+    /// The default target of a removal, against counting every pair of triangles that share
+    /// two welded corners: on the default character each part's is the part it borders most.
+    #[test]
+    fn a_removed_part_goes_by_default_to_the_part_it_borders_most() {
+        let c = character();
+        let topo = Topology::new(&c);
+        let seg = auto_segment(&c);
+        let welded = crate::bake::caps::weld(&c);
+        let tris = seg.labels.len();
+        let mut touching = 0;
+        let corners: Vec<[u32; 3]> = (0..tris)
+            .map(|t| std::array::from_fn(|k| welded[c.indices[3 * t + k] as usize]))
+            .collect();
+        for p in 0..seg.parts.len() as u16 {
+            let mut count = vec![0usize; seg.parts.len()];
+            for a in (0..tris).filter(|&a| seg.labels[a] == p) {
+                let ca = corners[a];
+                for b in (0..tris).filter(|&b| seg.labels[b] != p) {
+                    if corners[b].iter().filter(|v| ca.contains(v)).count() >= 2 {
+                        count[seg.labels[b] as usize] += 1;
+                    }
+                }
+            }
+            let got = neighbour_part(&seg, &topo, p).unwrap();
+            assert_ne!(got, p);
+            let top = *count.iter().max().unwrap();
+            if top > 0 {
+                assert_eq!(count[got as usize], top, "part {p}: {count:?}, chose {got}");
+                touching += 1;
+            } else {
+                let size = |i: usize| seg.labels.iter().filter(|&&l| l as usize == i).count();
+                let others = (0..seg.parts.len()).filter(|&i| i != p as usize);
+                assert_eq!(size(got as usize), others.map(size).max().unwrap(), "part {p}");
+            }
+        }
+        assert!(touching >= seg.parts.len() / 2, "{touching} parts touch another");
+        // A part touching no other goes into the largest other part; one part: none.
+        let mut lone = seg.clone();
+        let p = add_part(&mut lone, "lone").unwrap();
+        let largest = (0..seg.parts.len())
+            .max_by_key(|&i| {
+                (
+                    seg.labels.iter().filter(|&&l| l as usize == i).count(),
+                    std::cmp::Reverse(i),
+                )
+            })
+            .unwrap();
+        assert_eq!(neighbour_part(&lone, &topo, p), Some(largest as u16));
+        let one = Segmentation {
+            parts: vec![seg.parts[0].clone()],
+            labels: vec![0; tris],
+        };
+        assert_eq!(neighbour_part(&one, &topo, 0), None);
     }
 
     #[test]
