@@ -1009,6 +1009,9 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
         eprintln!("note: {note}");
     }
     let parsed: Option<polypostor::bake::report::Report> = serde_json::from_value(report).ok();
+    if let Some(note) = parsed.as_ref().and_then(|r| r.empty_views_note()) {
+        eprintln!("warning: {note}");
+    }
     if let Some(table) = parsed.and_then(|r| r.clip_table()) {
         eprint!("{table}");
     }

@@ -282,7 +282,10 @@ impl ViewsPanel {
             ui.label(format!("silhouette agreement {:.3}", report.mean_silhouette_iou))
                 .on_hover_text("the pixels both the composite and the render cover over those either covers, whatever their colours (1 = the same shape)");
         }
-        if let Some(note) = polypostor::bake::pipeline::dark_note(report.truth_brightness) {
+        for note in polypostor::bake::pipeline::dark_note(report.truth_brightness)
+            .into_iter()
+            .chain(report.empty_views_note())
+        {
             ui.label(
                 egui::RichText::new(format!("⚠ {note}"))
                     .small()

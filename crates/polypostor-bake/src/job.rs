@@ -215,8 +215,31 @@ pub fn default_out(character_path: &Path, clips: &ClipChoice, c: &Character) -> 
     if clips.is_several() {
         PathBuf::from(format!("{stem}-clips.pack"))
     } else {
-        PathBuf::from(format!("{stem}-{}.pack", clips.name(c).unwrap_or("rest")))
+        PathBuf::from(format!(
+            "{stem}-{}.pack",
+            name_for_file(clips.name(c).unwrap_or("rest"))
+        ))
     }
+}
+
+/// A clip's name as part of a file name: letters, digits, `-`, `_`, `.` and spaces kept,
+/// anything else (path separators, control characters, `:*?"<>|`) made `_`, leading dots
+/// and spaces dropped, at most 64 characters. The name comes from the glTF: a clip named
+/// `../../x` must not choose where a bake writes.
+pub fn name_for_file(name: &str) -> String {
+    let kept: String = name
+        .chars()
+        .map(|ch| {
+            if ch.is_alphanumeric() || matches!(ch, '-' | '_' | '.' | ' ') {
+                ch
+            } else {
+                '_'
+            }
+        })
+        .take(64)
+        .collect();
+    let kept = kept.trim_start_matches(['.', ' ']).trim_end();
+    if kept.is_empty() { "clip".into() } else { kept.into() }
 }
 
 /// Checks, before any work, that a bake may write `out`: never over what this tool did not
@@ -726,6 +749,44 @@ mod tests {
             default_out(Path::new("hero.glb"), &several, &c),
             PathBuf::from("hero-clips.pack")
         );
+    }
+
+    /// A clip's name taken into the default folder name never leaves the working folder nor
+    /// makes a name with separators or control characters.
+    #[test]
+    fn clip_names_make_plain_folder_names() {
+        for (name, want) in [
+            ("Walk", "Walk"),
+            ("Run fast", "Run fast"),
+            ("../../../../ESCAPED", "_.._.._.._ESCAPED"),
+            ("anim/sub/clip", "anim_sub_clip"),
+            ("a\\b:c*?\"<>|", "a_b_c______"),
+            ("line\nbreak\t", "line_break_"),
+            ("..", "clip"),
+            ("", "clip"),
+            ("  .hidden", "hidden"),
+            ("Ходьба", "Ходьба"),
+        ] {
+            let got = name_for_file(name);
+            assert_eq!(got, want, "{name:?}");
+            let p = Path::new(&got);
+            assert_eq!(p.components().count(), 1, "{got:?}");
+            assert!(matches!(p.components().next(), Some(std::path::Component::Normal(_))));
+        }
+        assert_eq!(name_for_file(&"x".repeat(300)).len(), 64);
+        let mut c = crate::default_character::generate();
+        c.clips[0].name = "../../../../ESCAPED".into();
+        let k = ClipChoice::resolve(
+            &c,
+            ClipRequest {
+                clip: Some("../../../../ESCAPED"),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let out = default_out(Path::new("x/hero.glb"), &k, &c);
+        assert_eq!(out, PathBuf::from("hero-_.._.._.._ESCAPED.pack"));
+        assert_eq!(out.components().count(), 1);
     }
 
     #[test]

@@ -172,6 +172,39 @@ pub struct Report {
     /// next to classic impostors of that clip alone.
     #[serde(default)]
     pub clips: Vec<ClipReport>,
+    /// Views in which no part of the character was traced (it is under a pixel wide, or
+    /// cut out, from there): they draw nothing, and their error — measured against the
+    /// same empty part images — says nothing, so they are left out of every mean and
+    /// worst figure above (and of the clips').
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub empty_views: Vec<usize>,
+}
+
+impl Report {
+    /// What to say of [`Report::empty_views`]: `None` when every view traced something.
+    pub fn empty_views_note(&self) -> Option<String> {
+        let e = &self.empty_views;
+        if e.is_empty() {
+            return None;
+        }
+        let mut shown: Vec<String> = e.iter().take(8).map(|v| v.to_string()).collect();
+        if e.len() > 8 {
+            shown.push("…".into());
+        }
+        let one = e.len() == 1;
+        Some(format!(
+            "{} of {} views trace no part of the character (view{} {}): from there it is under a pixel wide or cut \
+             out at {r}²; {} nothing and {} left out of the means; a higher --resolution keeps {}",
+            e.len(),
+            self.views.len(),
+            if one { "" } else { "s" },
+            shown.join(", "),
+            if one { "that view draws" } else { "those views draw" },
+            if one { "is" } else { "are" },
+            if one { "it" } else { "them" },
+            r = self.settings.resolution
+        ))
+    }
 }
 
 /// One clip of a (whole-character) pack.
@@ -369,12 +402,26 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
                 .collect(),
         })
         .collect();
-    let all: Vec<f64> = views.iter().flat_map(|v| v.psnr.iter().copied()).collect();
-    let all_static: Vec<f64> = views.iter().flat_map(|v| v.psnr_static.iter().copied()).collect();
-    let all_ssim: Vec<f64> = views.iter().flat_map(|v| v.ssim.iter().copied()).collect();
-    let all_iou: Vec<f64> = views.iter().flat_map(|v| v.silhouette_iou.iter().copied()).collect();
+    // Views that traced nothing draw nothing against part images that hold nothing: a
+    // perfect score that is no score.
+    let empty_views: Vec<usize> = bake
+        .views
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.parts.iter().all(|p| p.fit.is_none()))
+        .map(|(i, _)| i)
+        .collect();
+    let counted: Vec<&ViewReport> = if empty_views.len() < views.len() {
+        views.iter().filter(|v| !empty_views.contains(&v.index)).collect()
+    } else {
+        views.iter().collect()
+    };
+    let all: Vec<f64> = counted.iter().flat_map(|v| v.psnr.iter().copied()).collect();
+    let all_static: Vec<f64> = counted.iter().flat_map(|v| v.psnr_static.iter().copied()).collect();
+    let all_ssim: Vec<f64> = counted.iter().flat_map(|v| v.ssim.iter().copied()).collect();
+    let all_iou: Vec<f64> = counted.iter().flat_map(|v| v.silhouette_iou.iter().copied()).collect();
     let brightness: Vec<f64> = bake.views.iter().map(|v| v.error.truth_brightness).collect();
-    let mut worst: Vec<WorstView> = views
+    let mut worst: Vec<WorstView> = counted
         .iter()
         .map(|v| WorstView {
             view: v.index,
@@ -429,12 +476,13 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
         extra_key_bytes: stats.extra_key_bytes,
         triangles_per_view: stats.triangles_per_view,
         worst_views: worst,
-        clips: clip_reports(bake, &views, stats),
+        clips: clip_reports(bake, &counted, stats),
+        empty_views,
         views,
     }
 }
 
-fn clip_reports(bake: &Bake, views: &[ViewReport], stats: &PackStats) -> Vec<ClipReport> {
+fn clip_reports(bake: &Bake, views: &[&ViewReport], stats: &PackStats) -> Vec<ClipReport> {
     let frames = bake.frame_times.len();
     let r = bake.options.resolution as u64;
     let all_animation = animation_bytes(bake, 0..frames);
