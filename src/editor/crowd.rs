@@ -1119,21 +1119,7 @@ pub(crate) fn ratio(x: f32) -> String {
     }
 }
 
-/// A length for people to read: mm, cm, m or km as its size asks.
-pub(crate) fn metres(x: f32) -> String {
-    let a = x.abs();
-    if a < 1e-4 {
-        format!("{:.1} µm", x * 1e6)
-    } else if a < 0.01 {
-        format!("{:.1} mm", x * 1000.0)
-    } else if a < 1.0 {
-        format!("{:.1} cm", x * 100.0)
-    } else if a < 1000.0 {
-        format!("{x:.2} m")
-    } else {
-        format!("{:.2} km", x / 1000.0)
-    }
-}
+pub(crate) use polypostor::crowd::metres;
 
 /// Keeps the crowd preview's orbit above the ground it looks at: the point it turns about
 /// no lower than the ground, and the eye at least a fifth of the character's height above it

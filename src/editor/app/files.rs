@@ -148,12 +148,12 @@ impl EditorApp {
         }
         let c = &loaded.character;
         self.info(format!(
-            "loaded {} ({} vertices, {} triangles, {} joints, {} clips)",
+            "loaded {} ({} vertices, {} triangles, {} joints, {})",
             loaded.character_path.display(),
             c.vertices.len(),
             c.triangle_count(),
             c.skeleton.joint_count(),
-            c.clips.len()
+            polypostor::import::plural(c.clips.len(), "clip")
         ));
         for w in &c.warnings {
             self.warn(w.clone());

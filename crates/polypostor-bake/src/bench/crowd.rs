@@ -145,10 +145,10 @@ pub fn bench_crowd(
             let names = std::iter::once(&assets).chain(&guests);
             for ((a, n), share) in names.zip(per_kind).zip(&shares) {
                 eprintln!(
-                    "  character {:<16} share {share:.2}: {n} agents, {:.2} m tall, {} clips",
+                    "  character {:<16} share {share:.2}: {n} agents, {} tall, {}",
                     a.character.name,
-                    a.size.height,
-                    a.timeline.spans.len()
+                    crate::crowd::metres(a.size.height),
+                    crate::import::plural(a.timeline.spans.len(), "clip")
                 );
             }
         }

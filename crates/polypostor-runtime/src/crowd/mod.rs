@@ -1433,3 +1433,20 @@ fn start_gait(a: &mut Agents, rng: &mut Rng, g: &Gaits, i: usize, gait: Gait, pa
 
 #[cfg(test)]
 mod tests;
+
+/// A length for people to read: µm, mm, cm, m or km as its size asks (a character 1.95 mm
+/// tall is "2.0 mm", not "0.00 m").
+pub fn metres(x: f32) -> String {
+    let a = x.abs();
+    if a < 1e-4 {
+        format!("{:.1} µm", x * 1e6)
+    } else if a < 0.01 {
+        format!("{:.1} mm", x * 1000.0)
+    } else if a < 1.0 {
+        format!("{:.1} cm", x * 100.0)
+    } else if a < 1000.0 {
+        format!("{x:.2} m")
+    } else {
+        format!("{:.2} km", x / 1000.0)
+    }
+}

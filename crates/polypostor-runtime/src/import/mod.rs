@@ -849,7 +849,7 @@ impl Builder<'_> {
         };
         let out = accessor::read_f32(self.root, self.buffers, sampler.output.value()).ok()?;
         let expected = times.len() * per_key * targets.len();
-        if out.components != 1 || out.data.len() != expected || out.data.iter().any(|x| !x.is_finite()) {
+        if out.components != 1 || out.data.len() != expected {
             self.warn(format!(
                 "{what}: morph weights output has {} values, expected {expected} ({} keys × {} targets); skipped",
                 out.data.len(),
@@ -857,6 +857,19 @@ impl Builder<'_> {
                 targets.len()
             ));
             return None;
+        }
+        if let Some(k) = out.data.iter().position(|x| !x.is_finite()) {
+            self.warn(format!(
+                "{what}: morph weight {k} of {expected} is {} (not a number); skipped",
+                out.data[k]
+            ));
+            return None;
+        }
+        let largest = out.data.iter().fold(0.0f32, |m, x| m.max(x.abs()));
+        if largest > MORPH_WEIGHT_PLAUSIBLE {
+            self.warn(format!(
+                "{what}: morph weights reach {largest} (they usually lie within 0..1): the targets are added that many times over; kept as given"
+            ));
         }
         Some(crate::character::MorphChannel {
             targets: targets.to_vec(),
@@ -939,16 +952,19 @@ impl Builder<'_> {
         let mut skipped_skinless = 0usize;
         let mut morph_clips: Vec<String> = Vec::new();
         for (ai, anim) in root.animations.iter().enumerate() {
-            let name = anim
-                .name
-                .clone()
-                .filter(|n| !n.trim().is_empty())
-                .unwrap_or_else(|| format!("Animation {ai}"));
+            // An unnamed clip is named after its index once every clip is read
+            // (`unique_clip_names`), so that it never takes a name a clip was given.
+            let name = anim.name.clone().unwrap_or_default();
+            let shown = if name.trim().is_empty() {
+                format!("{ai}")
+            } else {
+                format!("'{name}'")
+            };
             let mut channels = Vec::new();
             let mut morph_channels: Vec<crate::character::MorphChannel> = Vec::new();
             let mut duration = 0.0f32;
             for (ci, ch) in anim.channels.iter().enumerate() {
-                let what = format!("animation '{name}' channel {ci}");
+                let what = format!("animation {shown} channel {ci}");
                 let Some(sampler) = anim.samplers.get(ch.sampler.value()) else {
                     self.warn(format!("{what}: missing sampler; skipped"));
                     continue;
@@ -999,8 +1015,8 @@ impl Builder<'_> {
                     match self.morph_channel(&what, sampler, times, targets) {
                         Some(c) => morph_channels.push(c),
                         None => {
-                            if !morph_clips.contains(&name) {
-                                morph_clips.push(name.clone());
+                            if !morph_clips.contains(&shown) {
+                                morph_clips.push(shown.clone());
                             }
                         }
                     }
@@ -1096,7 +1112,7 @@ impl Builder<'_> {
                     c.times.iter_mut().for_each(|t| *t -= start);
                 }
                 self.warn(format!(
-                    "animation '{name}': every key is at {start:.3} s or later; played from its first key \
+                    "animation {shown}: every key is at {start:.3} s or later; played from its first key \
                      ({:.3} s long, not {duration:.3} s)",
                     duration - start
                 ));
@@ -1112,8 +1128,8 @@ impl Builder<'_> {
         }
         if !morph_clips.is_empty() {
             self.warn(format!(
-                "morph target weight channels that could not be read are not played; those shapes stay at their default weights ({} clips: {})",
-                morph_clips.len(),
+                "morph target weight channels that could not be read are not played; those shapes stay at their default weights ({}: {})",
+                plural(morph_clips.len(), "clip"),
                 morph_clips.join(", ")
             ));
         }
@@ -1198,9 +1214,19 @@ fn size_warning((min, max): (glam::Vec3, glam::Vec3)) -> Option<String> {
     if !extent.is_finite() {
         return None;
     }
+    // The power of ten that brings it nearest a person's size (about 2 m), named as a unit
+    // where it is one (a model in millimetres asks for 0.001, not centimetres' 0.01).
+    let n = (extent / 2.0).log10().round().clamp(-30.0, 30.0) as i32;
+    let scale = if n >= 0 { 1.0 / 10f32.powi(n) } else { 10f32.powi(-n) };
+    let unit = match scale {
+        k if (k - 0.01).abs() < 1e-4 => "centimetres",
+        k if (k - 0.001).abs() < 1e-5 => "millimetres",
+        _ => "other units",
+    };
     if extent > HUGE_METRES {
         Some(format!(
-            "the character is {extent:.0} m across: glTF lengths are metres and the crowd shows it at that size; if it was made in centimetres, export it with a 0.01 scale on its root node"
+            "the character is {extent:.0} m across: glTF lengths are metres and the crowd shows it at that size; if it was made in {unit}, export it with a {scale} scale on its root node ({:.2} m across)",
+            extent * scale
         ))
     } else if extent > 0.0 && extent < TINY_METRES {
         // Millimetres while they read (0.02 mm), a power of ten below that (1.5e-7 m).
@@ -1210,7 +1236,8 @@ fn size_warning((min, max): (glam::Vec3, glam::Vec3)) -> Option<String> {
             format!("{extent:.2e} m")
         };
         Some(format!(
-            "the character is {size} across: glTF lengths are metres and the crowd shows it at that size; check the exporter's unit scale"
+            "the character is {size} across: glTF lengths are metres and the crowd shows it at that size; check the exporter's unit scale (×{scale:e} makes it {:.2} m)",
+            extent * scale
         ))
     } else {
         None
@@ -1269,9 +1296,22 @@ pub(crate) fn unique_clip_names(clips: &mut [Clip]) -> Vec<(String, String)> {
     let mut taken: std::collections::HashSet<String> = std::collections::HashSet::new();
     for i in 0..clips.len() {
         let original = clips[i].name.clone();
-        let mut base = original.trim().replace(',', ";");
+        // Control characters (a newline, a tab) would break every table the name is
+        // printed in; a name longer than MAX_CLIP_NAME_CHARS widens them all.
+        let printable: String = original
+            .chars()
+            .map(|c| if c.is_control() { ' ' } else { c })
+            .take(MAX_CLIP_NAME_CHARS)
+            .collect();
+        let mut base = printable.trim().replace(',', ";");
         if base.eq_ignore_ascii_case("all") {
             base = format!("{base} (clip)");
+        }
+        // An unnamed clip is called after its index, silently, as before; a clip given that
+        // name keeps it (the unnamed one moves aside).
+        let unnamed = base.is_empty();
+        if unnamed {
+            base = format!("Animation {i}");
         }
         let mut name = base.clone();
         let mut k = 2;
@@ -1283,11 +1323,16 @@ pub(crate) fn unique_clip_names(clips: &mut [Clip]) -> Vec<(String, String)> {
         taken.insert(name.clone());
         if name != original {
             clips[i].name = name.clone();
-            renamed.push((original, name));
+            if !(unnamed && original.is_empty()) {
+                renamed.push((original, name));
+            }
         }
     }
     renamed
 }
+
+/// Longest clip name kept (in characters): a longer one is cut, with a warning.
+pub const MAX_CLIP_NAME_CHARS: usize = 64;
 
 #[cfg(test)]
 mod clip_name_tests {
@@ -1329,5 +1374,30 @@ mod clip_name_tests {
         assert!(names.iter().all(|n| seen.insert(*n) && !n.contains(',') && *n != "all"));
         let mut fine = named(&["Walk", "Run", "Idle"]);
         assert!(unique_clip_names(&mut fine).is_empty());
+        // An unnamed clip never takes a name a clip was given (index 1 is "Animation 1"
+        // by default, which clip 2 is called), and is named silently.
+        let mut unnamed = named(&["Walk", "", "Animation 1", "Animation 3", "  "]);
+        let renamed = unique_clip_names(&mut unnamed);
+        let names: Vec<&str> = unnamed.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(
+            names,
+            ["Walk", "Animation 1 (2)", "Animation 1", "Animation 3", "Animation 4"]
+        );
+        assert_eq!(renamed, [("  ".to_string(), "Animation 4".to_string())]);
+        // Control characters become spaces; long names are cut.
+        let long = "x".repeat(300);
+        let mut odd = named(&["Line\nbreak\tand tab", &long]);
+        unique_clip_names(&mut odd);
+        assert_eq!(odd[0].name, "Line break and tab");
+        assert_eq!(odd[1].name.chars().count(), MAX_CLIP_NAME_CHARS);
     }
+}
+
+/// Largest morph weight an import takes without a word: weights usually lie within 0..1
+/// (a little over 1 for exaggeration); beyond this the file is said to be odd.
+const MORPH_WEIGHT_PLAUSIBLE: f32 = 100.0;
+
+/// `n` and `word`, made plural with an `s` unless `n` is 1: "1 clip", "3 clips".
+pub fn plural(n: usize, word: &str) -> String {
+    format!("{n} {word}{}", if n == 1 { "" } else { "s" })
 }
