@@ -118,6 +118,19 @@ impl Document {
         true
     }
 
+    /// Removes part `p`, its triangles going to `into`, as one undoable step with what
+    /// refers to part numbers: cap colours, drawing orders and pins follow the renumbering
+    /// (the pins of `p` and `into`, whose outlines change, are dropped). Returns how many pins
+    /// were dropped.
+    pub fn remove_part(&mut self, p: u16, into: u16) -> Result<usize, String> {
+        let before = self.project.clone();
+        polypostor::edit::paint::remove_part(&mut self.segmentation, &mut self.project.caps, p, into)?;
+        let dropped = self.project.overrides.remove_part(p as usize, into as usize);
+        self.history.record("Remove part", before);
+        self.store_segmentation();
+        Ok(dropped)
+    }
+
     /// One undoable edit of the bake corrections (key frames, orders, pins).
     pub fn edit_overrides(
         &mut self,

@@ -74,6 +74,8 @@ pub struct Inspector {
     /// How long the last re-solve took (one part after a pin: the 250 ms target).
     pub last_refit_ms: Option<f32>,
     pub error: Option<String>,
+    /// The view whose opening failed (not tried again until it is chosen anew).
+    failed: Option<usize>,
     drag: Option<usize>,
     drag_to: Option<egui::Pos2>,
     textures: Textures,
@@ -169,7 +171,14 @@ impl Inspector {
 
     /// Whether a session or an opening is for `view`.
     pub fn is_for(&self, view: usize) -> bool {
-        self.session.as_ref().is_some_and(|s| s.view == view) || self.opening.as_ref().is_some_and(|o| o.0 == view)
+        self.session.as_ref().is_some_and(|s| s.view == view)
+            || self.opening.as_ref().is_some_and(|o| o.0 == view)
+            || self.failed == Some(view)
+    }
+
+    /// Lets a view whose opening failed be tried again (the artist chose it anew).
+    pub fn forget_failure(&mut self) {
+        self.failed = None;
     }
 
     pub fn busy(&self) -> bool {
@@ -224,6 +233,7 @@ impl Inspector {
         self.session = None;
         self.refit = None;
         self.error = None;
+        self.failed = None;
         self.drag = None;
         self.opening = Some((view, run(sync, job), Instant::now()));
     }
@@ -231,9 +241,10 @@ impl Inspector {
     /// Collects finished work and starts a re-fit when the project's corrections for the
     /// view no longer match what the session was fitted with.
     pub fn poll(&mut self, doc: &Document, sync: bool) {
-        if let Some((_, rx, _)) = &self.opening
+        if let Some((view, rx, _)) = &self.opening
             && let Ok(result) = rx.try_recv()
         {
+            let view = *view;
             self.opening = None;
             match result {
                 Ok(s) => {
@@ -241,7 +252,12 @@ impl Inspector {
                     self.time = self.time.min(s.frames().saturating_sub(1) as f32);
                     self.session = Some(s);
                 }
-                Err(e) => self.error = Some(e),
+                // Shown, and not tried again until the view is chosen anew (it was retried
+                // every frame, forever).
+                Err(e) => {
+                    self.error = Some(e);
+                    self.failed = Some(view);
+                }
             }
         }
         if let Some(rx) = &self.refit

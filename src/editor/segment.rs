@@ -72,6 +72,8 @@ pub struct SegmentPanel {
     hover: Option<egui::Pos2>,
     /// Messages for the log (text, is an error).
     pub messages: Vec<String>,
+    /// Warnings for the log (no dialog).
+    pub notes: Vec<String>,
 }
 
 impl Default for SegmentPanel {
@@ -95,6 +97,7 @@ impl Default for SegmentPanel {
             texture: None,
             hover: None,
             messages: Vec::new(),
+            notes: Vec::new(),
         }
     }
 }
@@ -271,18 +274,12 @@ impl SegmentPanel {
                 .clicked()
             {
                 let (p, into) = (self.active, self.remove_into);
-                let mut error = None;
-                doc.edit("Remove part", |seg, caps| {
-                    match paint::remove_part(seg, caps, p, into) {
-                        Ok(()) => true,
-                        Err(e) => {
-                            error = Some(e);
-                            false
-                        }
-                    }
-                });
-                if let Some(e) = error {
-                    self.messages.push(e);
+                match doc.remove_part(p, into) {
+                    Ok(0) => {}
+                    Ok(pins) => self.notes.push(format!(
+                        "{pins} pin(s) of the removed part and of {into_name} (whose outline changes) were dropped; Ctrl+Z brings them back"
+                    )),
+                    Err(e) => self.messages.push(e),
                 }
                 self.active = if into > p { into - 1 } else { into };
             }
@@ -319,7 +316,7 @@ impl SegmentPanel {
                 .text("radius px  [ ]"),
         );
         ui.checkbox(&mut self.mirror, "X-mirror (M)")
-            .on_hover_text("Paint the mirrored triangles on the other side too");
+            .on_hover_text("Paint and fill the mirrored triangles on the other side too");
         let topo = self.topology(doc);
         let c = doc.character.clone();
         let bone_name = |b: usize| {
@@ -345,8 +342,10 @@ impl SegmentPanel {
                 .on_hover_text("Give the triangles this joint dominates to the active part")
                 .clicked()
             {
-                let (bone, part) = (self.joint as u16, self.active);
-                doc.edit("Fill by joint", |seg, _| paint::fill_bone(seg, &topo, bone, part) > 0);
+                let (bone, part, mirror) = (self.joint as u16, self.active, self.mirror);
+                doc.edit("Fill by joint", |seg, _| {
+                    paint::fill_bone(seg, &topo, bone, part, mirror) > 0
+                });
             }
         });
         ui.horizontal(|ui| {
@@ -406,9 +405,11 @@ impl SegmentPanel {
                             self.isolate = true;
                         }
                         let armed = self.eyedropper.as_deref() == Some(cap.id.as_str());
+                        let textured = !doc.character.textures.is_empty();
                         if ui
-                            .selectable_label(armed, "💧")
+                            .add_enabled(textured, egui::Button::selectable(armed, "💧"))
                             .on_hover_text("Eyedropper: click the texture below to take its colour")
+                            .on_disabled_hover_text("The character has no texture to take a colour from")
                             .clicked()
                         {
                             self.eyedropper = if armed { None } else { Some(cap.id.clone()) };
@@ -429,6 +430,9 @@ impl SegmentPanel {
                     } else {
                         "(no cuts: a single part)"
                     });
+                }
+                if doc.character.textures.is_empty() {
+                    self.eyedropper = None;
                 }
                 if let Some(id) = self.eyedropper.clone()
                     && let Some(picked) = self.texture_picker(ui, doc)
@@ -527,15 +531,17 @@ impl SegmentPanel {
                     let ray = paint::ray_through(clip_from_world, to_dab(pos, 1.0).cursor_ndc);
                     if let Some((t, _)) = paint::pick(&positions, &doc.character.indices, &ray) {
                         let topo = self.topology(doc);
-                        let part = self.active;
+                        let (part, mirror) = (self.active, self.mirror);
                         if self.tool == Tool::FillConnected {
                             doc.edit("Fill connected", |seg, _| {
-                                paint::fill_connected(seg, &topo, t, part) > 0
+                                paint::fill_connected(seg, &topo, t, part, mirror) > 0
                             });
                         } else {
                             let bone = topo.dominant_bone[t];
                             self.joint = bone as usize;
-                            doc.edit("Fill by joint", |seg, _| paint::fill_bone(seg, &topo, bone, part) > 0);
+                            doc.edit("Fill by joint", |seg, _| {
+                                paint::fill_bone(seg, &topo, bone, part, mirror) > 0
+                            });
                         }
                     }
                 }

@@ -223,6 +223,7 @@ impl ViewsPanel {
         let Some((_, _, r)) = &self.report else { return };
         let Some(v) = r.views.get(view) else { return };
         self.selected = Some(view);
+        self.inspector.forget_failure();
         let (yaw, pitch) = yaw_pitch(v.direction);
         camera.yaw_rad = yaw;
         camera.pitch_rad = pitch.clamp(-1.55, 1.55);

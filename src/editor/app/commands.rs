@@ -229,7 +229,7 @@ pub(super) fn bake_dir(doc: &Document) -> PathBuf {
             .map(Path::to_owned)
             .unwrap_or_default()
             .join(polypostor::project::PROJECT_PACK),
-        None => temp_bake_dir(std::process::id()),
+        None => temp_bake_dir(std::process::id(), doc.generation),
     }
 }
 
@@ -244,27 +244,42 @@ pub(super) fn views_source_on_open(doc: &Document) -> PathBuf {
         .unwrap_or_else(|| bake_dir(doc))
 }
 
-/// Where an editor process bakes a project never saved; removed when the editor exits, and
-/// by the next editor if that one was killed.
-pub(super) fn temp_bake_dir(pid: u32) -> PathBuf {
-    std::env::temp_dir().join(format!("polypostor-crowd-{pid}.pack"))
+/// Where an editor process bakes a document never saved (each its own: `generation` is the
+/// document's, so a second import never shows the first one's bake); removed when the editor
+/// exits, and by the next editor if that one was killed.
+pub(super) fn temp_bake_dir(pid: u32, generation: u64) -> PathBuf {
+    std::env::temp_dir().join(format!("polypostor-crowd-{pid}-{generation}.pack"))
 }
 
-/// Removes the temporary bake folders of editors that are no longer running.
-pub(super) fn remove_stale_temp_bakes() {
+/// The editor process a temporary bake folder's name says wrote it.
+fn temp_bake_pid(name: &str) -> Option<u32> {
+    let rest = name.strip_prefix("polypostor-crowd-")?.strip_suffix(".pack")?;
+    let pid = rest.split_once('-').map_or(rest, |(pid, generation)| {
+        if generation.bytes().all(|b| b.is_ascii_digit()) {
+            pid
+        } else {
+            ""
+        }
+    });
+    pid.parse().ok()
+}
+
+/// Removes the temporary bake folders of editors that are no longer running (`mine`: this
+/// editor's too, as it exits).
+pub(super) fn remove_temp_bakes(mine: bool) {
     let Ok(entries) = std::fs::read_dir(std::env::temp_dir()) else {
         return;
     };
+    let me = std::process::id();
     for e in entries.filter_map(Result::ok) {
         let name = e.file_name().to_string_lossy().into_owned();
-        let pid = name
-            .strip_prefix("polypostor-crowd-")
-            .and_then(|r| r.strip_suffix(".pack"))
-            .and_then(|p| p.parse::<u32>().ok());
         // Only a folder this tool wrote and nothing else put in (what a bake would replace).
-        if let Some(pid) = pid
-            && pid != std::process::id()
-            && !polypostor::safe_fs::process_alive(pid)
+        if let Some(pid) = temp_bake_pid(&name)
+            && (if pid == me {
+                mine
+            } else {
+                !polypostor::safe_fs::process_alive(pid)
+            })
             && e.file_type().is_ok_and(|t| t.is_dir())
             && polypostor::safe_fs::check_bake_output(&e.path(), &[]).is_ok()
         {
@@ -280,15 +295,22 @@ mod tests {
     #[test]
     fn stale_temporary_bakes_are_removed_only_when_the_tool_s() {
         // A process number above Linux's largest (4,194,304) is never alive.
-        let (empty, foreign) = (super::temp_bake_dir(4_194_400), super::temp_bake_dir(4_194_401));
-        for d in [&empty, &foreign] {
+        let (empty, foreign) = (super::temp_bake_dir(4_194_400, 3), super::temp_bake_dir(4_194_401, 0));
+        let old_style = std::env::temp_dir().join("polypostor-crowd-4194402.pack");
+        let not_ours = std::env::temp_dir().join("polypostor-crowd-4194403-x.pack");
+        for d in [&empty, &foreign, &old_style, &not_ours] {
             let _ = std::fs::remove_dir_all(d);
             std::fs::create_dir_all(d).unwrap();
         }
         std::fs::write(foreign.join("notes.txt"), "mine").unwrap();
-        super::remove_stale_temp_bakes();
+        super::remove_temp_bakes(false);
         assert!(!empty.exists(), "an empty stale folder is removed");
+        assert!(!old_style.exists(), "so is one named as before (no generation)");
+        assert!(not_ours.exists(), "a name this tool does not give stays");
         assert_eq!(std::fs::read_to_string(foreign.join("notes.txt")).unwrap(), "mine");
         std::fs::remove_dir_all(&foreign).unwrap();
+        std::fs::remove_dir_all(&not_ours).unwrap();
+        // Each unsaved document bakes into a folder of its own.
+        assert_ne!(super::temp_bake_dir(7, 1), super::temp_bake_dir(7, 2));
     }
 }

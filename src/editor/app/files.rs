@@ -146,6 +146,14 @@ impl EditorApp {
             self.replace_character(loaded.character);
             return;
         }
+        // A bake of the project left behind would land in the next one's crowd preview (and
+        // its settings in the next project): it is cancelled.
+        if self.crowd.busy() {
+            self.crowd.cancel_job();
+            self.pending_export = None;
+            self.source_before_bake = None;
+            self.info("the running bake belonged to the project left: cancelled".into());
+        }
         let c = &loaded.character;
         self.info(format!(
             "loaded {} ({} vertices, {} triangles, {} joints, {})",

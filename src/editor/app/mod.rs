@@ -20,7 +20,7 @@ mod dialogs;
 mod files;
 mod panels;
 
-use commands::{remove_stale_temp_bakes, temp_bake_dir, views_source_on_open};
+use commands::{remove_temp_bakes, views_source_on_open};
 use dialogs::{PathPrompt, PathPurpose};
 use files::{LoadRequest, Loading};
 use files::{expand_home, is_gltf};
@@ -178,7 +178,7 @@ impl EditorApp {
             super::set_software_rendering(&cc.egui_ctx, rs.adapter.get_info().device_type == wgpu::DeviceType::Cpu);
         }
         let settings = Settings::load(options.settings_path.as_deref());
-        remove_stale_temp_bakes();
+        remove_temp_bakes(false);
         let mut app = Self {
             options,
             settings,
@@ -262,7 +262,7 @@ impl EditorApp {
 impl eframe::App for EditorApp {
     /// The temporary bake of a never-saved project goes with the editor.
     fn on_exit(&mut self) {
-        let _ = std::fs::remove_dir_all(temp_bake_dir(std::process::id()));
+        remove_temp_bakes(true);
     }
 
     /// The panels' background: they leave it unpainted (see [`panel_frame`]).
@@ -315,6 +315,9 @@ impl eframe::App for EditorApp {
         }
         for m in std::mem::take(&mut self.segment.messages) {
             self.fail(m);
+        }
+        for m in std::mem::take(&mut self.segment.notes) {
+            self.warn(m);
         }
         self.dropped_files(&ctx);
         self.shortcuts(&ctx);
@@ -438,7 +441,9 @@ impl eframe::App for EditorApp {
                 .frame(panel_frame(ui.style()))
                 .resizable(true)
                 .default_size(470.0)
-                .max_size(side_max.max(ui.available_width() * 0.5))
+                // What the character panel left, less room for the viewport between them (at
+                // 700 px wide the viewport was drawn over both panels).
+                .max_size((ui.available_width() - 160.0).max(120.0))
                 .show(ui, |ui| {
                     egui::ScrollArea::vertical().id_salt("inspector scroll").show(ui, |ui| {
                         let doc = self.doc.as_mut().unwrap();

@@ -159,8 +159,17 @@ pub fn paint(seg: &mut Segmentation, triangles: &[usize], part: u16, mirror: Opt
 }
 
 /// Flood fill: every triangle connected to `start` through triangles of `start`'s part
-/// becomes `part`. Returns how many changed.
-pub fn fill_connected(seg: &mut Segmentation, topo: &Topology, start: usize, part: u16) -> usize {
+/// becomes `part`; with `mirror`, the same from the triangle mirroring `start` (the other
+/// arm, whatever its part). Returns how many changed.
+pub fn fill_connected(seg: &mut Segmentation, topo: &Topology, start: usize, part: u16, mirror: bool) -> usize {
+    let mut changed = fill_from(seg, topo, start, part);
+    if mirror && let Some(&m) = topo.mirror.get(start).filter(|&&m| m != NONE) {
+        changed += fill_from(seg, topo, m as usize, part);
+    }
+    changed
+}
+
+fn fill_from(seg: &mut Segmentation, topo: &Topology, start: usize, part: u16) -> usize {
     let Some(&from) = seg.labels.get(start) else { return 0 };
     if from == part || part as usize >= seg.parts.len() {
         return 0;
@@ -180,8 +189,9 @@ pub fn fill_connected(seg: &mut Segmentation, topo: &Topology, start: usize, par
     changed
 }
 
-/// Every triangle `bone` dominates becomes `part`. Returns how many changed.
-pub fn fill_bone(seg: &mut Segmentation, topo: &Topology, bone: u16, part: u16) -> usize {
+/// Every triangle `bone` dominates becomes `part` (with `mirror`, and their mirrors).
+/// Returns how many changed.
+pub fn fill_bone(seg: &mut Segmentation, topo: &Topology, bone: u16, part: u16, mirror: bool) -> usize {
     let list: Vec<usize> = topo
         .dominant_bone
         .iter()
@@ -189,7 +199,7 @@ pub fn fill_bone(seg: &mut Segmentation, topo: &Topology, bone: u16, part: u16) 
         .filter(|(_, b)| **b == bone)
         .map(|(t, _)| t)
         .collect();
-    paint(seg, &list, part, None)
+    paint(seg, &list, part, mirror.then_some(topo))
 }
 
 /// A ray from the camera through a point of the screen.
@@ -464,7 +474,7 @@ mod tests {
             let mut seg = seg0.clone();
             let from = seg.labels[start];
             let to = (from + 1) % seg.parts.len() as u16;
-            let changed = fill_connected(&mut seg, &topo, start, to);
+            let changed = fill_connected(&mut seg, &topo, start, to, false);
             // Brute force: grow a set until no triangle of `from` touches it.
             let mut inside = vec![false; seg0.labels.len()];
             inside[start] = true;
@@ -490,6 +500,27 @@ mod tests {
                 assert_eq!(seg.labels[t], want, "triangle {t}");
             }
         }
+        // Mirrored: the fill from a triangle, then from its mirror (another part): the same
+        // as the two fills one after the other.
+        let start = (0..seg0.labels.len())
+            .find(|&t| {
+                let m = topo.mirror[t];
+                m != NONE && seg0.labels[m as usize] != seg0.labels[t]
+            })
+            .expect("a triangle mirrored into another part");
+        let m = topo.mirror[start] as usize;
+        let to = (0..seg0.parts.len() as u16)
+            .find(|&p| p != seg0.labels[start] && p != seg0.labels[m])
+            .unwrap();
+        let mut both = seg0.clone();
+        let changed = fill_connected(&mut both, &topo, start, to, true);
+        let mut apart = seg0.clone();
+        let one = fill_connected(&mut apart, &topo, start, to, false);
+        let two = fill_connected(&mut apart, &topo, m, to, false);
+        assert!(one > 0 && two > 0);
+        assert_eq!(changed, one + two);
+        assert_eq!(both.labels, apart.labels);
+        assert_eq!(both.labels[m], to);
     }
 
     #[test]
@@ -530,7 +561,7 @@ mod tests {
         let mut seg = auto_segment(&c);
         let bone = (0..c.bones.len()).max_by_key(|&b| topo.bone_triangles[b]).unwrap() as u16;
         let part = add_part(&mut seg, "Picked").unwrap();
-        let changed = fill_bone(&mut seg, &topo, bone, part);
+        let changed = fill_bone(&mut seg, &topo, bone, part, false);
         assert_eq!(changed, topo.bone_triangles[bone as usize]);
         for (t, &l) in seg.labels.iter().enumerate() {
             assert_eq!(l == part, topo.dominant_bone[t] == bone);

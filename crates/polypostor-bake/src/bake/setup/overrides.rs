@@ -87,6 +87,34 @@ impl BakeOverrides {
         self.views.entry(v).or_default()
     }
 
+    /// Follows the removal of part `p` whose triangles went to part `into` (numbers before
+    /// the removal; later parts move down one, as [`crate::edit::paint::remove_part`] does):
+    /// drawing orders lose `p` and are renumbered, pins of later parts are renumbered, and the
+    /// pins of `p` and of `into` (whose outline changes) are dropped. Returns how many pins
+    /// were dropped.
+    pub fn remove_part(&mut self, p: usize, into: usize) -> usize {
+        let down = |k: usize| if k > p { k - 1 } else { k };
+        let mut dropped = 0;
+        for o in self.views.values_mut() {
+            if let Some(order) = &mut o.order {
+                order.retain(|&k| k != p);
+                for k in order.iter_mut() {
+                    *k = down(*k);
+                }
+            }
+            let pins = std::mem::take(&mut o.pins);
+            for (k, list) in pins {
+                if k == p || k == into {
+                    dropped += list.len();
+                } else {
+                    o.pins.insert(down(k), list);
+                }
+            }
+        }
+        self.tidy();
+        dropped
+    }
+
     /// Drops empty entries.
     pub fn tidy(&mut self) {
         for o in self.views.values_mut() {
@@ -230,6 +258,37 @@ pub use polypostor_runtime::pack::valid_order;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Removing part 1 of 4 into part 0: orders lose it and renumber, pins of parts 2 and 3
+    /// become 1 and 2, pins of parts 0 and 1 are dropped; each order stays a permutation.
+    #[test]
+    fn removing_a_part_renumbers_orders_and_pins() {
+        let pin = |frame| Pin {
+            frame,
+            source: 3,
+            target: 7,
+        };
+        let mut o = BakeOverrides::default();
+        let v = o.view_mut(OverrideBasis::default(), 2);
+        v.order = Some(vec![3, 1, 0, 2]);
+        v.key_frame = Some(4);
+        for part in 0..4 {
+            v.pins.insert(part, vec![pin(part), pin(part + 10)]);
+        }
+        o.view_mut(OverrideBasis::default(), 5).pins.insert(1, vec![pin(0)]);
+        let dropped = o.remove_part(1, 0);
+        assert_eq!(dropped, 5);
+        let v = &o.views[&2];
+        assert_eq!(v.order, Some(vec![2, 0, 1]));
+        assert_eq!(v.key_frame, Some(4));
+        assert_eq!(v.pins.keys().copied().collect::<Vec<_>>(), [1, 2]);
+        assert_eq!(v.pins[&1], [pin(2), pin(12)]);
+        assert_eq!(v.pins[&2], [pin(3), pin(13)]);
+        assert!(!o.views.contains_key(&5), "a view left with nothing is tidied away");
+        let mut sorted = v.order.clone().unwrap();
+        sorted.sort();
+        assert_eq!(sorted, [0, 1, 2]);
+    }
 
     #[test]
     fn overrides_round_trip_and_respect_their_basis() {
