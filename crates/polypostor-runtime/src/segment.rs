@@ -430,7 +430,11 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
                 .fold(f32::INFINITY, f32::min)
         };
         // A single-joint "limb" (an IK foot, a prop) joins the real limb its mesh touches
-        // (an IK foot sits under its leg), else the trunk.
+        // (an IK foot sits under its leg), else the trunk — unless it carries a share of the
+        // mesh of its own (at least SINGLE_JOINT_LIMB_SHARE of the vertices): a rig with one
+        // joint per limb (a box or voxel character) has limbs all the same, and put in the
+        // trunk they made one part that no warped image could follow.
+        let carried_all: usize = carried.iter().map(Vec::len).sum();
         let mut target: Vec<Option<usize>> = vec![None; limbs.len()];
         for (i, (_, joints)) in limbs.iter().enumerate() {
             if joints.len() > 1 {
@@ -446,6 +450,10 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
                 .filter(|(_, d)| *d < 0.1 * span)
                 .min_by(|a, b| a.1.total_cmp(&b.1))
                 .map(|(k, _)| k);
+            let share = joints.iter().map(|&j| carried[j].len()).sum::<usize>() as f64 / carried_all.max(1) as f64;
+            if target[i].is_none() && share >= SINGLE_JOINT_LIMB_SHARE {
+                target[i] = Some(i);
+            }
         }
         // A limb that carries no mesh (an IK target chain, a pole, a control: rigs keep them
         // among the skin's joints) is no part: it names nothing and decides nothing — when
@@ -666,6 +674,11 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
     (Segmentation { parts, labels }, legs, vertex_weights)
 }
 
+/// Share of the mesh's vertices a limb of one joint must carry to be a part of its own
+/// rather than join the trunk ([`skeleton_parts`]): a box character's arm carries 8–15 %,
+/// an IK or control joint none.
+pub const SINGLE_JOINT_LIMB_SHARE: f64 = 0.02;
+
 /// How far (a share of the character's height) a separate piece inside a limb must reach
 /// from the limb's bones to be a part of its own ([`split_props`]). Measured: a soldier's
 /// spear 0.67 and shield 0.165, the `knight` variants' swords 0.34–0.38 (CesiumMan's 0.117)
@@ -724,12 +737,21 @@ fn split_props(
     // The limbs' own parts (the parts made here come after them).
     let limb_parts = parts.len();
     // The limb's bones, as segments (a prop's own joints among them: a prop rigged with a
-    // chain of its own, a flail, hugs those and stays in the limb).
+    // chain of its own, a flail, hugs those and stays in the limb). A joint ending the limb
+    // (no child joint in it) carries a bone too, running on as far again as the one before
+    // it: a forearm with no hand joint below it (a box rig) holds the forearm's mesh, which
+    // is no prop; a hand's short bone leaves a sword held in it reaching far.
     let limb_bones = |part_of_joint: &[usize], limb: usize| -> Vec<(Vec3, Vec3)> {
-        (0..count)
-            .filter(|&k| part_of_joint[k] == limb)
-            .filter_map(|k| Some((tree.pos[tree.parent[k]?], tree.pos[k])))
-            .collect()
+        let mut bones = Vec::new();
+        for k in (0..count).filter(|&k| part_of_joint[k] == limb) {
+            let Some(parent) = tree.parent[k] else { continue };
+            let (a, b) = (tree.pos[parent], tree.pos[k]);
+            bones.push((a, b));
+            if !tree.children[k].iter().any(|&ch| part_of_joint[ch] == limb) {
+                bones.push((b, b + (b - a)));
+            }
+        }
+        bones
     };
     // How far piece `k` reaches from `bones` (its farthest point).
     let piece_reach = |k: usize, bones: &[(Vec3, Vec3)]| -> f32 {
@@ -882,12 +904,20 @@ fn split_props(
     for &(b, _) in &rigid {
         rigid_bone[b] = true;
     }
+    // A piece skinned to the joint the limb hangs from is the limb itself (a box
+    // character's one-joint arm), not something held in it.
+    let on_limb_root = |vs: &[u32], limb: usize| {
+        vs.first()
+            .and_then(|&v| vertex_joint[v as usize])
+            .is_some_and(|j| tree.parent[j].is_none_or(|p| part_of_joint[p] != limb))
+    };
     let mut found: Vec<(usize, usize, f32)> = Vec::new();
     for (k, vs) in piece_vertices.iter().enumerate() {
         let Some(limb) = piece_limb[k] else { continue };
         if limb == 0
             || limb >= limb_parts
             || legs.contains(&limb)
+            || on_limb_root(vs, limb)
             || bends(vs)
             || vs
                 .iter()
@@ -2151,6 +2181,258 @@ mod tests {
             );
             assert_eq!(auto_segment(&scaled), plain, "scale {k}");
         }
+    }
+
+    /// A character of boxes, one per joint (each box a separate piece skinned wholly to its
+    /// joint, as box and voxel characters are made): `(name, parent, offset from the parent,
+    /// box min, box max)`, the box relative to its joint.
+    fn box_rig(joints: &[(&str, Option<usize>, [f32; 3], [f32; 3], [f32; 3])]) -> Character {
+        use crate::character::{Bone, Material, Node, Skeleton, Submesh, Transform, Vertex};
+        let mut world = Vec::new();
+        let mut nodes = Vec::new();
+        let (mut vertices, mut indices) = (Vec::new(), Vec::new());
+        for (k, &(name, parent, offset, lo, hi)) in joints.iter().enumerate() {
+            let at = parent.map_or(Vec3::ZERO, |p| world[p]) + Vec3::from(offset);
+            world.push(at);
+            nodes.push(Node {
+                name: name.into(),
+                parent,
+                rest: Transform {
+                    translation: Vec3::from(offset),
+                    ..Transform::default()
+                },
+                is_joint: true,
+            });
+            let first = vertices.len() as u32;
+            for corner in 0..8 {
+                let pick = |bit: u32, axis: usize| if corner & bit != 0 { hi[axis] } else { lo[axis] };
+                vertices.push(Vertex {
+                    position: at + Vec3::new(pick(1, 0), pick(2, 1), pick(4, 2)),
+                    normal: Vec3::Y,
+                    uv: [0.0, 0.0],
+                    color: [1.0; 4],
+                    bones: [k as u16, 0, 0, 0],
+                    weights: [1.0, 0.0, 0.0, 0.0],
+                });
+            }
+            for f in [
+                [0, 2, 3, 1],
+                [4, 5, 7, 6],
+                [0, 1, 5, 4],
+                [2, 6, 7, 3],
+                [0, 4, 6, 2],
+                [1, 3, 7, 5],
+            ] {
+                indices.extend([f[0], f[1], f[2], f[0], f[2], f[3]].map(|i: u32| first + i));
+            }
+        }
+        let bones = world
+            .iter()
+            .enumerate()
+            .map(|(node, &w)| Bone {
+                node,
+                inverse_bind: glam::Mat4::from_translation(-w),
+            })
+            .collect();
+        Character {
+            name: "Boxes".into(),
+            submeshes: vec![Submesh {
+                first_index: 0,
+                index_count: indices.len() as u32,
+                material: 0,
+            }],
+            vertices,
+            indices,
+            materials: vec![Material {
+                name: "m".into(),
+                base_color_factor: [1.0; 4],
+                base_color_texture: None,
+                double_sided: false,
+                alpha_cutoff: 0.0,
+            }],
+            textures: Vec::new(),
+            skeleton: Skeleton { nodes },
+            bones,
+            clips: Vec::new(),
+            warnings: Vec::new(),
+            up_axis: Default::default(),
+            morphs: Vec::new(),
+        }
+    }
+
+    /// Box characters (a piece per joint): with one joint per limb, each limb is a part
+    /// (they all joined the torso: one part, limbs warped across the body); with two-joint
+    /// arms and no hand joint, the forearm's box is the arm's, not a prop of its own ("Fore
+    /// Arm", unsided). Every triangle goes to the part named after its limb.
+    #[test]
+    fn box_characters_get_a_part_per_limb() {
+        let trunk = [
+            ("Hips", None, [0.0, 1.0, 0.0], [-0.2, -0.1, -0.12], [0.2, 0.15, 0.12]),
+            (
+                "Spine",
+                Some(0),
+                [0.0, 0.15, 0.0],
+                [-0.22, 0.0, -0.12],
+                [0.22, 0.5, 0.12],
+            ),
+            (
+                "Head",
+                Some(1),
+                [0.0, 0.55, 0.0],
+                [-0.12, 0.0, -0.12],
+                [0.12, 0.25, 0.12],
+            ),
+        ];
+        let one = [
+            (
+                "LeftLeg",
+                Some(0),
+                [0.12, -0.1, 0.0],
+                [-0.08, -0.9, -0.08],
+                [0.08, 0.0, 0.08],
+            ),
+            (
+                "RightLeg",
+                Some(0),
+                [-0.12, -0.1, 0.0],
+                [-0.08, -0.9, -0.08],
+                [0.08, 0.0, 0.08],
+            ),
+            (
+                "LeftArm",
+                Some(1),
+                [0.3, 0.45, 0.0],
+                [-0.06, -0.65, -0.06],
+                [0.06, 0.0, 0.06],
+            ),
+            (
+                "RightArm",
+                Some(1),
+                [-0.3, 0.45, 0.0],
+                [-0.06, -0.65, -0.06],
+                [0.06, 0.0, 0.06],
+            ),
+        ];
+        let part_of = |s: &Segmentation, box_index: usize| -> String {
+            let labels = &s.labels[12 * box_index..12 * box_index + 12];
+            assert!(labels.iter().all(|&l| l == labels[0]), "box {box_index}: {labels:?}");
+            s.parts[labels[0] as usize].name.clone()
+        };
+        let c = box_rig(&[&trunk[..], &one[..]].concat());
+        let s = auto_segment(&c);
+        let got: Vec<String> = (0..7).map(|b| part_of(&s, b)).collect();
+        assert_eq!(
+            got,
+            [
+                "Torso",
+                "Torso",
+                "Torso",
+                "Left Leg",
+                "Right Leg",
+                "Left Arm",
+                "Right Arm"
+            ],
+            "{:?}",
+            s.parts
+        );
+        // Two joints per limb, the arms without hands.
+        let two = [
+            (
+                "LeftUpLeg",
+                Some(0),
+                [0.12, -0.1, 0.0],
+                [-0.08, -0.45, -0.08],
+                [0.08, 0.0, 0.08],
+            ),
+            (
+                "RightUpLeg",
+                Some(0),
+                [-0.12, -0.1, 0.0],
+                [-0.08, -0.45, -0.08],
+                [0.08, 0.0, 0.08],
+            ),
+            (
+                "LeftArm",
+                Some(1),
+                [0.3, 0.45, 0.0],
+                [-0.06, -0.32, -0.06],
+                [0.06, 0.0, 0.06],
+            ),
+            (
+                "RightArm",
+                Some(1),
+                [-0.3, 0.45, 0.0],
+                [-0.06, -0.32, -0.06],
+                [0.06, 0.0, 0.06],
+            ),
+            (
+                "LeftLeg",
+                Some(3),
+                [0.0, -0.45, 0.0],
+                [-0.07, -0.45, -0.07],
+                [0.07, 0.0, 0.07],
+            ),
+            (
+                "RightLeg",
+                Some(4),
+                [0.0, -0.45, 0.0],
+                [-0.07, -0.45, -0.07],
+                [0.07, 0.0, 0.07],
+            ),
+            (
+                "LeftForeArm",
+                Some(5),
+                [0.0, -0.32, 0.0],
+                [-0.05, -0.33, -0.05],
+                [0.05, 0.0, 0.05],
+            ),
+            (
+                "RightForeArm",
+                Some(6),
+                [0.0, -0.32, 0.0],
+                [-0.05, -0.33, -0.05],
+                [0.05, 0.0, 0.05],
+            ),
+        ];
+        let c = box_rig(&[&trunk[..], &two[..]].concat());
+        let s = auto_segment(&c);
+        let got: Vec<String> = (0..11).map(|b| part_of(&s, b)).collect();
+        assert_eq!(
+            got,
+            [
+                "Torso",
+                "Torso",
+                "Torso",
+                "Left Leg",
+                "Right Leg",
+                "Left Arm",
+                "Right Arm",
+                "Left Leg",
+                "Right Leg",
+                "Left Arm",
+                "Right Arm"
+            ],
+            "{:?}",
+            s.parts
+        );
+        assert_eq!(s.parts.len(), 5);
+        // A control joint carrying no mesh, far off, changes nothing.
+        let mut with_ik = [&trunk[..], &one[..]].concat();
+        with_ik.push(("LeftArmIK", Some(0), [3.0, 0.0, 0.0], [0.0; 3], [0.0; 3]));
+        with_ik.push(("RightArmIK", Some(0), [-3.0, 0.0, 0.0], [0.0; 3], [0.0; 3]));
+        let mut c = box_rig(&with_ik);
+        // The control joints' boxes are points: drop them (no mesh).
+        c.indices.truncate(7 * 36);
+        c.submeshes[0].index_count = c.indices.len() as u32;
+        c.vertices.truncate(7 * 8);
+        let s = auto_segment(&c);
+        let got: Vec<String> = (0..7).map(|b| part_of(&s, b)).collect();
+        assert_eq!(
+            got[3..],
+            ["Left Leg", "Right Leg", "Left Arm", "Right Arm"],
+            "{:?}",
+            s.parts
+        );
     }
 
     /// A spear held in the default's right hand (a separate piece skinned to a joint of its
