@@ -54,6 +54,9 @@ pub struct Safety {
     pub replace_after_save: Option<super::document::Command>,
     /// The next replacing command was confirmed (saved or discarded): no prompt for it.
     pub replace_confirmed: bool,
+    /// "Don't save" was chosen before replacing the document: its autosave goes once the
+    /// next document has opened (a load that fails keeps the document, and its autosave).
+    pub discard_on_replace: bool,
 }
 
 impl Safety {

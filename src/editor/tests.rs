@@ -469,6 +469,66 @@ fn an_autosave_is_recovered_after_a_crash() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
+/// An autosave goes with its document, not before: "Don't save" before opening a project
+/// that then fails to load keeps the document and its autosave; a recovery undone back to
+/// the saved project leaves an autosave with nothing the project lacks, removed when another
+/// project opens (it was offered again on the next open).
+#[test]
+fn autosaves_go_when_their_document_does() {
+    let dir = temp_project("autosave-replace");
+    let other = temp_project("autosave-other");
+    let autosave = polypostor::project::autosave_file(&dir.join("project.json"));
+    let broken = dir.join("broken");
+    std::fs::create_dir_all(&broken).unwrap();
+    std::fs::write(broken.join("project.json"), "{ not json").unwrap();
+    let mut h = harness_with(Some(dir.clone()), true);
+    h.run_steps(3);
+    h.get_by_label("Segment").click();
+    h.run_steps(2);
+    h.get_by_label("➕ Add part").click();
+    h.run_steps(2);
+    assert!(h.state_mut().autosave_now());
+    assert!(autosave.exists());
+    h.state_mut().send(Command::Open(broken.clone()));
+    h.run_steps(2);
+    h.get_by_label("Don't save").click();
+    h.run_steps(4);
+    assert!(h.state().error.is_some(), "the broken project is refused");
+    assert!(h.state().doc.as_ref().unwrap().dirty, "the work stays open");
+    assert!(autosave.exists(), "and so does its autosave");
+    drop(h);
+    // Reopened: recover, then undo the recovery (back to the saved project).
+    let mut h = harness_with(Some(dir.clone()), true);
+    h.run_steps(3);
+    h.get_by_label("Recover").click();
+    h.run_steps(2);
+    assert!(h.state().doc.as_ref().unwrap().dirty);
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(2);
+    assert!(!h.state().doc.as_ref().unwrap().dirty, "back to the saved project");
+    h.state_mut().send(Command::Open(other.clone()));
+    h.run_steps(4);
+    assert!(
+        h.state()
+            .doc
+            .as_ref()
+            .unwrap()
+            .project_file
+            .as_ref()
+            .unwrap()
+            .starts_with(&other),
+        "no prompt: nothing was unsaved"
+    );
+    assert!(!autosave.exists(), "the stale autosave went with its document");
+    drop(h);
+    let mut again = harness_with(Some(dir.clone()), true);
+    again.run_steps(3);
+    assert!(again.state().safety.recovery.is_none(), "nothing is offered again");
+    drop(again);
+    let _ = std::fs::remove_dir_all(dir);
+    let _ = std::fs::remove_dir_all(other);
+}
+
 /// Closing with unsaved changes asks first; Cancel keeps the editor open.
 #[test]
 fn closing_with_unsaved_changes_asks_first() {

@@ -137,9 +137,7 @@ impl EditorApp {
                     self.send(Command::Save);
                 }
                 Some(UnsavedAnswer::Discard) => {
-                    if let Some(doc) = &self.doc {
-                        self.safety.clear(doc, self.options.recovery_dir.as_deref());
-                    }
+                    self.safety.discard_on_replace = true;
                     if let Some(next) = self.safety.replace_prompt.take() {
                         self.safety.replace_confirmed = true;
                         self.send(next);

@@ -134,14 +134,24 @@ impl EditorApp {
     }
 
     pub(super) fn finish_load(&mut self, result: Result<Loaded, String>) {
+        let discard = std::mem::take(&mut self.safety.discard_on_replace);
         let loaded = match result {
             Ok(l) => l,
             Err(e) => {
-                // The open project (if any) stays as it was.
+                // The open project (if any) stays as it was, with its autosave.
                 self.fail(e);
                 return;
             }
         };
+        // The document replaced: its autosave is stale when it had nothing unsaved (the
+        // project file holds it all: an undone recovery left one behind, offered again on
+        // the next open) and unwanted when the user chose "Don't save".
+        if !loaded.only_character
+            && let Some(old) = &self.doc
+            && (discard || (!old.dirty && self.options.autosave))
+        {
+            self.safety.clear(old, self.options.recovery_dir.as_deref());
+        }
         if loaded.only_character {
             self.replace_character(loaded.character);
             return;

@@ -263,6 +263,13 @@ impl eframe::App for EditorApp {
     /// The temporary bake of a never-saved project goes with the editor.
     fn on_exit(&mut self) {
         remove_temp_bakes(true);
+        // Closing with nothing unsaved: an autosave left (a recovery undone back to the
+        // saved project) holds nothing the project lacks, and would be offered again.
+        if let Some(doc) = self.doc.as_ref().filter(|d| !d.dirty)
+            && self.options.autosave
+        {
+            self.safety.clear(doc, self.options.recovery_dir.as_deref());
+        }
     }
 
     /// The panels' background: they leave it unpainted (see [`panel_frame`]).
