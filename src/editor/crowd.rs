@@ -377,6 +377,15 @@ impl CrowdPanel {
                     assets: Arc::new(assets),
                     share: 1.0,
                 });
+                let heights: Vec<f32> = self
+                    .assets
+                    .iter()
+                    .map(|(_, a)| a.size.height)
+                    .chain(self.guests.iter().map(|g| g.assets.size.height))
+                    .collect();
+                if let Some(note) = polypostor::crowd::size_spread_note(&heights) {
+                    self.messages.push((LogLevel::Warning, format!("crowd preview: {note}")));
+                }
                 self.bump_generation();
                 self.job = None;
             }

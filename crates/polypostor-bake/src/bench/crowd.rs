@@ -151,6 +151,10 @@ pub fn bench_crowd(
                     crate::import::plural(a.timeline.spans.len(), "clip")
                 );
             }
+            let heights: Vec<f32> = std::iter::once(&assets).chain(&guests).map(|a| a.size.height).collect();
+            if let Some(note) = crate::crowd::size_spread_note(&heights) {
+                eprintln!("warning: {note}");
+            }
         }
     }
     let mut rows = Vec::new();

@@ -1450,3 +1450,36 @@ pub fn metres(x: f32) -> String {
         format!("{:.2} km", x / 1000.0)
     }
 }
+
+/// Ratio of heights above which characters sharing one crowd are said to differ in size by
+/// more than a crowd can show at once ([`size_spread_note`]).
+pub const SIZE_SPREAD_NOTE: f32 = 20.0;
+
+/// What to say when characters of `heights` (metres) share one crowd and the tallest is more
+/// than [`SIZE_SPREAD_NOTE`] times the shortest: the view is framed for the largest, so the
+/// smallest shrink to specks (a model in millimetres among people). `None` otherwise.
+pub fn size_spread_note(heights: &[f32]) -> Option<String> {
+    let finite = heights.iter().copied().filter(|h| h.is_finite() && *h > 0.0);
+    let lo = finite.clone().fold(f32::INFINITY, f32::min);
+    let hi = finite.fold(0.0f32, f32::max);
+    (lo.is_finite() && hi / lo > SIZE_SPREAD_NOTE).then(|| {
+        format!(
+            "the characters in this crowd range from {} to {} tall ({:.0}×): the view is framed for the largest and the smallest are specks; a character made in other units needs its unit scale (see the import's warning)",
+            metres(lo),
+            metres(hi),
+            hi / lo
+        )
+    })
+}
+
+#[cfg(test)]
+mod size_spread_tests {
+    #[test]
+    fn only_sizes_far_apart_are_said() {
+        assert!(super::size_spread_note(&[1.8, 1.2, 0.4]).is_none());
+        assert!(super::size_spread_note(&[1.8]).is_none());
+        let n = super::size_spread_note(&[1.95, 0.00195, 1950.0]).unwrap();
+        assert!(n.contains("1.9 mm") && n.contains("1.95 km") && n.contains("1000000×"), "{n}");
+        assert!(super::size_spread_note(&[1.8, 0.05]).is_some());
+    }
+}
