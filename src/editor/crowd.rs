@@ -384,7 +384,8 @@ impl CrowdPanel {
                     .chain(self.guests.iter().map(|g| g.assets.size.height))
                     .collect();
                 if let Some(note) = polypostor::crowd::size_spread_note(&heights) {
-                    self.messages.push((LogLevel::Warning, format!("crowd preview: {note}")));
+                    self.messages
+                        .push((LogLevel::Warning, format!("crowd preview: {note}")));
                 }
                 self.bump_generation();
                 self.job = None;

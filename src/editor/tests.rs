@@ -497,6 +497,15 @@ fn autosaves_go_when_their_document_does() {
     assert!(h.state().doc.as_ref().unwrap().dirty, "the work stays open");
     assert!(autosave.exists(), "and so does its autosave");
     drop(h);
+    // Reopened, the recovery asked about but not answered, another project opened: the
+    // autosave is the lost work, and stays.
+    let mut h = harness_with(Some(dir.clone()), true);
+    h.run_steps(3);
+    assert!(h.state().safety.recovery.is_some());
+    h.state_mut().send(Command::Open(other.clone()));
+    h.run_steps(4);
+    assert!(autosave.exists(), "an unanswered recovery keeps its autosave");
+    drop(h);
     // Reopened: recover, then undo the recovery (back to the saved project).
     let mut h = harness_with(Some(dir.clone()), true);
     h.run_steps(3);

@@ -451,7 +451,11 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
                 .min_by(|a, b| a.1.total_cmp(&b.1))
                 .map(|(k, _)| k);
             let share = joints.iter().map(|&j| carried[j].len()).sum::<usize>() as f64 / carried_all.max(1) as f64;
-            if target[i].is_none() && share >= SINGLE_JOINT_LIMB_SHARE {
+            // A limb is long too: eyes (a mirrored pair of one joint each, with a mesh of
+            // their own) are no limbs, however many vertices they hold.
+            let (lo, hi) = crate::character::bounds(joints.iter().flat_map(|&j| carried[j].iter().copied()));
+            let long = (hi - lo).max_element() >= SINGLE_JOINT_LIMB_LENGTH * span;
+            if target[i].is_none() && share >= SINGLE_JOINT_LIMB_SHARE && long {
                 target[i] = Some(i);
             }
         }
@@ -578,6 +582,10 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
         // of the arm cannot hold a spear turning about the hand: seen from above, the spear
         // vanished and the shield became a shard. Pieces that hug their bones (a robot's
         // hands and shins, a helmet) stay with their limb.
+        let roots: Vec<usize> = (0..limbs.len())
+            .filter(|&i| target[i] == Some(i))
+            .map(|i| limbs[i].0)
+            .collect();
         (rigid_props, prop_triangles) = split_props(
             c,
             &tree,
@@ -586,6 +594,7 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
             &subtree,
             span,
             &leg_parts,
+            &roots,
             &mut part_of_joint,
             &mut parts,
         );
@@ -679,6 +688,10 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
 /// an IK or control joint none.
 pub const SINGLE_JOINT_LIMB_SHARE: f64 = 0.02;
 
+/// Least length (a share of the character's height) of the mesh a limb of one joint carries
+/// for it to be a part of its own: a box character's arm 0.34, its leg 0.47; an eye 0.02.
+pub const SINGLE_JOINT_LIMB_LENGTH: f32 = 0.15;
+
 /// How far (a share of the character's height) a separate piece inside a limb must reach
 /// from the limb's bones to be a part of its own ([`split_props`]). Measured: a soldier's
 /// spear 0.67 and shield 0.165, the `knight` variants' swords 0.34–0.38 (CesiumMan's 0.117)
@@ -710,6 +723,7 @@ fn split_props(
     subtree: &dyn Fn(usize) -> Vec<usize>,
     span: f32,
     legs: &[usize],
+    roots: &[usize],
     part_of_joint: &mut [usize],
     parts: &mut Vec<Part>,
 ) -> (Vec<(usize, usize)>, Vec<Option<usize>>) {
@@ -904,12 +918,13 @@ fn split_props(
     for &(b, _) in &rigid {
         rigid_bone[b] = true;
     }
-    // A piece skinned to the joint the limb hangs from is the limb itself (a box
+    // A piece skinned to the joint a limb hangs from (`roots`: the limbs' own first joints,
+    // not a one-joint weapon socket merged into an arm) is the limb itself (a box
     // character's one-joint arm), not something held in it.
-    let on_limb_root = |vs: &[u32], limb: usize| {
+    let on_limb_root = |vs: &[u32]| {
         vs.first()
             .and_then(|&v| vertex_joint[v as usize])
-            .is_some_and(|j| tree.parent[j].is_none_or(|p| part_of_joint[p] != limb))
+            .is_some_and(|j| roots.contains(&j))
     };
     let mut found: Vec<(usize, usize, f32)> = Vec::new();
     for (k, vs) in piece_vertices.iter().enumerate() {
@@ -917,7 +932,7 @@ fn split_props(
         if limb == 0
             || limb >= limb_parts
             || legs.contains(&limb)
-            || on_limb_root(vs, limb)
+            || on_limb_root(vs)
             || bends(vs)
             || vs
                 .iter()
@@ -2416,6 +2431,15 @@ mod tests {
             s.parts
         );
         assert_eq!(s.parts.len(), 5);
+        // Eyes: a mirrored pair of one joint each under the head, each with a small mesh of
+        // its own holding more than 2 % of the vertices: no limbs, the head's.
+        let mut with_eyes = [&trunk[..], &two[..]].concat();
+        with_eyes.push(("LeftEye", Some(2), [0.05, 0.15, 0.1], [-0.015; 3], [0.015; 3]));
+        with_eyes.push(("RightEye", Some(2), [-0.05, 0.15, 0.1], [-0.015; 3], [0.015; 3]));
+        let s = auto_segment(&box_rig(&with_eyes));
+        let got: Vec<String> = (0..13).map(|b| part_of(&s, b)).collect();
+        assert_eq!(got[11..], ["Torso", "Torso"], "{:?}", s.parts);
+        assert_eq!(s.parts.len(), 5, "{:?}", s.parts);
         // A control joint carrying no mesh, far off, changes nothing.
         let mut with_ik = [&trunk[..], &one[..]].concat();
         with_ik.push(("LeftArmIK", Some(0), [3.0, 0.0, 0.0], [0.0; 3], [0.0; 3]));

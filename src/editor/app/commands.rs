@@ -101,7 +101,21 @@ impl EditorApp {
             }
             Command::AddToCrowd(folder) => self.crowd.start_add(folder),
             Command::RemoveFromCrowd(k) => self.crowd.remove_guest(k),
-            Command::ShowCrowd(show) => self.crowd.open = show,
+            Command::ShowCrowd(show) => {
+                self.crowd.open = show;
+                // Nothing in the preview yet, but the project has a bake: it is opened (the
+                // tab said "No crowd yet" beside a crowd.pack baked last session).
+                if show
+                    && self.crowd.assets.is_none()
+                    && !self.crowd.busy()
+                    && let Some(doc) = &self.doc
+                {
+                    let folder = views_source_on_open(doc);
+                    if polypostor::safe_fs::bake_folder_format(&folder).is_some() {
+                        self.commands.push(Command::OpenCrowd(folder));
+                    }
+                }
+            }
             Command::Export(req) => {
                 // The clip set chosen is the project's from now on (Ctrl+B bakes it too).
                 // The clip set and the settings chosen become the project's.

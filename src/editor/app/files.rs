@@ -145,10 +145,11 @@ impl EditorApp {
         };
         // The document replaced: its autosave is stale when it had nothing unsaved (the
         // project file holds it all: an undone recovery left one behind, offered again on
-        // the next open) and unwanted when the user chose "Don't save".
+        // the next open) — unless its recovery is still being asked about — and unwanted
+        // when the user chose "Don't save".
         if !loaded.only_character
             && let Some(old) = &self.doc
-            && (discard || (!old.dirty && self.options.autosave))
+            && (discard || (!old.dirty && self.options.autosave && self.safety.recovery.is_none()))
         {
             self.safety.clear(old, self.options.recovery_dir.as_deref());
         }

@@ -265,8 +265,10 @@ impl eframe::App for EditorApp {
         remove_temp_bakes(true);
         // Closing with nothing unsaved: an autosave left (a recovery undone back to the
         // saved project) holds nothing the project lacks, and would be offered again.
+        // Not while its recovery is still being asked about: that autosave is the lost work.
         if let Some(doc) = self.doc.as_ref().filter(|d| !d.dirty)
             && self.options.autosave
+            && self.safety.recovery.is_none()
         {
             self.safety.clear(doc, self.options.recovery_dir.as_deref());
         }
@@ -297,13 +299,13 @@ impl eframe::App for EditorApp {
                 }
                 // A Polypostor bake (it pointed the Views tab at its folder): the project
                 // remembers it, and opens on it next time.
+                // (Not for a document never saved: its bake is in a temporary folder, gone
+                // when the editor exits.)
                 if before.is_some()
                     && let (Some(doc), Some(out)) = (self.doc.as_mut(), self.views.source.as_deref())
+                    && let Some(dir) = doc.project_file.as_deref().and_then(Path::parent)
                 {
-                    let stored = match doc.project_file.as_deref().and_then(Path::parent) {
-                        Some(dir) => polypostor::project::relative_path(out, dir),
-                        None => out.display().to_string(),
-                    };
+                    let stored = polypostor::project::relative_path(out, dir);
                     if doc.project.view.last_pack.as_deref() != Some(stored.as_str()) {
                         doc.project.view.last_pack = Some(stored);
                         doc.dirty = true;
@@ -391,7 +393,8 @@ impl eframe::App for EditorApp {
             .default_size(300.0)
             .max_size(side_max)
             .show(ui, |ui| {
-                ui.horizontal(|ui| {
+                // The tabs wrap onto a second row in a narrow panel.
+                ui.horizontal_wrapped(|ui| {
                     let open = self.crowd.open;
                     if ui
                         .selectable_label(!open && self.tab == SideTab::Character, "Character")

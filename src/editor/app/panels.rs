@@ -289,7 +289,8 @@ impl EditorApp {
         let clips: Vec<String> = doc.character.clips.iter().map(|c| c.name.clone()).collect();
         let duration = doc.clip_duration(self.playback.clip);
         let mut commands = Vec::new();
-        ui.horizontal(|ui| {
+        // Wraps onto a second row in a narrow window (the speed went off the edge at 700 px).
+        ui.horizontal_wrapped(|ui| {
             let selected = self
                 .playback
                 .clip

@@ -1435,7 +1435,7 @@ fn start_gait(a: &mut Agents, rng: &mut Rng, g: &Gaits, i: usize, gait: Gait, pa
 mod tests;
 
 /// A length for people to read: µm, mm, cm, m or km as its size asks (a character 1.95 mm
-/// tall is "2.0 mm", not "0.00 m").
+/// tall is "1.9 mm", not "0.00 m").
 pub fn metres(x: f32) -> String {
     let a = x.abs();
     if a < 1e-4 {
@@ -1479,7 +1479,10 @@ mod size_spread_tests {
         assert!(super::size_spread_note(&[1.8, 1.2, 0.4]).is_none());
         assert!(super::size_spread_note(&[1.8]).is_none());
         let n = super::size_spread_note(&[1.95, 0.00195, 1950.0]).unwrap();
-        assert!(n.contains("1.9 mm") && n.contains("1.95 km") && n.contains("1000000×"), "{n}");
+        assert!(
+            n.contains("1.9 mm") && n.contains("1.95 km") && n.contains("1000000×"),
+            "{n}"
+        );
         assert!(super::size_spread_note(&[1.8, 0.05]).is_some());
     }
 }

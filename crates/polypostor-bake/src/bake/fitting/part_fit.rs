@@ -214,6 +214,14 @@ pub enum PartFitError {
     Fit(#[from] FitError),
 }
 
+impl PartFitError {
+    /// Whether `message` (a [`PartFitError`] as text, as a part's result keeps it) says the
+    /// part covers no pixel, rather than that its fit failed.
+    pub fn says_empty(message: &str) -> bool {
+        message.starts_with("the part is not visible")
+    }
+}
+
 /// The fitted polygons of one part in one view.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PartFit {
@@ -1688,6 +1696,20 @@ fn targets_key_polygon(
 
 #[cfg(test)]
 mod tests {
+    /// Only "covers nothing" reads as empty from a part's kept message (the report leaves such
+    /// views out of its means; a failed fit must stay in them).
+    #[test]
+    fn only_an_empty_part_says_empty() {
+        use super::PartFitError;
+        use crate::bake::fit::FitError;
+        assert!(PartFitError::says_empty(&PartFitError::Empty(3).to_string()));
+        for e in [
+            PartFitError::Fit(FitError::EmptyTarget),
+            PartFitError::Fit(FitError::NoTriangles),
+        ] {
+            assert!(!PartFitError::says_empty(&e.to_string()), "{e}");
+        }
+    }
     use super::*;
 
     /// `aligned` finds the shift that pairs a polygon's vertices with a re-numbered,

@@ -408,7 +408,16 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
         .views
         .iter()
         .enumerate()
-        .filter(|(_, v)| v.parts.iter().all(|p| p.fit.is_none()))
+        .filter(|(_, v)| {
+            // Only parts that cover nothing: a part whose fit failed (triangulation) is a
+            // failure the means must show.
+            v.parts.iter().all(|p| {
+                p.fit.is_none()
+                    && p.problem
+                        .as_deref()
+                        .is_some_and(crate::bake::part_fit::PartFitError::says_empty)
+            })
+        })
         .map(|(i, _)| i)
         .collect();
     let counted: Vec<&ViewReport> = if empty_views.len() < views.len() {
