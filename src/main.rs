@@ -37,6 +37,8 @@ enum Command {
         up: polypostor::UpAxis,
     },
     /// Render a character headless to a PNG (colour, or normals with --normals).
+    // `--pitch -90` is a number (clap otherwise suggests `-- -90`, which does not work).
+    #[command(allow_negative_numbers = true)]
     Render {
         /// A .glb or .gltf file.
         file: PathBuf,

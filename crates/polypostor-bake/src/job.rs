@@ -34,9 +34,17 @@ impl BakeInput {
     /// `input` is a glTF/GLB file (with `project` optionally supplying the project's
     /// segmentation, caps, corrections and settings) or a project (file or folder).
     pub fn resolve(input: &Path, project: Option<&Path>) -> Result<Self, String> {
+        // By name, or by the GLB magic for a binary glTF named otherwise (a .vrm avatar).
         let is_gltf = input
             .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"));
+            .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"))
+            || starts_as_glb(input);
+        if !is_gltf && project.is_some() {
+            return Err(format!(
+                "'{}' is a project and --project names another: give the character file with --project, or the project alone",
+                input.display()
+            ));
+        }
         if is_gltf {
             let (project, project_file) = match project {
                 Some(p) => {
@@ -203,6 +211,17 @@ pub fn lost_clips_warning(c: &Character, project_clips: &[String], baked: &ClipC
             baked.join(", ")
         }
     ))
+}
+
+/// Whether `path` is a regular file starting with the GLB magic `glTF`.
+fn starts_as_glb(path: &Path) -> bool {
+    use std::io::Read;
+    let mut magic = [0u8; 4];
+    std::fs::symlink_metadata(path).is_ok_and(|m| m.is_file())
+        && std::fs::File::open(path)
+            .and_then(|mut f| f.read_exact(&mut magic))
+            .is_ok()
+        && &magic == b"glTF"
 }
 
 /// Where a bake goes when no folder is named: `<stem>-<clip>.pack` (`-rest` without a clip,
@@ -841,6 +860,13 @@ mod tests {
         let with = BakeInput::resolve(&gltf, Some(&project)).unwrap();
         assert!(with.project.is_some() && with.character_path == gltf);
         assert!(BakeInput::resolve(&root.join("no-such-project"), None).is_err());
+        // A project with --project naming another is refused; a GLB named otherwise (a VRM
+        // avatar) is a character.
+        assert!(BakeInput::resolve(&project, Some(&project)).is_err());
+        let dir = crate::safe_fs::TempDir::new("polypostor-job-vrm").unwrap();
+        let vrm = dir.path().join("avatar.vrm");
+        std::fs::copy(&gltf, &vrm).unwrap();
+        assert_eq!(BakeInput::resolve(&vrm, None).unwrap().character_path, vrm);
         assert_eq!(
             crate::bake::pipeline::KeyFrame::parse("auto"),
             Ok(crate::bake::pipeline::KeyFrame::Auto)

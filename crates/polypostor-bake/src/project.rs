@@ -234,6 +234,8 @@ impl Project {
                 },
             }
         })?;
+        // A byte-order mark (Windows editors write one) is no JSON.
+        let text = text.strip_prefix('\u{feff}').map(str::to_owned).unwrap_or(text);
         // Read the version first so a newer file is reported as such, not as a parse error.
         #[derive(Deserialize)]
         struct Version {
@@ -328,6 +330,19 @@ pub fn relative_path(target: &Path, base: &Path) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A project saved by an editor that writes a byte-order mark, and an up axis written
+    /// as the command line spells it (`z`), load.
+    #[test]
+    fn a_byte_order_mark_and_a_bare_axis_load() {
+        let dir = crate::safe_fs::TempDir::new("polypostor-project-bom").unwrap();
+        let file = dir.path().join("project.json");
+        let text = r#"{"format_version": 1, "name": "p", "character": {"path": "c.glb", "up": "z"}}"#;
+        std::fs::write(&file, format!("\u{feff}{text}")).unwrap();
+        let (p, _) = Project::load(&file).unwrap();
+        assert_eq!(p.character.up, crate::import::UpAxis::PosZ);
+        assert_eq!(p.name, "p");
+    }
 
     /// Empty and repeated part names (a hand-edited project) decode to named, distinct parts,
     /// and the rename is said; a segmentation with good names is left as it is.

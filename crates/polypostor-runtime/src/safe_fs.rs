@@ -402,19 +402,33 @@ fn foreign_entries(dir: &Path, named: Option<&std::collections::HashSet<String>>
             for inner in list(&path)? {
                 let file = path.join(&inner);
                 let old_debug_image = name == "debug" && unmarked_debug_image(&file, &inner);
-                if !old_debug_image && !carries_tool_mark(&file) {
+                if !old_debug_image && !carries_tool_mark(&file) && !stale_atomic_tmp(&file, &inner) {
                     foreign.push(format!("{name}/{inner}"));
                 }
             }
             continue;
         }
         let numbered = is_bake_file_name(&name) && named.is_none_or(|n| n.contains(&name));
-        if !(is_file && numbered) && !carries_tool_mark(&path) {
+        if !(is_file && numbered) && !carries_tool_mark(&path) && !stale_atomic_tmp(&path, &name) {
             foreign.push(name);
         }
     }
     foreign.sort();
     Ok(foreign)
+}
+
+/// Whether `path` (named `name`) is a file an atomic write of this tool left when its
+/// process was killed (`.NAME.PID.tmp` of the kinds [`clean_stale_staging`] removes, the
+/// process gone): a `compare` killed mid-write left one in the pack's `compare` folder, and
+/// the next bake refused the pack as holding a file the tool did not write.
+fn stale_atomic_tmp(path: &Path, name: &str) -> bool {
+    let kind_ok = [".json.", ".autosave.", ".png.", ".glb."]
+        .iter()
+        .any(|k| name.trim_end_matches(".tmp").contains(k));
+    name.ends_with(".tmp")
+        && kind_ok
+        && staging_pid(name).is_some_and(|pid| pid != std::process::id() && !process_alive(pid))
+        && std::fs::symlink_metadata(path).is_ok_and(|m| m.is_file())
 }
 
 /// What a folder written by this tool says it is, from its manifest(s); `None` if neither
@@ -445,8 +459,13 @@ pub fn bake_folder_format(dir: &Path) -> Option<&'static str> {
 /// On success the folder may be replaced as a whole.
 pub fn check_bake_output(out: &Path, protected: &[&Path]) -> Result<(), String> {
     let shown = out.display();
+    // `components()` hides a trailing `.` (`b.pack/.` reads as `b.pack`), which no rename can
+    // replace: the whole bake ran, then failed.
+    let raw = out.to_string_lossy();
+    let trimmed = raw.trim_end_matches(std::path::is_separator);
+    let dotted = trimmed == "." || trimmed.ends_with("/.") || trimmed.ends_with("\\.");
     match out.components().next_back() {
-        Some(Component::Normal(_)) => {}
+        Some(Component::Normal(_)) if !dotted => {}
         _ => {
             return Err(format!(
                 "'{shown}' is not a folder name a bake can create (give a new folder, e.g. character.pack)"
@@ -469,6 +488,14 @@ pub fn check_bake_output(out: &Path, protected: &[&Path]) -> Result<(), String> 
             ));
         }
     }
+    // Inside another bake's folder (its `debug` or `compare`, or a pack in a pack), the
+    // other could not be baked again (this one would be a file it did not write).
+    if let Some(outer) = real.ancestors().skip(1).find(|a| bake_folder_format(a).is_some()) {
+        return Err(format!(
+            "'{shown}' lies inside '{}', a folder this tool wrote; give a folder outside it",
+            outer.display()
+        ));
+    }
     let meta = match std::fs::symlink_metadata(out) {
         Ok(m) => m,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
@@ -479,6 +506,19 @@ pub fn check_bake_output(out: &Path, protected: &[&Path]) -> Result<(), String> 
             "'{shown}' exists and is {}; a bake writes a folder and replaces only a folder it wrote",
             kind_of(&meta.file_type())
         ));
+    }
+    // A mount point (a volume, a drive's root) cannot be renamed away: found after the bake.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        let parent = real.parent().unwrap_or(Path::new("/"));
+        if let Ok(p) = std::fs::metadata(parent)
+            && p.dev() != meta.dev()
+        {
+            return Err(format!(
+                "'{shown}' is a mount point; a bake replaces its output folder as a whole, so give a folder inside it"
+            ));
+        }
     }
     let entries: Vec<String> = std::fs::read_dir(out)
         .map_err(|e| format!("cannot list '{shown}': {e}"))?
@@ -715,11 +755,7 @@ pub fn clean_stale_staging(dir: &Path) -> Vec<PathBuf> {
                 ours && std::fs::remove_dir_all(&path).is_ok()
             }
             Ok(t) if t.is_file() && name.ends_with(".tmp") => {
-                let stem = name.trim_end_matches(".tmp");
-                let kind_ok = [".json.", ".autosave.", ".png.", ".glb."]
-                    .iter()
-                    .any(|k| stem.contains(k));
-                kind_ok && std::fs::remove_file(&path).is_ok()
+                stale_atomic_tmp(&path, &name) && std::fs::remove_file(&path).is_ok()
             }
             _ => false,
         };
@@ -1000,6 +1036,24 @@ mod tests {
         assert!(check_bake_output(Path::new("."), &[]).is_err());
         assert!(check_bake_output(Path::new(".."), &[]).is_err());
         assert!(check_bake_output(Path::new("/"), &[]).is_err());
+        // A trailing `.` (which `components()` hides; no rename can replace it), new or not.
+        for dotted in [pack.join("."), d.join("new.pack/."), d.join("new.pack/./")] {
+            let e = check_bake_output(&dotted, &[]).unwrap_err();
+            assert!(e.contains("not a folder name"), "{e}");
+        }
+        // A `compare` killed mid-write left a temporary image: the tool's.
+        std::fs::remove_file(pack.join("notes.txt")).unwrap();
+        let dead = 4_194_399;
+        std::fs::write(pack.join("compare").join(format!(".memory.png.{dead}.tmp")), "x").unwrap();
+        assert_eq!(check_bake_output(&pack, &[]), Ok(()));
+        std::fs::write(pack.join("compare").join(format!(".notes.{dead}.tmp")), "x").unwrap();
+        assert!(check_bake_output(&pack, &[]).is_err(), "not of a kind the tool writes");
+        std::fs::remove_file(pack.join("compare").join(format!(".notes.{dead}.tmp"))).unwrap();
+        // Inside a folder this tool wrote (its debug folder, a pack in a pack).
+        for inner in [pack.join("debug"), pack.join("inner.pack"), pack.join("a/b.pack")] {
+            let e = check_bake_output(&inner, &[]).unwrap_err();
+            assert!(e.contains("a folder this tool wrote"), "{e}");
+        }
         std::fs::remove_dir_all(&d).unwrap();
     }
 

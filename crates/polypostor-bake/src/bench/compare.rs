@@ -145,8 +145,8 @@ pub fn compare(
     }
     say!(
         t,
-        "error against the real mesh over {} views: mean PSNR and SSIM (higher is better)",
-        chosen.len()
+        "error against the real mesh over {}: mean PSNR and SSIM (higher is better)",
+        crate::import::plural(chosen.len(), "view")
     );
     say!(
         t,

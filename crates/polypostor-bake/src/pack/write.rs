@@ -71,8 +71,9 @@ pub fn write_folder_atomic<T>(out: &Path, fill: &dyn Fn(&Path) -> Result<T, Stri
         Ok(value) => {
             let old = parent.join(crate::safe_fs::staging_name(&name, "old", pid));
             let had_old = std::fs::symlink_metadata(out).is_ok();
-            if had_old {
-                std::fs::rename(out, &old).map_err(|e| io(out, e))?;
+            if had_old && let Err(e) = std::fs::rename(out, &old) {
+                let _ = std::fs::remove_dir_all(&tmp);
+                return Err(io(out, e));
             }
             if let Err(e) = std::fs::rename(&tmp, out) {
                 if had_old {

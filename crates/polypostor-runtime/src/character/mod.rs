@@ -503,19 +503,19 @@ pub fn bounds(points: impl IntoIterator<Item = Vec3>) -> (Vec3, Vec3) {
 pub enum UpAxis {
     /// +y, glTF's own (the default).
     #[default]
-    #[serde(rename = "+y")]
+    #[serde(rename = "+y", alias = "y")]
     PosY,
     /// -y: the file is upside down.
     #[serde(rename = "-y")]
     NegY,
     /// +z: a Z-up export left unconverted.
-    #[serde(rename = "+z")]
+    #[serde(rename = "+z", alias = "z")]
     PosZ,
     /// -z.
     #[serde(rename = "-z")]
     NegZ,
     /// +x.
-    #[serde(rename = "+x")]
+    #[serde(rename = "+x", alias = "x")]
     PosX,
     /// -x.
     #[serde(rename = "-x")]
