@@ -264,6 +264,78 @@ impl Project {
         Ok((project, file))
     }
 
+    /// Keys of the project file at `path` that no version of the format reads (a typo such
+    /// as `"veiws"`, or `"clip"` at the top instead of in `view`), as `bake.veiws`: the load
+    /// ignores them, so the bake would go on with the defaults without a word. Checked at the
+    /// top level and in `character`, `view` and `bake`, the objects people edit by hand.
+    /// Empty when the file cannot be read (its load says why).
+    pub fn unknown_keys(path: &Path) -> Vec<String> {
+        let file = resolve_project_file(path);
+        let Ok(text) = crate::safe_fs::read_regular_string(&file, MAX_PROJECT_BYTES, "a project file") else {
+            return Vec::new();
+        };
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+        let Ok(serde_json::Value::Object(top)) = serde_json::from_str::<serde_json::Value>(text) else {
+            return Vec::new();
+        };
+        let keys = |v: serde_json::Value| -> Vec<String> {
+            match v {
+                serde_json::Value::Object(m) => m.keys().cloned().collect(),
+                _ => Vec::new(),
+            }
+        };
+        // Every key the format has: a project with every optional part present.
+        let mut full = Project::new_for_character("x", Path::new("c.glb"), Path::new("."));
+        full.segmentation = Some(StoredSegmentation {
+            parts: Vec::new(),
+            triangles: 0,
+            runs: Vec::new(),
+        });
+        full.overrides.views.insert(
+            0,
+            crate::bake::overrides::ViewOverride {
+                key_frame: Some(0),
+                ..Default::default()
+            },
+        );
+        full.clips = vec!["a".into()];
+        full.bake.views += 1;
+        let known_top = keys(serde_json::to_value(&full).unwrap_or_default());
+        let known = |section: &str| -> Vec<String> {
+            match section {
+                "character" => keys(
+                    serde_json::to_value(CharacterRef {
+                        path: String::new(),
+                        up: crate::import::UpAxis::PosZ,
+                    })
+                    .unwrap_or_default(),
+                ),
+                "view" => keys(
+                    serde_json::to_value(ViewState {
+                        clip: Some(String::new()),
+                        playback_speed: Some(1.0),
+                        last_pack: Some(String::new()),
+                    })
+                    .unwrap_or_default(),
+                ),
+                _ => keys(serde_json::to_value(crate::bake::settings::BakeSettings::default()).unwrap_or_default()),
+            }
+        };
+        let mut unknown = Vec::new();
+        for (k, v) in &top {
+            if !known_top.contains(k) {
+                unknown.push(k.clone());
+            } else if let (true, serde_json::Value::Object(inner)) =
+                (["character", "view", "bake"].contains(&k.as_str()), v)
+            {
+                let names = known(k);
+                unknown.extend(inner.keys().filter(|i| !names.contains(i)).map(|i| format!("{k}.{i}")));
+            }
+        }
+        unknown.sort();
+        unknown
+    }
+
     /// Saves atomically to `file` (a temporary file in the same folder, then a rename).
     pub fn save(&self, file: &Path) -> Result<(), ProjectError> {
         let werr = |message: String| ProjectError::Write {
@@ -330,6 +402,32 @@ pub fn relative_path(target: &Path, base: &Path) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Keys the format does not have (typos) are found, at the top and in the objects people
+    /// edit; a saved project, full or minimal, has none.
+    #[test]
+    fn unknown_keys_are_found() {
+        let dir = crate::safe_fs::TempDir::new("polypostor-project-keys").unwrap();
+        let file = dir.path().join("project.json");
+        let mut p = Project::new_for_character("p", Path::new("c.glb"), dir.path());
+        p.save(&file).unwrap();
+        assert!(Project::unknown_keys(&file).is_empty());
+        p.bake.views = 40;
+        p.clips = vec!["Walk".into()];
+        p.view.last_pack = Some("x.pack".into());
+        p.save(&file).unwrap();
+        assert!(
+            Project::unknown_keys(&file).is_empty(),
+            "{:?}",
+            Project::unknown_keys(&file)
+        );
+        let text = r#"{"format_version": 1, "name": "p", "clip": "Wave",
+            "character": {"path": "c.glb", "Up": "z"}, "view": {"clip": "Walk"},
+            "bake": {"veiws": 4, "resolution": 64}}"#;
+        std::fs::write(&file, text).unwrap();
+        assert_eq!(Project::unknown_keys(&file), ["bake.veiws", "character.Up", "clip"]);
+        assert!(Project::load(&file).is_ok(), "still loads");
+    }
 
     /// A project saved by an editor that writes a byte-order mark, and an up axis written
     /// as the command line spells it (`z`), load.

@@ -177,6 +177,16 @@ impl EditorApp {
         for w in &c.warnings {
             self.warn(w.clone());
         }
+        if let Some(file) = &loaded.project_file {
+            let unknown = Project::unknown_keys(file);
+            if !unknown.is_empty() {
+                self.warn(format!(
+                    "{}: keys the project format does not have, ignored (a typo?): {}",
+                    file.display(),
+                    unknown.join(", ")
+                ));
+            }
+        }
         let clip = loaded
             .project
             .view

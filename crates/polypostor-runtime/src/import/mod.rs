@@ -207,7 +207,7 @@ pub fn import_slice_with(
         if options.up != UpAxis::PosY {
             character.move_rigidly(options.up.rotation(), Vec3::ZERO);
             character.warnings.push(format!(
-                "read with {} as up (the project's choice; glTF's is +y): stood up",
+                "read with {} as up (as asked: --up or the project; glTF's is +y): stood up",
                 options.up
             ));
         } else if let Some(hint) = lying_hint(&character) {
