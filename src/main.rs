@@ -975,12 +975,11 @@ fn bake_cmd(a: BakeArgs) -> anyhow::Result<()> {
     };
     // Pins past the fitted polygons' vertices are known only now.
     let late_pins = b.dropped_corrections().pins.saturating_sub(dropped_before.pins);
-    let late = polypostor::bake::overrides::DroppedCorrections {
-        pins: late_pins,
-        ..Default::default()
-    };
-    for line in late.lines() {
-        eprintln!("warning: {line}");
+    if late_pins > 0 {
+        eprintln!(
+            "warning: {late_pins} {}pin(s) refer to polygon vertices the fitted polygons do not have; ignored",
+            if dropped_before.pins > 0 { "more " } else { "" }
+        );
     }
     let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json"))?)?;
     eprintln!(

@@ -814,10 +814,15 @@ fn dropped_corrections_are_reported_by_kind() {
     ] {
         assert!(e.contains(want), "missing '{want}' in:\n{e}");
     }
-    // One pin past the frames (said before the bake), one past the polygon (after it).
+    // One pin past the frames (said before the bake), one past the polygon (after it, as
+    // one more).
     assert_eq!(
         e.matches("pin(s) refer to frames, parts or polygon vertices").count(),
-        2,
+        1,
+        "{e}"
+    );
+    assert!(
+        e.contains("warning: 1 more pin(s) refer to polygon vertices the fitted polygons do not have"),
         "{e}"
     );
     let report: serde_json::Value =

@@ -579,7 +579,7 @@ pub fn check_can_write_beside(out: &Path) -> Result<(), String> {
             Ok(())
         }
         Err(e) => Err(format!(
-            "cannot write the output '{}': creating a folder in '{}' failed ({e}); give an output folder where files can be written",
+            "cannot write the output '{}': a bake assembles its folder beside it, in '{}', and creating a folder there failed ({e}); give an output folder whose parent folder can be written",
             out.display(),
             existing.display()
         )),
