@@ -2275,6 +2275,22 @@ mod tests {
         }
     }
 
+    type BoxJoint = (&'static str, Option<usize>, [f32; 3], [f32; 3], [f32; 3]);
+
+    /// A mirrored pair of [`box_rig`] joints: the first at `at`, the second mirrored in x.
+    fn pair(
+        names: [&'static str; 2],
+        parents: [Option<usize>; 2],
+        at: [f32; 3],
+        lo: [f32; 3],
+        hi: [f32; 3],
+    ) -> [BoxJoint; 2] {
+        [
+            (names[0], parents[0], at, lo, hi),
+            (names[1], parents[1], [-at[0], at[1], at[2]], lo, hi),
+        ]
+    }
+
     /// Box characters (a piece per joint): with one joint per limb, each limb is a part
     /// (they all joined the torso: one part, limbs warped across the body); with two-joint
     /// arms and no hand joint, the forearm's box is the arm's, not a prop of its own ("Fore
@@ -2299,35 +2315,22 @@ mod tests {
             ),
         ];
         let one = [
-            (
-                "LeftLeg",
-                Some(0),
+            pair(
+                ["LeftLeg", "RightLeg"],
+                [Some(0); 2],
                 [0.12, -0.1, 0.0],
                 [-0.08, -0.9, -0.08],
                 [0.08, 0.0, 0.08],
             ),
-            (
-                "RightLeg",
-                Some(0),
-                [-0.12, -0.1, 0.0],
-                [-0.08, -0.9, -0.08],
-                [0.08, 0.0, 0.08],
-            ),
-            (
-                "LeftArm",
-                Some(1),
+            pair(
+                ["LeftArm", "RightArm"],
+                [Some(1); 2],
                 [0.3, 0.45, 0.0],
                 [-0.06, -0.65, -0.06],
                 [0.06, 0.0, 0.06],
             ),
-            (
-                "RightArm",
-                Some(1),
-                [-0.3, 0.45, 0.0],
-                [-0.06, -0.65, -0.06],
-                [0.06, 0.0, 0.06],
-            ),
-        ];
+        ]
+        .concat();
         let part_of = |s: &Segmentation, box_index: usize| -> String {
             let labels = &s.labels[12 * box_index..12 * box_index + 12];
             assert!(labels.iter().all(|&l| l == labels[0]), "box {box_index}: {labels:?}");
@@ -2352,63 +2355,36 @@ mod tests {
         );
         // Two joints per limb, the arms without hands.
         let two = [
-            (
-                "LeftUpLeg",
-                Some(0),
+            pair(
+                ["LeftUpLeg", "RightUpLeg"],
+                [Some(0); 2],
                 [0.12, -0.1, 0.0],
                 [-0.08, -0.45, -0.08],
                 [0.08, 0.0, 0.08],
             ),
-            (
-                "RightUpLeg",
-                Some(0),
-                [-0.12, -0.1, 0.0],
-                [-0.08, -0.45, -0.08],
-                [0.08, 0.0, 0.08],
-            ),
-            (
-                "LeftArm",
-                Some(1),
+            pair(
+                ["LeftArm", "RightArm"],
+                [Some(1); 2],
                 [0.3, 0.45, 0.0],
                 [-0.06, -0.32, -0.06],
                 [0.06, 0.0, 0.06],
             ),
-            (
-                "RightArm",
-                Some(1),
-                [-0.3, 0.45, 0.0],
-                [-0.06, -0.32, -0.06],
-                [0.06, 0.0, 0.06],
-            ),
-            (
-                "LeftLeg",
-                Some(3),
+            pair(
+                ["LeftLeg", "RightLeg"],
+                [Some(3), Some(4)],
                 [0.0, -0.45, 0.0],
                 [-0.07, -0.45, -0.07],
                 [0.07, 0.0, 0.07],
             ),
-            (
-                "RightLeg",
-                Some(4),
-                [0.0, -0.45, 0.0],
-                [-0.07, -0.45, -0.07],
-                [0.07, 0.0, 0.07],
-            ),
-            (
-                "LeftForeArm",
-                Some(5),
+            pair(
+                ["LeftForeArm", "RightForeArm"],
+                [Some(5), Some(6)],
                 [0.0, -0.32, 0.0],
                 [-0.05, -0.33, -0.05],
                 [0.05, 0.0, 0.05],
             ),
-            (
-                "RightForeArm",
-                Some(6),
-                [0.0, -0.32, 0.0],
-                [-0.05, -0.33, -0.05],
-                [0.05, 0.0, 0.05],
-            ),
-        ];
+        ]
+        .concat();
         let c = box_rig(&[&trunk[..], &two[..]].concat());
         let s = auto_segment(&c);
         let got: Vec<String> = (0..11).map(|b| part_of(&s, b)).collect();
