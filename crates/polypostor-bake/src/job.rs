@@ -595,17 +595,7 @@ impl Prepared {
         }
         let (segmentation, seg_warning) = input.segmentation(&character);
         warnings.extend(seg_warning);
-        if let Some(file) = &input.project_file {
-            let unknown = Project::unknown_keys(file);
-            if !unknown.is_empty() {
-                warnings.push(format!(
-                    "{}: {} the project format does not have, ignored (a typo?): {}",
-                    file.display(),
-                    if unknown.len() == 1 { "a key" } else { "keys" },
-                    unknown.join(", ")
-                ));
-            }
-        }
+        warnings.extend(input.project_file.as_deref().and_then(Project::unknown_keys_warning));
         // A part painted over entirely keeps its name but draws nothing: said once here, not
         // as "not visible" in every view.
         let mut counts = vec![0usize; segmentation.parts.len()];

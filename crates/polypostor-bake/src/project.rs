@@ -336,6 +336,19 @@ impl Project {
         unknown
     }
 
+    /// What to say of [`Project::unknown_keys`] of the project file at `path`, if any.
+    pub fn unknown_keys_warning(path: &Path) -> Option<String> {
+        let unknown = Self::unknown_keys(path);
+        (!unknown.is_empty()).then(|| {
+            format!(
+                "{}: {} the project format does not have, ignored (a typo?): {}",
+                path.display(),
+                if unknown.len() == 1 { "a key" } else { "keys" },
+                unknown.join(", ")
+            )
+        })
+    }
+
     /// Saves atomically to `file` (a temporary file in the same folder, then a rename).
     pub fn save(&self, file: &Path) -> Result<(), ProjectError> {
         let werr = |message: String| ProjectError::Write {

@@ -177,15 +177,8 @@ impl EditorApp {
         for w in &c.warnings {
             self.warn(w.clone());
         }
-        if let Some(file) = &loaded.project_file {
-            let unknown = Project::unknown_keys(file);
-            if !unknown.is_empty() {
-                self.warn(format!(
-                    "{}: keys the project format does not have, ignored (a typo?): {}",
-                    file.display(),
-                    unknown.join(", ")
-                ));
-            }
+        if let Some(w) = loaded.project_file.as_deref().and_then(Project::unknown_keys_warning) {
+            self.warn(w);
         }
         let clip = loaded
             .project
