@@ -43,16 +43,49 @@ pub fn temp_dir(name: &str) -> TempDir {
     TempDir(dir)
 }
 
+/// Siblings of `mine` named as it is but for another process id (`…-PID`), whose process no
+/// longer runs (Linux: no `/proc/PID`); elsewhere nothing is removed.
+fn remove_dead_runs_folders(mine: &std::path::Path) {
+    let (Some(parent), Some(name)) = (mine.parent(), mine.file_name().and_then(|n| n.to_str())) else {
+        return;
+    };
+    let Some((stem, _)) = name.rsplit_once('-') else {
+        return;
+    };
+    if !std::path::Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(parent) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let file = e.file_name();
+        let Some(other) = file.to_str() else { continue };
+        let Some(pid) = other.strip_prefix(stem).and_then(|r| r.strip_prefix('-')) else {
+            continue;
+        };
+        if other == name || pid.is_empty() || !pid.bytes().all(|b| b.is_ascii_digit()) {
+            continue;
+        }
+        if !std::path::Path::new("/proc").join(pid).exists() {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+}
+
 /// See [`temp_dir`]: a folder path that removes its folder when dropped, unless the thread is
 /// panicking (a failing test keeps its files).
 pub struct TempDir(PathBuf);
 
 impl TempDir {
     /// The path, and the folder kept after the test (for a bake shared by a whole test run
-    /// through a `static`, which is never dropped anyway).
+    /// through a `static`, which is never dropped anyway). Folders of the same name kept by
+    /// earlier runs whose process is gone are removed first, so test runs do not pile them up
+    /// in the temporary folder.
     #[allow(dead_code)]
     pub fn keep(self) -> PathBuf {
         let path = self.0.clone();
+        remove_dead_runs_folders(&path);
         std::mem::forget(self);
         path
     }
