@@ -156,6 +156,36 @@ impl JointTree {
         if !is_joint.iter().any(|&j| j) {
             is_joint = vec![true; nodes.len()];
         }
+        // Joints whose whole subtree carries no skin weight (an IK target or pole chain, a
+        // control, an end marker, a tail or cape chain with nothing on it yet) take no part
+        // in the structure, when any joint carries weight: counted, a 10-joint empty chain
+        // under the hips became the trunk and took the arms with the spine into one part,
+        // and three empty joints named "Tail…" turned a box rig's legs into "Tail Prop"s.
+        let mut own_weight = vec![0.0f64; nodes.len()];
+        for v in &c.vertices {
+            for k in 0..4 {
+                if let Some(b) = c.bones.get(v.bones[k] as usize)
+                    && let Some(w) = own_weight.get_mut(b.node)
+                {
+                    *w += v.weights[k].max(0.0) as f64;
+                }
+            }
+        }
+        let mut subtree_weight = own_weight;
+        for n in (0..nodes.len()).rev() {
+            if let Some(p) = nodes[n].parent
+                && p < n
+            {
+                subtree_weight[p] += subtree_weight[n];
+            }
+        }
+        if subtree_weight.iter().any(|&w| w > 0.0) {
+            for n in 0..nodes.len() {
+                if subtree_weight[n] <= 0.0 {
+                    is_joint[n] = false;
+                }
+            }
+        }
         let node: Vec<usize> = (0..nodes.len()).filter(|&i| is_joint[i]).collect();
         let index_of = |n: usize| node.iter().position(|&x| x == n);
         let parent: Vec<Option<usize>> = node
@@ -395,6 +425,25 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
                 carried[*j].push(*p);
             }
         }
+        // Rest-pose surface area each joint carries (a triangle's third per corner, to the
+        // corner's joint): a share of the mesh that does not grow with how finely a piece is
+        // subdivided.
+        let mut carried_area = vec![0.0f64; count];
+        for t in c.indices.chunks_exact(3) {
+            let [a, b, d] = [t[0], t[1], t[2]].map(|i| rest.get(i as usize).copied().unwrap_or(Vec3::ZERO));
+            let third = 0.5 * (b - a).cross(d - a).length() as f64 / 3.0;
+            if !third.is_finite() {
+                continue;
+            }
+            for &i in t {
+                if let Some(v) = c.vertices.get(i as usize)
+                    && let Some(Some(j)) = bone_joint.get(main_bone(v))
+                {
+                    carried_area[*j] += third;
+                }
+            }
+        }
+        let area_all: f64 = carried_area.iter().sum();
         let (ground, top) = rest.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
             (lo.min(p.y), hi.max(p.y))
         });
@@ -450,7 +499,17 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
                 .filter(|(_, d)| *d < 0.1 * span)
                 .min_by(|a, b| a.1.total_cmp(&b.1))
                 .map(|(k, _)| k);
-            let share = joints.iter().map(|&j| carried[j].len()).sum::<usize>() as f64 / carried_all.max(1) as f64;
+            // The share of the vertices or of the surface, whichever is larger: a limb of a
+            // few big boxes beside one finely subdivided piece (a chest plate of 5,000
+            // triangles) holds few vertices but much of the surface.
+            let vertex_share =
+                joints.iter().map(|&j| carried[j].len()).sum::<usize>() as f64 / carried_all.max(1) as f64;
+            let area_share = if area_all > 0.0 {
+                joints.iter().map(|&j| carried_area[j]).sum::<f64>() / area_all
+            } else {
+                0.0
+            };
+            let share = vertex_share.max(area_share);
             // A limb is long too: eyes (a mirrored pair of one joint each, with a mesh of
             // their own) are no limbs, however many vertices they hold.
             let (lo, hi) = crate::character::bounds(joints.iter().flat_map(|&j| carried[j].iter().copied()));
@@ -683,9 +742,9 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
     (Segmentation { parts, labels }, legs, vertex_weights)
 }
 
-/// Share of the mesh's vertices a limb of one joint must carry to be a part of its own
-/// rather than join the trunk ([`skeleton_parts`]): a box character's arm carries 8–15 %,
-/// an IK or control joint none.
+/// Share of the mesh's vertices, or of its rest-pose surface area, a limb of one joint must
+/// carry to be a part of its own rather than join the trunk ([`skeleton_parts`]): a box
+/// character's arm carries 8–15 %, an IK or control joint none.
 pub const SINGLE_JOINT_LIMB_SHARE: f64 = 0.02;
 
 /// Least length (a share of the character's height) of the mesh a limb of one joint carries
@@ -2433,6 +2492,164 @@ mod tests {
             "{:?}",
             s.parts
         );
+    }
+
+    /// Appends a chain of `n` joints carrying no mesh (as rigs carry tail, cape or IK chains
+    /// with nothing skinned to them yet) under node `under`, each `step` further back.
+    fn add_empty_chain(c: &mut Character, under: usize, name: &str, n: usize, step: f32) {
+        use crate::character::{Node, Transform};
+        let mut parent = under;
+        for k in 0..n {
+            c.skeleton.nodes.push(Node {
+                name: format!("{name}{k:02}"),
+                parent: Some(parent),
+                rest: Transform {
+                    translation: Vec3::new(0.0, 0.0, -step),
+                    ..Transform::default()
+                },
+                is_joint: true,
+            });
+            parent = c.skeleton.nodes.len() - 1;
+            let world = c.skeleton.rest_world()[parent];
+            c.bones.push(crate::character::Bone {
+                node: parent,
+                inverse_bind: world.inverse(),
+            });
+        }
+    }
+
+    /// Joints that carry no skin weight change nothing: a box rig and the default humanoid
+    /// with an empty chain of 3 or 10 joints (named "TailBone…", 1 cm to 10 cm apart) under
+    /// the hips or the chest get the same parts on the same triangles. (The empty chain became
+    /// the trunk and took both arms into a "Spine" part; three empty "Tail" joints turned a
+    /// box rig's legs into "Tail Prop"s.)
+    #[test]
+    fn joints_without_weight_change_no_part() {
+        let trunk = [
+            ("Hips", None, [0.0, 1.0, 0.0], [-0.2, -0.1, -0.12], [0.2, 0.15, 0.12]),
+            (
+                "Spine",
+                Some(0),
+                [0.0, 0.15, 0.0],
+                [-0.22, 0.0, -0.12],
+                [0.22, 0.5, 0.12],
+            ),
+            (
+                "Head",
+                Some(1),
+                [0.0, 0.55, 0.0],
+                [-0.12, 0.0, -0.12],
+                [0.12, 0.25, 0.12],
+            ),
+        ];
+        let limbs = [
+            pair(
+                ["LeftLeg", "RightLeg"],
+                [Some(0); 2],
+                [0.12, -0.1, 0.0],
+                [-0.08, -0.9, -0.08],
+                [0.08, 0.0, 0.08],
+            ),
+            pair(
+                ["LeftArm", "RightArm"],
+                [Some(1); 2],
+                [0.3, 0.45, 0.0],
+                [-0.06, -0.65, -0.06],
+                [0.06, 0.0, 0.06],
+            ),
+        ]
+        .concat();
+        let boxes = box_rig(&[&trunk[..], &limbs[..]].concat());
+        let default = crate::default_character::generate();
+        let hips = default.skeleton.find("Hips").unwrap();
+        let chest = default
+            .skeleton
+            .find("Chest")
+            .or_else(|| default.skeleton.find("Spine"))
+            .unwrap();
+        for (c, places) in [(&boxes, [0, 1]), (&default, [hips, chest])] {
+            let plain = auto_segment(c);
+            for under in places {
+                for (n, step) in [(3, 0.01), (10, 0.1)] {
+                    let mut with = c.clone();
+                    add_empty_chain(&mut with, under, "TailBone", n, step);
+                    let got = auto_segment(&with);
+                    assert_eq!(got, plain, "{} with {n} empty joints under node {under}", c.name);
+                }
+            }
+        }
+    }
+
+    /// A box rig with one finely subdivided piece on the hips (a chest plate of 5,000
+    /// triangles): each one-joint limb holds 0.3 % of the vertices but much of the surface,
+    /// and stay parts of their own (they all joined the torso: one part for the whole body).
+    #[test]
+    fn a_dense_piece_does_not_swallow_box_limbs() {
+        let trunk = [
+            ("Hips", None, [0.0, 1.0, 0.0], [-0.2, -0.1, -0.12], [0.2, 0.15, 0.12]),
+            (
+                "Spine",
+                Some(0),
+                [0.0, 0.15, 0.0],
+                [-0.22, 0.0, -0.12],
+                [0.22, 0.5, 0.12],
+            ),
+            (
+                "Head",
+                Some(1),
+                [0.0, 0.55, 0.0],
+                [-0.12, 0.0, -0.12],
+                [0.12, 0.25, 0.12],
+            ),
+        ];
+        let limbs = [
+            pair(
+                ["LeftLeg", "RightLeg"],
+                [Some(0); 2],
+                [0.12, -0.1, 0.0],
+                [-0.08, -0.9, -0.08],
+                [0.08, 0.0, 0.08],
+            ),
+            pair(
+                ["LeftArm", "RightArm"],
+                [Some(1); 2],
+                [0.3, 0.45, 0.0],
+                [-0.06, -0.65, -0.06],
+                [0.06, 0.0, 0.06],
+            ),
+        ]
+        .concat();
+        let plain = box_rig(&[&trunk[..], &limbs[..]].concat());
+        let mut dense = plain.clone();
+        let n = 50u32;
+        let first = dense.vertices.len() as u32;
+        for y in 0..=n {
+            for x in 0..=n {
+                let mut v = dense.vertices[0].clone();
+                v.position = Vec3::new(-0.15 + 0.3 * x as f32 / n as f32, 1.0 + 0.3 * y as f32 / n as f32, 0.14);
+                v.bones = [0; 4];
+                v.weights = [1.0, 0.0, 0.0, 0.0];
+                dense.vertices.push(v);
+            }
+        }
+        for y in 0..n {
+            for x in 0..n {
+                let i = first + y * (n + 1) + x;
+                dense.indices.extend([i, i + 1, i + n + 2, i, i + n + 2, i + n + 1]);
+            }
+        }
+        dense.submeshes[0].index_count = dense.indices.len() as u32;
+        // Each limb's 8 vertices: far under SINGLE_JOINT_LIMB_SHARE of the whole.
+        assert!(8.0 < 0.5 * SINGLE_JOINT_LIMB_SHARE * dense.vertices.len() as f64);
+        let (a, b) = (auto_segment(&plain), auto_segment(&dense));
+        assert_eq!(a.parts, b.parts);
+        assert_eq!(a.labels[..], b.labels[..a.labels.len()]);
+        assert!(
+            b.labels[a.labels.len()..]
+                .iter()
+                .all(|&l| b.parts[l as usize].name == "Torso")
+        );
+        assert_eq!(b.parts.len(), 5, "{:?}", b.parts);
     }
 
     /// A spear held in the default's right hand (a separate piece skinned to a joint of its
