@@ -277,6 +277,27 @@ fn clips_whose_keys_all_start_late_play_from_their_first_key() {
     let said = back.warnings.iter().filter(|w| w.contains("first key")).count();
     assert_eq!(said, c.clips.len(), "{:?}", back.warnings);
     assert!(plain.warnings.iter().all(|w| !w.contains("first key")));
+    // A still pose keyed once per channel at 2.5 s: a clip of no length (one baked frame),
+    // not a 2.5-second hold of 25 identical frames; the pose is the key's.
+    let mut pose = c.clone();
+    pose.clips.truncate(1);
+    for ch in &mut pose.clips[0].channels {
+        let x = ch.interpolation == Interpolation::CubicSpline;
+        let keep = if x { 3 } else { 1 };
+        ch.times.truncate(1);
+        ch.times[0] = 2.5;
+        match &mut ch.values {
+            ChannelValues::Translation(v) | ChannelValues::Scale(v) => v.truncate(keep),
+            ChannelValues::Rotation(v) => v.truncate(keep),
+        }
+    }
+    pose.clips[0].duration_secs = 2.5;
+    let back = import_slice(&write_glb(&pose).unwrap(), None, "x").unwrap();
+    assert_eq!(back.clips[0].duration_secs, 0.0, "{:?}", back.warnings);
+    let (p, _) = skin_vertices(&back, &Pose::sample(&back, &back.clips[0], 0.0));
+    let (q, _) = skin_vertices(&pose, &Pose::sample(&pose, &pose.clips[0], 2.5));
+    let off = p.iter().zip(&q).map(|(x, y)| (*x - *y).length()).fold(0.0f32, f32::max);
+    assert!(off < 1e-4, "the still pose moved by {off}");
 }
 
 /// A glTF written by our own writer (external buffer) whose JSON and buffer a test edits
@@ -1079,4 +1100,29 @@ fn git_lfs_pointers_are_named_for_what_they_are() {
     // Anything else of that length still reads as what it is.
     assert!(polypostor::import::lfs_pointer(b"version 2\nsize 12\n").is_none());
     assert!(polypostor::import::lfs_pointer(&[b' '; 2000]).is_none());
+}
+
+/// Emission is not drawn (every representation is lit base colour): a material with an
+/// emissive colour or texture is named in a warning; the same file without one says nothing.
+#[test]
+fn an_emissive_material_is_said_not_to_glow() {
+    let c = small_character();
+    let plain = Editable::of(&c).import("emissive_plain");
+    assert!(
+        plain.warnings.iter().all(|w| !w.contains("emissive")),
+        "{:?}",
+        plain.warnings
+    );
+    let mut e = Editable::of(&c);
+    e.json["materials"][0]["emissiveFactor"] = serde_json::json!([0.0, 1.0, 0.0]);
+    e.json["materials"][0]["name"] = serde_json::json!("Visor");
+    let glowing = e.import("emissive");
+    assert!(
+        glowing
+            .warnings
+            .iter()
+            .any(|w| w.contains("material 0 'Visor'") && w.contains("emissive")),
+        "{:?}",
+        glowing.warnings
+    );
 }

@@ -720,7 +720,7 @@ impl Builder<'_> {
                             }
                             Err(e) => {
                                 self.warn(format!(
-                                    "material {i}: base colour texture {t} could not be loaded ({e}); using white"
+                                    "base colour texture {t} (first used by material {i}) could not be loaded ({e}); every material using it is drawn in its base colour alone"
                                 ));
                                 None
                             }
@@ -732,6 +732,15 @@ impl Builder<'_> {
             }
             None => None,
         };
+        // Emission (a glowing visor, a sign) is not drawn: every representation is lit base
+        // colour. Said, so that a dark character with a glowing face is not a surprise.
+        let emissive = m.emissive_factor.0;
+        if m.emissive_texture.is_some() || emissive.iter().any(|&x| x.is_finite() && x > 0.0) {
+            let name = m.name.as_deref().map_or(String::new(), |n| format!(" '{n}'"));
+            self.warn(format!(
+                "material {i}{name}: its emissive (glowing) colour is not drawn; only the base colour is"
+            ));
+        }
         use json::material::AlphaMode;
         let alpha_cutoff = match m.alpha_mode {
             Checked::Valid(AlphaMode::Opaque) => 0.0,
@@ -1104,7 +1113,9 @@ impl Builder<'_> {
                 .iter()
                 .filter_map(|c| c.times.first().copied())
                 .fold(start, f32::min);
-            if start.is_finite() && start > LATE_START_SECS && start < duration {
+            // (A clip of one key per channel at 5 s is a still pose: it becomes a clip of
+            // no length, not a 5-second hold of 50 identical frames.)
+            if start.is_finite() && start > LATE_START_SECS && start <= duration {
                 for c in &mut channels {
                     c.times.iter_mut().for_each(|t| *t -= start);
                 }
@@ -1166,18 +1177,26 @@ fn triangulate(mode: json::mesh::Mode, idx: &[u32]) -> Vec<u32> {
                 out.extend_from_slice(t);
             }
         }
+        // Triples that repeat an index are the joins exporters stitch strips with (and
+        // empty in a fan): no triangles.
         Mode::TriangleStrip => {
             for i in 2..idx.len() {
-                if i % 2 == 0 {
-                    out.extend_from_slice(&[idx[i - 2], idx[i - 1], idx[i]]);
+                let t = if i % 2 == 0 {
+                    [idx[i - 2], idx[i - 1], idx[i]]
                 } else {
-                    out.extend_from_slice(&[idx[i - 1], idx[i - 2], idx[i]]);
+                    [idx[i - 1], idx[i - 2], idx[i]]
+                };
+                if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+                    out.extend_from_slice(&t);
                 }
             }
         }
         Mode::TriangleFan => {
             for i in 2..idx.len() {
-                out.extend_from_slice(&[idx[0], idx[i - 1], idx[i]]);
+                let t = [idx[0], idx[i - 1], idx[i]];
+                if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+                    out.extend_from_slice(&t);
+                }
             }
         }
         _ => {}
@@ -1400,4 +1419,27 @@ const MORPH_WEIGHT_PLAUSIBLE: f32 = 100.0;
 /// `n` and `word`, made plural with an `s` unless `n` is 1: "1 clip", "3 clips".
 pub fn plural(n: usize, word: &str) -> String {
     format!("{n} {word}{}", if n == 1 { "" } else { "s" })
+}
+
+#[cfg(test)]
+mod triangulate_tests {
+    use super::triangulate;
+    use gltf::json::mesh::Mode;
+
+    /// A strip stitched from separate triangles with repeated indices (the way exporters join
+    /// strips) gives those triangles only, each wound as its strip position says; a fan gives
+    /// its triangles; a list is kept as it is.
+    #[test]
+    fn stitched_strips_give_their_real_triangles_only() {
+        // Triangles (0,1,2) and (3,4,5) stitched: 0 1 2 2 3 3 3 4 5 (a third 3 so that the
+        // second starts at an even position and keeps its winding).
+        let strip = [0, 1, 2, 2, 3, 3, 3, 4, 5];
+        let t = triangulate(Mode::TriangleStrip, &strip);
+        assert_eq!(t, [0, 1, 2, 3, 4, 5]);
+        // A plain strip of four vertices: two triangles, the second's winding flipped back.
+        assert_eq!(triangulate(Mode::TriangleStrip, &[0, 1, 2, 3]), [0, 1, 2, 2, 1, 3]);
+        assert_eq!(triangulate(Mode::TriangleFan, &[0, 1, 2, 3, 3]), [0, 1, 2, 0, 2, 3]);
+        assert_eq!(triangulate(Mode::Triangles, &[0, 1, 2, 3, 4, 5]), [0, 1, 2, 3, 4, 5]);
+        assert!(triangulate(Mode::TriangleStrip, &[7, 7, 7, 7]).is_empty());
+    }
 }
