@@ -390,3 +390,117 @@ fn characters_of_any_size_draw_alike_on_a_grid_of_their_scale() {
         );
     }
 }
+
+/// A quad whose texture coordinates run from −1 to 2 across it, textured red on the left half
+/// of its image and blue on the right, drawn with each glTF wrap mode: at every sampled spot
+/// the GPU shows the colour [`TextureWrap::apply`] predicts (repeat tiles, mirrored repeat
+/// flips every other copy, clamp continues the edge), and the three modes differ.
+#[test]
+fn texture_wrap_modes_are_drawn_as_gltf_defines_them() {
+    use glam::{Mat4, Vec3, Vec4};
+    use polypostor::character::{Bone, Material, Node, Skeleton, Submesh, Texture, TextureWrap, Transform, Vertex};
+    let ctx = context();
+    let renderer = CharacterRenderer::new(&ctx.device);
+    let target = RenderTarget::new(&ctx.device, 160, 160);
+    let vertex = |x: f32, y: f32| Vertex {
+        position: Vec3::new(x, y, 0.0),
+        normal: Vec3::Z,
+        uv: [x + 0.5, 1.0 - y],
+        color: [1.0; 4],
+        bones: [0; 4],
+        weights: [1.0, 0.0, 0.0, 0.0],
+    };
+    let (w, h) = (16u32, 4u32);
+    let rgba8: Vec<u8> = (0..w * h)
+        .flat_map(|i| {
+            if i % w < w / 2 {
+                [255, 0, 0, 255]
+            } else {
+                [0, 0, 255, 255]
+            }
+        })
+        .collect();
+    let mut seen = Vec::new();
+    for wrap in [
+        TextureWrap::Repeat,
+        TextureWrap::MirroredRepeat,
+        TextureWrap::ClampToEdge,
+    ] {
+        let c = Character {
+            name: "Wall".into(),
+            submeshes: vec![Submesh {
+                first_index: 0,
+                index_count: 6,
+                material: 0,
+            }],
+            vertices: vec![vertex(-1.5, 0.0), vertex(1.5, 0.0), vertex(1.5, 1.0), vertex(-1.5, 1.0)],
+            indices: vec![0, 1, 2, 0, 2, 3],
+            materials: vec![Material {
+                base_color_texture: Some(0),
+                double_sided: true,
+                wrap: [wrap, TextureWrap::ClampToEdge],
+                ..Default::default()
+            }],
+            textures: vec![Texture {
+                name: "halves".into(),
+                width: w,
+                height: h,
+                rgba8: rgba8.clone(),
+            }],
+            skeleton: Skeleton {
+                nodes: vec![Node {
+                    name: "Root".into(),
+                    parent: None,
+                    rest: Transform::default(),
+                    is_joint: true,
+                }],
+            },
+            bones: vec![Bone {
+                node: 0,
+                inverse_bind: Mat4::IDENTITY,
+            }],
+            clips: Vec::new(),
+            warnings: Vec::new(),
+            up_axis: Default::default(),
+            morphs: Vec::new(),
+        };
+        let mut gpu = GpuCharacter::new(&renderer, &ctx.device, &ctx.queue, &c);
+        let cam = Camera::ortho_framing(Vec3::new(-1.5, 0.0, 0.0), Vec3::new(1.5, 1.0, 0.0), Vec3::Z, 0.05);
+        let opts = DrawOptions {
+            shading: Shading::Unlit,
+            ..Default::default()
+        };
+        let pose = Pose::rest(&c);
+        renderer.render(
+            &ctx.device,
+            &ctx.queue,
+            &target,
+            &mut gpu,
+            &c,
+            &pose,
+            SkinningMode::Gpu,
+            &cam,
+            &opts,
+        );
+        let img = target.read_color(&ctx.device, &ctx.queue).unwrap();
+        let m = cam.clip_from_world(1.0);
+        let mut colours = Vec::new();
+        // Spots a quarter of a texture copy from every seam (filtering blends near them).
+        for u in [-0.75f32, -0.25, 0.25, 0.75, 1.25, 1.75] {
+            let p = m * Vec4::new(u - 0.5, 0.5, 0.0, 1.0);
+            let (x, y) = ((p.x / p.w + 1.0) * 0.5 * 160.0, (1.0 - p.y / p.w) * 0.5 * 160.0);
+            let px = img.get_pixel(x as u32, y as u32);
+            let red = px[0] > 128 && px[2] < 128;
+            let blue = px[2] > 128 && px[0] < 128;
+            assert!(red || blue, "{wrap:?} at u = {u}: {px:?} at ({x}, {y})");
+            let expect_red = wrap.apply(u) < 0.5;
+            assert_eq!(red, expect_red, "{wrap:?} at u = {u}: {px:?}");
+            colours.push(red);
+        }
+        seen.push(colours);
+    }
+    assert!(
+        seen[0] != seen[1] && seen[1] != seen[2] && seen[0] != seen[2],
+        "{seen:?}"
+    );
+}

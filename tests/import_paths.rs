@@ -1126,3 +1126,31 @@ fn an_emissive_material_is_said_not_to_glow() {
         glowing.warnings
     );
 }
+
+/// A texture's sampler wrap modes reach the material (repeat where the file names none), and
+/// our own writer keeps them: write, import, the same modes.
+#[test]
+fn texture_wrap_modes_are_read_and_written() {
+    use polypostor::character::TextureWrap;
+    let c = small_character();
+    let plain = Editable::of(&c).import("wrap_plain");
+    let textured = plain.materials.iter().position(|m| m.base_color_texture.is_some());
+    let Some(k) = textured else {
+        panic!("the small character has a textured material");
+    };
+    assert_eq!(plain.materials[k].wrap, [TextureWrap::Repeat; 2]);
+    let mut e = Editable::of(&c);
+    e.json["samplers"] = serde_json::json!([{"wrapS": 33648, "wrapT": 33071}]);
+    for t in e.json["textures"].as_array_mut().unwrap() {
+        t["sampler"] = serde_json::json!(0);
+    }
+    let wrapped = e.import("wrap");
+    assert_eq!(
+        wrapped.materials[k].wrap,
+        [TextureWrap::MirroredRepeat, TextureWrap::ClampToEdge]
+    );
+    let back = import_slice(&write_glb(&wrapped).unwrap(), None, "x").unwrap();
+    let modes: Vec<_> = back.materials.iter().map(|m| (m.name.clone(), m.wrap)).collect();
+    let want: Vec<_> = wrapped.materials.iter().map(|m| (m.name.clone(), m.wrap)).collect();
+    assert_eq!(modes, want);
+}

@@ -111,6 +111,7 @@ pub fn quadruped() -> Character {
             base_color_texture: Some(0),
             double_sided: false,
             alpha_cutoff: 0.0,
+            wrap: Default::default(),
         }],
         textures: vec![fur_texture()],
         skeleton: Skeleton { nodes },

@@ -129,9 +129,14 @@ fn build(c: &Character) -> Result<(Value, Vec<u8>), String> {
         let view = bin.view(&png, None);
         images.push(json!({ "name": t.name, "bufferView": view, "mimeType": "image/png" }));
     }
-    let textures: Vec<Value> = (0..c.textures.len())
+    // glTF keeps wrap modes on a texture's sampler: one texture per image with the default
+    // repeating sampler, and one more per image and other wrap pair a material uses.
+    let mut textures: Vec<Value> = (0..c.textures.len())
         .map(|i| json!({ "source": i, "sampler": 0 }))
         .collect();
+    let mut samplers: Vec<Value> =
+        vec![json!({ "magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497 })];
+    let mut wrapped: Vec<((usize, [crate::character::TextureWrap; 2]), usize)> = Vec::new();
     let materials: Vec<Value> = c
         .materials
         .iter()
@@ -139,7 +144,18 @@ fn build(c: &Character) -> Result<(Value, Vec<u8>), String> {
             let mut pbr =
                 json!({ "baseColorFactor": m.base_color_factor, "metallicFactor": 0.0, "roughnessFactor": 0.8 });
             if let Some(t) = m.base_color_texture {
-                pbr["baseColorTexture"] = json!({ "index": t });
+                let index = if m.wrap == [crate::character::TextureWrap::Repeat; 2] {
+                    t
+                } else if let Some(&(_, k)) = wrapped.iter().find(|(key, _)| *key == (t, m.wrap)) {
+                    k
+                } else {
+                    samplers.push(json!({ "magFilter": 9729, "minFilter": 9987,
+                        "wrapS": m.wrap[0].gltf(), "wrapT": m.wrap[1].gltf() }));
+                    textures.push(json!({ "source": t, "sampler": samplers.len() - 1 }));
+                    wrapped.push(((t, m.wrap), textures.len() - 1));
+                    textures.len() - 1
+                };
+                pbr["baseColorTexture"] = json!({ "index": index });
             }
             let mut mat = json!({ "name": m.name, "pbrMetallicRoughness": pbr, "doubleSided": m.double_sided });
             if m.alpha_cutoff > 0.0 {
@@ -253,7 +269,7 @@ fn build(c: &Character) -> Result<(Value, Vec<u8>), String> {
     if !c.textures.is_empty() {
         root["images"] = json!(images);
         root["textures"] = json!(textures);
-        root["samplers"] = json!([{ "magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497 }]);
+        root["samplers"] = json!(samplers);
     }
     if !animations.is_empty() {
         root["animations"] = json!(animations);

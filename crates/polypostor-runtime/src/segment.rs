@@ -2323,6 +2323,7 @@ mod tests {
                 base_color_texture: None,
                 double_sided: false,
                 alpha_cutoff: 0.0,
+                wrap: Default::default(),
             }],
             textures: Vec::new(),
             skeleton: Skeleton { nodes },

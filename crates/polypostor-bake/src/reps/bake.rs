@@ -437,6 +437,7 @@ pub fn part_id_character(c: &Character, labels: &[u32]) -> Character {
         base_color_texture: None,
         double_sided: true,
         alpha_cutoff: 0.0,
+        wrap: Default::default(),
     }];
     out.submeshes = vec![crate::character::Submesh {
         first_index: 0,

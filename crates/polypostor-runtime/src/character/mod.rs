@@ -297,6 +297,58 @@ pub struct Material {
     /// are not drawn: glTF's `MASK` with its `alphaCutoff`, and `BLEND` drawn as a cut-out at
     /// 0.5. `0.0` draws every fragment (`OPAQUE`, alpha ignored).
     pub alpha_cutoff: f32,
+    /// How the base colour texture continues past 0..1 in u and in v (glTF's sampler
+    /// `wrapS`, `wrapT`; repeat when the file names no sampler).
+    pub wrap: [TextureWrap; 2],
+}
+
+/// How a texture coordinate outside 0..1 reads the texture (glTF's sampler wrap modes).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum TextureWrap {
+    /// The texture tiles (glTF 10497, the default).
+    #[default]
+    Repeat,
+    /// The texture tiles, every other copy mirrored (glTF 33648).
+    MirroredRepeat,
+    /// The edge texels continue (glTF 33071).
+    ClampToEdge,
+}
+
+impl TextureWrap {
+    /// From glTF's wrap mode number; `None` for any other number.
+    pub fn from_gltf(code: u32) -> Option<Self> {
+        match code {
+            10497 => Some(Self::Repeat),
+            33648 => Some(Self::MirroredRepeat),
+            33071 => Some(Self::ClampToEdge),
+            _ => None,
+        }
+    }
+
+    /// glTF's number for this mode.
+    pub fn gltf(self) -> u32 {
+        match self {
+            Self::Repeat => 10497,
+            Self::MirroredRepeat => 33648,
+            Self::ClampToEdge => 33071,
+        }
+    }
+
+    /// The coordinate in 0..=1 that `x` reads under this mode (as a GPU sampler's address
+    /// mode does for the texel centres it filters between).
+    pub fn apply(self, x: f32) -> f32 {
+        if !x.is_finite() {
+            return 0.0;
+        }
+        match self {
+            Self::Repeat => x.rem_euclid(1.0),
+            Self::MirroredRepeat => {
+                let t = x.rem_euclid(2.0);
+                if t > 1.0 { 2.0 - t } else { t }
+            }
+            Self::ClampToEdge => x.clamp(0.0, 1.0),
+        }
+    }
 }
 
 impl Default for Material {
@@ -307,6 +359,7 @@ impl Default for Material {
             base_color_texture: None,
             double_sided: false,
             alpha_cutoff: 0.0,
+            wrap: [TextureWrap::Repeat; 2],
         }
     }
 }

@@ -100,6 +100,7 @@ pub fn generate() -> Character {
             base_color_texture: Some(0),
             double_sided: false,
             alpha_cutoff: 0.0,
+            wrap: Default::default(),
         }],
         textures: vec![texture],
         skeleton: Skeleton { nodes },

@@ -6,7 +6,7 @@ use wgpu::util::DeviceExt;
 use super::gpu_data::{Attributes, Bones, FrameUniforms, MAX_BONES, MaterialUniforms, PositionNormal};
 use super::{Camera, DepthImage, GpuError, read_depth, read_rgba8, shaders};
 use crate::animation::{Pose, skin_vertices};
-use crate::character::{Character, Texture};
+use crate::character::{Character, Texture, TextureWrap};
 
 /// Colour target: sRGB-encoded RGBA8 (linear values written, encoded by the hardware).
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
@@ -300,6 +300,25 @@ pub(crate) fn depth_less() -> wgpu::DepthStencilState {
     }
 }
 
+/// The base colour textures' sampler: linear, mipmapped, with the material's wrap modes in u
+/// and v (glTF's sampler `wrapS`, `wrapT`).
+fn base_color_sampler(device: &wgpu::Device, wrap: [TextureWrap; 2]) -> wgpu::Sampler {
+    let mode = |w: TextureWrap| match w {
+        TextureWrap::Repeat => wgpu::AddressMode::Repeat,
+        TextureWrap::MirroredRepeat => wgpu::AddressMode::MirrorRepeat,
+        TextureWrap::ClampToEdge => wgpu::AddressMode::ClampToEdge,
+    };
+    device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some("base colour"),
+        address_mode_u: mode(wrap[0]),
+        address_mode_v: mode(wrap[1]),
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        mipmap_filter: wgpu::MipmapFilterMode::Linear,
+        ..Default::default()
+    })
+}
+
 /// Pipelines and layouts shared by every character.
 pub struct CharacterRenderer {
     frame_layout: wgpu::BindGroupLayout,
@@ -449,15 +468,7 @@ impl CharacterRenderer {
             multiview_mask: None,
             cache: None,
         });
-        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("base colour"),
-            address_mode_u: wgpu::AddressMode::Repeat,
-            address_mode_v: wgpu::AddressMode::Repeat,
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            mipmap_filter: wgpu::MipmapFilterMode::Linear,
-            ..Default::default()
-        });
+        let sampler = base_color_sampler(device, [TextureWrap::Repeat; 2]);
         Self {
             frame_layout,
             material_layout,
@@ -820,10 +831,21 @@ impl GpuCharacter {
         });
         let white = upload_texture(device, queue, &Texture::white());
         let textures: Vec<wgpu::Texture> = c.textures.iter().map(|t| upload_texture(device, queue, t)).collect();
+        // Samplers for materials whose texture does not repeat (the renderer's own repeats).
+        let mut samplers: Vec<([TextureWrap; 2], wgpu::Sampler)> = Vec::new();
+        for m in &c.materials {
+            if m.wrap != [TextureWrap::Repeat; 2] && !samplers.iter().any(|(w, _)| *w == m.wrap) {
+                samplers.push((m.wrap, base_color_sampler(device, m.wrap)));
+            }
+        }
         let materials = c
             .materials
             .iter()
             .map(|m| {
+                let sampler = samplers
+                    .iter()
+                    .find(|(w, _)| *w == m.wrap)
+                    .map_or(&renderer.sampler, |(_, s)| s);
                 let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some(&m.name),
                     contents: bytemuck::bytes_of(&MaterialUniforms {
@@ -848,7 +870,7 @@ impl GpuCharacter {
                         },
                         wgpu::BindGroupEntry {
                             binding: 2,
-                            resource: wgpu::BindingResource::Sampler(&renderer.sampler),
+                            resource: wgpu::BindingResource::Sampler(sampler),
                         },
                     ],
                 });

@@ -758,12 +758,26 @@ impl Builder<'_> {
                 return Err(ImportError::Invalid(format!("material {i}: invalid alphaMode")));
             }
         };
+        // The texture's sampler's wrap modes (glTF: repeat where there is no sampler).
+        let mut wrap = [crate::character::TextureWrap::Repeat; 2];
+        if let Some(info) = &pbr.base_color_texture
+            && let Some(tex) = self.root.textures.get(info.index.value())
+            && let Some(sampler) = tex.sampler.and_then(|k| self.root.samplers.get(k.value()))
+        {
+            for (slot, mode) in [&sampler.wrap_s, &sampler.wrap_t].into_iter().enumerate() {
+                if let Checked::Valid(mode) = mode {
+                    wrap[slot] = crate::character::TextureWrap::from_gltf(mode.as_gl_enum())
+                        .unwrap_or(crate::character::TextureWrap::Repeat);
+                }
+            }
+        }
         Ok(Material {
             name: m.name.clone().unwrap_or_else(|| format!("material {i}")),
             base_color_factor: factor,
             base_color_texture,
             double_sided: m.double_sided,
             alpha_cutoff,
+            wrap,
         })
     }
 

@@ -53,8 +53,8 @@ fn vertex_color(c: &Character, material: usize, v: &Vertex) -> Vec3 {
     let mut rgb = Vec3::new(m.base_color_factor[0], m.base_color_factor[1], m.base_color_factor[2])
         * Vec3::new(v.color[0], v.color[1], v.color[2]);
     if let Some(t) = m.base_color_texture.and_then(|i| c.textures.get(i)) {
-        let u = v.uv[0].rem_euclid(1.0);
-        let w = v.uv[1].rem_euclid(1.0);
+        let u = m.wrap[0].apply(v.uv[0]);
+        let w = m.wrap[1].apply(v.uv[1]);
         let x = ((u * t.width as f32) as u32).min(t.width - 1);
         let y = ((w * t.height as f32) as u32).min(t.height - 1);
         let i = ((y * t.width + x) * 4) as usize;
@@ -230,6 +230,7 @@ pub fn part_character(
             base_color_texture: None,
             double_sided: true,
             alpha_cutoff: 0.0,
+            wrap: Default::default(),
         });
         let first_index = out.indices.len() as u32;
         for cap in part_caps {
