@@ -338,6 +338,25 @@ impl CrowdPanel {
         });
     }
 
+    /// Removes every added character (another project was opened: they were added beside
+    /// the one left).
+    pub fn clear_guests(&mut self) {
+        if self.guests.is_empty() {
+            return;
+        }
+        let n = self.guests.len();
+        self.guests.clear();
+        self.messages.push((
+            LogLevel::Info,
+            format!(
+                "crowd preview: the {} added beside the project left {} no longer shown",
+                polypostor::import::plural(n, "character"),
+                if n == 1 { "is" } else { "are" }
+            ),
+        ));
+        self.bump_generation();
+    }
+
     /// Removes the `k`-th added character from the crowd.
     pub fn remove_guest(&mut self, k: usize) {
         if k < self.guests.len() {

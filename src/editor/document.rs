@@ -118,6 +118,16 @@ impl Document {
         true
     }
 
+    /// [`Document::edit`] folded into the step recorded last (a colour dragged in an open
+    /// picker is one step, not one per frame): changes as `f` says, records nothing.
+    pub fn amend(&mut self, f: impl FnOnce(&mut Segmentation, &mut CapOverrides) -> bool) -> bool {
+        if !f(&mut self.segmentation, &mut self.project.caps) {
+            return false;
+        }
+        self.store_segmentation();
+        true
+    }
+
     /// Removes part `p`, its triangles going to `into`, as one undoable step with what
     /// refers to part numbers: cap colours, drawing orders and pins follow the renumbering
     /// (the pins of `p` and `into`, whose outlines change, are dropped). Returns how many pins

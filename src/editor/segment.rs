@@ -56,6 +56,9 @@ pub struct SegmentPanel {
     pub isolate: bool,
     /// The cap whose colour the next click on the texture picks.
     pub eyedropper: Option<String>,
+    /// The cap whose colour picker is open and has made an undo step (with the undo depth
+    /// after it): further changes while it stays open go into that step.
+    picking: Option<(String, usize)>,
     joint: usize,
     remove_into: u16,
     /// The active part and part count `remove_into` was chosen for.
@@ -85,6 +88,7 @@ impl Default for SegmentPanel {
             active: 0,
             isolate: false,
             eyedropper: None,
+            picking: None,
             joint: 0,
             remove_into: 0,
             remove_into_for: None,
@@ -383,6 +387,10 @@ impl SegmentPanel {
                         .weak(),
                 );
                 let mut set: Option<(String, Option<[u8; 3]>)> = None;
+                let mut from_picker = false;
+                if !egui::Popup::is_any_open(ui.ctx()) {
+                    self.picking = None;
+                }
                 egui::Grid::new("caps").num_columns(4).striped(true).show(ui, |ui| {
                     for cap in caps.iter() {
                         let part = doc.segmentation.parts.get(cap.part).map_or("?", |p| p.name.as_str());
@@ -394,6 +402,7 @@ impl SegmentPanel {
                             .changed()
                         {
                             set = Some((cap.id.clone(), Some(color)));
+                            from_picker = true;
                         }
                         let text = format!("{part} · {} ({} edges)", cap.id, cap.loop_vertices.len());
                         if ui
@@ -441,10 +450,20 @@ impl SegmentPanel {
                     self.eyedropper = None;
                 }
                 if let Some((id, color)) = set {
-                    doc.edit("Cap colour", |_, overrides| match color {
-                        Some(c) => overrides.colors.insert(id, c) != Some(c),
+                    let change = |_: &mut _, overrides: &mut polypostor::bake::caps::CapOverrides| match color {
+                        Some(c) => overrides.colors.insert(id.clone(), c) != Some(c),
                         None => overrides.colors.remove(&id).is_some(),
-                    });
+                    };
+                    let same_session = from_picker
+                        && self
+                            .picking
+                            .as_ref()
+                            .is_some_and(|(p, depth)| *p == id && *depth == doc.history.undo_len());
+                    if same_session {
+                        doc.amend(change);
+                    } else if doc.edit("Cap colour", change) {
+                        self.picking = from_picker.then(|| (id.clone(), doc.history.undo_len()));
+                    }
                 }
             });
     }

@@ -150,6 +150,14 @@ fn save_as_writes_a_project_that_reopens() {
     let mut again = harness(Some(dir.clone()));
     again.run_steps(3);
     assert_eq!(again.state().playback.clip, idle);
+    // Save As elsewhere keeps the last pack where it is (it was read beside the new folder:
+    // the Views tab opened on nothing).
+    again.state_mut().doc.as_mut().unwrap().project.view.last_pack = Some("mine.pack".into());
+    again.state_mut().send(Command::SaveAs(dir.join("deep/b")));
+    again.run_steps(3);
+    assert!(again.state().error.is_none(), "{:?}", again.state().error);
+    let (moved, _) = polypostor::project::Project::load(&dir.join("deep/b")).unwrap();
+    assert_eq!(moved.view.last_pack.as_deref(), Some("../../mine.pack"));
     // Save As onto a user's file (not a folder, not a project file) is refused as such and
     // leaves it as it was.
     let theirs = dir.join("user.glb");
@@ -258,6 +266,26 @@ fn crowd_preview_opens_a_baked_folder_and_draws_the_chosen_representation() {
     let stats = h.state().crowd.stats.lock().unwrap().clone();
     assert!(h.state().crowd.guests.is_empty());
     assert_eq!(stats.per_kind, vec![300]);
+    // Added characters belong to the crowd of the project they were added beside: another
+    // project opened, they are gone.
+    h.state_mut().send(Command::AddToCrowd(copy.clone()));
+    let started = std::time::Instant::now();
+    while h.state().crowd.guests.is_empty() {
+        assert!(started.elapsed().as_secs() < 60, "the character was not added");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        h.run_steps(1);
+    }
+    h.state_mut().doc.as_mut().unwrap().dirty = false;
+    let generation = h.state().doc.as_ref().unwrap().generation;
+    h.state_mut()
+        .send(Command::Open(repo().join("assets/characters/default_humanoid.glb")));
+    let started = std::time::Instant::now();
+    while h.state().doc.as_ref().unwrap().generation == generation {
+        assert!(started.elapsed().as_secs() < 60, "the character did not open");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        h.run_steps(1);
+    }
+    assert!(h.state().crowd.guests.is_empty());
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -831,6 +859,21 @@ fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
     assert_eq!(h.state().views.inspector.session.as_ref().map(|s| s.view), Some(other));
     assert_ne!(h.state().views.inspector.texture_version("key"), key_before);
     assert_ne!(h.state().views.inspector.texture_version("composite"), composite_before);
+    // Another document opened: the inspector holds nothing of this one (it showed this fit
+    // for the next document's view of the same number).
+    let generation = h.state().doc.as_ref().unwrap().generation;
+    h.state_mut().doc.as_mut().unwrap().dirty = false;
+    h.state_mut()
+        .send(Command::Open(repo().join("assets/characters/default_humanoid.glb")));
+    let started = std::time::Instant::now();
+    while h.state().doc.as_ref().unwrap().generation == generation {
+        assert!(started.elapsed().as_secs() < 60, "the character did not open");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        h.run_steps(1);
+    }
+    h.run_steps(2);
+    assert!(h.state().views.inspector.session.is_none());
+    assert!(h.state().views.selected.is_none());
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -855,7 +898,15 @@ fn export_writes_the_chosen_representations_and_opens_the_preview() {
         e.fps = 5.0;
         e.polygon_vertices = 24;
         e.set = polypostor::reps::RepSet::parse("polypostor,impostor").unwrap();
+        // Two clips ticked (the project's set was the Walk alone).
+        e.clips = vec![false; e.clips.len()];
+        e.clips[0] = true;
+        e.clips[1] = true;
     }
+    let names: Vec<String> = h.state().doc.as_ref().unwrap().character.clips[..2]
+        .iter()
+        .map(|c| c.name.clone())
+        .collect();
     h.run_steps(2);
     h.get_by_label("Polygon vertices");
     h.get_by_label("Export").click();
@@ -872,6 +923,11 @@ fn export_writes_the_chosen_representations_and_opens_the_preview() {
     assert_eq!(h.state().crowd.folder.as_deref(), Some(out.as_path()));
     let report = polypostor::bake::report::read_report(&out).unwrap();
     assert_eq!(report.views.len(), 4);
+    // The clips ticked are the ones baked (it baked the project's old set, then made the
+    // ticked one the project's), and the project's from now on.
+    let baked: Vec<String> = report.clips.iter().map(|c| c.name.clone()).collect();
+    assert_eq!(baked, names);
+    assert_eq!(h.state().doc.as_ref().unwrap().project.clips, names);
     assert_eq!(report.settings.resolution, 64);
     // The polygon size chosen in the dialog is the bake's and, from now on, the project's.
     assert_eq!(report.settings.final_vertices, 24);

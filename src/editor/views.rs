@@ -215,7 +215,17 @@ impl ViewsPanel {
             self.source = dir.map(Path::to_owned);
             self.report = None;
             self.selected = None;
+            // A fit of another bake's view (the inspector knows views by number only) is
+            // not this one's.
+            self.inspector = Inspector::default();
         }
+    }
+
+    /// Drops the fit inspector's view, its fits and images (another document was opened: it
+    /// showed the last one's fit of the same view number).
+    pub fn forget_inspector(&mut self) {
+        self.inspector = Inspector::default();
+        self.selected = None;
     }
 
     /// Selects a view and turns the camera to look from it.

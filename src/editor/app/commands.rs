@@ -127,7 +127,7 @@ impl EditorApp {
                 // Made the project's when the bake succeeds (see `pending_export`).
                 let options = settings.options();
                 let busy = self.crowd.busy();
-                self.bake_into(req.folder, options, req.set);
+                self.bake_into(req.folder, options, req.set, Some(&req.clips));
                 if !busy && self.crowd.busy() {
                     self.pending_export = Some((req.clips.clone(), settings));
                 }
@@ -166,15 +166,18 @@ impl EditorApp {
         let out = bake_dir(doc);
         // The project's bake settings; every representation (the crowd's mix needs them).
         let options = doc.project.bake.options();
-        self.bake_into(out, options, polypostor::reps::RepSet::ALL);
+        self.bake_into(out, options, polypostor::reps::RepSet::ALL, None);
     }
 
-    /// Bakes `set` with `options` into `out` in the background, then previews it.
+    /// Bakes `set` with `options` into `out` in the background, then previews it: the clips
+    /// of `clip_set` (the export dialog's choice, made the project's once the bake succeeds),
+    /// else the project's clip set, else the clip being viewed.
     pub(super) fn bake_into(
         &mut self,
         out: PathBuf,
         options: polypostor::bake::pipeline::BakeOptions,
         set: polypostor::reps::RepSet,
+        clip_set: Option<&[String]>,
     ) {
         let Some(doc) = &self.doc else {
             self.fail("open a character before baking it for the crowd".into());
@@ -189,18 +192,19 @@ impl EditorApp {
             self.source_before_bake = Some(self.views.source.clone());
             self.views.set_source(Some(&out));
         }
-        // The project's clip set (a whole-character pack), else the clip being viewed: the
-        // rule every bake follows.
+        // The clip set asked for, else the project's (a whole-character pack), else the clip
+        // being viewed: the rule every bake follows.
+        let asked = clip_set.unwrap_or(&doc.project.clips);
         let clips = polypostor::job::ClipChoice::resolve(
             &c,
             polypostor::job::ClipRequest {
-                project_clips: &doc.project.clips,
+                project_clips: asked,
                 viewed: self.playback.clip,
                 ..Default::default()
             },
         )
         .unwrap_or_default();
-        let lost = polypostor::job::lost_clips_warning(&c, &doc.project.clips, &clips);
+        let lost = polypostor::job::lost_clips_warning(&c, asked, &clips);
         let req = crate::editor::crowd::BakeRequest {
             character_path: doc.character_path.clone(),
             clip: clips.first,

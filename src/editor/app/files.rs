@@ -30,6 +30,12 @@ impl EditorApp {
         // Keep the character reference valid from the new location.
         let dir = file.parent().map(Path::to_owned).unwrap_or_default();
         project.character.path = polypostor::project::relative_path(&doc.character_path, &dir);
+        // And the last pack's (Save As elsewhere: it stays where it was).
+        if let Some(old) = doc.project_file.as_deref()
+            && let Some(pack) = doc.project.last_pack_path(old)
+        {
+            project.view.last_pack = Some(polypostor::project::relative_path(&pack, &dir));
+        }
         if project.name.is_empty() || doc.project_file.is_none() {
             if let Some(stem) = file.parent().and_then(|p| p.file_name()) {
                 project.name = stem.to_string_lossy().into_owned();
@@ -245,7 +251,10 @@ impl EditorApp {
         {
             self.warn(w);
         }
+        self.views.forget_inspector();
         self.views.set_source(Some(&views_source_on_open(&doc)));
+        // The crowd's added characters were added beside the project left.
+        self.crowd.clear_guests();
         self.doc = Some(doc);
         self.frame_character();
     }

@@ -150,6 +150,10 @@ pub struct EditorApp {
     /// An export's clip set and settings, made the project's only when its bake succeeds
     /// (a cancelled 137-view export had already set them).
     pending_export: Option<(Vec<String>, polypostor::bake::settings::BakeSettings)>,
+    /// Tab pressed outside a text field, taken out of egui's input before its pass (see
+    /// `raw_input_hook`): the crowd preview's shortcut, not a move of keyboard focus (which
+    /// left a menu button focused, and every shortcut off, until a click elsewhere).
+    tab_key: bool,
     /// The Views tab's folder before the running bake pointed it at its own: back there if
     /// the bake fails or is cancelled.
     source_before_bake: Option<Option<std::path::PathBuf>>,
@@ -210,6 +214,7 @@ impl EditorApp {
             views: Default::default(),
             export: Default::default(),
             pending_export: None,
+            tab_key: false,
             source_before_bake: None,
         };
         match &app.adapter {
@@ -260,6 +265,24 @@ impl EditorApp {
 }
 
 impl eframe::App for EditorApp {
+    fn raw_input_hook(&mut self, ctx: &egui::Context, raw_input: &mut egui::RawInput) {
+        if ctx.text_edit_focused() {
+            return;
+        }
+        raw_input.events.retain(|e| match e {
+            egui::Event::Key {
+                key: egui::Key::Tab,
+                pressed,
+                modifiers,
+                ..
+            } if modifiers.is_none() => {
+                self.tab_key |= *pressed;
+                false
+            }
+            _ => true,
+        });
+    }
+
     /// The temporary bake of a never-saved project goes with the editor.
     fn on_exit(&mut self) {
         remove_temp_bakes(true);

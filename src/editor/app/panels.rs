@@ -58,10 +58,11 @@ impl EditorApp {
         if quit {
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
         }
+        let tab_key = std::mem::take(&mut self.tab_key);
         if typing || self.prompt.is_some() {
             return;
         }
-        let (tab, p) = ctx.input(|i| (i.key_pressed(Key::Tab), i.key_pressed(Key::P)));
+        let (tab, p) = ctx.input(|i| (i.key_pressed(Key::Tab) || tab_key, i.key_pressed(Key::P)));
         if tab {
             self.send(Command::ShowCrowd(!self.crowd.open));
         }
