@@ -637,24 +637,26 @@ impl CrowdPanel {
             ui.add(egui::Slider::new(&mut self.lod.hysteresis, 0.0..=0.5).text("hysteresis"));
             self.lod.impostor_below = self.lod.impostor_below.min(self.lod.mesh_above);
         });
-        // What the agents do: the pack's clips by measured ground speed.
-        let gaits = polypostor::crowd::Gaits::new(&assets.timeline.spans, assets.timeline.fps);
+        // What the agents do: the packs' clips by measured ground speed. A share is offered
+        // where any character of the crowd has the clips for it (the added ones too: a guest
+        // that runs beside a host that only walks used a share no slider could change).
+        let all_gaits: Vec<polypostor::crowd::Gaits> = std::iter::once(assets)
+            .chain(self.guests.iter().map(|g| &g.assets))
+            .map(|a| polypostor::crowd::Gaits::new(&a.timeline.spans, a.timeline.fps))
+            .collect();
+        let (walk, run, idle) = (
+            all_gaits.iter().any(|g| g.walk.is_some()),
+            all_gaits.iter().any(|g| g.run.is_some()),
+            all_gaits.iter().any(|g| !g.idle.is_empty()),
+        );
+        let gaits = &all_gaits[0];
         ui.label("Behaviour (shares of the crowd):");
         let b = &mut self.behaviour;
-        ui.add_enabled(
-            gaits.walk.is_some(),
-            egui::Slider::new(&mut b.walk, 0.0..=1.0).text("walking"),
-        );
-        ui.add_enabled(
-            gaits.run.is_some(),
-            egui::Slider::new(&mut b.run, 0.0..=1.0).text("running"),
-        )
-        .on_disabled_hover_text("the pack has no clip moving clearly faster than its walk");
-        ui.add_enabled(
-            !gaits.idle.is_empty(),
-            egui::Slider::new(&mut b.idle, 0.0..=1.0).text("standing"),
-        )
-        .on_disabled_hover_text("the pack has no clip that stands still");
+        ui.add_enabled(walk, egui::Slider::new(&mut b.walk, 0.0..=1.0).text("walking"));
+        ui.add_enabled(run, egui::Slider::new(&mut b.run, 0.0..=1.0).text("running"))
+            .on_disabled_hover_text("no character of the crowd has a clip moving clearly faster than its walk");
+        ui.add_enabled(idle, egui::Slider::new(&mut b.idle, 0.0..=1.0).text("standing"))
+            .on_disabled_hover_text("no character of the crowd has a clip that stands still");
         ui.add(egui::Slider::new(&mut self.variation, 0.0..=1.0).text("appearance variation"))
             .on_hover_text("How strongly each character's body parts are tinted (0: all alike)");
         ui.checkbox(&mut self.paused, "Paused (P)");
@@ -764,7 +766,13 @@ impl CrowdPanel {
                 }
             });
         ui.add_space(4.0);
-        // Per clip: what it is used for, its measured speed, and how many agents play it.
+        // Per clip: what it is used for, its measured speed, and how many agents play it
+        // (with added characters: how many of the whole crowd walk, run or stand).
+        let agents_heading = if self.guests.is_empty() {
+            "agents"
+        } else {
+            "agents (whole crowd)"
+        };
         egui::Grid::new("crowd clips")
             .num_columns(4)
             .striped(true)
@@ -772,7 +780,7 @@ impl CrowdPanel {
                 ui.strong("clip");
                 ui.strong("frames");
                 ui.strong("ground speed");
-                ui.strong("agents");
+                ui.strong(agents_heading);
                 ui.end_row();
                 for (i, c) in assets.timeline.spans.iter().enumerate() {
                     use polypostor::crowd::Gait;
