@@ -341,6 +341,10 @@ impl CrowdPanel {
     /// Removes every added character (another project was opened: they were added beside
     /// the one left).
     pub fn clear_guests(&mut self) {
+        // One still loading is dropped too (it would land in the next project's crowd).
+        if self.job.as_ref().is_some_and(|j| j.adds_guest) {
+            self.job = None;
+        }
         if self.guests.is_empty() {
             return;
         }

@@ -429,6 +429,7 @@ impl SegmentPanel {
                             .clicked()
                         {
                             set = Some((cap.id.clone(), None));
+                            from_picker = false;
                         }
                         ui.end_row();
                     }
@@ -447,6 +448,7 @@ impl SegmentPanel {
                     && let Some(picked) = self.texture_picker(ui, doc)
                 {
                     set = Some((id, Some(picked)));
+                    from_picker = false;
                     self.eyedropper = None;
                 }
                 if let Some((id, color)) = set {

@@ -147,6 +147,21 @@ struct JointTree {
     size: Vec<usize>,
 }
 
+/// Share of all skin weight at or under which a joint's subtree counts as carrying nothing
+/// ([`JointTree::new`]; at least 0.02 of one vertex's weight): a hundred-thousandth (a vertex
+/// at weight 0.05 in a mesh of 5,000).
+const EMPTY_SUBTREE_WEIGHT: f64 = 1e-5;
+
+/// The weight of the whole mesh: the sum over the roots of the subtree sums.
+fn own_weight_total(subtree_weight: &[f64], nodes: &[crate::character::Node]) -> f64 {
+    nodes
+        .iter()
+        .zip(subtree_weight)
+        .filter(|(n, _)| n.parent.is_none())
+        .map(|(_, w)| *w)
+        .sum()
+}
+
 impl JointTree {
     fn new(c: &Character) -> Self {
         let nodes = &c.skeleton.nodes;
@@ -156,11 +171,13 @@ impl JointTree {
         if !is_joint.iter().any(|&j| j) {
             is_joint = vec![true; nodes.len()];
         }
-        // Joints whose whole subtree carries no skin weight (an IK target or pole chain, a
-        // control, an end marker, a tail or cape chain with nothing on it yet) take no part
-        // in the structure, when any joint carries weight: counted, a 10-joint empty chain
-        // under the hips became the trunk and took the arms with the spine into one part,
-        // and three empty joints named "Tail…" turned a box rig's legs into "Tail Prop"s.
+        // Chains of joints whose whole subtree carries no skin weight (an IK target or pole
+        // chain, a tail or cape chain with nothing on it yet) take no part in the structure,
+        // when any joint carries weight: counted, a 10-joint empty chain under the hips became
+        // the trunk and took the arms with the spine into one part, and three empty joints
+        // named "Tail…" turned a box rig's legs into "Tail Prop"s. A single empty joint (an
+        // end marker such as `HeadTop_End`, a lone IK target) stays: the rules below were
+        // made with those counted, and deal with single joints themselves.
         let mut own_weight = vec![0.0f64; nodes.len()];
         for v in &c.vertices {
             for k in 0..4 {
@@ -179,9 +196,31 @@ impl JointTree {
                 subtree_weight[p] += subtree_weight[n];
             }
         }
-        if subtree_weight.iter().any(|&w| w > 0.0) {
+        // (Weights of a few thousandths on one vertex, as exporters leave on control bones,
+        // count as none: at most EMPTY_SUBTREE_WEIGHT of all the weight, or a fiftieth of one
+        // vertex's.)
+        let total: f64 = own_weight_total(&subtree_weight, nodes);
+        if total > 0.0 {
+            let limit = (EMPTY_SUBTREE_WEIGHT * total).max(0.02);
+            let empty: Vec<bool> = subtree_weight.iter().map(|&w| w <= limit).collect();
+            // Joints in each node's subtree (parents first, so children come later).
+            let mut joints_under: Vec<usize> = is_joint.iter().map(|&j| usize::from(j)).collect();
+            for n in (0..nodes.len()).rev() {
+                if let Some(p) = nodes[n].parent
+                    && p < n
+                {
+                    joints_under[p] += joints_under[n];
+                }
+            }
+            // An empty subtree's root: empty, under a node that is not (or a root).
+            let mut drop = vec![false; nodes.len()];
             for n in 0..nodes.len() {
-                if subtree_weight[n] <= 0.0 {
+                let parent_drops = nodes[n].parent.is_some_and(|p| p < n && drop[p]);
+                let root_of_empty = empty[n] && nodes[n].parent.is_none_or(|p| !empty[p]);
+                drop[n] = parent_drops || (root_of_empty && joints_under[n] >= 2);
+            }
+            for n in 0..nodes.len() {
+                if drop[n] {
                     is_joint[n] = false;
                 }
             }
@@ -480,7 +519,7 @@ fn skeleton_parts(c: &Character) -> (Segmentation, Vec<bool>, Vec<Vec<f32>>) {
         };
         // A single-joint "limb" (an IK foot, a prop) joins the real limb its mesh touches
         // (an IK foot sits under its leg), else the trunk — unless it carries a share of the
-        // mesh of its own (at least SINGLE_JOINT_LIMB_SHARE of the vertices): a rig with one
+        // mesh of its own (at least SINGLE_JOINT_LIMB_SHARE of the vertices or of the surface): a rig with one
         // joint per limb (a box or voxel character) has limbs all the same, and put in the
         // trunk they made one part that no warped image could follow.
         let carried_all: usize = carried.iter().map(Vec::len).sum();
@@ -2519,8 +2558,8 @@ mod tests {
         }
     }
 
-    /// Joints that carry no skin weight change nothing: a box rig and the default humanoid
-    /// with an empty chain of 3 or 10 joints (named "TailBone…", 1 cm to 10 cm apart) under
+    /// Chains of joints that carry no skin weight change nothing: a box rig and the default
+    /// humanoid with an empty chain of 3 or 10 joints (named "TailBone…", 1 cm to 10 cm apart) under
     /// the hips or the chest get the same parts on the same triangles. (The empty chain became
     /// the trunk and took both arms into a "Spine" part; three empty "Tail" joints turned a
     /// box rig's legs into "Tail Prop"s.)
@@ -2576,6 +2615,15 @@ mod tests {
                     add_empty_chain(&mut with, under, "TailBone", n, step);
                     let got = auto_segment(&with);
                     assert_eq!(got, plain, "{} with {n} empty joints under node {under}", c.name);
+                    // The same with a trace of weight on the chain's last joint (a control
+                    // bone an exporter left 0.001 on, on one vertex).
+                    let last = with.bones.len() - 1;
+                    let v = &mut with.vertices[0];
+                    let k = (0..4).min_by(|&a, &b| v.weights[a].total_cmp(&v.weights[b])).unwrap();
+                    v.bones[k] = last as u16;
+                    v.weights[k] = 0.001;
+                    let got = auto_segment(&with);
+                    assert_eq!(got.parts, plain.parts, "{} with a trace on the chain", c.name);
                 }
             }
         }

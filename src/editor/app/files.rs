@@ -30,9 +30,14 @@ impl EditorApp {
         // Keep the character reference valid from the new location.
         let dir = file.parent().map(Path::to_owned).unwrap_or_default();
         project.character.path = polypostor::project::relative_path(&doc.character_path, &dir);
-        // And the last pack's (Save As elsewhere: it stays where it was).
+        // And the last pack's, when saved into another folder: it stays where it was (a path
+        // the artist gave as absolute stays absolute).
         if let Some(old) = doc.project_file.as_deref()
+            && old.parent() != file.parent()
+            && let Some(stored) = doc.project.view.last_pack.as_deref()
+            && !Path::new(stored).is_absolute()
             && let Some(pack) = doc.project.last_pack_path(old)
+            && let (Ok(pack), Ok(dir)) = (std::path::absolute(&pack), std::path::absolute(&dir))
         {
             project.view.last_pack = Some(polypostor::project::relative_path(&pack, &dir));
         }

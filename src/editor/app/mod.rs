@@ -266,7 +266,13 @@ impl EditorApp {
 
 impl eframe::App for EditorApp {
     fn raw_input_hook(&mut self, ctx: &egui::Context, raw_input: &mut egui::RawInput) {
-        if ctx.text_edit_focused() {
+        // Only where Tab would move focus off nothing: a focused widget, a question or a
+        // dialog keeps Tab for moving between its fields.
+        if ctx.memory(|m| m.focused().is_some() || m.top_modal_layer().is_some())
+            || self.prompt.is_some()
+            || self.export.open
+            || egui::Popup::is_any_open(ctx)
+        {
             return;
         }
         raw_input.events.retain(|e| match e {

