@@ -1,6 +1,6 @@
 //! The editor driven like a user with egui_kittest, rendering through wgpu (software adapter).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
@@ -9,6 +9,32 @@ use super::{AppOptions, Command, EditorApp};
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Opens the default character's file as a new document (the open one marked saved, so no
+/// question is asked) and steps the editor until it is in.
+fn open_default_file(h: &mut Harness<'static, EditorApp>) {
+    h.state_mut().doc.as_mut().unwrap().dirty = false;
+    let generation = h.state().doc.as_ref().unwrap().generation;
+    h.state_mut()
+        .send(Command::Open(repo().join("assets/characters/default_humanoid.glb")));
+    let started = std::time::Instant::now();
+    while h.state().doc.as_ref().unwrap().generation == generation {
+        assert!(started.elapsed().as_secs() < 60, "the character did not open");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        h.run_steps(1);
+    }
+}
+
+/// Adds the pack at `folder` to the crowd and steps the editor until it is in.
+fn add_guest(h: &mut Harness<'static, EditorApp>, folder: &Path) {
+    h.state_mut().send(Command::AddToCrowd(folder.to_owned()));
+    let started = std::time::Instant::now();
+    while h.state().crowd.guests.is_empty() {
+        assert!(started.elapsed().as_secs() < 60, "the character was not added");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        h.run_steps(1);
+    }
 }
 
 fn harness(open: Option<PathBuf>) -> Harness<'static, EditorApp> {
@@ -237,13 +263,7 @@ fn crowd_preview_opens_a_baked_folder_and_draws_the_chosen_representation() {
             std::fs::copy(e.path(), copy.join(e.file_name())).unwrap();
         }
     }
-    h.state_mut().send(Command::AddToCrowd(copy.clone()));
-    let started = std::time::Instant::now();
-    while h.state().crowd.guests.is_empty() {
-        assert!(started.elapsed().as_secs() < 60, "the character was not added");
-        std::thread::sleep(std::time::Duration::from_millis(50));
-        h.run_steps(1);
-    }
+    add_guest(&mut h, &copy);
     h.state_mut().crowd.own_share = 0.75;
     h.state_mut().crowd.guests[0].share = 0.25;
     h.run_steps(1);
@@ -268,23 +288,8 @@ fn crowd_preview_opens_a_baked_folder_and_draws_the_chosen_representation() {
     assert_eq!(stats.per_kind, vec![300]);
     // Added characters belong to the crowd of the project they were added beside: another
     // project opened, they are gone.
-    h.state_mut().send(Command::AddToCrowd(copy.clone()));
-    let started = std::time::Instant::now();
-    while h.state().crowd.guests.is_empty() {
-        assert!(started.elapsed().as_secs() < 60, "the character was not added");
-        std::thread::sleep(std::time::Duration::from_millis(50));
-        h.run_steps(1);
-    }
-    h.state_mut().doc.as_mut().unwrap().dirty = false;
-    let generation = h.state().doc.as_ref().unwrap().generation;
-    h.state_mut()
-        .send(Command::Open(repo().join("assets/characters/default_humanoid.glb")));
-    let started = std::time::Instant::now();
-    while h.state().doc.as_ref().unwrap().generation == generation {
-        assert!(started.elapsed().as_secs() < 60, "the character did not open");
-        std::thread::sleep(std::time::Duration::from_millis(50));
-        h.run_steps(1);
-    }
+    add_guest(&mut h, &copy);
+    open_default_file(&mut h);
     assert!(h.state().crowd.guests.is_empty());
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -861,16 +866,7 @@ fn the_views_tab_lists_the_worst_view_first_and_turns_the_camera_to_it() {
     assert_ne!(h.state().views.inspector.texture_version("composite"), composite_before);
     // Another document opened: the inspector holds nothing of this one (it showed this fit
     // for the next document's view of the same number).
-    let generation = h.state().doc.as_ref().unwrap().generation;
-    h.state_mut().doc.as_mut().unwrap().dirty = false;
-    h.state_mut()
-        .send(Command::Open(repo().join("assets/characters/default_humanoid.glb")));
-    let started = std::time::Instant::now();
-    while h.state().doc.as_ref().unwrap().generation == generation {
-        assert!(started.elapsed().as_secs() < 60, "the character did not open");
-        std::thread::sleep(std::time::Duration::from_millis(50));
-        h.run_steps(1);
-    }
+    open_default_file(&mut h);
     h.run_steps(2);
     assert!(h.state().views.inspector.session.is_none());
     assert!(h.state().views.selected.is_none());

@@ -2396,40 +2396,7 @@ mod tests {
     /// Arm", unsided). Every triangle goes to the part named after its limb.
     #[test]
     fn box_characters_get_a_part_per_limb() {
-        let trunk = [
-            ("Hips", None, [0.0, 1.0, 0.0], [-0.2, -0.1, -0.12], [0.2, 0.15, 0.12]),
-            (
-                "Spine",
-                Some(0),
-                [0.0, 0.15, 0.0],
-                [-0.22, 0.0, -0.12],
-                [0.22, 0.5, 0.12],
-            ),
-            (
-                "Head",
-                Some(1),
-                [0.0, 0.55, 0.0],
-                [-0.12, 0.0, -0.12],
-                [0.12, 0.25, 0.12],
-            ),
-        ];
-        let one = [
-            pair(
-                ["LeftLeg", "RightLeg"],
-                [Some(0); 2],
-                [0.12, -0.1, 0.0],
-                [-0.08, -0.9, -0.08],
-                [0.08, 0.0, 0.08],
-            ),
-            pair(
-                ["LeftArm", "RightArm"],
-                [Some(1); 2],
-                [0.3, 0.45, 0.0],
-                [-0.06, -0.65, -0.06],
-                [0.06, 0.0, 0.06],
-            ),
-        ]
-        .concat();
+        let (trunk, one) = box_humanoid();
         let part_of = |s: &Segmentation, box_index: usize| -> String {
             let labels = &s.labels[12 * box_index..12 * box_index + 12];
             assert!(labels.iter().all(|&l| l == labels[0]), "box {box_index}: {labels:?}");
@@ -2534,6 +2501,45 @@ mod tests {
         );
     }
 
+    /// A [`box_rig`] humanoid: hips, spine and head, and a one-joint leg and arm each side.
+    fn box_humanoid() -> ([BoxJoint; 3], Vec<BoxJoint>) {
+        let trunk = [
+            ("Hips", None, [0.0, 1.0, 0.0], [-0.2, -0.1, -0.12], [0.2, 0.15, 0.12]),
+            (
+                "Spine",
+                Some(0),
+                [0.0, 0.15, 0.0],
+                [-0.22, 0.0, -0.12],
+                [0.22, 0.5, 0.12],
+            ),
+            (
+                "Head",
+                Some(1),
+                [0.0, 0.55, 0.0],
+                [-0.12, 0.0, -0.12],
+                [0.12, 0.25, 0.12],
+            ),
+        ];
+        let limbs: Vec<BoxJoint> = [
+            pair(
+                ["LeftLeg", "RightLeg"],
+                [Some(0); 2],
+                [0.12, -0.1, 0.0],
+                [-0.08, -0.9, -0.08],
+                [0.08, 0.0, 0.08],
+            ),
+            pair(
+                ["LeftArm", "RightArm"],
+                [Some(1); 2],
+                [0.3, 0.45, 0.0],
+                [-0.06, -0.65, -0.06],
+                [0.06, 0.0, 0.06],
+            ),
+        ]
+        .concat();
+        (trunk, limbs)
+    }
+
     /// Appends a chain of `n` joints carrying no mesh (as rigs carry tail, cape or IK chains
     /// with nothing skinned to them yet) under node `under`, each `step` further back.
     fn add_empty_chain(c: &mut Character, under: usize, name: &str, n: usize, step: f32) {
@@ -2565,40 +2571,7 @@ mod tests {
     /// box rig's legs into "Tail Prop"s.)
     #[test]
     fn joints_without_weight_change_no_part() {
-        let trunk = [
-            ("Hips", None, [0.0, 1.0, 0.0], [-0.2, -0.1, -0.12], [0.2, 0.15, 0.12]),
-            (
-                "Spine",
-                Some(0),
-                [0.0, 0.15, 0.0],
-                [-0.22, 0.0, -0.12],
-                [0.22, 0.5, 0.12],
-            ),
-            (
-                "Head",
-                Some(1),
-                [0.0, 0.55, 0.0],
-                [-0.12, 0.0, -0.12],
-                [0.12, 0.25, 0.12],
-            ),
-        ];
-        let limbs = [
-            pair(
-                ["LeftLeg", "RightLeg"],
-                [Some(0); 2],
-                [0.12, -0.1, 0.0],
-                [-0.08, -0.9, -0.08],
-                [0.08, 0.0, 0.08],
-            ),
-            pair(
-                ["LeftArm", "RightArm"],
-                [Some(1); 2],
-                [0.3, 0.45, 0.0],
-                [-0.06, -0.65, -0.06],
-                [0.06, 0.0, 0.06],
-            ),
-        ]
-        .concat();
+        let (trunk, limbs) = box_humanoid();
         let boxes = box_rig(&[&trunk[..], &limbs[..]].concat());
         let default = crate::default_character::generate();
         let hips = default.skeleton.find("Hips").unwrap();
@@ -2634,40 +2607,7 @@ mod tests {
     /// and stay parts of their own (they all joined the torso: one part for the whole body).
     #[test]
     fn a_dense_piece_does_not_swallow_box_limbs() {
-        let trunk = [
-            ("Hips", None, [0.0, 1.0, 0.0], [-0.2, -0.1, -0.12], [0.2, 0.15, 0.12]),
-            (
-                "Spine",
-                Some(0),
-                [0.0, 0.15, 0.0],
-                [-0.22, 0.0, -0.12],
-                [0.22, 0.5, 0.12],
-            ),
-            (
-                "Head",
-                Some(1),
-                [0.0, 0.55, 0.0],
-                [-0.12, 0.0, -0.12],
-                [0.12, 0.25, 0.12],
-            ),
-        ];
-        let limbs = [
-            pair(
-                ["LeftLeg", "RightLeg"],
-                [Some(0); 2],
-                [0.12, -0.1, 0.0],
-                [-0.08, -0.9, -0.08],
-                [0.08, 0.0, 0.08],
-            ),
-            pair(
-                ["LeftArm", "RightArm"],
-                [Some(1); 2],
-                [0.3, 0.45, 0.0],
-                [-0.06, -0.65, -0.06],
-                [0.06, 0.0, 0.06],
-            ),
-        ]
-        .concat();
+        let (trunk, limbs) = box_humanoid();
         let plain = box_rig(&[&trunk[..], &limbs[..]].concat());
         let mut dense = plain.clone();
         let n = 50u32;
