@@ -419,6 +419,65 @@ impl Character {
         self.indices.len() / 3
     }
 
+    /// Which bones some vertex is weighted to (a weight above zero).
+    pub fn used_bones(&self) -> Vec<bool> {
+        let mut used = vec![false; self.bones.len()];
+        for v in &self.vertices {
+            for k in 0..4 {
+                if v.weights[k] > 0.0
+                    && let Some(u) = used.get_mut(v.bones[k] as usize)
+                {
+                    *u = true;
+                }
+            }
+        }
+        used
+    }
+
+    /// Bones some vertex is weighted to; the skinning a crowd of skinned meshes needs (IK
+    /// targets, poles and controls the file lists among the skin's joints move nothing).
+    pub fn used_bone_count(&self) -> usize {
+        let used = self.used_bones().iter().filter(|&&u| u).count();
+        if used == 0 { self.bones.len() } else { used }
+    }
+
+    /// This character with only the bones some vertex is weighted to, the vertices' bone
+    /// numbers renumbered (a slot of weight zero on a dropped bone points at bone 0): every
+    /// pose skins every vertex where it skinned it. `None` where every bone is used, or none.
+    pub fn without_unused_bones(&self) -> Option<Character> {
+        let used = self.used_bones();
+        let kept = used.iter().filter(|&&u| u).count();
+        if kept == used.len() || kept == 0 {
+            return None;
+        }
+        let mut renumber = vec![0u16; used.len()];
+        let mut next = 0u16;
+        for (b, &u) in used.iter().enumerate() {
+            if u {
+                renumber[b] = next;
+                next += 1;
+            }
+        }
+        let mut out = self.clone();
+        out.bones = self
+            .bones
+            .iter()
+            .zip(&used)
+            .filter(|(_, u)| **u)
+            .map(|(b, _)| b.clone())
+            .collect();
+        for v in &mut out.vertices {
+            for k in 0..4 {
+                v.bones[k] = if v.weights[k] > 0.0 {
+                    renumber.get(v.bones[k] as usize).copied().unwrap_or(0)
+                } else {
+                    0
+                };
+            }
+        }
+        Some(out)
+    }
+
     /// Per submesh, whether it can draw no fragment at all: its material cuts out below an
     /// alpha (`MASK`, or `BLEND` drawn as a cut-out) that its base colour never reaches: the
     /// factor's alpha times the texture's largest alpha times its vertices' largest colour
@@ -709,4 +768,51 @@ pub fn triangle_neighbours(indices: &[u32], welded: &[u32]) -> Vec<[u32; 3]> {
         }
     }
     neighbours
+}
+
+#[cfg(test)]
+mod bone_tests {
+    use crate::animation::{Pose, skin_vertices};
+
+    /// Bones no vertex is weighted to (IK targets, controls), one of them first so that every
+    /// used bone is renumbered: dropped, the mesh skins exactly as before at every sampled
+    /// time of every clip, and the skinned crowd's memory is the plain character's.
+    #[test]
+    fn unused_bones_are_dropped_and_the_skinning_stays() {
+        let plain = crate::default_character::generate();
+        assert!(plain.without_unused_bones().is_none(), "the default uses every bone");
+        let mut rigged = plain.clone();
+        let extra = |node: usize| super::Bone {
+            node,
+            inverse_bind: glam::Mat4::from_translation(glam::Vec3::new(0.3, 0.0, 0.1)),
+        };
+        rigged.bones.insert(0, extra(0));
+        rigged.bones.push(extra(1));
+        rigged.bones.push(extra(2));
+        for v in &mut rigged.vertices {
+            for k in 0..4 {
+                if v.weights[k] > 0.0 {
+                    v.bones[k] += 1;
+                }
+            }
+        }
+        assert_eq!(rigged.used_bone_count(), plain.bones.len());
+        let pruned = rigged.without_unused_bones().expect("three unused bones");
+        assert_eq!(pruned.bones.len(), plain.bones.len());
+        for (ci, clip) in rigged.clips.iter().enumerate() {
+            for k in 0..5 {
+                let t = clip.duration_secs * k as f32 / 5.0;
+                let (a, na) = skin_vertices(&rigged, &Pose::sample(&rigged, clip, t));
+                let (b, nb) = skin_vertices(&pruned, &Pose::sample(&pruned, &pruned.clips[ci], t));
+                let (c, _) = skin_vertices(&plain, &Pose::sample(&plain, &plain.clips[ci], t));
+                assert_eq!(a, b, "{} at {t}", clip.name);
+                assert_eq!(na, nb);
+                assert_eq!(b, c);
+            }
+        }
+        assert_eq!(
+            crate::reps::skinned_bytes(&rigged, 40).geometry,
+            crate::reps::skinned_bytes(&plain, 40).geometry
+        );
+    }
 }

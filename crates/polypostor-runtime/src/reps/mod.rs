@@ -465,7 +465,9 @@ pub fn character_static_bytes(c: &crate::Character) -> RepBytes {
 }
 
 /// The GPU-skinned mesh: static data + bind-pose positions and normals + the clip's joint
-/// transforms (three rows of a matrix, 48 bytes per joint per sample).
+/// transforms (three rows of a matrix, 48 bytes per joint per sample) of the joints that move
+/// some vertex ([`crate::Character::used_bone_count`]: a crowd carries no IK targets or
+/// controls).
 pub fn skinned_bytes(c: &crate::Character, joint_samples: usize) -> RepBytes {
     let s = character_static_bytes(c);
     // Animated morph targets: each vertex's offsets at every joint sample (16 bytes).
@@ -478,7 +480,7 @@ pub fn skinned_bytes(c: &crate::Character, joint_samples: usize) -> RepBytes {
     };
     RepBytes::new(
         s.texture,
-        s.geometry + c.vertices.len() as u64 * 24 + (joint_samples * c.bones.len()) as u64 * 48 + morphs,
+        s.geometry + c.vertices.len() as u64 * 24 + (joint_samples * c.used_bone_count()) as u64 * 48 + morphs,
     )
 }
 

@@ -182,6 +182,11 @@ impl GpuMeshCrowd {
                 frames
             )));
         }
+        // Only the bones that move a vertex: a rig's IK targets, poles and controls would
+        // add a joint transform per sample each and draw nothing (293 unused joints made the
+        // crowd's animation 23 times larger).
+        let pruned = character.without_unused_bones();
+        let character = pruned.as_ref().unwrap_or(character);
         let renderer = CharacterRenderer::new(device);
         let gpu = GpuCharacter::new(&renderer, device, queue, character);
         let layout = layout(
