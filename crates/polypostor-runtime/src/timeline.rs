@@ -630,6 +630,13 @@ fn root_motions(character: &mut Character) -> Vec<ClipMotion> {
 /// to nothing). A jump forward (a height or two) keeps its travel, as authored.
 pub const FAR_TRAVEL_HEIGHTS: f32 = 3.0;
 
+/// Travel over one play, in the character's heights, beyond which a clip that comes back to
+/// its first pose (it loops) but does not walk is played in place too: looped as authored, a
+/// crowd sees it jump back by that much at every loop, and the bake frames its path (a walk
+/// whose feet slide, carried 1.2 heights, drew the character at 60 % of its size). A jump,
+/// which does not loop, keeps its travel up to [`FAR_TRAVEL_HEIGHTS`].
+pub const LOOP_TRAVEL_HEIGHTS: f32 = 1.0;
+
 fn apply_in_place(character: &mut Character, motions: &[ClipMotion]) -> Vec<(String, f32)> {
     let mut changed = Vec::new();
     let mut notes = Vec::new();
@@ -639,7 +646,8 @@ fn apply_in_place(character: &mut Character, motions: &[ClipMotion]) -> Vec<(Str
         }
         let travel = m.root.length() * m.duration;
         let walks = m.is_locomotion() && m.root.length() >= LOCOMOTION_MIN_SPEED * m.height;
-        let far = m.height > 0.0 && travel > FAR_TRAVEL_HEIGHTS * m.height;
+        let far = m.height > 0.0
+            && (travel > FAR_TRAVEL_HEIGHTS * m.height || (m.loops() && travel > LOOP_TRAVEL_HEIGHTS * m.height));
         if walks || far {
             clip.in_place_velocity = Vec3::new(m.root.x, 0.0, m.root.y);
             changed.push((clip.name.clone(), m.root.length()));
@@ -1397,6 +1405,32 @@ mod tests {
             "{:?}",
             far.warnings
         );
+        // A clip that comes back to its first pose but carries the character more than its
+        // height (the Idle, its root slid 1.5 heights forward over the loop, feet and all): it
+        // would jump back at every loop, and is played in place; the same clip carried half
+        // a height keeps its travel.
+        for (heights, in_place) in [(1.5f32, true), (0.5, false)] {
+            let mut slid = c.clone();
+            let d = slid.clips[idle].duration_secs;
+            let clip = &mut slid.clips[idle];
+            clip.channels
+                .retain(|ch| !(ch.node == r && matches!(ch.values, ChannelValues::Translation(_))));
+            clip.channels.push(Channel {
+                node: r,
+                interpolation: Interpolation::Linear,
+                times: vec![0.0, d],
+                values: ChannelValues::Translation(vec![rest, rest + Vec3::new(0.0, 0.0, heights * m.height)]),
+            });
+            let sm = measure_motion(&slid, Some(idle));
+            assert!(sm.loops(), "{sm:?}");
+            play_in_place(&mut slid);
+            let v = slid.clips[idle].in_place_velocity;
+            if in_place {
+                assert!((v.z * d - heights * m.height).abs() < 0.02 * m.height, "{heights}: {v}");
+            } else if !sm.is_locomotion() {
+                assert_eq!(v, Vec3::ZERO, "{heights}: {sm:?}");
+            }
+        }
         let t = Timeline::measured(&c, &[Some(walk), Some(idle)], 10.0).unwrap();
         assert!(!t.spans[0].looping && t.spans[1].looping);
         // A clip that does not loop holds its last frame, and that frame is its end pose.
