@@ -78,6 +78,8 @@ pub struct Inspector {
     failed: Option<usize>,
     drag: Option<usize>,
     drag_to: Option<egui::Pos2>,
+    /// Why the last drag made no pin (dropped away from the outline), shown until the next.
+    pin_note: Option<String>,
     textures: Textures,
     /// The shown error map's RMSE (computed with its texture, when that is rebuilt).
     rmse: f64,
@@ -158,6 +160,22 @@ fn on_tile_background(mut img: image::RgbaImage) -> image::RgbaImage {
     img
 }
 
+/// Frame `f` of the bake `report` describes as the artist reads it: its number, and in a pack
+/// of several clips the clip it is in and its number there ("14 (Run 4)").
+pub(super) fn frame_label(report: &Report, f: usize) -> String {
+    if report.clips.len() < 2 {
+        return f.to_string();
+    }
+    match report
+        .clips
+        .iter()
+        .find(|c| (c.first_frame..c.first_frame + c.frames).contains(&f))
+    {
+        Some(c) => format!("{f} ({} {})", c.name, f - c.first_frame),
+        None => f.to_string(),
+    }
+}
+
 pub(super) fn to_color_image(img: &image::RgbaImage) -> egui::ColorImage {
     egui::ColorImage::from_rgba_unmultiplied([img.width() as usize, img.height() as usize], img.as_raw())
 }
@@ -187,6 +205,7 @@ impl Inspector {
 
     /// Renders and fits `view` of the bake `report` describes, in the background.
     pub fn open(&mut self, view: usize, doc: &Document, report: &Report, sync: bool) {
+        self.pin_note = None;
         let character = doc.character.clone();
         let segmentation = doc.segmentation.clone();
         let caps = doc.project.caps.clone();
@@ -516,19 +535,32 @@ impl Inspector {
                     }
                 }
                 if response.drag_stopped() {
-                    if let (Some(k), Some(p)) = (self.drag.take(), self.drag_to.take())
-                        && let Some((_, j)) = contour
+                    if let (Some(k), Some(p)) = (self.drag.take(), self.drag_to.take()) {
+                        match contour
                             .iter()
                             .enumerate()
                             .map(|(j, c)| (c.distance(p), j))
                             .filter(|(d, _)| *d < 10.0)
                             .min_by(|a, b| a.0.total_cmp(&b.0))
-                    {
-                        pin_made = Some(Pin {
-                            frame: f,
-                            source: fit.kept[k],
-                            target: j,
-                        });
+                        {
+                            Some((_, j)) => {
+                                pin_made = Some(Pin {
+                                    frame: f,
+                                    source: fit.kept[k],
+                                    target: j,
+                                });
+                                self.pin_note = None;
+                            }
+                            // Dropped on the background or inside the part: said, not
+                            // ignored without a word.
+                            None => {
+                                self.pin_note = Some(
+                                    "no pin: a vertex pins onto the traced outline; drop it within 10 pixels of \
+                                     an outline point (a white ring shows where it will land)"
+                                        .into(),
+                                )
+                            }
+                        }
                     }
                     self.drag = None;
                 }
@@ -609,6 +641,9 @@ impl Inspector {
                 );
             });
         });
+        if let Some(note) = &self.pin_note {
+            ui.label(egui::RichText::new(note).small().color(ui.visuals().warn_fg_color));
+        }
         if let Some(ms) = self.last_refit_ms {
             ui.label(egui::RichText::new(format!("last re-solve: {ms:.0} ms")).small().weak());
         }
@@ -631,14 +666,22 @@ impl Inspector {
         }
         self.pins_ui(ui, doc, basis, view, part);
         self.key_frame_ui(ui, doc, report, basis, view, frames);
-        self.keys_ui(ui, doc, basis, view, f);
+        self.keys_ui(ui, doc, report, basis, view, f);
         self.order_ui(ui, doc, report, basis, view);
     }
 
     /// The view's key images: each with the parts that have it, the frames it draws, its
     /// bytes and what it buys; add one at the current frame, remove one, or go back to the
     /// bake's choice. Every edit is a correction (undoable, saved, respected by every bake).
-    fn keys_ui(&mut self, ui: &mut egui::Ui, doc: &mut Document, basis: OverrideBasis, view: usize, f: usize) {
+    fn keys_ui(
+        &mut self,
+        ui: &mut egui::Ui,
+        doc: &mut Document,
+        report: &Report,
+        basis: OverrideBasis,
+        view: usize,
+        f: usize,
+    ) {
         let Some(s) = &self.session else { return };
         let list = view_keys_of_parts(&s.parts);
         let manual = doc.project.overrides.view(basis, view).and_then(|o| o.keys.clone());
@@ -666,9 +709,9 @@ impl Inspector {
                     ui.end_row();
                     for k in &list {
                         ui.label(if k.first {
-                            format!("{} (first)", k.frame)
+                            format!("{} (first)", frame_label(report, k.frame))
                         } else {
-                            k.frame.to_string()
+                            frame_label(report, k.frame)
                         });
                         ui.label(k.parts.to_string());
                         ui.label(format!("{} part-frames", k.frames_drawn));
@@ -802,17 +845,18 @@ impl Inspector {
         let bake_key = report.key_frame;
         ui.horizontal(|ui| {
             ui.label("Key frame:");
+            let auto = format!("auto (bake's: {})", frame_label(report, bake_key));
             let text = match current {
-                Some(k) => format!("frame {k}"),
-                None => format!("auto (bake's: {bake_key})"),
+                Some(k) => format!("frame {}", frame_label(report, k)),
+                None => auto.clone(),
             };
             let mut choice = current;
             egui::ComboBox::from_id_salt("key frame")
                 .selected_text(text)
                 .show_ui(ui, |ui| {
-                    ui.selectable_value(&mut choice, None, format!("auto (bake's: {bake_key})"));
+                    ui.selectable_value(&mut choice, None, auto);
                     for k in 0..frames {
-                        ui.selectable_value(&mut choice, Some(k), format!("frame {k}"));
+                        ui.selectable_value(&mut choice, Some(k), format!("frame {}", frame_label(report, k)));
                     }
                 });
             if choice != current {

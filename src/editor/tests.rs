@@ -923,6 +923,12 @@ fn export_writes_the_chosen_representations_and_opens_the_preview() {
     // ticked one the project's), and the project's from now on.
     let baked: Vec<String> = report.clips.iter().map(|c| c.name.clone()).collect();
     assert_eq!(baked, names);
+    // The inspector's frame lists name the clip a frame of such a pack is in.
+    let second = &report.clips[1];
+    assert_eq!(
+        super::inspect::frame_label(&report, second.first_frame + 1),
+        format!("{} ({} 1)", second.first_frame + 1, second.name)
+    );
     assert_eq!(h.state().doc.as_ref().unwrap().project.clips, names);
     assert_eq!(report.settings.resolution, 64);
     // The polygon size chosen in the dialog is the bake's and, from now on, the project's.
