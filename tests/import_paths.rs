@@ -1154,3 +1154,30 @@ fn texture_wrap_modes_are_read_and_written() {
     let want: Vec<_> = wrapped.materials.iter().map(|m| (m.name.clone(), m.wrap)).collect();
     assert_eq!(modes, want);
 }
+
+/// A character read with an up axis of the wrong sign stands on its head: said, with the
+/// axis that stands it up (the default read right side up says nothing).
+#[test]
+fn a_character_read_upside_down_is_said_to_stand_on_its_head() {
+    use polypostor::{ImportOptions, UpAxis};
+    let bytes = write_glb(&small_character()).unwrap();
+    let upright = import_slice(&bytes, None, "x").unwrap();
+    assert!(
+        upright.warnings.iter().all(|w| !w.contains("on its head")),
+        "{:?}",
+        upright.warnings
+    );
+    let options = ImportOptions {
+        up: UpAxis::NegY,
+        ..Default::default()
+    };
+    let flipped = polypostor::import::import_slice_with(&bytes, None, "x", options).unwrap();
+    assert!(
+        flipped
+            .warnings
+            .iter()
+            .any(|w| w.contains("on its head") && w.contains("+y as up")),
+        "{:?}",
+        flipped.warnings
+    );
+}

@@ -213,6 +213,9 @@ pub fn import_slice_with(
         } else if let Some(hint) = lying_hint(&character) {
             character.warnings.push(hint);
         }
+        if let Some(hint) = upside_down_hint(&character) {
+            character.warnings.push(hint);
+        }
         if let Some(shift) = crate::timeline::off_origin(&character) {
             character.move_rigidly(glam::Quat::IDENTITY, shift);
             character.warnings.push(format!(
@@ -230,6 +233,50 @@ pub fn import_slice_with(
             ));
         }
         character
+    })
+}
+
+/// A hint for a character that stands on its head as read (an up axis of the wrong sign,
+/// `--up -z` for a Z-up export): its joints named for the head sit lower, by more than a
+/// quarter of its height, than those named for the feet (foot, toe, ankle). Only said: a
+/// rig without such names, or an acrobat, is not judged.
+fn upside_down_hint(character: &Character) -> Option<String> {
+    let world = character.skeleton.rest_world();
+    let (mut head, mut feet) = ((0.0f32, 0usize), (0.0f32, 0usize));
+    for (n, m) in character.skeleton.nodes.iter().zip(&world) {
+        let name = n.name.to_ascii_lowercase();
+        let y = m.w_axis.y;
+        if !y.is_finite() {
+            continue;
+        }
+        if name.contains("head") {
+            head = (head.0 + y, head.1 + 1);
+        } else if name.contains("foot") || name.contains("toe") || name.contains("ankle") {
+            feet = (feet.0 + y, feet.1 + 1);
+        }
+    }
+    if head.1 == 0 || feet.1 == 0 {
+        return None;
+    }
+    let (head_y, feet_y) = (head.0 / head.1 as f32, feet.0 / feet.1 as f32);
+    let pose = crate::animation::Pose::rest(character);
+    let (skinned, _) = crate::animation::skin_vertices(character, &pose);
+    let (min, max) = crate::character::bounds(skinned.iter().copied());
+    let height = max.y - min.y;
+    let up = character.up_axis;
+    let flipped = match up {
+        UpAxis::PosY => UpAxis::NegY,
+        UpAxis::NegY => UpAxis::PosY,
+        UpAxis::PosZ => UpAxis::NegZ,
+        UpAxis::NegZ => UpAxis::PosZ,
+        UpAxis::PosX => UpAxis::NegX,
+        UpAxis::NegX => UpAxis::PosX,
+    };
+    (height > 0.0 && head_y < feet_y - 0.25 * height).then(|| {
+        format!(
+            "read with {up} as up, its head joints are below its feet: it may stand on its head; \
+             read it with {flipped} as up (`--up {flipped}`, or the editor's Up axis beside the character's summary)"
+        )
     })
 }
 
