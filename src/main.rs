@@ -417,6 +417,7 @@ fn inspect(file: &Path, json: bool, up: polypostor::UpAxis) -> anyhow::Result<()
                             "closure": m.closure,
                             "contact": m.contact,
                             "spread": m.spread,
+                            "lift": m.lift,
                         })
                     })
                     .collect();
@@ -429,11 +430,11 @@ fn inspect(file: &Path, json: bool, up: polypostor::UpAxis) -> anyhow::Result<()
                 }
                 if !motion.is_empty() {
                     println!(
-                        "clip motion (ground speed in scene units/s; closure, contact, spread and the legs' sweep as measured)"
+                        "clip motion (ground speed in scene units/s; closure, contact, spread, the legs' sweep and the lift off the ground as measured)"
                     );
                     for (name, m, root) in &motion {
                         println!(
-                            "  {:<24} {:>8.3}/s  {:<16} closure {:.3}  contact {:.2}  spread {:.2}  sweep {:.3}/s{}",
+                            "  {:<24} {:>8.3}/s  {:<16} closure {:.3}  contact {:.2}  spread {:.2}  sweep {:.3}/s  lift {:.2}{}",
                             name,
                             m.ground_speed(),
                             if m.is_locomotion() {
@@ -449,6 +450,7 @@ fn inspect(file: &Path, json: bool, up: polypostor::UpAxis) -> anyhow::Result<()
                             m.contact,
                             m.spread,
                             m.sweep,
+                            m.lift,
                             if *root > 0.0 {
                                 format!("  (root motion {root:.3}/s played in place)")
                             } else {
@@ -809,7 +811,7 @@ fn bake_progress_bar() -> (
         b.set_message(if left.is_empty() {
             String::new()
         } else {
-            format!("({left} in this stage)")
+            format!("({left})")
         });
     };
     (bar, progress)

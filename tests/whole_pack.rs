@@ -95,9 +95,20 @@ fn several_clips_share_one_pack_and_each_loops_on_its_own() {
     // The animation of the clips together is the pack's.
     let sum: u64 = report.clips.iter().map(|r| r.animation_bytes).sum();
     assert_eq!(sum, polypostor::bake::report::animation_bytes(&b, 0..frames));
-    // The whole pack's mean is the frame-weighted mean of the clips'.
-    let weighted: f64 = report.clips.iter().map(|r| r.mean_psnr * r.frames as f64).sum::<f64>() / frames as f64;
-    assert!((weighted - report.mean_psnr).abs() < 1e-6);
+    // The whole pack's mean is the frame-weighted mean of the clips' (both the PSNR of a mean
+    // RMSE, so weighed as RMSE).
+    let rmse = |db: f64| 10f64.powf(-db / 20.0);
+    let weighted: f64 = report
+        .clips
+        .iter()
+        .map(|r| rmse(r.mean_psnr) * r.frames as f64)
+        .sum::<f64>()
+        / frames as f64;
+    assert!(
+        (rmse(report.mean_psnr) - weighted).abs() < 1e-9 * weighted.max(1e-6),
+        "{weighted} {}",
+        report.mean_psnr
+    );
 
     let p = load_pack(&out).unwrap();
     assert_eq!(&p.manifest.clips, spans);

@@ -137,10 +137,10 @@ pub struct CrowdPanel {
     /// The last bake this session made, and into which folder (the next bake there only
     /// re-does what changed).
     pub last_bake: Option<(PathBuf, Arc<polypostor::bake::pipeline::Bake>)>,
-    /// Messages for the editor's log (drained by the app).
-    /// What the jobs have to say, for the log (errors also open the error dialog).
     /// How the last job ended (true: its folder is open), for the app to take once.
     pub outcome: Option<bool>,
+    /// What the jobs have to say, for the editor's log (drained by the app; errors also open
+    /// the error dialog).
     pub messages: Vec<(LogLevel, String)>,
 }
 
@@ -374,6 +374,23 @@ impl CrowdPanel {
     }
 
     /// A new crowd scene on the next frame (characters added or removed).
+    /// Forgets the crowd of the project left (another one is opened): its characters, the
+    /// pack shown and the bake an incremental re-bake would start from. The preview showed
+    /// the previous project's crowd, and its header named that project's pack.
+    pub fn forget_project(&mut self) {
+        self.clear_guests();
+        if self.assets.is_some() {
+            self.messages.push((
+                LogLevel::Info,
+                "crowd preview: the project left's crowd is no longer shown (Crowd > Bake for crowd preview)".into(),
+            ));
+        }
+        self.assets = None;
+        self.folder = None;
+        self.last_bake = None;
+        self.full_requested = None;
+    }
+
     fn bump_generation(&mut self) {
         if let Some((g, _)) = &mut self.assets {
             *g = self.next_generation;

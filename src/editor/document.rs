@@ -128,6 +128,17 @@ impl Document {
         true
     }
 
+    /// Adds a part (no triangles yet) as one undoable step; every hand-set drawing order
+    /// draws it in front. Returns the part and how many orders were extended.
+    pub fn add_part(&mut self, name: &str) -> Result<(u16, usize), String> {
+        let before = self.project.clone();
+        let p = polypostor::edit::paint::add_part(&mut self.segmentation, name)?;
+        let extended = self.project.overrides.add_part(p as usize);
+        self.history.record("Add part", before);
+        self.store_segmentation();
+        Ok((p, extended))
+    }
+
     /// Removes part `p`, its triangles going to `into`, as one undoable step with what
     /// refers to part numbers: cap colours, drawing orders and pins follow the renumbering
     /// (the pins of `p` and `into`, whose outlines change, are dropped). Returns how many pins

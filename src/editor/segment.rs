@@ -245,13 +245,16 @@ impl SegmentPanel {
                 .on_hover_text("Add a part with a fresh colour")
                 .on_disabled_hover_text(paint::part_limit_message());
             if add.clicked() {
-                let mut added = Err(String::new());
-                doc.edit("Add part", |seg, _| {
-                    added = paint::add_part(seg, "");
-                    added.is_ok()
-                });
-                match added {
-                    Ok(p) => self.active = p,
+                match doc.add_part("") {
+                    Ok((p, extended)) => {
+                        self.active = p;
+                        if extended > 0 {
+                            self.notes.push(format!(
+                                "the new part is drawn in front in {} (the Views tab moves it)",
+                                polypostor::import::plural(extended, "hand-set drawing order")
+                            ));
+                        }
+                    }
                     Err(e) => self.messages.push(e),
                 }
             }

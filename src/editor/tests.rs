@@ -1114,6 +1114,53 @@ fn a_cancelled_bake_is_not_an_error() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
+/// A part added in the Segment tab joins every drawing order set by hand (drawn in front):
+/// the bake ignores an order that does not list each part, so adding one threw them away.
+/// One undo takes back the part and the orders' new entry.
+#[test]
+fn an_added_part_joins_the_hand_set_drawing_orders() {
+    let dir = temp_project("addpart");
+    let mut h = harness(Some(dir.clone()));
+    h.run_steps(3);
+    h.get_by_label("Segment").click();
+    h.run_steps(2);
+    let n = {
+        let doc = h.state_mut().doc.as_mut().unwrap();
+        let n = doc.segmentation.parts.len();
+        let mut order: Vec<usize> = (0..n).rev().collect();
+        order.swap(0, 1);
+        assert!(doc.edit_overrides("Reorder", |o| {
+            for v in [0, 3] {
+                o.views.entry(v).or_default().order = Some(order.clone());
+            }
+            true
+        }));
+        n
+    };
+    h.get_by_label("➕ Add part").click();
+    h.run_steps(2);
+    let doc = h.state().doc.as_ref().unwrap();
+    assert_eq!(doc.segmentation.parts.len(), n + 1);
+    for v in [0, 3] {
+        let order = doc.project.overrides.views[&v].order.clone().unwrap();
+        assert_eq!(order.len(), n + 1, "view {v}: {order:?}");
+        assert_eq!(order.last(), Some(&n), "view {v}: drawn in front: {order:?}");
+    }
+    assert!(
+        h.state()
+            .log
+            .iter()
+            .any(|l| l.text.contains("2 hand-set drawing orders")),
+        "said in the log"
+    );
+    h.state_mut().send(Command::Undo);
+    h.run_steps(2);
+    let doc = h.state().doc.as_ref().unwrap();
+    assert_eq!(doc.segmentation.parts.len(), n);
+    assert_eq!(doc.project.overrides.views[&0].order.as_ref().map(Vec::len), Some(n));
+    let _ = std::fs::remove_dir_all(dir);
+}
+
 /// The palette refuses a part past the bake's limit and says why.
 #[test]
 fn the_palette_stops_at_the_part_limit() {

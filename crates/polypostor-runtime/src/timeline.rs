@@ -342,6 +342,14 @@ pub fn validate(spans: &[ClipSpan], frames: usize) -> Result<(), String> {
     }
     let mut at = 0u64;
     for (i, s) in spans.iter().enumerate() {
+        // Before the name is printed in any message: control characters (a newline, a
+        // terminal escape) never come from an import, which replaces them.
+        if s.name.len() > 1024 {
+            return Err(format!("clip {i}'s name is {} bytes long", s.name.len()));
+        }
+        if s.name.chars().any(char::is_control) {
+            return Err(format!("clip {i}'s name {:?} holds control characters", s.name));
+        }
         if s.start as u64 != at {
             return Err(format!("clip {i} ('{}') starts at frame {}, not {at}", s.name, s.start));
         }
@@ -358,9 +366,6 @@ pub fn validate(spans: &[ClipSpan], frames: usize) -> Result<(), String> {
                 "clip {i} ('{}') has {} seconds between frames",
                 s.name, s.secs_per_frame
             ));
-        }
-        if s.name.len() > 1024 {
-            return Err(format!("clip {i}'s name is {} bytes long", s.name.len()));
         }
         at += s.frames as u64;
     }
@@ -411,6 +416,10 @@ pub struct ClipMotion {
     /// keeps them planted), scaled by how the sweep compares with the contact speed on the
     /// character's clips that have both ([`measure_clips`]); 0 for every other clip.
     pub stride: f32,
+    /// The most the contact point rises off the ground over the clip (the lowest vertex's
+    /// height above the ground, over `height`): a run's flight phases lift it a little, a
+    /// leap or a somersault far ([`LOCOMOTION_MAX_LIFT`]).
+    pub lift: f32,
 }
 
 /// Least ground speed of locomotion, in heights per second (9 cm/s for a 1.8 m person):
@@ -431,19 +440,26 @@ pub const LOCOMOTION_CONTACT: f32 = 0.4;
 /// contact point moves too unevenly for a walk or a run.
 pub const LOCOMOTION_SPREAD: f32 = 1.0;
 
+/// Most a loop's contact point may rise off the ground ([`ClipMotion::lift`], in heights) and
+/// be locomotion: the walks, runs and trots tried lift it 0.00–0.10 of their height
+/// (RobotExpressive's bouncing cartoon run 0.18), a running leap 0.42 (Mixamo's soldier's
+/// "jump", measured as a walk at 2.7 m/s: the crowd's walkers leapt about).
+pub const LOCOMOTION_MAX_LIFT: f32 = 0.25;
+
 impl ClipMotion {
     /// Whether the clip's last pose comes back to its first (so the crowd may loop it).
     pub fn loops(&self) -> bool {
         self.closure <= LOOP_CLOSURE
     }
 
-    /// Whether it is steady locomotion: it loops and its contact point moves evenly (a walk, a
-    /// run, a trot; not a jump, a fall or a sit).
+    /// Whether it is steady locomotion: it loops, its contact point moves evenly and stays near
+    /// the ground (a walk, a run, a trot; not a jump, a leap, a fall or a sit).
     pub fn is_locomotion(&self) -> bool {
         self.loops()
             && self.duration >= LOCOMOTION_MIN_SECS
             && self.contact >= LOCOMOTION_CONTACT
             && self.spread <= LOCOMOTION_SPREAD
+            && self.lift <= LOCOMOTION_MAX_LIFT
             && (self.root - self.feet).length() >= LOCOMOTION_MIN_SPEED * self.height
     }
 
@@ -476,6 +492,7 @@ impl ClipMotion {
             && self.duration >= LOCOMOTION_MIN_SECS
             && self.root.length() < LOCOMOTION_MIN_SPEED * self.height
             && self.all_down <= STRIDE_MAX_ALL_DOWN
+            && self.lift <= LOCOMOTION_MAX_LIFT
     }
 }
 
@@ -795,6 +812,7 @@ fn measure_with_legs(character: &Character, clip: Option<usize>, legs: &[Option<
         .map(|s| s.0)
         .collect();
     let grounded = velocities.len() as f32 / n as f32;
+    let lift = samples.iter().map(|s| s.1 - ground).fold(0.0f32, f32::max) / height;
     let sum: Vec2 = velocities.iter().copied().sum();
     let dir = sum.normalize_or_zero();
     let feet = if dir == Vec2::ZERO {
@@ -840,6 +858,7 @@ fn measure_with_legs(character: &Character, clip: Option<usize>, legs: &[Option<
         sweep,
         all_down,
         stride: 0.0,
+        lift: if lift.is_finite() { lift } else { f32::INFINITY },
     }
 }
 
@@ -1040,6 +1059,17 @@ mod tests {
         assert!(validate(&bad, 13).unwrap_err().contains("ground speed"));
         bad[0].ground_speed = 1e6;
         validate(&bad, 13).unwrap();
+        // A name with a terminal escape or a newline (never from an import) is refused, and
+        // the message shows it escaped.
+        for name in ["Walk\nDeath", "\u{1b}[31mred"] {
+            let mut bad = t.spans.clone();
+            bad[0].name = name.into();
+            let e = validate(&bad, 13).unwrap_err();
+            assert!(
+                e.contains("control characters") && !e.chars().any(char::is_control),
+                "{e}"
+            );
+        }
     }
 
     #[test]
@@ -1357,6 +1387,42 @@ mod tests {
         assert!(m.loops() && m.is_locomotion(), "{m:?}");
         let m = measure_motion(&c, Some(idle));
         assert!(m.loops() && !m.is_locomotion() && m.ground_speed() == 0.0, "{m:?}");
+        // The Run made a running leap (the body thrown 0.4 of its height up in the middle of
+        // the loop, the legs striding as before): the contact point still moves evenly while
+        // it is down, but it is no gait for a crowd to walk or run with.
+        let run = c.find_clip("Run").unwrap();
+        let m = measure_motion(&c, Some(run));
+        assert!(m.is_locomotion() && m.lift < 0.1, "{m:?}");
+        let mut leap = c.clone();
+        let r = leap.skeleton.nodes.iter().position(|n| n.parent.is_none()).unwrap();
+        let rest = leap.skeleton.nodes[r].rest.translation;
+        let (d, h) = (leap.clips[run].duration_secs, m.height);
+        let clip = &mut leap.clips[run];
+        clip.channels
+            .retain(|ch| !(ch.node == r && matches!(ch.values, ChannelValues::Translation(_))));
+        let up = |y: f32| rest + Vec3::new(0.0, y * h, 0.0);
+        clip.channels.push(Channel {
+            node: r,
+            interpolation: Interpolation::Linear,
+            times: vec![0.0, 0.3 * d, 0.5 * d, 0.7 * d, d],
+            values: ChannelValues::Translation(vec![up(0.0), up(0.0), up(0.4), up(0.0), up(0.0)]),
+        });
+        let m = measure_motion(&leap, Some(run));
+        assert!(m.loops() && m.lift > LOCOMOTION_MAX_LIFT, "{m:?}");
+        // (What rules it out is the lift: on the ground its contact point is a run's.)
+        assert!(
+            m.contact >= LOCOMOTION_CONTACT && m.spread <= LOCOMOTION_SPREAD && (m.root - m.feet).length() > 0.0,
+            "{m:?}"
+        );
+        assert!(!m.is_locomotion() && !m.is_stride_estimate(), "{m:?}");
+        // A hop of a tenth of the height (a bouncy run) still runs.
+        if let Some(ch) = leap.clips[run].channels.last_mut()
+            && let ChannelValues::Translation(v) = &mut ch.values
+        {
+            v[2] = up(0.1);
+        }
+        let m = measure_motion(&leap, Some(run));
+        assert!(m.is_locomotion(), "{m:?}");
         // Standing (its feet shuffle at about 6 cm/s): measured against the slowest walk's
         // pace, a spread of the order of 1; against the sway's own drift it read 41.
         assert!(m.spread < 1.5 && m.contact > 0.3, "{m:?}");

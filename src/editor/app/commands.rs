@@ -59,6 +59,26 @@ impl EditorApp {
                 } else {
                     path.join(PROJECT_FILE)
                 };
+                // Another project (or any file) already there is never replaced: Save As
+                // wrote one project over another without a word, its painting, caps and
+                // corrections lost.
+                let own = self
+                    .doc
+                    .as_ref()
+                    .and_then(|d| d.project_file.as_deref())
+                    .is_some_and(|f| polypostor::safe_fs::resolved(f) == polypostor::safe_fs::resolved(&file));
+                if !own && std::fs::symlink_metadata(&file).is_ok() {
+                    self.safety.close_after_save = false;
+                    self.safety.replace_after_save = None;
+                    let what = polypostor::project::Project::load(&file)
+                        .map(|(p, _)| format!("project '{}'", p.name))
+                        .unwrap_or_else(|_| "a file".into());
+                    self.fail(format!(
+                        "{} already holds {what}; Save As never replaces it: choose a new folder (or open that project to work on it)",
+                        file.display()
+                    ));
+                    return;
+                }
                 self.save_to(file);
             }
             Command::SelectClip(clip) => {

@@ -258,8 +258,8 @@ impl EditorApp {
         }
         self.views.forget_inspector();
         self.views.set_source(Some(&views_source_on_open(&doc)));
-        // The crowd's added characters were added beside the project left.
-        self.crowd.clear_guests();
+        // The crowd (its characters, its pack, the bake to re-bake from) was the project left's.
+        self.crowd.forget_project();
         self.doc = Some(doc);
         self.frame_character();
     }

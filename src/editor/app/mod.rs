@@ -337,7 +337,18 @@ impl eframe::App for EditorApp {
                     let stored = polypostor::project::relative_path(out, dir);
                     if doc.project.view.last_pack.as_deref() != Some(stored.as_str()) {
                         doc.project.view.last_pack = Some(stored);
-                        doc.dirty = true;
+                        // Bookkeeping, not an edit: a project saved just before is kept saved
+                        // (the record written into its file at once) rather than asking
+                        // "Save changes?" on closing when nothing was changed.
+                        let file = doc.project_file.clone();
+                        let quiet = !doc.dirty && file.as_deref().is_some_and(|f| doc.project.save(f).is_ok());
+                        if quiet {
+                            if let Some(saved) = &mut doc.saved {
+                                saved.view.last_pack = doc.project.view.last_pack.clone();
+                            }
+                        } else {
+                            doc.dirty = true;
+                        }
                     }
                 }
             } else if let Some(before) = before {

@@ -236,8 +236,16 @@ impl EditorApp {
                 }
             });
             ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+                // Cut to the room the menus leave, never selectable: a long project name in a
+                // narrow window was drawn over the menus and took their clicks.
                 if let Some(doc) = &self.doc {
-                    ui.label(egui::RichText::new(doc.title()).strong());
+                    let title = doc.title();
+                    ui.add(
+                        egui::Label::new(egui::RichText::new(&title).strong())
+                            .truncate()
+                            .selectable(false),
+                    )
+                    .on_hover_text(title);
                 }
             });
         });

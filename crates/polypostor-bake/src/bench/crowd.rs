@@ -7,6 +7,9 @@ use super::*;
 /// Seconds `bench crowd` spends timing one representation at one size, at most (about).
 pub const TIMED_SECS: f64 = 60.0;
 
+/// The most frames `bench crowd` times per figure (`--frames`).
+pub const MAX_FRAMES: usize = 100_000;
+
 /// Frames to time of the `frames` asked when one takes `frame_secs` (from the warm-up): all
 /// of them while they fit in [`TIMED_SECS`], else as many as fit, at least one.
 pub fn timed_frames(frames: usize, frame_secs: f64) -> usize {
@@ -34,8 +37,8 @@ pub fn bench_crowd(
     let mut t = String::new();
     use crate::crowd::lod::{Level, LodDistances, LodPolicy};
     use crate::scene::{CrowdAssets, CrowdScene, bench_camera};
-    if counts.is_empty() || counts.iter().any(|&c| c == 0 || c > 1_000_000) || frames == 0 {
-        anyhow::bail!("--counts must list crowd sizes from 1 to 1,000,000 and --frames must be at least 1");
+    if counts.is_empty() || counts.iter().any(|&c| c == 0 || c > 1_000_000) || !(1..=MAX_FRAMES).contains(&frames) {
+        anyhow::bail!("--counts must list crowd sizes from 1 to 1,000,000 and --frames must be 1 to 100,000");
     }
     if with.len() + 1 > crate::crowd::MAX_SPECIES {
         anyhow::bail!(
@@ -122,35 +125,39 @@ pub fn bench_crowd(
             "crowd rendering, {width}×{height} offscreen on {}, {frames} frames per figure",
             ctx.adapter_description()
         );
-        // The pack's clips and what the agents do with them.
+        // Each character's clips and what its agents do with them (a mixed crowd listed the
+        // first pack's clips with every character's agents counted under them).
         use crate::crowd::Gait;
-        let gaits = crate::crowd::Gaits::new(&assets.timeline.spans, assets.timeline.fps);
-        let n = scene.crowd.gait_counts();
-        for (i, c) in assets.timeline.spans.iter().enumerate() {
-            let role = match gaits.role(i) {
-                Some(g @ (Gait::Walk | Gait::Run)) => format!("{} ({} agents)", g.name(), n[g as usize]),
-                Some(g) => g.name().to_string(),
-                None => "not played (does not loop)".into(),
-            };
-            eprintln!(
-                "  clip {:<14} {:>4} frames, ground speed {:.3}/s: {role}",
-                c.name, c.frames, c.ground_speed
-            );
-        }
-        if n[2] > 0 {
-            eprintln!("  {} agents standing", n[2]);
-        }
-        if !guests.is_empty() {
-            let per_kind = scene.crowd.kind_counts();
-            let names = std::iter::once(&assets).chain(&guests);
-            for ((a, n), share) in names.zip(per_kind).zip(&shares) {
+        let per_kind = scene.crowd.kind_counts();
+        for (k, (a, share)) in std::iter::once(&assets).chain(&guests).zip(&shares).enumerate() {
+            if !guests.is_empty() {
                 eprintln!(
-                    "  character {:<16} share {share:.2}: {n} agents, {} tall, {}",
+                    "  character {:<16} share {share:.2}: {} agents, {} tall, {}",
                     a.character.name,
+                    per_kind.get(k).copied().unwrap_or(0),
                     crate::crowd::metres(a.size.height),
                     crate::import::plural(a.timeline.spans.len(), "clip")
                 );
             }
+            let indent = if guests.is_empty() { "  " } else { "    " };
+            let gaits = crate::crowd::Gaits::new(&a.timeline.spans, a.timeline.fps);
+            let n = scene.crowd.gait_counts_of(k);
+            for (i, c) in a.timeline.spans.iter().enumerate() {
+                let role = match gaits.role(i) {
+                    Some(g @ (Gait::Walk | Gait::Run)) => format!("{} ({} agents)", g.name(), n[g as usize]),
+                    Some(g) => g.name().to_string(),
+                    None => "not played (does not loop)".into(),
+                };
+                eprintln!(
+                    "{indent}clip {:<14} {:>4} frames, ground speed {:.3}/s: {role}",
+                    c.name, c.frames, c.ground_speed
+                );
+            }
+            if n[2] > 0 {
+                eprintln!("{indent}{} agents standing", n[2]);
+            }
+        }
+        if !guests.is_empty() {
             let heights: Vec<f32> = std::iter::once(&assets).chain(&guests).map(|a| a.size.height).collect();
             if let Some(note) = crate::crowd::size_spread_note(&heights) {
                 eprintln!("warning: {note}");
@@ -178,6 +185,10 @@ pub fn bench_crowd(
                 let mut cpu = 0.0;
                 let mut last = Default::default();
                 for _ in 0..n {
+                    // Ctrl+C (or SIGTERM) ends the run at the next frame.
+                    if env.cancel.load(std::sync::atomic::Ordering::Relaxed) {
+                        break;
+                    }
                     let c = std::time::Instant::now();
                     last = scene.frame(device, queue, &target, &camera, policy, 1.0 / 60.0, wgpu::Color::BLACK);
                     cpu += c.elapsed().as_secs_f64();
@@ -194,6 +205,9 @@ pub fn bench_crowd(
             let (warm, _, _) = run(3);
             let timed = timed_frames(frames, warm / 3.0);
             let (secs, cpu, last) = run(timed);
+            if env.cancel.load(std::sync::atomic::Ordering::Relaxed) {
+                anyhow::bail!("cancelled");
+            }
             let fps = timed as f64 / secs.max(1e-9);
             let cpu_ms = 1e3 * cpu / timed as f64;
             if !json {

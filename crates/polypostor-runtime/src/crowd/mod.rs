@@ -800,6 +800,18 @@ impl Crowd {
         n
     }
 
+    /// [`Crowd::gait_counts`] of the agents of one kind (0 the crowd's own character, `k` its
+    /// `k`-th guest; [`Crowd::kind_counts`]).
+    pub fn gait_counts_of(&self, kind: usize) -> [usize; 3] {
+        let mut n = [0; 3];
+        for (&g, &k) in self.agents.gait.iter().zip(&self.agents.kind) {
+            if k as usize == kind {
+                n[g as usize] += 1;
+            }
+        }
+        n
+    }
+
     /// Number of agents.
     pub fn len(&self) -> usize {
         self.agents.pos.len()

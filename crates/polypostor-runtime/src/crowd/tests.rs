@@ -834,6 +834,16 @@ fn two_characters_share_a_crowd_in_their_shares_each_walking_its_own_clips() {
     crowd.set_clips(&person, 10.0);
     crowd.mix(vec![beast.clone()], &[3.0, 1.0]).unwrap();
     assert_eq!(crowd.kind_counts(), vec![1500, 500]);
+    // Each kind's gaits counted apart add up to the crowd's.
+    let (own, beasts) = (crowd.gait_counts_of(0), crowd.gait_counts_of(1));
+    assert_eq!(own.iter().sum::<usize>(), 1500);
+    assert_eq!(beasts.iter().sum::<usize>(), 500);
+    let all = crowd.gait_counts();
+    assert!(
+        (0..3).all(|g| own[g] + beasts[g] == all[g]),
+        "{own:?} {beasts:?} {all:?}"
+    );
+    assert_eq!(crowd.gait_counts_of(2), [0; 3]);
     // Dealt at random: the beasts are not one block of the ground.
     let beasts: Vec<Vec2> = (0..crowd.len())
         .filter(|&i| crowd.agents.kind[i] == 1)

@@ -88,12 +88,15 @@ impl Eta {
         left.is_finite().then(|| Duration::from_secs_f64(left.max(0.0)))
     }
 
-    /// "about 1 min 20 s left", "measuring…" or "" when nothing is known yet.
+    /// "about 1 min 20 s left in this stage", "finishing this stage…" (its time is up but it
+    /// has not ended: "about 0 s left" read as the whole bake's end while it went on),
+    /// "measuring…" or "" when nothing is known yet.
     pub fn describe(&self, now: Instant) -> String {
         match (self.started, self.remaining(now)) {
             (None, _) => String::new(),
             (Some(_), None) => "measuring…".to_owned(),
-            (Some(_), Some(d)) => format!("about {} left", human(d)),
+            (Some(_), Some(d)) if d < Duration::from_secs(1) => "finishing this stage…".to_owned(),
+            (Some(_), Some(d)) => format!("about {} left in this stage", human(d)),
         }
     }
 }
@@ -130,7 +133,9 @@ mod tests {
         e.update("views", 10, 100, at(13.0));
         let left = e.remaining(at(13.0)).unwrap().as_secs_f64();
         assert!((left - 45.0).abs() < 1e-6, "{left}");
-        assert_eq!(e.describe(at(13.0)), "about 45 s left");
+        assert_eq!(e.describe(at(13.0)), "about 45 s left in this stage");
+        // Its time is up but the stage goes on: not "about 0 s left".
+        assert_eq!(e.describe(at(100.0)), "finishing this stage…");
         // Between reports it counts down.
         assert!((e.remaining(at(23.0)).unwrap().as_secs_f64() - 35.0).abs() < 1e-6);
         assert_eq!(e.remaining(at(100.0)), Some(Duration::ZERO));

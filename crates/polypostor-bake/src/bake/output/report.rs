@@ -40,6 +40,7 @@ pub struct ViewReport {
     pub psnr: Vec<f64>,
     /// The same for still key-frame polygons (what fitting gains).
     pub psnr_static: Vec<f64>,
+    /// Over its frames ([`mean_psnr`]: the PSNR of the mean RMSE).
     pub mean_psnr: f64,
     /// Composited character SSIM per frame, and its mean.
     #[serde(default)]
@@ -328,6 +329,18 @@ fn mean(v: &[f64]) -> f64 {
     }
 }
 
+/// The PSNR of several frames (dB each) taken together: the PSNR of their mean RMSE, the
+/// way `compare` takes its means. The mean of the decibels themselves let a frame drawn
+/// exactly (99 dB, the cap) outweigh every other: a box figure at 64² whose extra keys draw
+/// most frames unwarped read 66.5 dB where its frames lay between 23 and 31. 0 for none.
+pub fn mean_psnr(db: &[f64]) -> f64 {
+    if db.is_empty() {
+        return 0.0;
+    }
+    let rmse = db.iter().map(|&p| 10f64.powf(-p / 20.0)).sum::<f64>() / db.len() as f64;
+    crate::bake::raster::psnr(rmse)
+}
+
 /// Sizes of a written pack.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct PackStats {
@@ -366,7 +379,7 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
             direction: v.direction.to_array(),
             psnr: v.error.psnr.clone(),
             psnr_static: v.error.psnr_static.clone(),
-            mean_psnr: mean(&v.error.psnr),
+            mean_psnr: mean_psnr(&v.error.psnr),
             ssim: v.error.ssim.clone(),
             mean_ssim: mean(&v.error.ssim),
             silhouette_iou: v.error.silhouette_iou.clone(),
@@ -468,9 +481,9 @@ pub fn build_report(bake: &Bake, character: &str, clip: Option<&str>, stats: &Pa
         cpu_seconds: Default::default(),
         cpu_counts: Default::default(),
         key_frame: bake.key_frame,
-        mean_psnr: mean(&all),
+        mean_psnr: mean_psnr(&all),
         worst_psnr: all.iter().copied().fold(f64::INFINITY, f64::min),
-        mean_psnr_static: mean(&all_static),
+        mean_psnr_static: mean_psnr(&all_static),
         mean_ssim: mean(&all_ssim),
         worst_ssim: all_ssim.iter().copied().fold(f64::INFINITY, f64::min).min(1.0),
         mean_silhouette_iou: mean(&all_iou),
@@ -517,7 +530,7 @@ fn clip_reports(bake: &Bake, views: &[&ViewReport], stats: &PackStats) -> Vec<Cl
                 first_frame: range.start,
                 frames: range.len(),
                 ground_speed: s.ground_speed,
-                mean_psnr: mean(&psnr),
+                mean_psnr: mean_psnr(&psnr),
                 worst_psnr: psnr.iter().copied().fold(f64::INFINITY, f64::min),
                 mean_ssim: mean(&ssim),
                 animation_bytes: animation,
@@ -636,5 +649,27 @@ pub fn human_bytes(b: u64) -> String {
         format!("{:.1} MB", b / 1e6)
     } else {
         format!("{:.0} KB", b / 1e3)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::mean_psnr;
+    use crate::bake::raster::psnr;
+
+    #[test]
+    fn mean_psnr_is_that_of_the_mean_rmse() {
+        // Frames alike: their own PSNR.
+        assert!((mean_psnr(&[25.0, 25.0, 25.0]) - 25.0).abs() < 1e-9);
+        // RMSE 0.1 and 0.01 (20 and 40 dB): the mean RMSE is 0.055.
+        assert!((mean_psnr(&[20.0, 40.0]) - psnr(0.055)).abs() < 1e-9);
+        // A frame drawn exactly (the 99 dB cap) counts as no error, not as 99 dB: half the
+        // frames exact halve the mean RMSE (+6 dB) where the decibels' mean read 59.5.
+        let m = mean_psnr(&[20.0, 99.0]);
+        assert!((m - psnr(0.05)).abs() < 1e-3, "{m}");
+        assert_eq!(mean_psnr(&[]), 0.0);
+        // Between the worst frame and the best.
+        let m = mean_psnr(&[12.5, 31.0, 18.25, 27.0]);
+        assert!(m > 12.5 && m < 31.0, "{m}");
     }
 }

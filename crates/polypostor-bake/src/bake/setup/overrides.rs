@@ -115,6 +115,22 @@ impl BakeOverrides {
         dropped
     }
 
+    /// A part `p` was added (the last): every hand-set drawing order draws it last, in
+    /// front (an order that did not list every part was ignored by the bake, so adding a part
+    /// silently threw away each of them). Returns how many orders were extended.
+    pub fn add_part(&mut self, p: usize) -> usize {
+        let mut extended = 0;
+        for o in self.views.values_mut() {
+            if let Some(order) = &mut o.order
+                && !order.contains(&p)
+            {
+                order.push(p);
+                extended += 1;
+            }
+        }
+        extended
+    }
+
     /// Drops empty entries.
     pub fn tidy(&mut self) {
         for o in self.views.values_mut() {
