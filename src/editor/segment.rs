@@ -407,10 +407,16 @@ impl SegmentPanel {
                             set = Some((cap.id.clone(), Some(color)));
                             from_picker = true;
                         }
-                        let text = format!("{part} · {} ({} edges)", cap.id, cap.loop_vertices.len());
+                        // A long part name is cut (it pushed the cap's buttons off the panel).
+                        let text = format!(
+                            "{} · {} ({} edges)",
+                            shortened(part, NAME_CHARS),
+                            cap.id,
+                            cap.loop_vertices.len()
+                        );
                         if ui
                             .selectable_label(self.isolate && self.active as usize == cap.part, text)
-                            .on_hover_text("Show this part with its caps")
+                            .on_hover_text(format!("{part}: show this part with its caps"))
                             .clicked()
                         {
                             self.active = cap.part as u16;
@@ -585,9 +591,11 @@ impl SegmentPanel {
         }
         if let Some(part) = doc.segmentation.parts.get(self.active as usize) {
             let [r, g, b] = part.color;
+            // Cut to what fits beside the viewport's toolbar (a long name was drawn over it).
+            let room = ((rect.width() - 330.0) / 8.0).clamp(8.0, 60.0) as usize;
             let text = format!(
                 "painting: {}{}",
-                part.name,
+                shortened(&part.name, room),
                 if self.mirror { "  ·  X-mirror" } else { "" }
             );
             let at = rect.right_top() + egui::vec2(-10.0, 14.0);
@@ -600,5 +608,19 @@ impl SegmentPanel {
                 egui::Color32::from_gray(230),
             );
         }
+    }
+}
+
+/// Characters of a part name shown where room is short (the caps list).
+const NAME_CHARS: usize = 24;
+
+/// `name` cut to `max` characters, the last of them an ellipsis.
+fn shortened(name: &str, max: usize) -> String {
+    if name.chars().count() <= max {
+        name.to_owned()
+    } else {
+        let mut s: String = name.chars().take(max.saturating_sub(1)).collect();
+        s.push('…');
+        s
     }
 }

@@ -193,6 +193,20 @@ fn save_as_writes_a_project_that_reopens() {
     let e = again.state().error.clone().expect("refused");
     assert!(e.contains("not a project folder") && e.contains("user.glb"), "{e}");
     assert_eq!(std::fs::read_to_string(&theirs).unwrap(), "mine");
+    // Nor onto another project: the first one is still there as it was (it was replaced
+    // without a word, its painting and corrections lost).
+    again.state_mut().error = None;
+    let first = std::fs::read(dir.join("project.json")).unwrap();
+    again.state_mut().send(Command::SaveAs(dir.clone()));
+    again.run_steps(2);
+    let e = again.state().error.clone().expect("refused");
+    assert!(e.contains("already holds project"), "{e}");
+    assert_eq!(std::fs::read(dir.join("project.json")).unwrap(), first);
+    // Its own folder again is a plain save.
+    again.state_mut().error = None;
+    again.state_mut().send(Command::SaveAs(dir.join("deep/b")));
+    again.run_steps(2);
+    assert!(again.state().error.is_none(), "{:?}", again.state().error);
     std::fs::remove_dir_all(dir).unwrap();
 }
 

@@ -257,9 +257,14 @@ impl Project {
             }
             _ => {}
         }
+        // Named by where it is in the file (`bake.views: invalid value …`): "line 1 column
+        // 1419" says nothing to someone editing a one-line file.
         let project: Project = serde_json::from_str(&text).map_err(|e| ProjectError::Parse {
             path: file.clone(),
-            message: e.to_string(),
+            message: match json_path_at(&text, e.line(), e.column()) {
+                Some(at) if !at.is_empty() => format!("{at}: {e}"),
+                _ => e.to_string(),
+            },
         })?;
         Ok((project, file))
     }
@@ -412,8 +417,124 @@ pub fn relative_path(target: &Path, base: &Path) -> String {
     rel.to_string_lossy().replace('\\', "/")
 }
 
+/// Where in a JSON document a position (serde_json's 1-based line and byte column) lies, as
+/// the keys and indices leading to it: `bake.views`, `overrides.views.3.order[2]`. `None` for
+/// a position past the text. Only the structure before the position is read, so a document
+/// that is malformed further on still says where the first fault is.
+pub fn json_path_at(text: &str, line: usize, column: usize) -> Option<String> {
+    enum Frame {
+        Object { key: Option<String>, wants_key: bool },
+        Array(usize),
+    }
+    let mut offset = None;
+    let mut before = 0usize;
+    for (i, l) in text.split_inclusive('\n').enumerate() {
+        if i + 1 == line {
+            offset = Some(before + column.min(l.len()));
+            break;
+        }
+        before += l.len();
+    }
+    let offset = offset?;
+    let bytes = text.as_bytes();
+    let end = offset.min(bytes.len());
+    let mut stack: Vec<Frame> = Vec::new();
+    let mut i = 0;
+    while i < end {
+        match bytes[i] {
+            b'"' => {
+                let start = i + 1;
+                i += 1;
+                while i < bytes.len() && bytes[i] != b'"' {
+                    i += if bytes[i] == b'\\' { 2 } else { 1 };
+                }
+                let s = text.get(start..i.min(bytes.len())).unwrap_or("");
+                if let Some(Frame::Object { key, wants_key: true }) = stack.last_mut() {
+                    *key = Some(serde_json::from_str(&format!("\"{s}\"")).unwrap_or_else(|_| s.to_owned()));
+                }
+            }
+            b'{' => stack.push(Frame::Object {
+                key: None,
+                wants_key: true,
+            }),
+            b'[' => stack.push(Frame::Array(0)),
+            b'}' | b']' => {
+                stack.pop();
+            }
+            b':' => {
+                if let Some(Frame::Object { wants_key, .. }) = stack.last_mut() {
+                    *wants_key = false;
+                }
+            }
+            b',' => match stack.last_mut() {
+                Some(Frame::Object { key, wants_key }) => {
+                    *key = None;
+                    *wants_key = true;
+                }
+                Some(Frame::Array(n)) => *n += 1,
+                None => {}
+            },
+            _ => {}
+        }
+        i += 1;
+    }
+    let mut path = String::new();
+    for f in &stack {
+        match f {
+            Frame::Object { key: Some(k), .. } => {
+                if !path.is_empty() {
+                    path.push('.');
+                }
+                path.push_str(k);
+            }
+            Frame::Object { key: None, .. } => {}
+            Frame::Array(n) => path.push_str(&format!("[{n}]")),
+        }
+    }
+    Some(path)
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_position_in_a_json_document_is_named_by_its_keys() {
+        use super::json_path_at;
+        // Checked against serde_json's own error positions, one line and pretty-printed.
+        #[derive(serde::Deserialize, Debug)]
+        #[allow(dead_code)]
+        struct Bake {
+            views: usize,
+        }
+        #[derive(serde::Deserialize, Debug)]
+        #[allow(dead_code)]
+        struct Doc {
+            name: String,
+            bake: Bake,
+            list: Vec<Vec<u8>>,
+        }
+        let at = |text: &str| {
+            let e = serde_json::from_str::<Doc>(text).unwrap_err();
+            json_path_at(text, e.line(), e.column()).unwrap()
+        };
+        assert_eq!(at(r#"{"name":"a","bake":{"views":-3},"list":[]}"#), "bake.views");
+        assert_eq!(
+            at(r#"{"name":"a, b","bake":{"views":3},"list":[[1],[2,300]]}"#),
+            "list[1][1]"
+        );
+        assert_eq!(
+            at("{\n  \"name\": 5,\n  \"bake\": {\"views\": 1}, \"list\": []\n}"),
+            "name"
+        );
+        // Keys with escapes and braces inside strings do not confuse it.
+        assert_eq!(
+            at(r#"{"name":"{[\"}","bake":{"views":"many"},"list":[]}"#),
+            "bake.views"
+        );
+        // A missing field: the object that lacks it.
+        assert_eq!(at(r#"{"name":"a","bake":{},"list":[]}"#), "bake");
+        assert_eq!(json_path_at("{}", 5, 1), None);
+    }
+
     use super::*;
 
     /// Keys the format does not have (typos) are found, at the top and in the objects people

@@ -333,7 +333,9 @@ impl EditorApp {
                 commands.push(Command::StepFrames(1));
             }
             let mut t = self.playback.time_secs;
-            let width = (ui.available_width() - 420.0).max(120.0);
+            // Room for the readout and the speed after it on the same row (at 420 the
+            // readout broke over two lines even at 1440 px).
+            let width = (ui.available_width() - 500.0).max(120.0);
             ui.spacing_mut().slider_width = width;
             let slider = ui.add_enabled(
                 duration > 0.0,
@@ -345,12 +347,19 @@ impl EditorApp {
                 commands.push(Command::SetPlaying(false));
                 commands.push(Command::Seek(t));
             }
-            ui.monospace(format!(
-                "{:6.3} / {:.3} s  frame {:>3}",
-                self.playback.time_secs,
-                duration,
-                (self.playback.time_secs * TIMELINE_FPS).round() as i32
-            ));
+            // Never broken over two lines: it moves to the next row whole where it must.
+            ui.add(
+                egui::Label::new(
+                    egui::RichText::new(format!(
+                        "{:6.3} / {:.3} s  frame {:>3}",
+                        self.playback.time_secs,
+                        duration,
+                        (self.playback.time_secs * TIMELINE_FPS).round() as i32
+                    ))
+                    .monospace(),
+                )
+                .extend(),
+            );
             let mut speed = self.playback.speed;
             egui::ComboBox::from_label("Speed")
                 .selected_text(format!("{speed}×"))
