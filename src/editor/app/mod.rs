@@ -140,6 +140,9 @@ pub struct EditorApp {
     closing: bool,
     /// Where the 3D viewport was last laid out (points).
     pub viewport_rect: egui::Rect,
+    /// Where the side panels were drawn this frame: the viewport keeps between them (at
+    /// 900 px the fit inspector, wider than its room, lay under the 3D view).
+    side_panels: (Option<f32>, Option<f32>),
     pub crowd: super::crowd::CrowdPanel,
     /// Which tab of the side panel shows (when the crowd preview is closed).
     pub tab: SideTab,
@@ -207,6 +210,7 @@ impl EditorApp {
             show_about: false,
             closing: false,
             viewport_rect: egui::Rect::NOTHING,
+            side_panels: (None, None),
             crowd: Default::default(),
             tab: SideTab::Character,
             segment: Default::default(),
@@ -427,7 +431,8 @@ impl eframe::App for EditorApp {
         // Side panels never take more than about half the window: wide content (the crowd's
         // statistics, long names) is cut at the edge instead of widening them for good.
         let side_max = (ui.available_width() * 0.45).max(260.0);
-        egui::Panel::left("character")
+        self.side_panels = (None, None);
+        let left = egui::Panel::left("character")
             .frame(panel_frame(ui.style()))
             .resizable(true)
             .default_size(300.0)
@@ -486,8 +491,10 @@ impl eframe::App for EditorApp {
                     }
                 });
             });
+        self.side_panels.0 = Some(left.response.rect.right());
         if !self.crowd.open && self.tab == SideTab::Views && self.views.selected.is_some() && self.doc.is_some() {
-            egui::Panel::right("fit inspector")
+            let mut inspector_left = None;
+            let right = egui::Panel::right("fit inspector")
                 .frame(panel_frame(ui.style()))
                 .resizable(true)
                 .default_size(470.0)
@@ -495,11 +502,16 @@ impl eframe::App for EditorApp {
                 // 700 px wide the viewport was drawn over both panels).
                 .max_size((ui.available_width() - 160.0).max(120.0))
                 .show(ui, |ui| {
+                    // Where the panel starts: its content wider than the panel grows it off the
+                    // window's right edge, and the rect the panel reports is then cut from
+                    // that edge, not from where it is drawn.
+                    inspector_left = Some(ui.max_rect().left() - panel_frame(ui.style()).total_margin().left);
                     egui::ScrollArea::vertical().id_salt("inspector scroll").show(ui, |ui| {
                         let doc = self.doc.as_mut().unwrap();
                         self.views.inspector_panel(ui, doc, dt);
                     });
                 });
+            self.side_panels.1 = Some(inspector_left.unwrap_or(right.response.rect.left()));
         }
         egui::CentralPanel::default().frame(egui::Frame::NONE).show(ui, |ui| {
             if self.crowd.open {

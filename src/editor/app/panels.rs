@@ -333,9 +333,10 @@ impl EditorApp {
                 commands.push(Command::StepFrames(1));
             }
             let mut t = self.playback.time_secs;
-            // Room for the readout and the speed after it on the same row (at 420 the
-            // readout broke over two lines even at 1440 px).
-            let width = (ui.available_width() - 500.0).max(120.0);
+            // Room for the readout and the speed after it on the same row: what is left of
+            // this row (the available width of a wrapping row is the whole row's; the readout
+            // broke over two lines even at 1440 px).
+            let width = (ui.available_size_before_wrap().x - 420.0).max(120.0);
             ui.spacing_mut().slider_width = width;
             let slider = ui.add_enabled(
                 duration > 0.0,
@@ -553,7 +554,15 @@ impl EditorApp {
     }
 
     pub(super) fn viewport(&mut self, ui: &mut egui::Ui) {
-        let rect = ui.available_rect_before_wrap();
+        let mut rect = ui.available_rect_before_wrap();
+        // Between the side panels as drawn (a panel wider than its share was overlapped).
+        if let Some(x) = self.side_panels.0 {
+            rect.min.x = rect.min.x.max(x);
+        }
+        if let Some(x) = self.side_panels.1 {
+            rect.max.x = rect.max.x.min(x);
+        }
+        rect.max.x = rect.max.x.max(rect.min.x + 1.0);
         let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
         self.viewport_rect = rect;
         let painting = self.tab == SideTab::Segment && self.doc.is_some();
@@ -625,6 +634,8 @@ impl EditorApp {
                 .max_rect(overlay)
                 .layout(egui::Layout::left_to_right(egui::Align::Center)),
         );
+        // Kept inside the viewport when it is narrow (it was drawn over the fit inspector).
+        child.shrink_clip_rect(rect);
         egui::ComboBox::from_id_salt("view mode")
             .selected_text(self.view_mode.label())
             .width(80.0)
@@ -640,7 +651,7 @@ impl EditorApp {
         if child.button("Frame (F)").clicked() {
             self.send(Command::FrameCharacter);
         }
-        ui.painter().text(
+        ui.painter_at(rect).text(
             rect.left_bottom() + egui::vec2(8.0, -8.0),
             egui::Align2::LEFT_BOTTOM,
             if painting {
