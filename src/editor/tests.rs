@@ -305,6 +305,10 @@ fn crowd_preview_opens_a_baked_folder_and_draws_the_chosen_representation() {
     add_guest(&mut h, &copy);
     open_default_file(&mut h);
     assert!(h.state().crowd.guests.is_empty());
+    // So is the crowd itself: the preview showed the project left's pack (and its header
+    // named it) after another project was opened.
+    assert!(h.state().crowd.assets.is_none() && h.state().crowd.folder.is_none());
+    assert!(h.state().crowd.last_bake.is_none());
     let _ = std::fs::remove_dir_all(&dir);
 }
 
