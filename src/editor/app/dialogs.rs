@@ -258,18 +258,40 @@ impl EditorApp {
                     ui.label(format!("Version {}", env!("CARGO_PKG_VERSION")));
                     ui.label("Turns skinned, animated glTF characters into crowd level-of-detail assets.");
                     ui.separator();
-                    egui::Grid::new("controls").num_columns(2).show(ui, |ui| {
+                    // Every shortcut the editor answers (the list said 8 of them), by where
+                    // it works.
+                    egui::Grid::new("controls").num_columns(2).striped(true).show(ui, |ui| {
                         for (k, v) in [
-                            ("Orbit", "left drag, or middle drag"),
+                            ("Viewport", ""),
+                            ("Orbit", "left drag (middle drag in the Segment tab)"),
                             ("Pan", "shift + middle drag, or right drag"),
                             ("Zoom", "mouse wheel"),
                             ("Frame character", "F, or double-click"),
                             ("Play / pause", "Space"),
                             ("Step frame", "Left / Right arrow"),
                             ("Go to start", "Home"),
+                            ("Project", ""),
                             ("New / Open / Save", "Ctrl+N / Ctrl+O / Ctrl+S"),
+                            ("Save As", "Ctrl+Shift+S"),
+                            ("Undo / Redo", "Ctrl+Z / Ctrl+Shift+Z or Ctrl+Y"),
+                            ("Bake for the crowd preview", "Ctrl+B"),
+                            ("Export", "Ctrl+E"),
+                            ("Quit", "Ctrl+Q"),
+                            ("Segment tab", ""),
+                            ("Paint", "left drag"),
+                            ("Brush / Fill connected / Fill by joint", "B / G / J"),
+                            ("Mirror across X", "M"),
+                            ("Brush radius", "[ and ]"),
+                            ("Crowd preview", ""),
+                            ("Show / hide it", "Tab"),
+                            ("Pause", "P"),
+                            ("Fly (when ticked)", "W A S D, Q / E down and up"),
                         ] {
-                            ui.label(k);
+                            if v.is_empty() {
+                                ui.label(egui::RichText::new(k).strong());
+                            } else {
+                                ui.label(k);
+                            }
                             ui.label(v);
                             ui.end_row();
                         }

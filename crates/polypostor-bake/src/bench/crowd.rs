@@ -57,8 +57,8 @@ pub fn bench_crowd(
         || !(shares.iter().sum::<f32>() > 0.0)
     {
         anyhow::bail!(
-            "--shares: give {} numbers ≥ 0, not all 0 (the pack's character, then each --with)",
-            with.len() + 1
+            "--shares: give {} ≥ 0 (finite), not all 0 (the pack's character, then each --with)",
+            crate::import::plural(with.len() + 1, "number")
         );
     }
     // The other characters load (and are checked) before any work.

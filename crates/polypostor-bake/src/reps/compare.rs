@@ -162,6 +162,20 @@ pub struct Renders<'a> {
 }
 
 impl<'a> Renders<'a> {
+    /// In a pack of several clips, the clip frame `t` (of the timeline) is in, and the time
+    /// in it ("Death", 5.5); `None` for a pack of one clip.
+    pub fn clip_at(&self, t: f32) -> Option<(&str, f32)> {
+        let spans = &self.assets.timeline.spans;
+        if spans.len() < 2 {
+            return None;
+        }
+        let f = t.max(0.0).floor() as u32;
+        spans
+            .iter()
+            .find(|s| (s.start..s.start + s.frames).contains(&f))
+            .map(|s| (s.name.as_str(), t - s.start as f32))
+    }
+
     pub fn new(ctx: &'a GpuContext, assets: &'a CrowdAssets) -> Result<Self, GpuError> {
         let (device, queue) = (&ctx.device, &ctx.queue);
         let scene = crate::scene::CrowdScene::new(device, queue, assets, assets.crowd_params(0))?;

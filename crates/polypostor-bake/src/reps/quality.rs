@@ -103,10 +103,13 @@ pub fn render_sheet(
     let mut errors = Vec::with_capacity(rows.len());
     for (r, row) in rows.iter().enumerate() {
         let y0 = MARGIN + HEADER + r as u32 * (row_h + GAP);
-        let when = if row.time.fract() == 0.0 {
-            format!("baked frame {}", row.time as u32)
-        } else {
-            format!("frame {:.1} (half-way, interpolated)", row.time)
+        // In a pack of several clips, the clip too ("baked frame 37" said nothing of which).
+        let clip = renders.clip_at(row.time);
+        let when = match (row.time.fract() == 0.0, clip) {
+            (true, None) => format!("baked frame {}", row.time as u32),
+            (true, Some((name, t))) => format!("baked frame {} ({name} {})", row.time as u32, t as u32),
+            (false, None) => format!("frame {:.1} (half-way, interpolated)", row.time),
+            (false, Some((name, t))) => format!("frame {:.1} ({name} {t:.1}, half-way, interpolated)", row.time),
         };
         crate::plot::draw_label(
             &mut sheet,

@@ -156,6 +156,9 @@ pub struct DroppedCorrections {
     pub views: usize,
     /// Key frames past the clip's frames.
     pub key_frames: usize,
+    /// Key images set by hand past the most a view holds ([`crate::bake::keys::MAX_KEYS`]
+    /// with its first).
+    pub keys_over: usize,
     /// Drawing orders that are not a permutation of the bake's parts.
     pub orders: usize,
     /// Pins on frames, parts or polygon vertices the bake does not have, or on parts not
@@ -169,7 +172,7 @@ impl DroppedCorrections {
     }
 
     pub fn total(&self) -> usize {
-        self.other_basis + self.views + self.key_frames + self.orders + self.pins
+        self.other_basis + self.views + self.key_frames + self.keys_over + self.orders + self.pins
     }
 
     /// Adds `other`'s counts.
@@ -180,6 +183,7 @@ impl DroppedCorrections {
         }
         self.views += other.views;
         self.key_frames += other.key_frames;
+        self.keys_over += other.keys_over;
         self.orders += other.orders;
         self.pins += other.pins;
     }
@@ -204,6 +208,14 @@ impl DroppedCorrections {
         };
         line(self.views, "correction(s) refer to views this bake does not have");
         line(self.key_frames, "key frame(s) lie past the clip's frames");
+        let most = crate::bake::keys::MAX_KEYS;
+        line(
+            self.keys_over,
+            &format!(
+                "key image(s) set by hand go past the {most} a view holds (its first and {})",
+                most - 1
+            ),
+        );
         line(self.orders, "drawing order(s) do not list each part of the bake once");
         line(
             self.pins,
@@ -257,6 +269,12 @@ impl BakeOverrides {
             }
             if let Some(keys) = &o.keys {
                 d.key_frames += keys.iter().filter(|&&k| k >= basis.frames).count();
+                // At most MAX_KEYS − 1 after the first: thirteen set by hand drew eight,
+                // five dropped without a word.
+                let mut kept: Vec<usize> = keys.iter().copied().filter(|&k| k < basis.frames).collect();
+                kept.sort_unstable();
+                kept.dedup();
+                d.keys_over += kept.len().saturating_sub(crate::bake::keys::MAX_KEYS - 1);
             }
             if o.order.as_ref().is_some_and(|order| !valid_order(order, parts)) {
                 d.orders += 1;
@@ -363,18 +381,26 @@ mod tests {
         o.view_mut(basis, 6).pins.insert(7, vec![pin(0)]); // no part 7
         o.view_mut(basis, 12).key_frame = Some(1); // no view 12
         o.view_mut(basis, 12).pins.insert(0, vec![pin(0)]);
+        // Every frame a key (8 distinct, one past the 7 a view holds after its first), one
+        // twice, one past the frames.
+        o.view_mut(basis, 7).keys = Some(vec![0, 1, 2, 3, 4, 5, 6, 7, 7, 9]);
         let d = o.audit(basis, 5);
         assert_eq!(
-            (d.other_basis, d.views, d.key_frames, d.orders, d.pins),
-            (0, 2, 1, 1, 2),
+            (d.other_basis, d.views, d.key_frames, d.keys_over, d.orders, d.pins),
+            (0, 2, 2, 1, 1, 2),
             "{d:?}"
         );
-        assert_eq!(d.lines().len(), 4);
+        assert_eq!(d.lines().len(), 5);
+        assert!(
+            d.lines()
+                .iter()
+                .any(|l| l.starts_with("1 key image(s) set by hand go past the 8"))
+        );
         assert!(d.lines().iter().all(|l| l.contains("ignored")));
         // Another bake: everything is dropped, and said so once.
         let other = o.audit(OverrideBasis { views: 24, ..basis }, 5);
         assert_eq!(other.other_basis, o.count());
-        assert_eq!(o.count(), 9);
+        assert_eq!(o.count(), 10);
         let lines = other.lines();
         assert_eq!(lines.len(), 1);
         assert!(

@@ -109,7 +109,8 @@ impl BakeSettings {
         *self == Self::default()
     }
 
-    /// The first setting out of its documented range, before any work starts.
+    /// The first setting out of its documented range, before any work starts (a number too
+    /// large or small to read is shown in scientific notation, not as 301 digits).
     pub fn validate(&self) -> Result<(), SettingError> {
         let bad = |setting, message: String| Err(SettingError { setting, message });
         if self.views == 0 || self.views > MAX_VIEWS {
@@ -122,7 +123,10 @@ impl BakeSettings {
             );
         }
         if !(self.fps.is_finite() && self.fps >= MIN_FPS && self.fps <= MAX_FPS) {
-            return bad("fps", format!("{}: choose {MIN_FPS} to {MAX_FPS}", self.fps));
+            return bad(
+                "fps",
+                format!("{}: choose {MIN_FPS} to {MAX_FPS}", shown(self.fps as f64)),
+            );
         }
         if self.max_keys == 0 || self.max_keys > crate::bake::keys::MAX_KEYS {
             return bad(
@@ -131,16 +135,19 @@ impl BakeSettings {
             );
         }
         if !(self.key_gain_db.is_finite() && (0.0..=100.0).contains(&self.key_gain_db)) {
-            return bad("key-gain-db", format!("{}: choose 0 to 100", self.key_gain_db));
+            return bad("key-gain-db", format!("{}: choose 0 to 100", shown(self.key_gain_db)));
         }
         if !(self.key_budget.is_finite() && (0.0..=16.0).contains(&self.key_budget)) {
-            return bad("key-budget", format!("{}: choose 0 to 16", self.key_budget));
+            return bad("key-budget", format!("{}: choose 0 to 16", shown(self.key_budget)));
         }
         if !(self.key_share.is_finite() && (0.0..=1.0).contains(&self.key_share)) {
-            return bad("key-share", format!("{}: choose 0 to 1", self.key_share));
+            return bad("key-share", format!("{}: choose 0 to 1", shown(self.key_share)));
         }
         if !(self.key_ratio.is_finite() && (self.key_ratio == 0.0 || (1.0..=10_000.0).contains(&self.key_ratio))) {
-            return bad("key-ratio", format!("{}: choose 0 (off) or 1 to 10000", self.key_ratio));
+            return bad(
+                "key-ratio",
+                format!("{}: choose 0 (off) or 1 to 10000", shown(self.key_ratio)),
+            );
         }
         if let Err(e) = polypostor_runtime::reps::RepSet::parse(&self.representations) {
             return bad("representation", format!("'{}': {e}", self.representations));
@@ -245,6 +252,22 @@ impl BakeSettings {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn numbers_in_messages_read_short() {
+        assert_eq!(super::shown(1e300), "1e300");
+        assert_eq!(super::shown(-3e-9), "-3e-9");
+        assert_eq!(super::shown(2.5), "2.5");
+        assert_eq!(super::shown(10_000.0), "10000");
+        assert_eq!(super::shown(0.0), "0");
+        assert_eq!(super::shown(f64::NAN), "NaN");
+        let e = BakeSettings {
+            key_ratio: 1e300,
+            ..Default::default()
+        }
+        .validate()
+        .unwrap_err();
+        assert!(e.message.starts_with("1e300: "), "{}", e.message);
+    }
 
     /// Settings out of range (a project file edited by hand) come back at their defaults,
     /// each named; the others are kept.
@@ -360,5 +383,15 @@ mod tests {
             assert_eq!(e.setting, name, "{e}");
             assert!(e.to_string().starts_with(&format!("--{name} ")), "{e}");
         }
+    }
+}
+
+/// A number as a message shows it: as written where it reads well, else in scientific
+/// notation (`1e300`, `1e-300`), never hundreds of digits.
+pub fn shown(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-4..1e7).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
     }
 }
