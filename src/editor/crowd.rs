@@ -389,6 +389,8 @@ impl CrowdPanel {
         self.folder = None;
         self.last_bake = None;
         self.full_requested = None;
+        // The new character in the viewport, not an empty preview.
+        self.open = false;
     }
 
     fn bump_generation(&mut self) {
@@ -402,6 +404,20 @@ impl CrowdPanel {
     pub fn poll(&mut self) {
         let Some(job) = &self.job else { return };
         match job.rx.try_recv() {
+            // Cancelled (by the user, or because another project was opened) but finished
+            // anyway: what it wrote stays on disk, nothing of it is shown (it filled the next
+            // project's crowd preview).
+            Ok(Ok((folder, _, _))) if job.cancel.load(Ordering::Relaxed) => {
+                self.messages.push((
+                    LogLevel::Info,
+                    format!(
+                        "cancelled as it finished: {} is on disk but not opened",
+                        folder.display()
+                    ),
+                ));
+                self.job = None;
+                self.outcome = Some(false);
+            }
             Ok(Ok((folder, assets, _))) if job.adds_guest => {
                 self.messages.push((
                     LogLevel::Info,

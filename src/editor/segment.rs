@@ -70,6 +70,8 @@ pub struct SegmentPanel {
     display_key: Option<(u64, u64, bool, u16)>,
     display: Option<(u64, Arc<Character>)>,
     caps: Option<((u64, u64), Arc<Vec<Cap>>)>,
+    /// Pieces of parts lying apart from the rest of them, for (generation, revision).
+    strays: Option<((u64, u64), Arc<Vec<paint::StrayPiece>>)>,
     texture: Option<(u64, egui::TextureHandle)>,
     /// The cursor over the viewport (for the brush outline).
     hover: Option<egui::Pos2>,
@@ -98,6 +100,7 @@ impl Default for SegmentPanel {
             display_key: None,
             display: None,
             caps: None,
+            strays: None,
             texture: None,
             hover: None,
             messages: Vec::new(),
@@ -112,6 +115,17 @@ impl SegmentPanel {
             self.topology = Some((doc.generation, Arc::new(Topology::new(&doc.character))));
         }
         self.topology.as_ref().unwrap().1.clone()
+    }
+
+    /// The stray pieces of the current segmentation's parts (recomputed when it changes).
+    fn strays(&mut self, doc: &Document) -> Arc<Vec<paint::StrayPiece>> {
+        let key = (doc.generation, doc.revision);
+        if self.strays.as_ref().is_none_or(|(k, _)| *k != key) {
+            let topo = self.topology(doc);
+            let found = paint::stray_pieces(&doc.character, &topo, &doc.segmentation);
+            self.strays = Some((key, Arc::new(found)));
+        }
+        self.strays.as_ref().unwrap().1.clone()
     }
 
     /// The caps of the current segmentation (recomputed when it changes).
@@ -304,6 +318,48 @@ impl SegmentPanel {
         if doc.segmentation.parts.len() >= polypostor::limits::MAX_PARTS {
             ui.label(
                 egui::RichText::new(format!("No more parts: {}", paint::part_limit_message()))
+                    .small()
+                    .color(ui.visuals().warn_fg_color),
+            );
+        }
+        // A piece of a part far from the rest of it (a stray stroke): each view would join
+        // the two with a thin bridge and the part fit badly, without a word.
+        let strays = self.strays(doc);
+        for piece in strays.iter().take(4) {
+            let names: Vec<String> = doc
+                .segmentation
+                .parts
+                .iter()
+                .map(|q| shortened(&q.name, NAME_CHARS))
+                .collect();
+            let name = |p: u16| names.get(p as usize).cloned().unwrap_or_else(|| "?".into());
+            ui.horizontal_wrapped(|ui| {
+                ui.label(
+                    egui::RichText::new(format!(
+                        "⚠ {}: {} lie {} from the rest of it; every view joins them with a thin bridge",
+                        name(piece.part),
+                        polypostor::import::plural(piece.triangles.len(), "triangle"),
+                        crate::editor::crowd::metres(piece.distance)
+                    ))
+                    .small()
+                    .color(ui.visuals().warn_fg_color),
+                );
+                if let Some(to) = piece.touches
+                    && ui
+                        .small_button(format!("Give to {}", name(to)))
+                        .on_hover_text("Paint these triangles with the part around them (undoable)")
+                        .clicked()
+                {
+                    let tris = piece.triangles.clone();
+                    doc.edit("Give stray triangles back", |seg, _| {
+                        paint::paint(seg, &tris, to, None) > 0
+                    });
+                }
+            });
+        }
+        if strays.len() > 4 {
+            ui.label(
+                egui::RichText::new(format!("… and {} more pieces apart from their parts", strays.len() - 4))
                     .small()
                     .color(ui.visuals().warn_fg_color),
             );

@@ -1179,6 +1179,59 @@ fn an_added_part_joins_the_hand_set_drawing_orders() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
+/// A stroke of one part far from the rest of it (the Torso on a foot) is said in the Segment
+/// tab, and its button gives the triangles back to the part around them, in one undo step.
+#[test]
+fn a_stray_stroke_is_said_and_given_back() {
+    use polypostor::edit::paint;
+    let dir = temp_project("stray");
+    let mut h = harness(Some(dir.clone()));
+    h.run_steps(3);
+    h.get_by_label("Segment").click();
+    h.run_steps(2);
+    let (leg, stroke) = {
+        let doc = h.state().doc.as_ref().unwrap();
+        let seg = &doc.segmentation;
+        let leg = seg.parts.iter().position(|p| p.name == "Left Leg").unwrap() as u16;
+        let (pos, _) =
+            polypostor::animation::skin_vertices(&doc.character, &polypostor::animation::Pose::rest(&doc.character));
+        let low = |t: usize| {
+            (0..3)
+                .map(|k| pos[doc.character.indices[3 * t + k] as usize].y)
+                .sum::<f32>()
+        };
+        let foot = (0..seg.labels.len())
+            .filter(|&t| seg.labels[t] == leg)
+            .min_by(|&a, &b| low(a).total_cmp(&low(b)))
+            .unwrap();
+        (leg, vec![foot])
+    };
+    assert!(
+        h.state_mut()
+            .doc
+            .as_mut()
+            .unwrap()
+            .edit("Paint", |seg, _| paint::paint(seg, &stroke, 0, None) > 0)
+    );
+    h.run_steps(2);
+    let button = format!("Give to {}", "Left Leg");
+    h.get_by_label(&button).click();
+    h.run_steps(2);
+    let doc = h.state().doc.as_ref().unwrap();
+    assert_eq!(doc.segmentation.labels[stroke[0]], leg, "given back");
+    let topo = paint::Topology::new(&doc.character);
+    assert!(paint::stray_pieces(&doc.character, &topo, &doc.segmentation).is_empty());
+    assert!(h.query_by_label(&button).is_none(), "the warning is gone");
+    h.state_mut().send(Command::Undo);
+    h.run_steps(2);
+    assert_eq!(
+        h.state().doc.as_ref().unwrap().segmentation.labels[stroke[0]],
+        0,
+        "one undo step"
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}
+
 /// The palette refuses a part past the bake's limit and says why.
 #[test]
 fn the_palette_stops_at_the_part_limit() {

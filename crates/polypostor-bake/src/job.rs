@@ -96,7 +96,13 @@ pub fn segmentation_for(project: Option<&Project>, c: &Character) -> (Segmentati
     match project.and_then(|p| p.segmentation.as_ref()) {
         Some(s) => match s.to_segmentation(c.triangle_count()) {
             Ok(seg) => {
-                let note = s.renamed_note(&seg);
+                // A painted part with a piece far from the rest of it fits badly in every
+                // view (joined by a thin bridge): said, never silently.
+                let stray = stray_note(c, &seg);
+                let note = match (s.renamed_note(&seg), stray) {
+                    (Some(a), Some(b)) => Some(format!("{a}\n{b}")),
+                    (a, b) => a.or(b),
+                };
                 (seg, note)
             }
             Err(e) => (
@@ -108,6 +114,38 @@ pub fn segmentation_for(project: Option<&Project>, c: &Character) -> (Segmentati
         },
         None => (crate::bake::segment::auto_segment(c), None),
     }
+}
+
+/// What [`crate::edit::paint::stray_pieces`] finds in `seg`, as one warning (`None`: nothing).
+pub fn stray_note(c: &Character, seg: &Segmentation) -> Option<String> {
+    let topo = crate::edit::paint::Topology::new(c);
+    let strays = crate::edit::paint::stray_pieces(c, &topo, seg);
+    if strays.is_empty() {
+        return None;
+    }
+    let name = |p: u16| seg.parts.get(p as usize).map_or("?", |q| q.name.as_str());
+    let list: Vec<String> = strays
+        .iter()
+        .take(3)
+        .map(|s| {
+            format!(
+                "'{}' has {} {} from the rest of it{}",
+                name(s.part),
+                crate::import::plural(s.triangles.len(), "triangle"),
+                crate::crowd::metres(s.distance),
+                s.touches.map_or(String::new(), |t| format!(" (amid '{}')", name(t)))
+            )
+        })
+        .collect();
+    Some(format!(
+        "{}{}: every view joins such a piece to its part with a thin bridge and fits it badly; paint it with the part around it (the editor's Segment tab offers it)",
+        list.join("; "),
+        if strays.len() > 3 {
+            format!(" and {} more pieces", strays.len() - 3)
+        } else {
+            String::new()
+        }
+    ))
 }
 
 /// The clips one bake holds: the first, and the further clips of a whole-character pack.
@@ -681,6 +719,29 @@ mod tests {
             .chain(k.extra.iter().copied())
             .map(|i| c.clips[i].name.clone())
             .collect()
+    }
+
+    /// A project's painted part with a piece far from the rest of it is said before the
+    /// bake, naming the part and where the piece lies; the automatic parts say nothing.
+    #[test]
+    fn a_stray_piece_of_a_painted_part_is_said() {
+        let c = crate::default_character::generate();
+        let seg = crate::bake::segment::auto_segment(&c);
+        assert_eq!(stray_note(&c, &seg), None);
+        let leg = seg.parts.iter().position(|p| p.name == "Right Leg").unwrap() as u16;
+        let (pos, _) = crate::animation::skin_vertices(&c, &crate::animation::Pose::rest(&c));
+        let low = |t: usize| (0..3).map(|k| pos[c.indices[3 * t + k] as usize].y).sum::<f32>();
+        let foot = (0..seg.labels.len())
+            .filter(|&t| seg.labels[t] == leg)
+            .min_by(|&a, &b| low(a).total_cmp(&low(b)))
+            .unwrap();
+        let mut painted = seg.clone();
+        painted.labels[foot] = 0;
+        let note = stray_note(&c, &painted).expect("said");
+        assert!(
+            note.starts_with("'Torso' has 1 triangle ") && note.contains("(amid 'Right Leg')"),
+            "{note}"
+        );
     }
 
     #[test]

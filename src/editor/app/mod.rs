@@ -344,8 +344,13 @@ impl eframe::App for EditorApp {
                         // Bookkeeping, not an edit: a project saved just before is kept saved
                         // (the record written into its file at once) rather than asking
                         // "Save changes?" on closing when nothing was changed.
+                        // (Not over a file holding keys this build does not read: a save would
+                        // drop them, and only the artist's Save may.)
                         let file = doc.project_file.clone();
-                        let quiet = !doc.dirty && file.as_deref().is_some_and(|f| doc.project.save(f).is_ok());
+                        let quiet = !doc.dirty
+                            && file.as_deref().is_some_and(|f| {
+                                polypostor::project::Project::unknown_keys(f).is_empty() && doc.project.save(f).is_ok()
+                            });
                         if quiet {
                             if let Some(saved) = &mut doc.saved {
                                 saved.view.last_pack = doc.project.view.last_pack.clone();

@@ -339,6 +339,9 @@ impl Bake {
         }
         for (&v, o) in &overrides.views {
             let Some(view) = self.views.get(v) else { continue };
+            if let Some(keys) = &o.keys {
+                d.keys_over += super::overrides::keys_over(keys, basis.frames, view.key_frame);
+            }
             for (&p, pins) in &o.pins {
                 let Some(part) = view.parts.get(p) else { continue };
                 d.pins += pins

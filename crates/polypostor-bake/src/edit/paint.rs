@@ -401,6 +401,150 @@ pub fn neighbour_part(seg: &Segmentation, topo: &Topology, p: u16) -> Option<u16
     }
 }
 
+/// A piece of a part lying apart from the rest of it (a stray brush stroke on the other arm):
+/// every view traces it with the rest of the part and joins the two with a thin bridge, and
+/// the part fits badly, without a word.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StrayPiece {
+    pub part: u16,
+    /// Its triangles (connected through triangles of the part).
+    pub triangles: Vec<usize>,
+    /// How far it lies from the rest of the part: the least distance between their
+    /// triangles' rest-pose centroids, in heights of the character.
+    pub gap: f32,
+    /// The same in scene units.
+    pub distance: f32,
+    /// The part its triangles share the most edges with, where a stroke took them from.
+    pub touches: Option<u16>,
+}
+
+/// A stray piece holds at most this share of its part's triangles…
+pub const STRAY_SHARE: f32 = 0.1;
+/// …and lies at least this far from the rest of the part, in heights (eyes, teeth and
+/// buttons modelled as pieces of their own lie within a hundredth of the head or coat).
+pub const STRAY_GAP: f32 = 0.05;
+/// Pieces larger than this many triangles are not looked at (not a stroke; keeps the search
+/// bounded on dense meshes).
+const STRAY_MOST: usize = 2000;
+
+/// The pieces of each part that lie apart from the rest of it ([`StrayPiece`]) and were cut
+/// out of another part's surface (a piece of mesh of its own, such as an eye, is not one),
+/// largest gap first.
+pub fn stray_pieces(c: &Character, topo: &Topology, seg: &Segmentation) -> Vec<StrayPiece> {
+    let n = seg.labels.len().min(topo.neighbours.len());
+    // Connected pieces of each part.
+    let mut piece = vec![u32::MAX; n];
+    let mut pieces: Vec<(u16, Vec<usize>)> = Vec::new();
+    for start in 0..n {
+        if piece[start] != u32::MAX {
+            continue;
+        }
+        let part = seg.labels[start];
+        let id = pieces.len() as u32;
+        let mut list = vec![start];
+        piece[start] = id;
+        let mut k = 0;
+        while k < list.len() {
+            let t = list[k];
+            k += 1;
+            for &m in &topo.neighbours[t] {
+                let m = m as usize;
+                if m < n && piece[m] == u32::MAX && seg.labels[m] == part {
+                    piece[m] = id;
+                    list.push(m);
+                }
+            }
+        }
+        pieces.push((part, list));
+    }
+    let mut per_part: Vec<Vec<usize>> = vec![Vec::new(); seg.parts.len()];
+    for (i, (p, _)) in pieces.iter().enumerate() {
+        if let Some(v) = per_part.get_mut(*p as usize) {
+            v.push(i);
+        }
+    }
+    if per_part.iter().all(|v| v.len() < 2) {
+        return Vec::new();
+    }
+    // The rest pose's centroids and height, once some piece needs them (skinning a dense
+    // mesh is most of the cost).
+    let geometry = std::cell::OnceCell::new();
+    let geometry = || {
+        geometry.get_or_init(|| {
+            let centroids = rest_centroids(c);
+            let (lo, hi) = centroids
+                .iter()
+                .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+                    (lo.min(p.y), hi.max(p.y))
+                });
+            (centroids, (hi - lo).max(1e-6))
+        })
+    };
+    let mut out = Vec::new();
+    for (p, list) in per_part.iter().enumerate() {
+        if list.len() < 2 {
+            continue;
+        }
+        let total: usize = list.iter().map(|&i| pieces[i].1.len()).sum();
+        let largest = list.iter().map(|&i| pieces[i].1.len()).max().unwrap_or(0);
+        for &i in list {
+            let tris = &pieces[i].1;
+            if tris.len() == largest || tris.len() > STRAY_MOST || tris.len() as f32 > STRAY_SHARE * total as f32 {
+                continue;
+            }
+            // Where it came from: the part across most of its open edges.
+            let mut across = vec![0usize; seg.parts.len()];
+            for &t in tris {
+                for &m in &topo.neighbours[t] {
+                    if let Some(&l) = seg.labels.get(m as usize).filter(|_| m != NONE)
+                        && l as usize != p
+                        && let Some(a) = across.get_mut(l as usize)
+                    {
+                        *a += 1;
+                    }
+                }
+            }
+            let touches = (0..across.len())
+                .filter(|&q| across[q] > 0)
+                .max_by(|&a, &b| across[a].cmp(&across[b]).then(b.cmp(&a)))
+                .map(|q| q as u16);
+            // A piece of mesh of its own (an eye, a button, an antenna's ball) is modelled so;
+            // a stroke cuts its triangles out of another part's surface.
+            if touches.is_none() {
+                continue;
+            }
+            // The nearest triangle of the rest of the part.
+            let (centroids, height) = geometry();
+            let height = *height;
+            let mut best = f32::INFINITY;
+            for &t in tris {
+                let a = centroids.get(t).copied().unwrap_or_default();
+                for (u, &l) in seg.labels.iter().enumerate().take(n) {
+                    if l as usize == p && piece[u] != i as u32 {
+                        best = best.min(a.distance_squared(centroids.get(u).copied().unwrap_or_default()));
+                    }
+                }
+                if best.sqrt() < STRAY_GAP * height {
+                    break;
+                }
+            }
+            let gap = best.sqrt() / height;
+            if !(gap >= STRAY_GAP) {
+                continue;
+            }
+            out.push(StrayPiece {
+                part: p as u16,
+                triangles: tris.clone(),
+                gap,
+                distance: best.sqrt(),
+                touches,
+            });
+        }
+    }
+    out.sort_by(|a, b| b.gap.total_cmp(&a.gap));
+    out
+}
+
 /// Removes part `p`, giving its triangles to `into` (an index before the removal); later
 /// parts move down one, and the cap colours chosen for them follow. Fails for the last part
 /// or when `into` is `p` or missing.
@@ -448,6 +592,54 @@ mod tests {
 
     fn character() -> Character {
         crate::default_character::generate()
+    }
+
+    /// A stroke of the Torso part on the left leg's foot is a stray piece of the Torso,
+    /// touching the left leg; the automatic parts have none; a piece next to its part (a
+    /// stroke on the hip, where the leg meets the torso) is not stray.
+    #[test]
+    fn a_stroke_far_from_its_part_is_a_stray_piece() {
+        let c = character();
+        let topo = Topology::new(&c);
+        let seg = auto_segment(&c);
+        assert!(stray_pieces(&c, &topo, &seg).is_empty());
+        let leg = seg.parts.iter().position(|p| p.name == "Left Leg").unwrap() as u16;
+        let centroids = rest_centroids(&c);
+        // The lowest triangle of the leg and its neighbours of the leg.
+        let foot = (0..seg.labels.len())
+            .filter(|&t| seg.labels[t] == leg)
+            .min_by(|&a, &b| centroids[a].y.total_cmp(&centroids[b].y))
+            .unwrap();
+        let mut stroke = vec![foot];
+        stroke.extend(
+            topo.neighbours[foot]
+                .iter()
+                .filter(|&&m| m != NONE)
+                .map(|&m| m as usize)
+                .filter(|&m| seg.labels[m] == leg),
+        );
+        let mut painted = seg.clone();
+        paint(&mut painted, &stroke, 0, None);
+        let stray = stray_pieces(&c, &topo, &painted);
+        assert_eq!(stray.len(), 1, "{stray:?}");
+        assert_eq!(stray[0].part, 0);
+        assert_eq!(stray[0].touches, Some(leg));
+        let mut got = stray[0].triangles.clone();
+        got.sort_unstable();
+        stroke.sort_unstable();
+        assert_eq!(got, stroke);
+        assert!(stray[0].gap > 0.3, "{}", stray[0].gap);
+        // Giving it back to the leg leaves none.
+        paint(&mut painted, &stroke, leg, None);
+        assert!(stray_pieces(&c, &topo, &painted).is_empty());
+        // A stroke of the torso's part where the leg meets it joins the torso: not stray.
+        let hip = (0..seg.labels.len())
+            .filter(|&t| seg.labels[t] == leg)
+            .max_by(|&a, &b| centroids[a].y.total_cmp(&centroids[b].y))
+            .unwrap();
+        let mut near = seg.clone();
+        paint(&mut near, &[hip], 0, None);
+        assert!(stray_pieces(&c, &topo, &near).is_empty());
     }
 
     #[test]

@@ -553,8 +553,9 @@ fn decode_block(
 /// old pack gives a [`PackError`] naming the file and the fault.
 pub fn load_pack(dir: &Path) -> Result<LoadedPack, PackError> {
     const FILE: &str = "manifest.json";
-    let manifest: Manifest = parse_manifest(dir, FILE, FORMAT_NAME, OLDEST_FORMAT_VERSION..=FORMAT_VERSION)?;
+    let mut manifest: Manifest = parse_manifest(dir, FILE, FORMAT_NAME, OLDEST_FORMAT_VERSION..=FORMAT_VERSION)?;
     check_timing(FILE, manifest.fps, manifest.frames, manifest.key_frame)?;
+    crate::timeline::printable_names(&mut manifest.clips);
     crate::timeline::validate(&manifest.clips, manifest.frames as usize)
         .map_err(|e| damaged(format!("{FILE}: {e}")))?;
     check_resolution_views(FILE, manifest.resolution, manifest.views.len())?;

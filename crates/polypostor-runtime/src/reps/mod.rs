@@ -753,9 +753,10 @@ fn read_sheets(
 fn load_representations_with(dir: &Path, full_impostors: bool) -> Result<Representations, PackError> {
     use crate::pack::{FolderReader, check_camera, check_direction, check_resolution_views, check_timing};
     const FILE: &str = REPS_FILE;
-    let manifest: RepsManifest =
+    let mut manifest: RepsManifest =
         crate::pack::parse_manifest(dir, FILE, REPS_FORMAT, OLDEST_REPS_VERSION..=REPS_VERSION)?;
     check_timing(FILE, manifest.fps, manifest.frames, manifest.key_frame)?;
+    crate::timeline::printable_names(&mut manifest.clips);
     crate::timeline::validate(&manifest.clips, manifest.frames as usize)
         .map_err(|e| damaged(format!("{FILE}: {e}")))?;
     check_resolution_views(FILE, manifest.resolution, manifest.views.len())?;

@@ -269,12 +269,6 @@ impl BakeOverrides {
             }
             if let Some(keys) = &o.keys {
                 d.key_frames += keys.iter().filter(|&&k| k >= basis.frames).count();
-                // At most MAX_KEYS − 1 after the first: thirteen set by hand drew eight,
-                // five dropped without a word.
-                let mut kept: Vec<usize> = keys.iter().copied().filter(|&k| k < basis.frames).collect();
-                kept.sort_unstable();
-                kept.dedup();
-                d.keys_over += kept.len().saturating_sub(crate::bake::keys::MAX_KEYS - 1);
             }
             if o.order.as_ref().is_some_and(|order| !valid_order(order, parts)) {
                 d.orders += 1;
@@ -285,6 +279,17 @@ impl BakeOverrides {
         }
         d
     }
+}
+
+/// How many of the key frames set by hand for a view (`keys`, after its first key `first`)
+/// a view cannot hold: at most [`crate::bake::keys::MAX_KEYS`] − 1 after the first (thirteen
+/// set by hand drew eight, five dropped without a word). Frames past `frames`, repeats and the
+/// first key itself take no room.
+pub fn keys_over(keys: &[usize], frames: usize, first: usize) -> usize {
+    let mut kept: Vec<usize> = keys.iter().copied().filter(|&k| k < frames && k != first).collect();
+    kept.sort_unstable();
+    kept.dedup();
+    kept.len().saturating_sub(crate::bake::keys::MAX_KEYS - 1)
 }
 
 pub use polypostor_runtime::pack::valid_order;
@@ -381,22 +386,31 @@ mod tests {
         o.view_mut(basis, 6).pins.insert(7, vec![pin(0)]); // no part 7
         o.view_mut(basis, 12).key_frame = Some(1); // no view 12
         o.view_mut(basis, 12).pins.insert(0, vec![pin(0)]);
-        // Every frame a key (8 distinct, one past the 7 a view holds after its first), one
-        // twice, one past the frames.
+        // Every frame a key, one twice, one past the frames (that one is counted here; what
+        // a view cannot hold is counted by the bake, which knows each view's first key).
         o.view_mut(basis, 7).keys = Some(vec![0, 1, 2, 3, 4, 5, 6, 7, 7, 9]);
         let d = o.audit(basis, 5);
         assert_eq!(
-            (d.other_basis, d.views, d.key_frames, d.keys_over, d.orders, d.pins),
-            (0, 2, 2, 1, 1, 2),
+            (d.other_basis, d.views, d.key_frames, d.orders, d.pins),
+            (0, 2, 2, 1, 2),
             "{d:?}"
         );
-        assert_eq!(d.lines().len(), 5);
-        assert!(
-            d.lines()
-                .iter()
-                .any(|l| l.starts_with("1 key image(s) set by hand go past the 8"))
-        );
+        assert_eq!(d.lines().len(), 4);
         assert!(d.lines().iter().all(|l| l.contains("ignored")));
+        // 8 distinct frames: with the first key elsewhere, one past the 7 a view holds; with
+        // the first key among them, none.
+        assert_eq!(keys_over(&[0, 1, 2, 3, 4, 5, 6, 7, 7, 9], 8, 20), 1);
+        assert_eq!(keys_over(&[0, 1, 2, 3, 4, 5, 6, 7, 7, 9], 8, 3), 0);
+        assert_eq!(keys_over(&(0..13).collect::<Vec<_>>(), 20, 0), 5);
+        let said = DroppedCorrections {
+            keys_over: 5,
+            ..Default::default()
+        };
+        assert!(
+            said.lines()[0].starts_with("5 key image(s) set by hand go past the 8"),
+            "{:?}",
+            said.lines()
+        );
         // Another bake: everything is dropped, and said so once.
         let other = o.audit(OverrideBasis { views: 24, ..basis }, 5);
         assert_eq!(other.other_basis, o.count());

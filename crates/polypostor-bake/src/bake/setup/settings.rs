@@ -123,10 +123,7 @@ impl BakeSettings {
             );
         }
         if !(self.fps.is_finite() && self.fps >= MIN_FPS && self.fps <= MAX_FPS) {
-            return bad(
-                "fps",
-                format!("{}: choose {MIN_FPS} to {MAX_FPS}", shown(self.fps as f64)),
-            );
+            return bad("fps", format!("{}: choose {MIN_FPS} to {MAX_FPS}", shown(self.fps)));
         }
         if self.max_keys == 0 || self.max_keys > crate::bake::keys::MAX_KEYS {
             return bad(
@@ -260,6 +257,8 @@ mod tests {
         assert_eq!(super::shown(10_000.0), "10000");
         assert_eq!(super::shown(0.0), "0");
         assert_eq!(super::shown(f64::NAN), "NaN");
+        assert_eq!(super::shown(0.005f32), "0.005");
+        assert_eq!(super::shown(1e30f32), "1e30");
         let e = BakeSettings {
             key_ratio: 1e300,
             ..Default::default()
@@ -388,8 +387,10 @@ mod tests {
 
 /// A number as a message shows it: as written where it reads well, else in scientific
 /// notation (`1e300`, `1e-300`), never hundreds of digits.
-pub fn shown(x: f64) -> String {
-    if x != 0.0 && x.is_finite() && !(1e-4..1e7).contains(&x.abs()) {
+pub fn shown<T: Into<f64> + std::fmt::Display + std::fmt::LowerExp + Copy>(x: T) -> String {
+    // Judged as f64, written in its own type (an f32 widened prints 0.004999999888241291).
+    let v: f64 = x.into();
+    if v != 0.0 && v.is_finite() && !(1e-4..1e7).contains(&v.abs()) {
         format!("{x:e}")
     } else {
         format!("{x}")
