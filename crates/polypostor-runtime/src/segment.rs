@@ -330,7 +330,18 @@ pub fn auto_segment(c: &Character) -> Segmentation {
         return seg;
     }
     let mut seg = skeleton_parts(c).0;
-    tidy_islands(&rest_neighbours(c), &mut seg.labels);
+    let rest = crate::animation::skin_vertices(c, &crate::animation::Pose::rest(c)).0;
+    let centroids: Vec<Vec3> = c
+        .indices
+        .chunks_exact(3)
+        .map(|t| {
+            t.iter()
+                .map(|&i| rest.get(i as usize).copied().unwrap_or_default())
+                .sum::<Vec3>()
+                / 3.0
+        })
+        .collect();
+    tidy_islands_with(&neighbours_at(c, &rest), &mut seg.labels, Some(&centroids));
     // Drop parts that received no triangle (keeps labels dense).
     compact(&mut seg);
     seg
@@ -1129,7 +1140,29 @@ pub const ISLAND_SHARE: f64 = 0.005;
 /// arm), and each is a cut with a cap of its own and a stray piece in its part's images.
 /// `neighbours`: [`crate::character::triangle_neighbours`]. Returns how many triangles moved.
 pub fn tidy_islands(neighbours: &[[u32; 3]], labels: &mut [u16]) -> usize {
+    tidy_islands_with(neighbours, labels, None)
+}
+
+/// Most triangles a piece of a part lying far from the rest of it may have, as a share of the
+/// part's, and be given to the part around it ([`tidy_islands_with`]).
+pub const FAR_ISLAND_SHARE: f64 = 0.1;
+/// How far from the rest of its part (in heights) a piece lies to be given away at up to
+/// [`FAR_ISLAND_SHARE`] (the generated quadruped's torso had a ring of 12 triangles on its
+/// tail, 0.16 of its height from the body, which every view joined to it with a bridge).
+pub const FAR_ISLAND_GAP: f32 = 0.05;
+
+/// [`tidy_islands`], and with the triangles' rest-pose `centroids`, also pieces of up to
+/// [`FAR_ISLAND_SHARE`] of their part that lie at least [`FAR_ISLAND_GAP`] of the height from
+/// the rest of it (the same exclusions: a part's largest piece, separate meshes, pieces on
+/// the mesh's open edge).
+pub fn tidy_islands_with(neighbours: &[[u32; 3]], labels: &mut [u16], centroids: Option<&[Vec3]>) -> usize {
     let tris = labels.len().min(neighbours.len());
+    let height = centroids.map_or(0.0, |c| {
+        let (lo, hi) = c.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.y), hi.max(p.y))
+        });
+        (hi - lo).max(0.0)
+    });
     let mut moved = 0;
     // Giving an island away can leave another (an island inside an island): a few rounds.
     for _ in 0..4 {
@@ -1142,7 +1175,16 @@ pub fn tidy_islands(neighbours: &[[u32; 3]], labels: &mut [u16]) -> usize {
         let largest = largest_pieces(&pieces, parts);
         let mut changed = false;
         for (i, (l, members)) in pieces.iter().enumerate() {
-            if largest[*l as usize] == Some(i) || members.len() as f64 > ISLAND_SHARE * totals[*l as usize] as f64 {
+            let share = members.len() as f64 / totals[*l as usize].max(1) as f64;
+            if largest[*l as usize] == Some(i) || share > FAR_ISLAND_SHARE.max(ISLAND_SHARE) {
+                continue;
+            }
+            // Larger than a speck: only when far from the rest of its part.
+            if share > ISLAND_SHARE
+                && !centroids.is_some_and(|c| {
+                    members.len() <= 2000 && height > 0.0 && far_from_part(c, &pieces, i, FAR_ISLAND_GAP * height)
+                })
+            {
                 continue;
             }
             let mut edges = vec![0usize; parts];
@@ -1179,6 +1221,25 @@ pub fn tidy_islands(neighbours: &[[u32; 3]], labels: &mut [u16]) -> usize {
         }
     }
     moved
+}
+
+/// Whether piece `i` of `pieces` lies at least `gap` from every other piece of its label
+/// (nearest triangle centroids).
+fn far_from_part(centroids: &[Vec3], pieces: &[(u16, Vec<u32>)], i: usize, gap: f32) -> bool {
+    let (label, members) = &pieces[i];
+    let g2 = gap * gap;
+    pieces
+        .iter()
+        .enumerate()
+        .filter(|(k, (l, _))| *k != i && l == label)
+        .all(|(_, (_, other))| {
+            members.iter().all(|&a| {
+                let pa = centroids.get(a as usize).copied().unwrap_or_default();
+                other
+                    .iter()
+                    .all(|&b| pa.distance_squared(centroids.get(b as usize).copied().unwrap_or_default()) >= g2)
+            })
+        })
 }
 
 /// The pieces of every part: triangles connected by edges within one label, each with its
