@@ -248,26 +248,34 @@ impl ExportDialog {
                     (self.set.np3d, "NP3D impostor", e.np3d),
                     (self.set.rigid, "Rigid mesh", e.rigid),
                 ] {
+                    // Every row always (unticked ones greyed): a table growing and shrinking
+                    // as boxes were ticked re-centred the dialog under the pointer.
                     if on {
                         ui.label(name);
                         ui.label(mb(bytes));
-                        ui.end_row();
                         total += bytes;
+                    } else {
+                        ui.label(egui::RichText::new(name).weak());
+                        ui.label(egui::RichText::new("not exported").weak());
                     }
+                    ui.end_row();
                 }
                 ui.strong("Total");
                 ui.strong(mb(total));
                 ui.end_row();
             });
-            if self.set.polypostor && self.set.impostor && e.polypostor > 0 {
-                ui.label(
-                    egui::RichText::new(format!(
+            // (A line always, for the same reason.)
+            ui.label(
+                egui::RichText::new(if e.polypostor > 0 {
+                    format!(
                         "Polypostors: {:.0}× less memory than classic impostors",
                         e.impostor as f64 / e.polypostor as f64
-                    ))
-                    .weak(),
-                );
-            }
+                    )
+                } else {
+                    String::new()
+                })
+                .weak(),
+            );
             let basis = OverrideBasis {
                 views: self.views,
                 full_sphere: false,

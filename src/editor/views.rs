@@ -165,11 +165,7 @@ impl ViewsPanel {
         let file = dir.join("report.json");
         let Ok(modified) = std::fs::metadata(&file).and_then(|m| m.modified()) else {
             self.report = None;
-            self.error = Some(format!(
-                "no bake report yet at {} (bake with Ctrl+B, or `polypostor bake PROJECT --out {}`)",
-                file.display(),
-                dir.display()
-            ));
+            self.error = Some(format!("no bake report yet at {} (bake with Ctrl+B)", file.display()));
             return;
         };
         if self
@@ -286,7 +282,8 @@ impl ViewsPanel {
             report.mean_ssim,
             report.worst_psnr,
             report.worst_ssim,
-            report.key_frame
+            // Named as the inspector names it ("15 (Walking 1)" in a pack of several clips).
+            super::inspect::frame_label(report, report.key_frame)
         ));
         // Reports written before the silhouette was measured have none.
         if report.mean_silhouette_iou > 0.0 {
