@@ -918,6 +918,30 @@ fn an_interrupted_benchmark_leaves_nothing_behind() {
     std::fs::remove_dir_all(&tmp).unwrap();
 }
 
+/// `--out sub/../d.pack` where `sub` does not exist writes `d.pack` and makes no `sub` (an
+/// empty folder the user never asked for was left).
+#[test]
+fn a_dotdot_in_the_output_makes_no_stray_folder() {
+    let dir = common::temp_dir("hardening-dotdot");
+    let o = run_in(
+        &dir,
+        &[
+            "bake",
+            default_glb().to_str().unwrap(),
+            "--views",
+            "1",
+            "--resolution",
+            "32",
+            "--out",
+            "sub/../d.pack",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.join("d.pack/manifest.json").is_file());
+    assert!(!dir.join("sub").exists(), "{:?}", listing(&dir));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// Ctrl+C while `bench crowd` draws (not only while it bakes) ends it at once, writing no
 /// figures: the first interrupt said "cancelling…" and the run went on for minutes.
 #[test]

@@ -673,7 +673,9 @@ impl Prepared {
             ..req.settings.options()
         };
         let out = match req.out {
-            Some(o) => o,
+            // `sub/../d.pack` with no `sub`: `d.pack` (no empty `sub` made, and every later
+            // read of the folder finds it).
+            Some(o) => crate::safe_fs::without_missing_dotdot(&o),
             None => {
                 let o = default_out(&input.character_path, &clips, &character);
                 check(&o)?;

@@ -725,6 +725,36 @@ pub fn process_alive(pid: u32) -> bool {
     }
 }
 
+/// `path` with each `NAME/..` whose `NAME` does not exist taken out, as the system would read
+/// it had the folder existed: creating the folders of `sub/../d.pack` made an empty `sub`
+/// the user never asked for. A `..` after a folder that exists (perhaps a link) is left for
+/// the system to follow.
+pub fn without_missing_dotdot(path: &Path) -> PathBuf {
+    use std::path::Component;
+    let mut out = PathBuf::new();
+    // How many of `out`'s trailing components are names that do not exist.
+    let mut missing = 0usize;
+    for c in path.components() {
+        match c {
+            Component::ParentDir if missing > 0 => {
+                out.pop();
+                missing -= 1;
+            }
+            Component::Normal(n) => {
+                out.push(n);
+                if missing > 0 || std::fs::symlink_metadata(&out).is_err() {
+                    missing += 1;
+                }
+            }
+            other => {
+                out.push(other.as_os_str());
+                missing = 0;
+            }
+        }
+    }
+    out
+}
+
 /// The staging name of a writer of `name` in process `pid`: `.NAME.KIND-PID`.
 pub fn staging_name(name: &str, kind: &str, pid: u32) -> String {
     format!(".{name}.{kind}-{pid}")
@@ -896,6 +926,26 @@ mod tests {
         let _ = std::fs::remove_dir_all(&d);
         std::fs::create_dir_all(&d).unwrap();
         d
+    }
+
+    #[test]
+    fn a_dotdot_after_a_missing_folder_makes_no_folder() {
+        let d = temp("dotdot");
+        assert_eq!(without_missing_dotdot(&d.join("sub/../x.pack")), d.join("x.pack"));
+        assert_eq!(without_missing_dotdot(&d.join("a/b/../../x.pack")), d.join("x.pack"));
+        assert_eq!(without_missing_dotdot(&d.join("a/b/../x.pack")), d.join("a/x.pack"));
+        // An existing folder's `..` is the system's to follow (it may be a link).
+        std::fs::create_dir(d.join("sub")).unwrap();
+        assert_eq!(
+            without_missing_dotdot(&d.join("sub/../x.pack")),
+            d.join("sub/../x.pack")
+        );
+        assert_eq!(
+            without_missing_dotdot(Path::new("../x.pack")),
+            PathBuf::from("../x.pack")
+        );
+        assert_eq!(without_missing_dotdot(Path::new("x.pack")), PathBuf::from("x.pack"));
+        std::fs::remove_dir_all(d).unwrap();
     }
 
     #[test]

@@ -46,6 +46,7 @@ pub fn write_pack_with(
 /// `.NAME.writing-PID` and `.NAME.old-PID` beside `out`; those that killed writers left are
 /// removed first.
 pub fn write_folder_atomic<T>(out: &Path, fill: &dyn Fn(&Path) -> Result<T, String>) -> Result<T, String> {
+    let out = &crate::safe_fs::without_missing_dotdot(out);
     crate::safe_fs::check_bake_output(out, &[])?;
     let parent = out
         .parent()

@@ -325,7 +325,10 @@ pub(crate) fn check_camera(what: &str, cam: &PackCamera, direction: [f32; 3]) ->
         return Err(bad("does not look along the view direction"));
     }
     if !(cam.half_size.is_finite() && cam.half_size > 1e-9 && cam.half_size < 1e12) {
-        return Err(bad(&format!("half size {} is not a positive size", cam.half_size)));
+        return Err(bad(&format!(
+            "half size {:e} is out of range (above 1e-9 and below 1e12 scene units)",
+            cam.half_size
+        )));
     }
     Ok(())
 }
