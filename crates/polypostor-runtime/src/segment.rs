@@ -331,17 +331,11 @@ pub fn auto_segment(c: &Character) -> Segmentation {
     }
     let mut seg = skeleton_parts(c).0;
     let rest = crate::animation::skin_vertices(c, &crate::animation::Pose::rest(c)).0;
-    let centroids: Vec<Vec3> = c
-        .indices
-        .chunks_exact(3)
-        .map(|t| {
-            t.iter()
-                .map(|&i| rest.get(i as usize).copied().unwrap_or_default())
-                .sum::<Vec3>()
-                / 3.0
-        })
-        .collect();
-    tidy_islands_with(&neighbours_at(c, &rest), &mut seg.labels, Some(&centroids));
+    tidy_islands_with(
+        &neighbours_at(c, &rest),
+        &mut seg.labels,
+        Some(&triangle_centroids(c, &rest)),
+    );
     // Drop parts that received no triangle (keeps labels dense).
     compact(&mut seg);
     seg
@@ -1182,7 +1176,9 @@ pub fn tidy_islands_with(neighbours: &[[u32; 3]], labels: &mut [u16], centroids:
             // Larger than a speck: only when far from the rest of its part.
             if share > ISLAND_SHARE
                 && !centroids.is_some_and(|c| {
-                    members.len() <= 2000 && height > 0.0 && far_from_part(c, &pieces, i, FAR_ISLAND_GAP * height)
+                    members.len() <= 2000
+                        && height > 0.0
+                        && piece_gap(c, &pieces, i, FAR_ISLAND_GAP * height) >= FAR_ISLAND_GAP * height
                 })
             {
                 continue;
@@ -1223,28 +1219,43 @@ pub fn tidy_islands_with(neighbours: &[[u32; 3]], labels: &mut [u16], centroids:
     moved
 }
 
-/// Whether piece `i` of `pieces` lies at least `gap` from every other piece of its label
-/// (nearest triangle centroids).
-fn far_from_part(centroids: &[Vec3], pieces: &[(u16, Vec<u32>)], i: usize, gap: f32) -> bool {
-    let (label, members) = &pieces[i];
-    let g2 = gap * gap;
-    pieces
-        .iter()
-        .enumerate()
-        .filter(|(k, (l, _))| *k != i && l == label)
-        .all(|(_, (_, other))| {
-            members.iter().all(|&a| {
-                let pa = centroids.get(a as usize).copied().unwrap_or_default();
-                other
-                    .iter()
-                    .all(|&b| pa.distance_squared(centroids.get(b as usize).copied().unwrap_or_default()) >= g2)
-            })
+/// Each triangle's centroid, from the vertices `positions` (the rest pose's, skinned).
+pub fn triangle_centroids(c: &Character, positions: &[Vec3]) -> Vec<Vec3> {
+    c.indices
+        .chunks_exact(3)
+        .map(|t| {
+            t.iter()
+                .map(|&i| positions.get(i as usize).copied().unwrap_or_default())
+                .sum::<Vec3>()
+                / 3.0
         })
+        .collect()
+}
+
+/// How far piece `i` of `pieces` ([`label_pieces`]) lies from the other pieces of its label:
+/// the least distance between their triangles' `centroids`; infinite when it is its label's
+/// only piece. Stops looking once a distance under `enough` is found (and returns it).
+pub fn piece_gap(centroids: &[Vec3], pieces: &[(u16, Vec<u32>)], i: usize, enough: f32) -> f32 {
+    let (label, members) = &pieces[i];
+    let at = |t: u32| centroids.get(t as usize).copied().unwrap_or_default();
+    let mut best = f32::INFINITY;
+    for (_, (_, other)) in pieces.iter().enumerate().filter(|(k, (l, _))| *k != i && l == label) {
+        for &a in members {
+            for &b in other {
+                best = best.min(at(a).distance_squared(at(b)));
+            }
+            if best < enough * enough {
+                return best.sqrt();
+            }
+        }
+    }
+    best.sqrt()
 }
 
 /// The pieces of every part: triangles connected by edges within one label, each with its
-/// label and members (`neighbours`: [`crate::character::triangle_neighbours`]).
-fn label_pieces(neighbours: &[[u32; 3]], labels: &[u16]) -> Vec<(u16, Vec<u32>)> {
+/// label and members (`neighbours`: [`crate::character::triangle_neighbours`]; an entry past
+/// the triangles is an open edge).
+pub fn label_pieces(neighbours: &[[u32; 3]], labels: &[u16]) -> Vec<(u16, Vec<u32>)> {
     let tris = labels.len().min(neighbours.len());
     let mut piece = vec![u32::MAX; tris];
     let mut pieces: Vec<(u16, Vec<u32>)> = Vec::new();

@@ -1024,6 +1024,19 @@ pub fn frame_times(duration_secs: f32, fps: f32) -> Vec<f32> {
 mod tests {
     use super::*;
 
+    /// `clip`'s translation of `node` replaced by linear keys `values` at `times`.
+    fn root_keys(clip: &mut crate::character::Clip, node: usize, times: Vec<f32>, values: Vec<Vec3>) {
+        use crate::character::{Channel, ChannelValues, Interpolation};
+        clip.channels
+            .retain(|ch| !(ch.node == node && matches!(ch.values, ChannelValues::Translation(_))));
+        clip.channels.push(Channel {
+            node,
+            interpolation: Interpolation::Linear,
+            times,
+            values: ChannelValues::Translation(values),
+        });
+    }
+
     #[test]
     fn a_clip_of_a_fractional_frame_count_is_sampled_evenly_round_its_loop() {
         let mut c = crate::default_character::generate();
@@ -1394,7 +1407,7 @@ mod tests {
 
     #[test]
     fn a_clip_that_does_not_come_back_neither_loops_nor_walks() {
-        use crate::character::{Channel, ChannelValues, Interpolation};
+        use crate::character::ChannelValues;
         let mut c = crate::default_character::generate();
         let walk = c.find_clip("Walk").unwrap();
         let idle = c.find_clip("Idle").unwrap();
@@ -1413,15 +1426,13 @@ mod tests {
         let rest = leap.skeleton.nodes[r].rest.translation;
         let (d, h) = (leap.clips[run].duration_secs, m.height);
         let clip = &mut leap.clips[run];
-        clip.channels
-            .retain(|ch| !(ch.node == r && matches!(ch.values, ChannelValues::Translation(_))));
         let up = |y: f32| rest + Vec3::new(0.0, y * h, 0.0);
-        clip.channels.push(Channel {
-            node: r,
-            interpolation: Interpolation::Linear,
-            times: vec![0.0, 0.3 * d, 0.5 * d, 0.7 * d, d],
-            values: ChannelValues::Translation(vec![up(0.0), up(0.0), up(0.4), up(0.0), up(0.0)]),
-        });
+        root_keys(
+            clip,
+            r,
+            vec![0.0, 0.3 * d, 0.5 * d, 0.7 * d, d],
+            vec![up(0.0), up(0.0), up(0.4), up(0.0), up(0.0)],
+        );
         let m = measure_motion(&leap, Some(run));
         assert!(m.loops() && m.lift > LOCOMOTION_MAX_LIFT, "{m:?}");
         // (What rules it out is the lift: on the ground its contact point is a run's.)
@@ -1447,14 +1458,7 @@ mod tests {
         let rest = c.skeleton.nodes[r].rest.translation;
         let d = c.clips[walk].duration_secs;
         let clip = &mut c.clips[walk];
-        clip.channels
-            .retain(|ch| !(ch.node == r && matches!(ch.values, ChannelValues::Translation(_))));
-        clip.channels.push(Channel {
-            node: r,
-            interpolation: Interpolation::Linear,
-            times: vec![0.0, d],
-            values: ChannelValues::Translation(vec![rest, rest - Vec3::new(0.0, 0.6, 0.0)]),
-        });
+        root_keys(clip, r, vec![0.0, d], vec![rest, rest - Vec3::new(0.0, 0.6, 0.0)]);
         let m = measure_motion(&c, Some(walk));
         assert!(!m.loops() && !m.is_locomotion() && m.ground_speed() == 0.0, "{m:?}");
         // Nor is it played in place: what is not steady locomotion keeps its travel.
@@ -1494,14 +1498,12 @@ mod tests {
             let mut slid = c.clone();
             let d = slid.clips[idle].duration_secs;
             let clip = &mut slid.clips[idle];
-            clip.channels
-                .retain(|ch| !(ch.node == r && matches!(ch.values, ChannelValues::Translation(_))));
-            clip.channels.push(Channel {
-                node: r,
-                interpolation: Interpolation::Linear,
-                times: vec![0.0, d],
-                values: ChannelValues::Translation(vec![rest, rest + Vec3::new(0.0, 0.0, heights * m.height)]),
-            });
+            root_keys(
+                clip,
+                r,
+                vec![0.0, d],
+                vec![rest, rest + Vec3::new(0.0, 0.0, heights * m.height)],
+            );
             let sm = measure_motion(&slid, Some(idle));
             assert!(sm.loops(), "{sm:?}");
             play_in_place(&mut slid);
@@ -1532,7 +1534,6 @@ mod tests {
     /// shaken Run then gets the stride estimate near its true speed.
     #[test]
     fn the_leg_sweep_stands_in_for_the_contact_speed_of_a_run_whose_feet_slide() {
-        use crate::character::{Channel, ChannelValues, Interpolation};
         let mut c = crate::default_character::generate();
         let (walk, run) = (c.find_clip("Walk").unwrap(), c.find_clip("Run").unwrap());
         let m = measure_clips(&c);
@@ -1565,14 +1566,7 @@ mod tests {
             .map(|(&t, b)| *b + Vec3::new(0.0, 0.0, amplitude * (std::f32::consts::TAU * 6.0 * t / d).sin()))
             .collect();
         let clip = &mut c.clips[run];
-        clip.channels
-            .retain(|ch| !(ch.node == root && matches!(ch.values, ChannelValues::Translation(_))));
-        clip.channels.push(Channel {
-            node: root,
-            interpolation: Interpolation::Linear,
-            times,
-            values: ChannelValues::Translation(values),
-        });
+        root_keys(clip, root, times, values);
         let shaken = measure_clips(&c);
         let s = shaken[run];
         assert!(!s.is_locomotion(), "the shake should spoil the contact point: {s:?}");

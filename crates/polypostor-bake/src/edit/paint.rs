@@ -78,14 +78,7 @@ impl Topology {
 
 /// Centroids of every triangle in the rest pose (the model space the viewport shows).
 fn rest_centroids(c: &Character) -> Vec<Vec3> {
-    let (p, _) = skin_vertices(c, &Pose::rest(c));
-    c.indices
-        .chunks_exact(3)
-        .map(|t| {
-            let g = |i: u32| p.get(i as usize).copied().unwrap_or(Vec3::ZERO);
-            (g(t[0]) + g(t[1]) + g(t[2])) / 3.0
-        })
-        .collect()
+    crate::bake::segment::triangle_centroids(c, &skin_vertices(c, &Pose::rest(c)).0)
 }
 
 /// For each triangle, the triangle whose rest-pose centroid is nearest to its centroid
@@ -431,40 +424,13 @@ const STRAY_MOST: usize = 2000;
 /// out of another part's surface (a piece of mesh of its own, such as an eye, is not one),
 /// largest gap first.
 pub fn stray_pieces(c: &Character, topo: &Topology, seg: &Segmentation) -> Vec<StrayPiece> {
-    let n = seg.labels.len().min(topo.neighbours.len());
-    // Connected pieces of each part.
-    let mut piece = vec![u32::MAX; n];
-    let mut pieces: Vec<(u16, Vec<usize>)> = Vec::new();
-    for start in 0..n {
-        if piece[start] != u32::MAX {
-            continue;
-        }
-        let part = seg.labels[start];
-        let id = pieces.len() as u32;
-        let mut list = vec![start];
-        piece[start] = id;
-        let mut k = 0;
-        while k < list.len() {
-            let t = list[k];
-            k += 1;
-            for &m in &topo.neighbours[t] {
-                let m = m as usize;
-                if m < n && piece[m] == u32::MAX && seg.labels[m] == part {
-                    piece[m] = id;
-                    list.push(m);
-                }
-            }
-        }
-        pieces.push((part, list));
-    }
+    use crate::bake::segment::{label_pieces, piece_gap};
+    let pieces = label_pieces(&topo.neighbours, &seg.labels);
     let mut per_part: Vec<Vec<usize>> = vec![Vec::new(); seg.parts.len()];
     for (i, (p, _)) in pieces.iter().enumerate() {
         if let Some(v) = per_part.get_mut(*p as usize) {
             v.push(i);
         }
-    }
-    if per_part.iter().all(|v| v.len() < 2) {
-        return Vec::new();
     }
     // The rest pose's centroids and height, once some piece needs them (skinning a dense
     // mesh is most of the cost).
@@ -481,10 +447,7 @@ pub fn stray_pieces(c: &Character, topo: &Topology, seg: &Segmentation) -> Vec<S
         })
     };
     let mut out = Vec::new();
-    for (p, list) in per_part.iter().enumerate() {
-        if list.len() < 2 {
-            continue;
-        }
+    for (p, list) in per_part.iter().enumerate().filter(|(_, l)| l.len() >= 2) {
         let total: usize = list.iter().map(|&i| pieces[i].1.len()).sum();
         let largest = list.iter().map(|&i| pieces[i].1.len()).max().unwrap_or(0);
         for &i in list {
@@ -492,10 +455,12 @@ pub fn stray_pieces(c: &Character, topo: &Topology, seg: &Segmentation) -> Vec<S
             if tris.len() == largest || tris.len() > STRAY_MOST || tris.len() as f32 > STRAY_SHARE * total as f32 {
                 continue;
             }
-            // Where it came from: the part across most of its open edges.
+            // Where it came from: the part across most of its open edges. A piece of mesh of
+            // its own (an eye, a button, an antenna's ball) touches none: it is modelled so; a
+            // stroke cuts its triangles out of another part's surface.
             let mut across = vec![0usize; seg.parts.len()];
             for &t in tris {
-                for &m in &topo.neighbours[t] {
+                for &m in &topo.neighbours[t as usize] {
                     if let Some(&l) = seg.labels.get(m as usize).filter(|_| m != NONE)
                         && l as usize != p
                         && let Some(a) = across.get_mut(l as usize)
@@ -504,40 +469,24 @@ pub fn stray_pieces(c: &Character, topo: &Topology, seg: &Segmentation) -> Vec<S
                     }
                 }
             }
-            let touches = (0..across.len())
+            let Some(touches) = (0..across.len())
                 .filter(|&q| across[q] > 0)
                 .max_by(|&a, &b| across[a].cmp(&across[b]).then(b.cmp(&a)))
-                .map(|q| q as u16);
-            // A piece of mesh of its own (an eye, a button, an antenna's ball) is modelled so;
-            // a stroke cuts its triangles out of another part's surface.
-            if touches.is_none() {
+            else {
                 continue;
-            }
-            // The nearest triangle of the rest of the part.
+            };
             let (centroids, height) = geometry();
-            let height = *height;
-            let mut best = f32::INFINITY;
-            for &t in tris {
-                let a = centroids.get(t).copied().unwrap_or_default();
-                for (u, &l) in seg.labels.iter().enumerate().take(n) {
-                    if l as usize == p && piece[u] != i as u32 {
-                        best = best.min(a.distance_squared(centroids.get(u).copied().unwrap_or_default()));
-                    }
-                }
-                if best.sqrt() < STRAY_GAP * height {
-                    break;
-                }
-            }
-            let gap = best.sqrt() / height;
+            let distance = piece_gap(centroids, &pieces, i, STRAY_GAP * height);
+            let gap = distance / height;
             if !(gap >= STRAY_GAP) {
                 continue;
             }
             out.push(StrayPiece {
                 part: p as u16,
-                triangles: tris.clone(),
+                triangles: tris.iter().map(|&t| t as usize).collect(),
                 gap,
-                distance: best.sqrt(),
-                touches,
+                distance,
+                touches: Some(touches as u16),
             });
         }
     }
